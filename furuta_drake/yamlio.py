@@ -1,0 +1,150 @@
+"""Strict YAML <-> dataclass conversion whose errors name the file, line and key.
+
+Like Drake's ``yaml_load_typed`` (which this follows: the dataclass is the schema, unknown keys are errors,
+absent keys keep the dataclass default), but an error says ``rig.yaml:3: key 'arm_lenght' ...`` so a user can
+find it, an integer is accepted where a float is expected, and the loaded tree is validated by the
+dataclasses' own ``validate`` methods.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from pathlib import Path
+
+import yaml
+
+from furuta_drake.errors import ConfigError
+
+
+def load_yaml_dataclass(path: str | Path, schema: type, validate: bool = True):
+    """Load ``path`` into an instance of the dataclass ``schema``; raise ConfigError naming file:line:key."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, expected a YAML file")
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{path}: cannot read ({err})") from None
+    return loads_yaml_dataclass(text, schema, source=str(path), validate=validate)
+
+
+def loads_yaml_dataclass(text: str, schema: type, source: str = "<string>", validate: bool = True):
+    """Like :func:`load_yaml_dataclass` for YAML text; ``source`` names it in errors."""
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        line = f":{mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{source}{line}: not valid YAML ({getattr(err, 'problem', err)})") from None
+    if node is None:
+        raise ConfigError(f"{source}: empty YAML file, expected a mapping of {schema.__name__} fields")
+    obj = _convert(node, schema, source, key_path="")
+    if validate and hasattr(obj, "validate"):
+        try:
+            obj.validate()
+        except ConfigError as err:
+            raise ConfigError(f"{source}: {err}") from None
+    return obj
+
+
+def dump_yaml_dataclass(obj) -> str:
+    """YAML text of a dataclass tree (round-trips through :func:`loads_yaml_dataclass`)."""
+    return yaml.safe_dump(to_plain(obj), sort_keys=False, default_flow_style=False)
+
+
+def to_plain(obj):
+    """Dataclasses, tuples and numpy scalars to plain dicts, lists and Python numbers."""
+    if dataclasses.is_dataclass(obj):
+        return {f.name: to_plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, dict):
+        return {str(k): to_plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_plain(v) for v in obj]
+    if hasattr(obj, "item") and callable(obj.item):  # numpy scalar
+        return obj.item()
+    return obj
+
+
+def _where(source: str, node, key_path: str) -> str:
+    line = node.start_mark.line + 1 if node is not None and node.start_mark is not None else None
+    key = f" {key_path}" if key_path else ""
+    return f"{source}:{line}:{key}" if line is not None else f"{source}:{key}"
+
+
+def _convert(node, tp, source: str, key_path: str):
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        if isinstance(node, yaml.ScalarNode) and node.tag == "tag:yaml.org,2002:null":
+            if type(None) in args:
+                return None
+        non_none = [a for a in args if a is not type(None)]
+        if len(non_none) == 1:
+            return _convert(node, non_none[0], source, key_path)
+        raise ConfigError(f"{_where(source, node, key_path)} unsupported union type {tp}")
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(node, yaml.MappingNode):
+            raise ConfigError(f"{_where(source, node, key_path)} expected a mapping of {tp.__name__} fields")
+        hints = typing.get_type_hints(tp)
+        fields = {f.name for f in dataclasses.fields(tp) if f.init}
+        values = {}
+        for key_node, value_node in node.value:
+            key = key_node.value
+            sub_path = f"{key_path}.{key}" if key_path else key
+            if key not in fields:
+                raise ConfigError(
+                    f"{_where(source, key_node, sub_path)} unknown key {key!r} in {tp.__name__} "
+                    f"(known keys: {', '.join(sorted(fields))})")
+            if key in values:
+                raise ConfigError(f"{_where(source, key_node, sub_path)} duplicate key {key!r}")
+            values[key] = _convert(value_node, hints[key], source, sub_path)
+        return tp(**values)
+    if origin in (list, tuple):
+        if not isinstance(node, yaml.SequenceNode):
+            raise ConfigError(f"{_where(source, node, key_path)} expected a list")
+        item_tp = args[0] if args else typing.Any
+        items = [_convert(n, item_tp, source, f"{key_path}[{i}]") for i, n in enumerate(node.value)]
+        return items if origin is list else tuple(items)
+    if origin is dict:
+        if not isinstance(node, yaml.MappingNode):
+            raise ConfigError(f"{_where(source, node, key_path)} expected a mapping")
+        value_tp = args[1] if len(args) == 2 else typing.Any
+        return {k.value: _convert(v, value_tp, source, f"{key_path}.{k.value}") for k, v in node.value}
+    if origin is typing.Literal:
+        value = _scalar(node, source, key_path)
+        if value not in args:
+            raise ConfigError(f"{_where(source, node, key_path)} must be one of {list(args)}, got {value!r}")
+        return value
+    if tp is typing.Any:
+        return yaml.safe_load(yaml.serialize(node))
+    value = _scalar(node, source, key_path)
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{_where(source, node, key_path)} expected a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{_where(source, node, key_path)} must be finite, got {value!r}")
+        return float(value)
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+            raise ConfigError(f"{_where(source, node, key_path)} expected an integer, got {value!r}")
+        return int(value)
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{_where(source, node, key_path)} expected true or false, got {value!r}")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{_where(source, node, key_path)} expected a string, got {value!r}")
+        return value
+    raise ConfigError(f"{_where(source, node, key_path)} unsupported type {tp}")
+
+
+def _scalar(node, source: str, key_path: str):
+    if not isinstance(node, yaml.ScalarNode):
+        raise ConfigError(f"{_where(source, node, key_path)} expected a single value")
+    return yaml.safe_load(yaml.serialize(node))
