@@ -1,0 +1,229 @@
+"""The configuration tree of a simulation: one dataclass per block of the paper's diagram, YAML in and out.
+
+Two kinds of blocks meet here. ``rig`` is the *nominal* model: the LQR and the observers are designed on it
+(paper Eq. 1-2 come from its linearization) and the MultibodyPlant is built from it. ``friction``,
+``actuator``, ``disturbance`` and ``encoder`` describe what the simulated world adds to that model: friction
+on the joints, actuator imperfections, a cable spring or cogging, and the encoder that measures the angles.
+A fitted diagnosis writes exactly these sections, so ``furuta-drake simulate --config fitted_model.yaml``
+runs the corrected model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
+from furuta_drake.adaptation import KSigmaAdaptationParameters
+from furuta_drake.control import LqrParameters
+from furuta_drake.encoder import EncoderParameters
+from furuta_drake.errors import ConfigError
+from furuta_drake.friction import FrictionParameters, JointFrictionParameters
+from furuta_drake.observers.dahl import DahlObserverParameters
+from furuta_drake.observers.hg import HighGainParameters
+from furuta_drake.observers.vfe import VfeParameters
+from furuta_drake.rig import RIGS, RigParameters
+from furuta_drake.yamlio import dump_yaml_dataclass, load_yaml_dataclass
+
+VelocitySource = Literal["true", "derivative", "hg", "vfe"]
+
+
+@dataclass
+class ControllerConfig:
+    """Sec. IV-A: LQR state feedback u = -K (x_hat - x_ref), optionally minus the friction estimate (Sec. IV-C).
+
+    ``mode = "open_loop"`` applies only the excitation torque (hanging identification runs).
+    ``velocity_source`` picks the state estimate the LQR uses: the true state (reference diagram (iv)), a
+    discrete derivative of the encoder angles, the HG observer (Eq. 4, diagram (i)) or the VFE observer with the
+    Dahl friction observer (Eq. 8-13, diagrams (ii)-(iii)). ``gain`` overrides the LQR design (checked to
+    stabilise the nominal linearization).
+    """
+
+    mode: Literal["lqr", "open_loop"] = "lqr"
+    velocity_source: VelocitySource = "true"
+    friction_compensation: bool = False
+    lqr: LqrParameters = field(default_factory=LqrParameters)
+    gain: list[float] | None = None
+
+    def validate(self, where: str = "controller") -> None:
+        self.lqr.validate(f"{where}.lqr")
+        if self.gain is not None:
+            if len(self.gain) != 4 or not all(math.isfinite(g) for g in self.gain):
+                raise ConfigError(f"{where}.gain must be 4 finite numbers [theta, phi, theta_dot, phi_dot], "
+                                  f"got {self.gain!r}")
+        if self.friction_compensation and self.velocity_source != "vfe":
+            raise ConfigError(f"{where}.friction_compensation needs the Dahl observer: set "
+                              f"{where}.velocity_source to 'vfe'")
+
+
+@dataclass
+class ObserverConfig:
+    """The observers of Sec. III and the K_sigma adaptation of Sec. V. ``run`` lists observers that run side
+    by side on the same measurements for comparison (the paper's Table II experiment); the one the controller
+    uses always runs."""
+
+    hg: HighGainParameters = field(default_factory=HighGainParameters)
+    dahl: DahlObserverParameters = field(default_factory=DahlObserverParameters)
+    vfe: VfeParameters = field(default_factory=VfeParameters)
+    adaptation: KSigmaAdaptationParameters = field(default_factory=KSigmaAdaptationParameters)
+    adaptation_enabled: bool = False
+    run: list[Literal["hg", "vfe"]] = field(default_factory=list)
+
+    def validate(self, where: str = "observers") -> None:
+        self.hg.validate(f"{where}.hg")
+        self.dahl.validate(f"{where}.dahl")
+        self.vfe.validate(f"{where}.vfe")
+        self.adaptation.validate(f"{where}.adaptation")
+
+
+@dataclass
+class ExcitationConfig:
+    """Seeded excitation so that the arm keeps moving (the paper does not state its own).
+
+    ``torque_*``: a multisine torque added to the controller's command, with ``torque_components`` sines of
+    random phase spread log-uniformly over [frequency_min, frequency_max] and RMS ``torque_rms``.
+    ``arm_reference_*``: a square-wave reference for the arm angle phi of the given amplitude and period
+    (zero amplitude: balance at phi = 0). Both are generated from the config's seed.
+    """
+
+    torque_rms: float = 0.0  # [N m]
+    torque_components: int = 12
+    frequency_min: float = 0.2  # [Hz]
+    frequency_max: float = 8.0  # [Hz]
+    arm_reference_amplitude: float = 0.0  # [rad]
+    arm_reference_period: float = 4.0  # [s]
+
+    def validate(self, where: str = "excitation") -> None:
+        for name in ("torque_rms", "arm_reference_amplitude"):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value < 0:
+                raise ConfigError(f"{where}.{name} must be a non-negative finite number, got {value!r}")
+        if self.torque_components < 1:
+            raise ConfigError(f"{where}.torque_components must be >= 1, got {self.torque_components}")
+        if not 0 < self.frequency_min < self.frequency_max:
+            raise ConfigError(f"{where}: need 0 < frequency_min < frequency_max, got "
+                              f"{self.frequency_min}, {self.frequency_max}")
+        if self.arm_reference_period <= 0:
+            raise ConfigError(f"{where}.arm_reference_period must be > 0, got {self.arm_reference_period}")
+
+
+@dataclass
+class IntegratorConfig:
+    """Drake's ``SimulatorConfig`` fields that matter here (applied with ``ApplySimulatorConfig``)."""
+
+    integration_scheme: str = "runge_kutta3"
+    max_step_size: float = 1e-3  # [s]
+    accuracy: float = 1e-4
+    use_error_control: bool = True
+
+    def validate(self, where: str = "simulator") -> None:
+        schemes = ("runge_kutta2", "runge_kutta3", "runge_kutta5", "implicit_euler", "radau1", "radau3",
+                   "bogacki_shampine3", "explicit_euler", "semi_explicit_euler", "velocity_implicit_euler")
+        if self.integration_scheme not in schemes:
+            raise ConfigError(f"{where}.integration_scheme must be one of {list(schemes)}, "
+                              f"got {self.integration_scheme!r}")
+        if not self.max_step_size > 0:
+            raise ConfigError(f"{where}.max_step_size must be > 0, got {self.max_step_size}")
+        if not 0 < self.accuracy < 1:
+            raise ConfigError(f"{where}.accuracy must be in (0, 1), got {self.accuracy}")
+
+
+@dataclass
+class MonitorConfig:
+    """Stops a run that left its safe envelope (see :mod:`furuta_drake.simulate`). ``theta_bound`` None: no
+    angle bound (swing-up and hanging runs)."""
+
+    theta_bound: float | None = 1.0  # [rad] |theta| above this ends a balancing run as fallen
+    speed_bound: float = 200.0  # [rad/s] any joint faster than this is a blow-up
+
+    def validate(self, where: str = "monitor") -> None:
+        if self.theta_bound is not None and not self.theta_bound > 0:
+            raise ConfigError(f"{where}.theta_bound must be > 0 or null, got {self.theta_bound}")
+        if not self.speed_bound > 0:
+            raise ConfigError(f"{where}.speed_bound must be > 0, got {self.speed_bound}")
+
+
+@dataclass
+class SimulationConfig:
+    """Everything a run needs; ``furuta-drake simulate --config`` reads it, every result writes it back."""
+
+    rig: RigParameters = field(default_factory=RigParameters)
+    friction: FrictionParameters = field(default_factory=FrictionParameters)
+    actuator: ActuatorParameters = field(default_factory=ActuatorParameters)
+    disturbance: DisturbanceParameters = field(default_factory=DisturbanceParameters)
+    encoder: EncoderParameters = field(default_factory=EncoderParameters)
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    observers: ObserverConfig = field(default_factory=ObserverConfig)
+    excitation: ExcitationConfig = field(default_factory=ExcitationConfig)
+    initial_state: list[float] = field(default_factory=lambda: [0.1, 0.0, 0.0, 0.0])  # [theta, phi, dtheta, dphi]
+    duration: float = 10.0  # [s]
+    seed: int = 0
+    simulator: IntegratorConfig = field(default_factory=IntegratorConfig)
+    monitor: MonitorConfig = field(default_factory=MonitorConfig)
+
+    def validate(self, where: str = "") -> None:
+        prefix = f"{where}." if where else ""
+        self.rig.validate(f"{prefix}rig")
+        for name in ("arm_coulomb", "arm_viscous", "pendulum_coulomb", "pendulum_viscous"):
+            if getattr(self.rig, name) != 0:
+                raise ConfigError(f"{prefix}rig.{name}: in a simulate config, friction goes in the 'friction' "
+                                  f"section (SimulationConfig.from_rig converts a rig file)")
+        self.friction.validate(f"{prefix}friction")
+        self.actuator.validate(f"{prefix}actuator")
+        self.disturbance.validate(f"{prefix}disturbance")
+        self.encoder.validate(f"{prefix}encoder")
+        self.controller.validate(f"{prefix}controller")
+        self.observers.validate(f"{prefix}observers")
+        self.excitation.validate(f"{prefix}excitation")
+        self.simulator.validate(f"{prefix}simulator")
+        self.monitor.validate(f"{prefix}monitor")
+        if len(self.initial_state) != 4 or not all(math.isfinite(v) for v in self.initial_state):
+            raise ConfigError(f"{prefix}initial_state must be 4 finite numbers [theta, phi, theta_dot, phi_dot],"
+                              f" got {self.initial_state!r}")
+        if self.controller.mode == "open_loop" and self.excitation.torque_rms == 0:
+            raise ConfigError(f"{prefix}controller.mode 'open_loop' needs an excitation: set "
+                              f"{prefix}excitation.torque_rms > 0")
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise ConfigError(f"{prefix}duration must be a positive number of seconds, got {self.duration!r}")
+
+    @classmethod
+    def from_rig(cls, rig: RigParameters | str, **sections) -> "SimulationConfig":
+        """A config for ``rig`` (a RigParameters or a shipped name: 'lund', 'qube_servo2'): the rig file's
+        nominal friction moves into the ``friction`` section, its encoder, sample period and torque limit into
+        ``encoder`` and ``controller``; ``sections`` override whole sections."""
+        if isinstance(rig, str):
+            if rig not in RIGS:
+                raise ConfigError(f"unknown rig {rig!r}; known: {sorted(RIGS)}")
+            rig = RIGS[rig]()
+        friction = FrictionParameters(
+            arm=_static_friction(rig.arm_coulomb, rig.arm_viscous),
+            pendulum=_static_friction(rig.pendulum_coulomb, rig.pendulum_viscous),
+        )
+        nominal_rig = dataclasses.replace(rig, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
+                                          pendulum_viscous=0.0)
+        lqr = dataclasses.replace(LqrParameters(), period=rig.sample_period, torque_limit=rig.torque_limit)
+        config = cls(
+            rig=nominal_rig,
+            friction=friction,
+            encoder=EncoderParameters(counts_per_rev=rig.counts_per_rev, sample_period=rig.sample_period),
+            controller=ControllerConfig(lqr=lqr),
+        )
+        return dataclasses.replace(config, **sections)
+
+
+def _static_friction(coulomb: float, viscous: float) -> JointFrictionParameters:
+    if coulomb == 0 and viscous == 0:
+        return JointFrictionParameters()
+    return JointFrictionParameters(model="static", coulomb_pos=coulomb, coulomb_neg=coulomb, viscous=viscous)
+
+
+def load_config(path) -> SimulationConfig:
+    """Read a simulate config YAML (errors name file, line and key)."""
+    return load_yaml_dataclass(path, SimulationConfig)
+
+
+def dump_config(config: SimulationConfig) -> str:
+    """YAML text of a config; :func:`load_config` reads it back to an equal config."""
+    return dump_yaml_dataclass(config)

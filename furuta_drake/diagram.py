@@ -1,0 +1,226 @@
+"""``build_furuta_diagram``: the paper's block diagram wired in a Drake ``DiagramBuilder``.
+
+Reading order follows the signal path of the rig::
+
+    u_LQ - F_hat ──► actuator chain ──► MultibodyPlant ◄── friction + spring/cogging + back-EMF
+        ▲                                   │ (true state)
+        │                                   ▼
+    LQR (Sec. IV-A) ◄── observer ◄──── encoder (counts, 1 kHz)
+                         HG (Eq. 4) | VFE (Eq. 11) + Dahl (Eq. 8, 16) + K_sigma (Eq. 18)
+
+Every block is a Drake system; the loggers record every signal a result file needs at the control period.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.primitives import (
+    Adder, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
+    ZeroOrderHold,
+)
+
+from furuta_drake.actuator import add_actuator, add_arm_disturbance
+from furuta_drake.adaptation import KSigmaAdapter
+from furuta_drake.config import SimulationConfig
+from furuta_drake.control import LqrController, check_stabilizing, design_lqr, upright_linearization
+from furuta_drake.encoder import Encoder
+from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
+from furuta_drake.friction import JointFriction
+from furuta_drake.observers.dahl import DahlFrictionObserver
+from furuta_drake.observers.hg import HighGainObserver
+from furuta_drake.observers.vfe import VfeObserver
+from furuta_drake.plant import add_furuta_plant, joint_indices
+from furuta_drake.rig import linearized_upright
+
+
+@dataclass
+class FurutaDiagram:
+    """A built diagram with handles to what callers read: the plant, the loggers and the LQR gain."""
+
+    diagram: Diagram
+    plant: MultibodyPlant
+    scene_graph: object
+    loggers: dict[str, VectorLogSink]
+    lqr_gain: np.ndarray | None
+    config: SimulationConfig
+
+
+def plant_to_paper_permutation(plant: MultibodyPlant) -> np.ndarray:
+    """P with x_paper = P x_plant, x_paper = [theta, phi, theta_dot, phi_dot] (paper Eq. 2)."""
+    theta, phi = joint_indices(plant)
+    nq = plant.num_positions()
+    P = np.zeros((4, plant.num_multibody_states()))
+    P[0, theta], P[1, phi], P[2, nq + theta], P[3, nq + phi] = 1.0, 1.0, 1.0, 1.0
+    return P
+
+
+def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDiagram:
+    """Build the closed loop (or the open-loop excitation run) that ``config`` describes.
+
+    With ``meshcat`` (a ``pydrake.geometry.Meshcat``) a ``MeshcatVisualizer`` draws the plant.
+    """
+    config.validate()
+    rig, period = config.rig, config.encoder.sample_period
+    builder = DiagramBuilder()
+    loggers: dict[str, VectorLogSink] = {}
+
+    def log(name: str, port: OutputPort) -> None:
+        loggers[name] = LogVectorOutput(port, builder, publish_period=period)
+
+    # --- The plant and the world around it --------------------------------------------------------------------
+    plant, scene_graph = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=meshcat is not None)
+    P = plant_to_paper_permutation(plant)
+    to_paper_order = builder.AddNamedSystem("true_state", MatrixGain(P))
+    builder.Connect(plant.get_state_output_port(), to_paper_order.get_input_port())
+    true_state = to_paper_order.get_output_port()
+
+    friction = builder.AddNamedSystem("friction", JointFriction(plant, config.friction))
+    builder.Connect(plant.get_state_output_port(), friction.get_input_port())
+    applied_forces = [friction.GetOutputPort("generalized_force_Nm")]
+
+    arm_torque_to_generalized = _arm_torque_to_generalized_force(plant)
+    disturbance = add_arm_disturbance(builder, config.disturbance, true_state)
+    if disturbance is not None:
+        to_force = builder.AddNamedSystem("disturbance_to_force", MatrixGain(arm_torque_to_generalized))
+        builder.Connect(disturbance, to_force.get_input_port())
+        applied_forces.append(to_force.get_output_port())
+    if rig.motor is not None:
+        # Back-EMF of the DC motor: a torque -kt ke / R phi_dot on the arm (the command is torque-equivalent).
+        back_emf = builder.AddNamedSystem("motor_back_emf", MatrixGain(
+            -rig.motor.back_emf_damping * arm_torque_to_generalized @ np.array([[0.0, 0.0, 0.0, 1.0]])))
+        builder.Connect(true_state, back_emf.get_input_port())
+        applied_forces.append(back_emf.get_output_port())
+    _sum_into(builder, applied_forces, plant.get_applied_generalized_force_input_port(), "applied_forces")
+
+    actuator_input, actuator_output = add_actuator(builder, config.actuator, delay_resolution=period / 10.0)
+    builder.Connect(actuator_output, plant.get_actuation_input_port())
+
+    # --- Sensors ---------------------------------------------------------------------------------------------
+    encoder = builder.AddNamedSystem("encoder", Encoder(config.encoder))
+    builder.Connect(true_state, encoder.GetInputPort("true_state"))
+    measured = encoder.GetOutputPort("measured_angles_rad")
+
+    # --- Command: LQR on an estimate, or open-loop excitation ------------------------------------------------
+    commands = []
+    excitation = torque_excitation_trajectory(config.excitation, config.duration, period, config.seed)
+    if excitation is not None:
+        # Held at the control period like the controller's output, so that every command is a discrete signal.
+        source = builder.AddNamedSystem("torque_excitation", TrajectorySource(excitation))
+        hold = builder.AddNamedSystem("torque_excitation_hold", ZeroOrderHold(period, 1))
+        builder.Connect(source.get_output_port(), hold.get_input_port())
+        commands.append(hold.get_output_port())
+    lqr_gain = None
+    estimates: dict[str, OutputPort] = {}
+    controller = None
+    if config.controller.mode == "lqr":
+        A, B = upright_linearization(plant)
+        if config.controller.gain is not None:
+            lqr_gain = np.asarray(config.controller.gain, dtype=float).reshape(1, 4)
+            check_stabilizing(A, B, lqr_gain, config.controller.lqr.discrete, config.controller.lqr.period,
+                              "controller.gain")
+        else:
+            lqr_gain = design_lqr(plant, config.controller.lqr)
+        controller = builder.AddNamedSystem("lqr", LqrController(
+            lqr_gain, config.controller.lqr.period, config.controller.lqr.torque_limit,
+            friction_compensation=config.controller.friction_compensation))
+        commands.append(controller.GetOutputPort("arm_torque_Nm"))
+        reference = arm_reference_trajectory(config.excitation, config.duration)
+        if reference is not None:
+            source = builder.AddNamedSystem("arm_reference", TrajectorySource(reference))
+            builder.Connect(source.get_output_port(), controller.GetInputPort("state_reference"))
+    # Every command is the output of a block updated at the control period, so at each tick the observers read
+    # the torque applied over the previous period (Drake's discrete semantics: updates read pre-update values).
+    command = _sum_into(builder, commands, actuator_input, "commanded_torque")
+
+    # --- Observers (Sec. III) --------------------------------------------------------------------------------
+    needed = set(config.observers.run)
+    if config.controller.mode == "lqr" and config.controller.velocity_source in ("hg", "vfe"):
+        needed.add(config.controller.velocity_source)
+    A_model, B_F = linearized_upright(rig)
+    if "hg" in needed:
+        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg))
+        builder.Connect(measured, hg.GetInputPort("measured_angles_rad"))
+        builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
+        estimates["hg"] = hg.GetOutputPort("state_estimate")
+    if "vfe" in needed:
+        vfe = builder.AddNamedSystem("vfe_observer", VfeObserver((A_model, B_F), config.observers.vfe))
+        dahl = builder.AddNamedSystem("dahl_observer", DahlFrictionObserver(config.observers.dahl))
+        arm_velocity = builder.AddNamedSystem("vfe_arm_velocity", MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
+        builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
+        builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
+        builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
+        builder.Connect(vfe.GetOutputPort("state_estimate"), arm_velocity.get_input_port())
+        builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
+        builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
+        estimates["vfe"] = vfe.GetOutputPort("state_estimate")
+        log("friction_estimate", dahl.GetOutputPort("friction_estimate_Nm"))
+        log("friction_error_estimate", vfe.GetOutputPort("friction_error_estimate_Nm"))
+        if config.observers.adaptation_enabled:
+            adapter = builder.AddNamedSystem("k_sigma_adapter", KSigmaAdapter(
+                config.observers.adaptation, sigma0=config.observers.dahl.sigma0))
+            builder.Connect(arm_velocity.get_output_port(),
+                            adapter.GetInputPort("arm_velocity_estimate_rad_per_s"))
+            builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
+                            adapter.GetInputPort("friction_error_estimate_Nm"))
+            builder.Connect(dahl.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
+            builder.Connect(adapter.GetOutputPort("K_sigma"), dahl.GetInputPort("K_sigma"))
+            log("K_sigma", adapter.GetOutputPort("K_sigma_branches"))
+        if controller is not None and config.controller.friction_compensation:
+            builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"),
+                            controller.GetInputPort("friction_compensation_Nm"))
+    if "derivative" == config.controller.velocity_source and config.controller.mode == "lqr":
+        derivative = builder.AddNamedSystem("angle_derivative", DiscreteDerivative(2, period))
+        mux = builder.AddNamedSystem("angles_and_rates", Multiplexer([2, 2]))
+        builder.Connect(measured, derivative.get_input_port())
+        builder.Connect(measured, mux.get_input_port(0))
+        builder.Connect(derivative.get_output_port(), mux.get_input_port(1))
+        estimates["derivative"] = mux.get_output_port()
+    if controller is not None:
+        source = config.controller.velocity_source
+        builder.Connect(true_state if source == "true" else estimates[source],
+                        controller.GetInputPort("state_estimate"))
+
+    # --- Loggers, sampled at the control period like the rig's data ------------------------------------------
+    true_sampled = builder.AddNamedSystem("true_state_sample", ZeroOrderHold(period, 4))
+    builder.Connect(true_state, true_sampled.get_input_port())
+    friction_sampled = builder.AddNamedSystem("true_friction_sample", ZeroOrderHold(period, 2))
+    builder.Connect(friction.GetOutputPort("friction_torque_Nm"), friction_sampled.get_input_port())
+    log("state", true_sampled.get_output_port())
+    log("measured_angles", measured)
+    log("torque", command)
+    log("true_friction", friction_sampled.get_output_port())
+    for name, port in estimates.items():
+        log(f"estimate_{name}", port)
+
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer
+        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+
+    diagram = builder.Build()
+    diagram.set_name("furuta_" + config.controller.mode)
+    return FurutaDiagram(diagram, plant, scene_graph, loggers, lqr_gain, config)
+
+
+def _arm_torque_to_generalized_force(plant: MultibodyPlant) -> np.ndarray:
+    """Column (nv x 1) mapping an arm torque to the plant's generalized forces."""
+    column = np.zeros((plant.num_velocities(), 1))
+    column[plant.GetJointByName("arm").velocity_start(), 0] = 1.0
+    return column
+
+
+def _sum_into(builder: DiagramBuilder, ports: list[OutputPort], destination, name: str):
+    """Connect the sum of ``ports`` into ``destination`` (an input port, or None) and return the summed port."""
+    if len(ports) == 1:
+        summed = ports[0]
+    else:
+        adder = builder.AddNamedSystem(name, Adder(len(ports), ports[0].size()))
+        for i, port in enumerate(ports):
+            builder.Connect(port, adder.get_input_port(i))
+        summed = adder.get_output_port()
+    if destination is not None:
+        builder.Connect(summed, destination)
+    return summed
