@@ -1,0 +1,206 @@
+"""Blind-validation suite for the diagnosis: "real" logs recorded from Drake simulations with one hidden effect.
+
+Each case is a folder with the nominal ``rig.yaml`` (the spec's format), two train and two held-out logs (a
+balancing run under LQR with a seeded excitation, and a hanging run under an open-loop multisine), and
+nothing else; the answers are written apart, in ``answers.json`` at the suite's root, so the diagnosis can be
+run blind on the case folders.
+
+The hidden effects are realised with the project's *true-world* blocks, not with the diagnosis' candidate
+models: arm Coulomb friction is Dahl friction (presliding included), Stribeck friction is LuGre, the delay is a
+Drake ``DiscreteTimeDelay`` inside the loop. Magnitudes scale with the rig (fractions of m g l, of the
+control period, ...), so the same suite definition serves the Lund rig and the QUBE-Servo 2.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
+from furuta_drake.friction import JointFrictionParameters
+from furuta_drake.rig import RIGS, RigParameters
+from furuta_drake.simulate import simulate
+from furuta_drake.yamlio import dump_yaml_dataclass
+
+VOCABULARY = (
+    "arm_coulomb_friction", "arm_viscous_friction", "arm_stribeck", "friction_asymmetry", "pendulum_friction",
+    "encoder_quantization", "measurement_noise", "input_delay", "torque_gain_error", "actuator_deadzone",
+    "actuator_lag", "actuator_saturation", "arm_spring", "inertia_mismatch",
+)
+OUTSIDE_VOCABULARY = "cogging_torque"
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """One suite case: a rig, the hidden effect(s) at a magnitude level (1 moderate, 2 strong), a seed."""
+
+    rig: str
+    effects: tuple[str, ...]
+    level: int
+    seed: int
+
+    @property
+    def name(self) -> str:
+        effect = "+".join(self.effects) if self.effects else "none"
+        return f"{self.rig}__{effect}__L{self.level}__s{self.seed}"
+
+    @property
+    def expected_verdict(self) -> str:
+        if not self.effects:
+            return "none"
+        if OUTSIDE_VOCABULARY in self.effects:
+            return "unexplained"
+        return self.effects[0] if len(self.effects) == 1 else "+".join(sorted(self.effects))
+
+
+def with_effect(config: SimulationConfig, effect: str, level: int) -> SimulationConfig:
+    """``config`` with the true-world realisation of ``effect`` at magnitude ``level`` (1 or 2)."""
+    rig = config.rig
+    k = float(level)
+    mgl = rig.gravity_torque
+    period = config.encoder.sample_period
+    arm = config.friction.arm
+    friction = config.friction
+    if effect == "arm_coulomb_friction":
+        level_Nm = 0.05 * k * mgl
+        friction = dataclasses.replace(friction, arm=JointFrictionParameters(
+            model="dahl", coulomb_pos=level_Nm, coulomb_neg=level_Nm, sigma0=400.0 * level_Nm))
+    elif effect == "arm_viscous_friction":
+        damping = 0.8 * k * rig.arm_inertia_total  # the arm's velocity decays at 0.8 k 1/s
+        friction = dataclasses.replace(friction, arm=dataclasses.replace(
+            arm, model="static" if arm.model == "none" else arm.model, viscous=arm.viscous + damping))
+    elif effect == "arm_stribeck":
+        level_Nm = 0.04 * mgl
+        friction = dataclasses.replace(friction, arm=JointFrictionParameters(
+            model="lugre", coulomb_pos=level_Nm, coulomb_neg=level_Nm, static_pos=(1.0 + 1.0 * k) * level_Nm,
+            static_neg=(1.0 + 1.0 * k) * level_Nm, stribeck_velocity=0.1, sigma0=400.0 * level_Nm,
+            sigma1=0.0))
+    elif effect == "friction_asymmetry":
+        low = 0.03 * mgl
+        friction = dataclasses.replace(friction, arm=JointFrictionParameters(
+            model="dahl", coulomb_pos=low, coulomb_neg=low * (1.0 + 0.75 * k), sigma0=400.0 * low))
+    elif effect == "pendulum_friction":
+        damping = 0.3 * k * rig.pendulum_inertia_total  # the pendulum's swing decays at 0.3 k 1/s
+        level_Nm = 0.004 * k * mgl
+        friction = dataclasses.replace(friction, pendulum=JointFrictionParameters(
+            model="static", coulomb_pos=level_Nm, coulomb_neg=level_Nm, viscous=damping))
+    elif effect == "encoder_quantization":
+        encoder = dataclasses.replace(config.encoder, counts_per_rev=config.encoder.counts_per_rev // (4 * level))
+        return dataclasses.replace(config, encoder=encoder)
+    elif effect == "measurement_noise":
+        noise = 1.5 * k * rig.encoder_resolution
+        return dataclasses.replace(config, encoder=dataclasses.replace(config.encoder, noise_std=noise))
+    elif effect == "input_delay":
+        delay = (1.5 + 1.5 * k) * period  # 3 and 4.5 control periods
+        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, delay=delay))
+    elif effect == "torque_gain_error":
+        gain = {1: 0.8, 2: 1.35}[level]
+        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, gain=gain))
+    elif effect == "actuator_deadzone":
+        return dataclasses.replace(config, actuator=dataclasses.replace(
+            config.actuator, deadzone=0.03 * k * mgl))
+    elif effect == "actuator_lag":
+        return dataclasses.replace(config, actuator=dataclasses.replace(
+            config.actuator, lag_time_constant=0.006 * k))
+    elif effect == "actuator_saturation":
+        limit = config.controller.lqr.torque_limit * (0.5 if level == 1 else 0.3)
+        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, saturation=limit))
+    elif effect == "arm_spring":
+        stiffness = 0.25 * k * mgl  # N m/rad: a cable that pulls back with a quarter of m g l per radian
+        return dataclasses.replace(config, disturbance=dataclasses.replace(
+            config.disturbance, arm_spring_stiffness=stiffness, arm_spring_equilibrium=0.05))
+    elif effect == "inertia_mismatch":
+        return dataclasses.replace(config, rig=dataclasses.replace(
+            rig, pendulum_mass=rig.pendulum_mass * (1.0 + 0.2 * k), arm_inertia=rig.arm_inertia * (1.0 - 0.15 * k)))
+    elif effect == OUTSIDE_VOCABULARY:
+        return dataclasses.replace(config, disturbance=dataclasses.replace(
+            config.disturbance, cogging_amplitude=0.04 * k * mgl, cogging_periods=12))
+    else:
+        raise ValueError(f"unknown effect {effect!r}")
+    return dataclasses.replace(config, friction=friction)
+
+
+def run_configs(rig: RigParameters, seed: int, duration: float) -> dict[str, SimulationConfig]:
+    """The two runs of a log pair: balancing under LQR with a seeded multisine and arm square wave, and hanging
+    under an open-loop multisine."""
+    base = SimulationConfig.from_rig(rig)
+    scale = rig.gravity_torque
+    balance = dataclasses.replace(
+        base, duration=duration, seed=seed, initial_state=[0.05, 0.0, 0.0, 0.0],
+        excitation=ExcitationConfig(torque_rms=0.08 * scale, frequency_min=0.3, frequency_max=6.0,
+                                    arm_reference_amplitude=0.3, arm_reference_period=3.0),
+        monitor=MonitorConfig(theta_bound=1.2))
+    hanging = dataclasses.replace(
+        base, duration=duration, seed=seed + 1000, initial_state=[np.pi, 0.0, 0.0, 0.0],
+        controller=dataclasses.replace(base.controller, mode="open_loop"),
+        excitation=ExcitationConfig(torque_rms=0.25 * scale, frequency_min=0.3, frequency_max=5.0),
+        monitor=MonitorConfig(theta_bound=None))
+    return {"balance": balance, "hanging": hanging}
+
+
+def default_cases(rigs=("lund", "qube_servo2"), seeds=(1,), levels=(1, 2)) -> list[CaseSpec]:
+    """Every vocabulary effect at each level on each rig and seed, plus none, a pair and cogging."""
+    cases = []
+    for rig in rigs:
+        for seed in seeds:
+            cases.append(CaseSpec(rig, (), 0, seed))
+            cases.append(CaseSpec(rig, (), 0, seed + 100))
+            for effect in VOCABULARY:
+                for level in levels:
+                    cases.append(CaseSpec(rig, (effect,), level, seed))
+            cases.append(CaseSpec(rig, ("arm_coulomb_friction", "input_delay"), 2, seed))
+            cases.append(CaseSpec(rig, (OUTSIDE_VOCABULARY,), 2, seed))
+    return cases
+
+
+def write_case(case: CaseSpec, directory: Path, duration: float = 8.0) -> dict:
+    """Simulate ``case`` and write its folder (rig.yaml, train_*.csv, heldout_*.csv); return its answer."""
+    from furuta_drake.results import write_log_csv
+
+    rig = RIGS[case.rig]()
+    directory.mkdir(parents=True, exist_ok=True)
+    nominal = dataclasses.replace(rig)
+    (directory / "rig.yaml").write_text(dump_yaml_dataclass(nominal))
+    files = {}
+    for split, seed in (("train", case.seed), ("heldout", case.seed + 500)):
+        for run, config in run_configs(rig, seed, duration).items():
+            for effect in case.effects:
+                config = with_effect(config, effect, case.level)
+            result = simulate(config)
+            path = directory / f"{split}_{run}.csv"
+            write_log_csv(result, path)
+            files.setdefault(split, []).append(path.name)
+    truth = {effect: _truth_params(with_effect(SimulationConfig.from_rig(rig), effect, case.level), effect)
+             for effect in case.effects}
+    return {"case": case.name, "rig": case.rig, "effects": list(case.effects), "level": case.level,
+            "seed": case.seed, "expected_verdict": case.expected_verdict, "files": files, "truth": truth}
+
+
+def write_suite(out: Path, cases: list[CaseSpec], duration: float = 8.0, progress=None) -> Path:
+    """Write every case folder under ``out/cases`` and the answers to ``out/answers.json``."""
+    out = Path(out)
+    answers = []
+    for case in cases:
+        answers.append(write_case(case, out / "cases" / case.name, duration))
+        if progress is not None:
+            progress(case)
+    path = out / "answers.json"
+    path.write_text(json.dumps(answers, indent=2, sort_keys=True) + "\n")
+    return path
+
+
+def _truth_params(config: SimulationConfig, effect: str) -> dict:
+    """The hidden effect's true parameters, for the answers file (plain SI values)."""
+    from furuta_drake.yamlio import to_plain
+
+    section = {
+        "encoder_quantization": "encoder", "measurement_noise": "encoder", "input_delay": "actuator",
+        "torque_gain_error": "actuator", "actuator_deadzone": "actuator", "actuator_lag": "actuator",
+        "actuator_saturation": "actuator", "arm_spring": "disturbance", OUTSIDE_VOCABULARY: "disturbance",
+        "inertia_mismatch": "rig", "pendulum_friction": "friction",
+    }.get(effect, "friction")
+    return to_plain(getattr(config, section))
