@@ -1,4 +1,6 @@
-"""Load and check the CSV run logs and the rig file of ``spec/diagnosis-interface.md`` (stage 1 of the diagnosis).
+"""Load and check the CSV run logs and the rig file of ``spec/diagnosis-interface.md`` (stage 1 of the diagnosis),
+and the two types the stages share: :class:`RunLog` (a checked log) and :class:`WindowResiduals` (the gap stage's
+per-window residuals that the localisation reads).
 
 Every bad input raises :class:`~furuta_drake.errors.LogError` (a log) or :class:`~furuta_drake.errors.ConfigError`
 (the rig file) with one line naming the file, the 1-based line (the header is line 1) and the column, so the
@@ -70,6 +72,18 @@ class RunLog:
         if self.input_kind == "torque":
             return self.input
         return self.input * self.torque_per_volt
+
+
+@dataclass
+class WindowResiduals:
+    """Prediction residuals of one window of a log (the gap stage's output, the localisation's input)."""
+
+    log_name: str
+    time: np.ndarray  # [s] sample times of the window (as in the log)
+    residual: np.ndarray  # (n, 2) measured - predicted [theta, phi], in encoder counts of the rig file
+    state: np.ndarray  # (n, 4) predicted paper-order state [theta, phi, theta_dot, phi_dot]
+    torque: np.ndarray  # (n,) torque-equivalent command [N m]
+    saturated: np.ndarray  # (n,) bool, |command| >= 0.98 rig torque_limit
 
 
 def load_rig(path: str | Path) -> RigParameters:
