@@ -3,14 +3,17 @@
 A command writes its results into a fresh hidden directory beside the requested one and renames it into place
 only when every file is written, so an interrupted or failed run never leaves a directory that looks like a
 finished result. A non-empty directory is refused unless ``force`` is given; with ``force`` the old directory is
-replaced only once the new results are complete.
+replaced only once the new results are complete. :func:`versions` is the provenance such a directory records.
 """
 
 from __future__ import annotations
 
+import importlib.metadata
 import os
+import platform
 import secrets
 import shutil
+import subprocess
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -62,3 +65,28 @@ def atomic_output_dir(out: str | Path, force: bool = False, protect: Iterable[st
         if out.is_dir():
             out.rmdir()
         os.replace(staging, out)
+
+
+def versions() -> dict[str, str]:
+    """Versions of this package, of the numerical libraries a result depends on, and of Python."""
+    found = {}
+    for name in ("furuta-drake", "drake", "numpy", "scipy", "matplotlib"):
+        try:
+            found[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            found[name] = "not installed"
+    found["python"] = platform.python_version()
+    commit = _git_commit()
+    if commit:
+        found["furuta-drake git commit"] = commit
+    return found
+
+
+def _git_commit() -> str | None:
+    """The commit of the source tree this package runs from, when it is a git checkout."""
+    try:
+        result = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent,
+                                capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return result.stdout.strip() if result.returncode == 0 else None

@@ -1,0 +1,428 @@
+"""The diagnosis' output directory (spec "Outputs in DIR"): ``report.json``, ``report.md``, PNG plots,
+``config.yaml`` (exact inputs with their sha256, versions, seeds, options) and ``fitted_model.yaml`` (the fitted
+simulate config, so ``furuta-drake simulate --config fitted_model.yaml`` runs the corrected model).
+
+``report.json`` has the spec's keys in the spec's order (extra keys after them), every number a plain float
+rounded to :data:`SIGNIFICANT_DIGITS` significant digits (non-finite as null), so the same inputs give
+byte-identical files. The directory is written through :func:`furuta_drake.outputs.atomic_output_dir`: it
+appears complete or not at all.
+
+Effect curves (:func:`effect_curve`) read each effect's fitted parameters in SI units as the ranking lists them,
+as the effect's own levels (not increments over the rig file): friction torque against velocity for the friction
+effects, the command-to-torque map for dead zone, saturation and gain (a dead zone shifts the command towards
+zero by its width, as Simulink's Dead Zone block), the spring torque -k (phi - phi_0) against phi, the unit step
+response for lag and delay, and a bar chart of the parameters for the rest.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from furuta_drake.diagnosis.localize import band_power
+from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.outputs import atomic_output_dir, versions
+from furuta_drake.rig import RigParameters
+from furuta_drake.yamlio import dump_yaml_dataclass, to_plain
+
+SIGNIFICANT_DIGITS = 6
+SPEC_KEYS = ("verdict", "effects", "gap", "ranking", "localization")
+_NUMBER = (int, float)
+FRICTION_EFFECTS = ("arm_coulomb_friction", "arm_viscous_friction", "arm_stribeck", "friction_asymmetry",
+                    "pendulum_friction")
+MAX_PLOT_POINTS = 20000  # per line of the residual plot; longer series are strided
+
+
+@dataclass
+class EffectCurve:
+    """One fitted-effect plot: named curves y(x), or bars when ``bars`` is true (x are then labels)."""
+
+    effect: str
+    title: str
+    x_label: str
+    y_label: str
+    x: np.ndarray | list[str]
+    curves: dict[str, np.ndarray] = field(default_factory=dict)
+    bars: bool = False
+
+
+def check_report(report: dict) -> None:
+    """Raise ValueError unless ``report`` has every key of the spec's report.json with the spec's types."""
+    _require(report, "", {"verdict": str, "effects": list, "gap": dict, "ranking": list, "localization": dict})
+    if not all(isinstance(e, str) for e in report["effects"]):
+        raise ValueError("report.effects must be a list of effect names")
+    gap = report["gap"]
+    _require(gap, "gap", {"metric": str, "nominal": dict, "with_effects": dict, "heldout_reduction": _NUMBER})
+    for name in ("nominal", "with_effects"):
+        _require(gap[name], f"gap.{name}", {"train": _NUMBER, "heldout": _NUMBER})
+    for i, entry in enumerate(report["ranking"]):
+        _require(entry, f"ranking[{i}]", {"effect": str, "params": dict, "heldout_gap": _NUMBER,
+                                         "heldout_reduction": _NUMBER, "evidence": _NUMBER})
+        for key, value in entry["params"].items():
+            if not _is_number(value):
+                raise ValueError(f"report.ranking[{i}].params.{key} must be a number, got {value!r}")
+    loc = report["localization"]
+    _require(loc, "localization", {"signals": dict, "windows": list, "regimes": list, "frequency_bands": list})
+    _require(loc["signals"], "localization.signals", {"theta": _NUMBER, "phi": _NUMBER})
+    for i, w in enumerate(loc["windows"]):
+        _require(w, f"localization.windows[{i}]", {"log": str, "start": _NUMBER, "end": _NUMBER, "why": str})
+    for i, r in enumerate(loc["regimes"]):
+        _require(r, f"localization.regimes[{i}]", {"regime": str, "share_of_gap": _NUMBER})
+    for i, b in enumerate(loc["frequency_bands"]):
+        _require(b, f"localization.frequency_bands[{i}]", {"low_hz": _NUMBER, "high_hz": _NUMBER,
+                                                          "share_of_gap": _NUMBER})
+
+
+def report_json(report: dict) -> str:
+    """The deterministic text of report.json: spec keys first in the spec's order, floats rounded."""
+    check_report(report)
+    ordered = {key: report[key] for key in SPEC_KEYS}
+    ordered.update((key, value) for key, value in report.items() if key not in SPEC_KEYS)
+    return json.dumps(_canonical(ordered), indent=2, allow_nan=False) + "\n"
+
+
+def input_record(*, rig_path: str | Path, train: Sequence[str | Path], heldout: Sequence[str | Path] = (),
+                 seeds: dict | None = None, options: dict | None = None) -> dict:
+    """What config.yaml records: each input file with its sha256, the versions, the seeds and the options."""
+    def entry(path):
+        path = Path(path)
+        return {"path": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+
+    return {"rig": entry(rig_path), "train": [entry(p) for p in train], "heldout": [entry(p) for p in heldout],
+            "versions": versions(),
+            "seeds": dict(seeds or {}), "options": dict(options or {})}
+
+
+def write_report(out_dir: str | Path, report: dict, *, before: list[WindowResiduals],
+                 after: list[WindowResiduals] | None = None, curves: list[EffectCurve] = (),
+                 fitted_config=None, config_record: dict, threshold_note: str, holdout_note: str = "",
+                 noise_variance: float = 1.0 / 12.0, force: bool = False, protect: Sequence[str | Path] = ()
+                 ) -> Path:
+    """Write the whole output directory atomically (see :func:`write_report_files`); return its path.
+
+    ``protect`` lists paths (the input logs and rig) that ``force`` must never delete."""
+    with atomic_output_dir(out_dir, force=force, protect=protect) as staging:
+        write_report_files(staging, report, before=before, after=after, curves=curves,
+                           fitted_config=fitted_config, config_record=config_record, threshold_note=threshold_note,
+                           holdout_note=holdout_note, noise_variance=noise_variance)
+    return Path(out_dir)
+
+
+def write_report_files(directory: Path, report: dict, *, before: list[WindowResiduals],
+                       after: list[WindowResiduals] | None, curves: list[EffectCurve], fitted_config,
+                       config_record: dict, threshold_note: str, holdout_note: str = "",
+                       noise_variance: float = 1.0 / 12.0) -> list[str]:
+    """Write report.json, the plots, report.md, config.yaml and fitted_model.yaml into an existing directory.
+
+    ``before``/``after``: the held-out residual windows of the nominal model and of the model with the accepted
+    effects; ``curves``: the fitted-effect plots (:func:`effect_curve`); ``fitted_config``: a dataclass written
+    with :func:`~furuta_drake.yamlio.dump_yaml_dataclass` (None: no fitted model); ``threshold_note`` says how
+    the acceptance threshold was chosen, ``holdout_note`` how the held-out data were chosen. Returns the
+    written file names.
+    """
+    directory = Path(directory)
+    text = report_json(report)
+    written = ["report.json"]
+    (directory / "report.json").write_text(text)
+    figures = {"residuals.png": "Prediction residuals over time (worst windows shaded)",
+               "residual_spectra.png": "Residual power spectral density, before and after the effects"}
+    plot_residuals(before, after, report["localization"]["windows"], directory / "residuals.png")
+    plot_spectra(before, after, noise_variance, directory / "residual_spectra.png")
+    for curve in curves:
+        name = f"effect_{curve.effect}.png"
+        plot_effect_curve(curve, directory / name)
+        figures[name] = curve.title
+    written += list(figures)
+    (directory / "config.yaml").write_text(yaml.safe_dump(to_plain(config_record), sort_keys=False,
+                                                          default_flow_style=False))
+    written.append("config.yaml")
+    if fitted_config is not None:
+        (directory / "fitted_model.yaml").write_text(dump_yaml_dataclass(fitted_config))
+        written.append("fitted_model.yaml")
+    markdown = report_markdown(json.loads(text), figures, threshold_note, holdout_note,
+                               fitted_model="fitted_model.yaml" if fitted_config is not None else None)
+    (directory / "report.md").write_text(markdown)
+    written.append("report.md")
+    return written
+
+
+def report_markdown(report: dict, figures: dict[str, str], threshold_note: str, holdout_note: str = "",
+                    fitted_model: str | None = None) -> str:
+    """report.md: the same content as report.json for a person, with the figures linked relatively."""
+    gap = report["gap"]
+    effects = ", ".join(f"`{e}`" for e in report["effects"]) or "none"
+    lines = ["# Sim-to-real gap diagnosis", "",
+             f"**Verdict: `{report['verdict']}`**. Accepted effects: {effects}.", "",
+             "## Gap", "", f"Metric: {gap['metric']}", "",
+             "| model | train | held-out |", "|---|---:|---:|",
+             f"| nominal (rig file) | {_fmt(gap['nominal']['train'])} | {_fmt(gap['nominal']['heldout'])} |",
+             f"| with the accepted effects | {_fmt(gap['with_effects']['train'])} | "
+             f"{_fmt(gap['with_effects']['heldout'])} |", "",
+             f"Held-out reduction: {_percent(gap['heldout_reduction'])} (1 - gap with effects / nominal gap, on "
+             f"held-out logs).", "", f"How the threshold was chosen: {threshold_note}", ""]
+    if holdout_note:
+        lines += [f"Held-out data: {holdout_note}", ""]
+    lines += ["## Ranking of the candidates", "",
+              "| # | effect | fitted parameters (SI) | held-out gap | held-out reduction | evidence |",
+              "|---:|---|---|---:|---:|---:|"]
+    for i, entry in enumerate(report["ranking"], 1):
+        params = ", ".join(f"{k} = {_fmt(v)}" for k, v in entry["params"].items())
+        lines.append(f"| {i} | `{entry['effect']}` | {params} | {_fmt(entry['heldout_gap'])} | "
+                     f"{_percent(entry['heldout_reduction'])} | {_fmt(entry['evidence'])} |")
+    loc = report["localization"]
+    after = loc.get("after")
+    lines += ["", "## Where the gap is", ""]
+    if "basis" in loc:
+        lines += [f"Shares of the {loc['basis']}.", ""]
+    header = "| signal | share (nominal) |" + (" share (with effects) |" if after else "")
+    lines += [header, "|---|---:|" + ("---:|" if after else "")]
+    for signal in ("theta", "phi"):
+        row = f"| {signal} | {_percent(loc['signals'][signal])} |"
+        lines.append(row + (f" {_percent(after['signals'][signal])} |" if after else ""))
+    for title, block in (("Worst time windows (nominal model):", loc),
+                         ("Worst time windows with the effects:", after or {})):
+        if block.get("windows"):
+            lines += ["", title, "", "| log | start [s] | end [s] | share of gap | why |", "|---|---:|---:|---:|---|"]
+            lines += [f"| {_cell(w['log'])} | {_fmt(w['start'])} | {_fmt(w['end'])} | "
+                      f"{_percent(w.get('share_of_gap'))} | {_cell(w['why'])} |" for w in block["windows"]]
+    lines += ["", "| regime | definition | share of samples | share of gap (nominal) |"
+              + (" share of gap (with effects) |" if after else ""),
+              "|---|---|---:|---:|" + ("---:|" if after else "")]
+    after_regimes = {r["regime"]: r for r in after["regimes"]} if after else {}
+    for r in loc["regimes"]:
+        row = (f"| {r['regime']} | {_cell(r.get('definition', ''))} | {_percent(r.get('share_of_samples'))} | "
+               f"{_percent(r['share_of_gap'])} |")
+        if after:
+            row += f" {_percent(after_regimes.get(r['regime'], {}).get('share_of_gap'))} |"
+        lines.append(row)
+    lines += ["", "| band [Hz] | share of gap (nominal) |" + (" share of gap (with effects) |" if after else ""),
+              "|---|---:|" + ("---:|" if after else "")]
+    after_bands = {(b["low_hz"], b["high_hz"]): b for b in after["frequency_bands"]} if after else {}
+    for b in loc["frequency_bands"]:
+        row = f"| {_fmt(b['low_hz'])}-{_fmt(b['high_hz'])} | {_percent(b['share_of_gap'])} |"
+        if after:
+            row += f" {_percent(after_bands.get((b['low_hz'], b['high_hz']), {}).get('share_of_gap'))} |"
+        lines.append(row)
+    lines += ["", "## Figures", ""]
+    for name, caption in figures.items():
+        lines += [f"![{caption}]({name})", "", f"*{caption}.*", ""]
+    lines += ["## Files", "", "- `report.json`: this report for programs (spec keys).",
+              "- `config.yaml`: the exact inputs (paths and sha256), versions, seeds and options."]
+    if fitted_model:
+        lines.append(f"- `{fitted_model}`: the fitted model as a simulate config "
+                     f"(`furuta-drake simulate --config {fitted_model}`).")
+    return "\n".join(lines) + "\n"
+
+
+def plot_residuals(before: list[WindowResiduals], after: list[WindowResiduals] | None, worst: list[dict],
+                   path: Path) -> None:
+    """One row per log: theta and phi residuals [counts] against time, worst windows shaded; the residuals
+    with the effects dashed."""
+    logs = sorted({w.log_name for w in before})
+    fig = Figure(figsize=(10, 2.4 * len(logs) + 0.6))
+    axes = fig.subplots(len(logs), 1, squeeze=False)[:, 0]
+    for ax, log in zip(axes, logs):
+        for windows, style, label in ((before, "-", "nominal"), (after or [], "--", "with effects")):
+            time, residual = _joined([w for w in windows if w.log_name == log])
+            if time.size == 0:
+                continue
+            for column, (signal, color) in enumerate((("theta", "tab:blue"), ("phi", "tab:orange"))):
+                ax.plot(time, residual[:, column], style, color=color, lw=0.7 if style == "-" else 0.9,
+                        label=f"{signal}, {label}")
+        for w in worst:
+            if w["log"] == log:
+                ax.axvspan(w["start"], w["end"], color="tab:red", alpha=0.15, lw=0)
+        ax.set_title(log, fontsize=9)
+        ax.set_ylabel("residual [counts]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=4, loc="upper right")
+    axes[-1].set_xlabel("time [s]")
+    _save(fig, path)
+
+
+def plot_spectra(before: list[WindowResiduals], after: list[WindowResiduals] | None, noise_variance: float,
+                 path: Path) -> None:
+    """Residual power spectral density [counts^2/Hz] per signal, averaged over the windows, before and after,
+    with the white sensor-noise level 2 s^2 dt."""
+    fig = Figure(figsize=(10, 4))
+    axes = fig.subplots(1, 2)
+    dt = float(np.median(np.concatenate([np.diff(w.time) for w in before])))
+    for windows, style, label in ((before, "-", "nominal"), (after or [], "--", "with effects")):
+        if not windows:
+            continue
+        centers, density = residual_psd(windows)
+        for column, ax in enumerate(axes):
+            ax.loglog(centers, np.maximum(density[:, column], 1e-12), style, label=label)
+    for ax, signal in zip(axes, ("theta", "phi")):
+        ax.axhline(2 * noise_variance * dt, color="0.5", lw=0.8, ls=":", label="encoder noise level")
+        ax.set_title(f"{signal} residual", fontsize=9)
+        ax.set_xlabel("frequency [Hz]")
+        ax.grid(alpha=0.3, which="both")
+    axes[0].set_ylabel("PSD [counts$^2$/Hz]")
+    axes[0].legend(fontsize=8)
+    _save(fig, path)
+
+
+def residual_psd(windows: list[WindowResiduals], bins: int = 30) -> tuple[np.ndarray, np.ndarray]:
+    """(bin centres [Hz], one-sided PSD [counts^2/Hz] per signal (bins x 2)) over log-spaced bins from the
+    longest window's resolution to the Nyquist frequency: per bin, the windows' periodogram power summed,
+    divided by their sample count and the bin width (white noise of variance s^2 gives 2 s^2 dt). Windows of a
+    coarser sample rate count only in the bins below their Nyquist frequency."""
+    rates = [1.0 / float(np.median(np.diff(w.time))) for w in windows]
+    longest = max(len(w.time) / rate for w, rate in zip(windows, rates))
+    edges = np.concatenate([[0.0], np.geomspace(1.0 / longest, 0.5 * max(rates), bins)])
+    power, samples = np.zeros((bins, 2)), np.zeros(bins)
+    for w in windows:
+        window_edges, band = band_power(w, 0.0, edges[:-1])
+        power[:len(window_edges) - 1] += band
+        samples[:len(window_edges) - 1] += len(w.time)
+    centers = np.sqrt(np.maximum(edges[:-1], edges[1] / 2) * edges[1:])
+    return centers, power / np.maximum(samples, 1)[:, None] / np.diff(edges)[:, None]
+
+
+def effect_curve(effect: str, params: dict[str, float], rig: RigParameters) -> EffectCurve:
+    """The plot of a fitted effect against the rig file's nominal model (see the module docstring)."""
+    if effect in FRICTION_EFFECTS:
+        return _friction_curve(effect, params, rig)
+    limit = rig.torque_limit
+    command = np.linspace(-1.2 * limit, 1.2 * limit, 481)
+    if effect in ("actuator_deadzone", "actuator_saturation", "torque_gain_error"):
+        if effect == "actuator_deadzone":
+            width = params["deadzone"]
+            fitted = np.sign(command) * np.maximum(np.abs(command) - width, 0.0)
+        elif effect == "actuator_saturation":
+            fitted = np.clip(command, -params["limit"], params["limit"])
+        else:
+            fitted = params["gain"] * command
+        return EffectCurve(effect, f"Fitted {effect}: command to applied torque", "command [N m]",
+                           "applied torque [N m]", command, {"nominal": command, "fitted": fitted})
+    if effect == "arm_spring":
+        phi = np.linspace(-math.pi / 2, math.pi / 2, 361) + params.get("equilibrium", 0.0)
+        return EffectCurve(effect, "Fitted arm_spring: restoring torque", "phi [rad]", "spring torque [N m]", phi,
+                           {"nominal": 0.0 * phi,
+                            "fitted": -params["stiffness"] * (phi - params.get("equilibrium", 0.0))})
+    if effect in ("actuator_lag", "input_delay"):
+        scale = params["time_constant"] if effect == "actuator_lag" else params["delay"]
+        time = np.linspace(0.0, max(5 * scale, 10 * rig.sample_period), 501)
+        step = (time >= 0).astype(float)
+        fitted = 1.0 - np.exp(-time / scale) if effect == "actuator_lag" else (time >= scale).astype(float)
+        return EffectCurve(effect, f"Fitted {effect}: response to a unit step of the command", "time [s]",
+                           "applied / commanded torque", time, {"nominal": step, "fitted": fitted})
+    names = list(params)
+    return EffectCurve(effect, f"Fitted {effect}: parameters (SI)", "parameter", "value", names,
+                       {"fitted": np.array([params[n] for n in names], float)}, bars=True)
+
+
+def plot_effect_curve(curve: EffectCurve, path: Path) -> None:
+    fig = Figure(figsize=(6, 4))
+    ax = fig.subplots()
+    if curve.bars:
+        values = curve.curves["fitted"]
+        ax.bar(curve.x, values, color="tab:blue")
+        for i, value in enumerate(values):
+            ax.annotate(f"{value:.4g}", (i, value), ha="center", va="bottom", fontsize=8)
+    else:
+        for label, y in curve.curves.items():
+            ax.plot(curve.x, y, "--" if label == "nominal" else "-", color="0.4" if label == "nominal" else None,
+                    lw=1.2, label=label)
+        ax.legend(fontsize=8)
+    ax.set_title(curve.title, fontsize=9)
+    ax.set_xlabel(curve.x_label)
+    ax.set_ylabel(curve.y_label)
+    ax.grid(alpha=0.3)
+    _save(fig, path)
+
+
+def _friction_curve(effect: str, params: dict[str, float], rig: RigParameters) -> EffectCurve:
+    """Static friction torque against velocity: Coulomb level (one per direction), Stribeck peak, viscous."""
+    pendulum = effect == "pendulum_friction"
+    coulomb = rig.pendulum_coulomb if pendulum else rig.arm_coulomb
+    viscous = rig.pendulum_viscous if pendulum else rig.arm_viscous
+    velocity = np.linspace(-2.0, 2.0, 801)
+    nominal = coulomb * np.sign(velocity) + viscous * velocity
+    level_pos = params.get("coulomb_pos", params.get("coulomb", coulomb))
+    level_neg = params.get("coulomb_neg", params.get("coulomb", coulomb))
+    level = np.where(velocity >= 0, level_pos, level_neg)
+    if "static" in params:
+        level = level + (params["static"] - level) * np.exp(-(velocity / params["stribeck_velocity"]) ** 2)
+    fitted = level * np.sign(velocity) + params.get("viscous", viscous) * velocity
+    joint = "pendulum" if pendulum else "arm"
+    return EffectCurve(effect, f"Fitted {effect}: {joint} friction torque", f"{joint} velocity [rad/s]",
+                       "friction torque [N m]", velocity, {"nominal": nominal, "fitted": fitted})
+
+
+def _joined(windows: list[WindowResiduals]) -> tuple[np.ndarray, np.ndarray]:
+    """The windows in time order, separated by NaN rows (no line across a window boundary), strided to at most
+    MAX_PLOT_POINTS samples."""
+    if not windows:
+        return np.zeros(0), np.zeros((0, 2))
+    parts_t, parts_r = [], []
+    for w in sorted(windows, key=lambda w: float(w.time[0])):
+        parts_t += [np.asarray(w.time, float), [np.nan]]
+        parts_r += [np.asarray(w.residual, float), np.full((1, 2), np.nan)]
+    time, residual = np.concatenate(parts_t), np.concatenate(parts_r)
+    stride = max(1, len(time) // MAX_PLOT_POINTS)
+    return time[::stride], residual[::stride]
+
+
+def _save(fig: Figure, path: Path) -> None:
+    fig.tight_layout()
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=110, metadata={"Software": None})
+
+
+def _canonical(value):
+    if isinstance(value, dict):
+        return {str(k): _canonical(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_canonical(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        return float(f"{value:.{SIGNIFICANT_DIGITS}g}") if math.isfinite(value) else None
+    return value
+
+
+def _require(obj, where: str, keys: dict) -> None:
+    if not isinstance(obj, dict):
+        raise ValueError(f"report.{where} must be an object")
+    for key, types in keys.items():
+        if key not in obj:
+            raise ValueError(f"report{'.' + where if where else ''} is missing {key!r}")
+        value = obj[key]
+        if types is _NUMBER:
+            if not _is_number(value):
+                raise ValueError(f"report.{where}.{key} must be a number, got {value!r}")
+        elif not isinstance(value, types):
+            raise ValueError(f"report{'.' + where if where else ''}.{key} must be a {types.__name__}")
+
+
+def _is_number(value) -> bool:
+    """Plain numbers; None stands for a non-finite figure (e.g. a diverged candidate's gap)."""
+    return value is None or (isinstance(value, (int, float, np.integer, np.floating))
+                             and not isinstance(value, (bool, np.bool_)))
+
+
+def _cell(text: str) -> str:
+    """Text for a Markdown table cell (a literal | would end the cell)."""
+    return str(text).replace("|", "\\|")
+
+
+def _fmt(value) -> str:
+    return "n/a" if value is None else f"{value:.4g}"
+
+
+def _percent(value) -> str:
+    return "n/a" if value is None else f"{100 * value:.1f} %"
