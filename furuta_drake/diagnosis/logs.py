@@ -20,8 +20,9 @@ so regressing theta_ddot on cos(theta) phi_ddot and sin(theta) must give a negat
 (beta4 < 0 at the upright) and a positive gravity coefficient; a flipped encoder flips only the coupling. The arm
 row, divided by its inertia a + b sin^2(theta), gives phi_ddot = k_u tau / (a + b sin^2 theta) + ..., where
 k_u must be positive (phi counts in the direction a positive input accelerates the arm) and near 1 in radians
-(about 57 when the angles are in degrees). A check decides only when its coefficient is clear (t > 10 with the
-sample count discounted by the smoothing window); otherwise it says nothing. On the real QUBE logs the coupling
+(about 57 when the angles are in degrees). A sign check decides only when its coefficient is clear (|t| > 10
+with the sample count discounted by the smoothing window), the degrees check when k_u is 3 standard errors above
+10; otherwise they say nothing. On the real QUBE logs the coupling
 comes out at -1.05 (t = 179) against the rig's -c/b = -0.988, and k_u at 0.47 (the voltage logs carry a 1-2
 sample lag); their quiet balancing segments alone decide nothing.
 """
@@ -48,6 +49,7 @@ MIN_SAMPLES = 3
 SMOOTHING_WINDOW_S = 0.04  # Savitzky-Golay window for the sign checks [s]
 CLEAR_T_STAT = 10.0  # a sign check decides only above this t statistic
 DEGREES_GAIN_RATIO = 10.0  # arm response this many times the rig's: the angles are degrees (ratio 57.3)
+DEGREES_SIGMAS = 3.0  # ... with the gain that many standard errors above DEGREES_GAIN_RATIO
 
 
 @dataclass(frozen=True)
@@ -189,19 +191,18 @@ def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
     if fit is None:
         return
     coef, t_stat = fit
-    if abs(t_stat[0]) <= CLEAR_T_STAT:
-        return
     names = ", ".join(log.name for log in logs)
-    if coef[0] < 0:
+    std = coef[0] / t_stat[0]
+    if coef[0] - DEGREES_SIGMAS * std > DEGREES_GAIN_RATIO:
+        raise LogError(
+            f"{names}: columns 'theta'/'phi': the arm accelerates {coef[0]:.3g} +- {std:.2g} times more per unit "
+            f"command than the rig ({rig_path}) allows (57.3 would be degrees): the angles look like degrees; the "
+            f"spec wants radians (unless the rig's arm inertia is off by that factor)")
+    if coef[0] < 0 and t_stat[0] < -CLEAR_T_STAT:
         raise LogError(
             f"{names}: column 'phi' counts against the input: the arm acceleration per unit command is "
             f"{coef[0]:+.3g} times the rig's ({rig_path}) (t = {t_stat[0]:.0f}); the spec wants phi positive in "
             f"the direction a positive input accelerates the arm (negate phi, or the input)")
-    if coef[0] > DEGREES_GAIN_RATIO:
-        raise LogError(
-            f"{names}: columns 'theta'/'phi': the arm accelerates {coef[0]:.3g} times more per unit command than "
-            f"the rig ({rig_path}) allows (57.3 would be degrees): the angles look like degrees; the spec wants "
-            f"radians")
 
 
 def smoothed_derivatives(log: RunLog, window_s: float = SMOOTHING_WINDOW_S):
