@@ -192,6 +192,11 @@ def test_quiet_logs_decide_nothing(tmp_path):
     check_input_direction([log], flipped)
 
 
+def test_logs_too_short_to_judge_pass_the_sign_checks(tmp_path):
+    logs = load_logs([write_csv(tmp_path / "short.csv", HEADER, good_rows(5))], lund_rig())
+    assert len(logs[0].time) == 5
+
+
 def test_rig_file_errors_name_the_key(tmp_path):
     rig_path = tmp_path / "rig.yaml"
     rig_path.write_text(QUBE_RIG.read_text() + "arm_lenght: 0.1\n")

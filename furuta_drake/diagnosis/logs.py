@@ -150,14 +150,15 @@ def check_theta_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
     :func:`check_input_direction` first: a reversed phi also reverses k_c.
     """
     rows = []
-    for log in logs:
+    for log in _long_enough(logs):
         theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot = smoothed_derivatives(log)
         rows.append((np.column_stack([np.cos(theta) * phi_ddot, np.sin(theta), theta_dot,
                                       np.sin(theta) * np.cos(theta) * phi_dot**2]), theta_ddot))
     fit = _pooled_fit(rows, logs)
     if fit is None:
         return
-    coef, t_stat = fit
+    coef, std = fit
+    t_stat = coef / std
     if abs(t_stat[0]) <= CLEAR_T_STAT or t_stat[1] < -CLEAR_T_STAT:
         return
     if coef[0] > 0:
@@ -180,7 +181,7 @@ def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
     """
     a, b = rig.arm_inertia_total, rig.pendulum_inertia_total
     rows = []
-    for log in logs:
+    for log in _long_enough(logs):
         theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot = smoothed_derivatives(log)
         inertia = a + b * np.sin(theta) ** 2
         s, c = np.sin(theta), np.cos(theta)
@@ -190,24 +191,24 @@ def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
     fit = _pooled_fit(rows, logs)
     if fit is None:
         return
-    coef, t_stat = fit
+    coef, std = fit
     names = ", ".join(log.name for log in logs)
-    std = coef[0] / t_stat[0]
-    if coef[0] - DEGREES_SIGMAS * std > DEGREES_GAIN_RATIO:
+    if coef[0] - DEGREES_SIGMAS * std[0] > DEGREES_GAIN_RATIO:
         raise LogError(
-            f"{names}: columns 'theta'/'phi': the arm accelerates {coef[0]:.3g} +- {std:.2g} times more per unit "
+            f"{names}: columns 'theta'/'phi': the arm accelerates {coef[0]:.3g} +- {std[0]:.2g} times more per unit "
             f"command than the rig ({rig_path}) allows (57.3 would be degrees): the angles look like degrees; the "
             f"spec wants radians (unless the rig's arm inertia is off by that factor)")
-    if coef[0] < 0 and t_stat[0] < -CLEAR_T_STAT:
+    if coef[0] < -CLEAR_T_STAT * std[0]:
         raise LogError(
             f"{names}: column 'phi' counts against the input: the arm acceleration per unit command is "
-            f"{coef[0]:+.3g} times the rig's ({rig_path}) (t = {t_stat[0]:.0f}); the spec wants phi positive in "
+            f"{coef[0]:+.3g} times the rig's ({rig_path}) (t = {coef[0] / std[0]:.0f}); the spec wants phi positive in "
             f"the direction a positive input accelerates the arm (negate phi, or the input)")
 
 
 def smoothed_derivatives(log: RunLog, window_s: float = SMOOTHING_WINDOW_S):
     """theta, phi and their first and second time derivatives from a cubic Savitzky-Golay filter whose window
-    spans ``window_s`` (at least 7 samples): (theta, phi, theta_dot, phi_dot, theta_ddot, phi_ddot)."""
+    spans ``window_s`` (at least 7 samples; the log must be that long): (theta, phi, theta_dot, phi_dot,
+    theta_ddot, phi_ddot)."""
     window = _window_samples(log, window_s)
     out = []
     for deriv in (0, 1, 2):
@@ -218,18 +219,25 @@ def smoothed_derivatives(log: RunLog, window_s: float = SMOOTHING_WINDOW_S):
 
 
 def _window_samples(log: RunLog, window_s: float) -> int:
-    window = max(7, int(round(window_s / log.sample_period)) | 1)
-    return min(window, len(log.time) - (1 - len(log.time) % 2))
+    """Odd Savitzky-Golay window of about ``window_s``, at least 7 samples."""
+    return max(7, int(round(window_s / log.sample_period)) | 1)
+
+
+def _long_enough(logs: list[RunLog]) -> list[RunLog]:
+    """The logs long enough for a sign check: at least two smoothing windows."""
+    return [log for log in logs if len(log.time) >= 2 * _window_samples(log, SMOOTHING_WINDOW_S)]
 
 
 def _pooled_fit(rows, logs):
-    """Least squares over the stacked rows; (coefficients, t statistics) or None when too short to judge.
+    """Least squares over the stacked rows: (coefficients, standard errors), or None when too short to judge.
 
-    The t statistics count one independent sample per smoothing window (the smoothed residuals are
+    The standard errors count one independent sample per smoothing window (the smoothed residuals are
     correlated over a window)."""
+    if not rows:
+        return None
     regressors = np.concatenate([r for r, _ in rows])
     target = np.concatenate([t for _, t in rows])
-    window = max(_window_samples(log, SMOOTHING_WINDOW_S) for log in logs)
+    window = max(_window_samples(log, SMOOTHING_WINDOW_S) for log in _long_enough(logs))
     dof = len(target) / window - regressors.shape[1]
     if dof < 10:
         return None
@@ -241,7 +249,7 @@ def _pooled_fit(rows, logs):
     sigma2 = residual @ residual / (len(target) - regressors.shape[1])
     gram_inv = np.linalg.pinv((regressors / scale).T @ (regressors / scale))
     std = np.sqrt(np.maximum(window * sigma2 * np.diag(gram_inv), 1e-300)) / scale
-    return coef, coef / std
+    return coef, std
 
 
 @dataclass(frozen=True)
