@@ -20,8 +20,9 @@ per window, ``basis``, ``after``); none is renamed.
   bin, which is subtracted. Windows of length T resolve 1/T Hz: with 0.2-0.3 s windows the 0-1 and 1-3 Hz bands
   share the DC bin's power.
 - ``windows``: the prediction windows with the largest excess, taken until they hold half of the positive
-  excess and while they hold at least half the worst one's (at most ``MAX_WORST``), merged where they touch or overlap in the same log, reported worst first with
-  a ``why`` from the dominant signal, pose, motion regime and band of the interval.
+  excess and while they hold at least half the worst one's (at most ``MAX_WORST``), merged where they touch or
+  overlap in the same log, reported worst first with a ``why`` from the dominant signal, motion regimes, pose
+  and band of the interval.
 """
 
 from __future__ import annotations

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import savgol_filter
 
-from furuta_drake.errors import ConfigError, LogError
+from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import load_yaml_dataclass
 
