@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from furuta_drake.config import SimulationConfig, dump_config
+from furuta_drake.outputs import versions
 
 LOG_COLUMNS = ["time", "torque", "theta", "phi", "theta_true", "phi_true", "theta_dot_true", "phi_dot_true"]
 
@@ -22,20 +23,6 @@ def write_log_csv(result, path: str | Path) -> None:
     angles and velocities the simulation knows (extra columns, ignored by ``diagnose``)."""
     table = np.column_stack([result.time, result.torque, result.measured, result.state])
     np.savetxt(path, table, delimiter=",", header=",".join(LOG_COLUMNS), comments="", fmt="%.9g")
-
-
-def versions() -> dict[str, str]:
-    """Versions of this package and of the numerical libraries a result depends on."""
-    import importlib.metadata as metadata
-
-    names = {"furuta-drake": "furuta-drake", "drake": "drake", "numpy": "numpy", "scipy": "scipy"}
-    found = {}
-    for key, dist in names.items():
-        try:
-            found[key] = metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            found[key] = "not installed"
-    return found
 
 
 def config_yaml_with_provenance(config: SimulationConfig) -> str:
