@@ -50,11 +50,21 @@ class CaseSpec:
 
     @property
     def expected_verdict(self) -> str:
+        """``none``, ``unexplained`` (an effect outside the vocabulary), or the effect; for a pair, the
+        verdict is right when the report's ``effects`` hold both (the spec's verdict names one of them)."""
         if not self.effects:
             return "none"
         if OUTSIDE_VOCABULARY in self.effects:
             return "unexplained"
         return self.effects[0] if len(self.effects) == 1 else "+".join(sorted(self.effects))
+
+
+def verdict_is_right(answer: dict, report: dict) -> bool:
+    """Score one case: the verdict for a single effect, ``none`` or ``unexplained``; both effects for a pair."""
+    expected = answer["expected_verdict"]
+    if "+" in expected:
+        return sorted(report["effects"]) == sorted(expected.split("+"))
+    return report["verdict"] == expected
 
 
 def with_effect(config: SimulationConfig, effect: str, level: int) -> SimulationConfig:
