@@ -33,7 +33,7 @@ from furuta_drake.friction import JointFriction
 from furuta_drake.observers.dahl import DahlFrictionObserver
 from furuta_drake.observers.hg import HighGainObserver
 from furuta_drake.observers.vfe import VfeObserver
-from furuta_drake.plant import add_furuta_plant, joint_indices
+from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
 
 
@@ -47,15 +47,6 @@ class FurutaDiagram:
     loggers: dict[str, VectorLogSink]
     lqr_gain: np.ndarray | None
     config: SimulationConfig
-
-
-def plant_to_paper_permutation(plant: MultibodyPlant) -> np.ndarray:
-    """P with x_paper = P x_plant, x_paper = [theta, phi, theta_dot, phi_dot] (paper Eq. 2)."""
-    theta, phi = joint_indices(plant)
-    nq = plant.num_positions()
-    P = np.zeros((4, plant.num_multibody_states()))
-    P[0, theta], P[1, phi], P[2, nq + theta], P[3, nq + phi] = 1.0, 1.0, 1.0, 1.0
-    return P
 
 
 def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDiagram:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
@@ -23,9 +24,9 @@ from furuta_drake.rig import RigParameters, RIGS
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 MODEL_FILES = {"lund": "furuta_lund.urdf", "qube_servo2": "qube_servo2.urdf"}
 
-# The pendulum's inertia about its own long axis: a thin rod has ~0; a small positive value keeps the
-# rotational inertia valid for Drake (triangle inequality) and changes the arm's lumped inertia by < 1e-5.
-_AXIAL_INERTIA_FRACTION = 1e-4
+# The pendulum is a thin rod: no inertia about its own long axis (a valid rotational inertia for Drake, the
+# triangle inequality holding with equality), so the plant matches the closed-form lumped model exactly.
+_AXIAL_INERTIA_FRACTION = 0.0
 ARM_JOINT = "arm"
 PENDULUM_JOINT = "pendulum"
 
@@ -143,3 +144,12 @@ def joint_indices(plant: MultibodyPlant) -> tuple[int, int]:
     theta = plant.GetJointByName(PENDULUM_JOINT).position_start()
     phi = plant.GetJointByName(ARM_JOINT).position_start()
     return theta, phi
+
+
+def plant_to_paper_permutation(plant: MultibodyPlant) -> np.ndarray:
+    """P with x_paper = P x_plant, x_paper = [theta, phi, theta_dot, phi_dot] (paper Eq. 2)."""
+    theta, phi = joint_indices(plant)
+    nq = plant.num_positions()
+    P = np.zeros((4, plant.num_multibody_states()))
+    P[0, theta], P[1, phi], P[2, nq + theta], P[3, nq + phi] = 1.0, 1.0, 1.0, 1.0
+    return P
