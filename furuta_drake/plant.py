@@ -24,9 +24,6 @@ from furuta_drake.rig import RigParameters, RIGS
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 MODEL_FILES = {"lund": "furuta_lund.urdf", "qube_servo2": "qube_servo2.urdf"}
 
-# The pendulum is a thin rod: no inertia about its own long axis (a valid rotational inertia for Drake, the
-# triangle inequality holding with equality), so the plant matches the closed-form lumped model exactly.
-_AXIAL_INERTIA_FRACTION = 0.0
 ARM_JOINT = "arm"
 PENDULUM_JOINT = "pendulum"
 
@@ -41,7 +38,6 @@ def furuta_urdf(rig: RigParameters, name: str = "furuta") -> str:
     rig.validate()
     r, l, m = rig.arm_length, rig.pendulum_com, rig.pendulum_mass
     Ja, Jp = rig.arm_inertia, rig.pendulum_inertia
-    Jp_axial = _AXIAL_INERTIA_FRACTION * Jp
     arm_radius = max(0.05 * r, 0.003)
     pend_radius = max(0.03 * l, 0.003)
     return f"""<?xml version="1.0"?>
@@ -70,7 +66,7 @@ def furuta_urdf(rig: RigParameters, name: str = "furuta") -> str:
     <inertial>
       <origin xyz="0 0 {l:.9g}"/>
       <mass value="{m:.9g}"/>
-      <inertia ixx="{Jp:.9g}" iyy="{Jp:.9g}" izz="{Jp_axial:.9g}" ixy="0" ixz="0" iyz="0"/>
+      <inertia ixx="{Jp:.9g}" iyy="{Jp:.9g}" izz="0" ixy="0" ixz="0" iyz="0"/>
     </inertial>
     <visual>
       <origin xyz="0 0 {l:.6g}"/>
