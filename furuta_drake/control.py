@@ -1,0 +1,192 @@
+"""LQ state feedback at the upright (paper Sec. IV-A), with the friction compensation of Sec. IV-C / V-C.
+
+The design model is Drake's linearization of the MultibodyPlant at theta = 0 (paper Eq. 1-2), in the paper's
+order x = [theta, phi, theta_dot, phi_dot] with the arm torque u as input: d/dt x = A x + B u, B = [0, 0, beta4,
+beta5]^T. The control law is u = -K (x_hat - x_ref) - F_hat, saturated at the rig's torque limit, computed from
+the sample at t_k and held over [t_k, t_k+1) like the rig's 1 kHz controller.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.analysis import DiscreteTimeApproximation
+from pydrake.systems.controllers import DiscreteTimeLinearQuadraticRegulator, LinearQuadraticRegulator
+from pydrake.systems.framework import LeafSystem
+from pydrake.systems.primitives import Linearize, LinearSystem
+
+from furuta_drake.errors import ConfigError
+from furuta_drake.plant import plant_to_paper_permutation
+
+
+def upright_linearization(plant: MultibodyPlant) -> tuple[np.ndarray, np.ndarray]:
+    """A (4x4) and B (4x1, the arm-torque column) of paper Eq. 1-2 from Drake's ``Linearize`` of ``plant``.
+
+    The plant is linearized at q = v = 0 (theta = 0 upright) with its actuation port as the input and the
+    applied generalized forces fixed to zero, then permuted to the paper's order with
+    :func:`furuta_drake.plant.plant_to_paper_permutation`. ``plant`` must be finalized; it may belong to an
+    unbuilt ``DiagramBuilder``.
+    """
+    context = plant.CreateDefaultContext()
+    plant.SetPositionsAndVelocities(context, np.zeros(plant.num_multibody_states()))
+    plant.get_actuation_input_port().FixValue(context, np.zeros(plant.num_actuated_dofs()))
+    plant.get_applied_generalized_force_input_port().FixValue(context, np.zeros(plant.num_velocities()))
+    linear = Linearize(plant, context, plant.get_actuation_input_port().get_index(),
+                       plant.get_state_output_port().get_index())
+    P = plant_to_paper_permutation(plant)
+    return P @ linear.A() @ P.T, P @ linear.B()
+
+
+def zero_order_hold(A: np.ndarray, B: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """Ad, Bd of x_k+1 = Ad x_k + Bd u_k for an input held over each ``period`` [s] (Drake's
+    ``DiscreteTimeApproximation``)."""
+    n, m = B.shape
+    discrete = DiscreteTimeApproximation(LinearSystem(A, B, np.zeros((0, n)), np.zeros((0, m))), period)
+    return discrete.A(), discrete.B()
+
+
+@dataclass
+class LqrParameters:
+    """Weights of the LQ design (paper Sec. IV-A, Anderson and Moore) and the controller's sampling and limit.
+
+    The cost is sum x^T Q x + R u^2 with Q = diag(state_weights) in paper order. The defaults give the Lund rig
+    moderate gains, K = [-1.98, -0.31, -0.38, -0.17] at 1 kHz (closed-loop poles about -19.5, -10.7,
+    -4.4 +- 1.3j rad/s): the start from theta = 0.1 rad stays within the 0.2 N m limit, the gains on the
+    velocities are low enough for observer velocity estimates, and with the paper's 0.015 N m arm friction
+    uncompensated the residual motion is of the size of Table I (theta, phi RMS of a few mrad and a few
+    hundredths of a rad).
+    """
+
+    state_weights: list[float] = field(default_factory=lambda: [10.0, 10.0, 0.1, 0.1])  # [theta, phi, dtheta, dphi]
+    input_weight: float = 100.0  # R
+    discrete: bool = True  # DARE on the zero-order-hold model at ``period``; else the continuous Riccati equation
+    period: float = 1e-3  # control period [s]
+    torque_limit: float = 0.2  # [N m]
+
+    def validate(self, where: str = "lqr") -> None:
+        weights = self.state_weights
+        if len(weights) != 4 or not all(_finite(w) and w >= 0 for w in weights):
+            raise ConfigError(f"{where}.state_weights must be 4 non-negative finite numbers [theta, phi, "
+                              f"theta_dot, phi_dot], got {weights!r}")
+        for name in ("input_weight", "period", "torque_limit"):
+            value = getattr(self, name)
+            if not _finite(value) or value <= 0:
+                raise ConfigError(f"{where}.{name} must be a positive finite number, got {value!r}")
+        if not isinstance(self.discrete, bool):
+            raise ConfigError(f"{where}.discrete must be true or false, got {self.discrete!r}")
+
+
+def design_lqr(plant: MultibodyPlant, params: LqrParameters, where: str = "controller.lqr") -> np.ndarray:
+    """LQ gain K (1x4, paper order, u = -K x) for the upright linearization of ``plant``.
+
+    Raises :class:`ConfigError` when the weights leave an unstable or marginal mode out of the cost (e.g. zero
+    weight on phi leaves the arm's double integrator unregulated), for which no stabilising LQ gain exists.
+    """
+    params.validate(where)
+    A, B = upright_linearization(plant)
+    Q, R = np.diag(np.asarray(params.state_weights, dtype=float)), np.array([[params.input_weight]])
+    if params.discrete:
+        Ad, Bd = zero_order_hold(A, B, params.period)
+        _require_detectable(Ad, Q, True, where)
+        K, _ = DiscreteTimeLinearQuadraticRegulator(Ad, Bd, Q, R)
+    else:
+        _require_detectable(A, Q, False, where)
+        K, _ = LinearQuadraticRegulator(A, B, Q, R)
+    return K
+
+
+def _require_detectable(A: np.ndarray, Q: np.ndarray, discrete: bool, where: str) -> None:
+    """PBH test: every mode with |z| >= 1 (discrete) or Re s >= 0 (continuous) must be seen by the cost."""
+    n = A.shape[0]
+    eigenvalues = np.linalg.eigvals(A)
+    marginal = np.abs(eigenvalues) >= 1 - 1e-9 if discrete else eigenvalues.real >= -1e-9
+    for eigenvalue in eigenvalues[marginal]:
+        if np.linalg.matrix_rank(np.vstack([eigenvalue * np.eye(n) - A, Q])) < n:
+            raise ConfigError(f"{where}.state_weights {np.diag(Q).tolist()} leave the mode at eigenvalue "
+                              f"{eigenvalue:.4g} out of the cost: no stabilising LQ gain (weight phi and theta)")
+
+
+def closed_loop_eigenvalues(A: np.ndarray, B: np.ndarray, K: np.ndarray, discrete: bool,
+                            period: float) -> np.ndarray:
+    """Eigenvalues of A - B K (continuous, rad/s) or of Ad - Bd K (discrete, zero-order hold at ``period``)."""
+    K = np.asarray(K, dtype=float).reshape(1, -1)
+    if discrete:
+        Ad, Bd = zero_order_hold(A, B, period)
+        return np.linalg.eigvals(Ad - Bd @ K)
+    return np.linalg.eigvals(A - B @ K)
+
+
+def check_stabilizing(A: np.ndarray, B: np.ndarray, K, discrete: bool, period: float, where: str) -> None:
+    """Raise :class:`ConfigError` naming ``where`` unless K is 4 finite numbers and stabilises (A, B):
+    all |eig(Ad - Bd K)| < 1 (discrete) or all Re eig(A - B K) < 0 (continuous)."""
+    K = np.asarray(K, dtype=float)
+    if K.size != A.shape[0] or not np.all(np.isfinite(K)):
+        raise ConfigError(f"{where} must be {A.shape[0]} finite numbers [theta, phi, theta_dot, phi_dot], "
+                          f"got {K.ravel().tolist()}")
+    eigenvalues = closed_loop_eigenvalues(A, B, K, discrete, period)
+    if discrete:
+        worst = eigenvalues[np.argmax(np.abs(eigenvalues))]
+        if abs(worst) >= 1.0:
+            raise ConfigError(f"{where} {K.ravel().tolist()} does not stabilise the upright at a {period} s "
+                              f"period: closed-loop eigenvalue {worst:.4g} has |z| = {abs(worst):.4g} >= 1")
+    else:
+        worst = eigenvalues[np.argmax(eigenvalues.real)]
+        if worst.real >= 0.0:
+            raise ConfigError(f"{where} {K.ravel().tolist()} does not stabilise the upright: closed-loop "
+                              f"eigenvalue {worst:.4g} has a non-negative real part")
+
+
+class LqrController(LeafSystem):
+    """u = sat(u_LQ - F_hat), u_LQ = -K (x_hat - x_ref) (paper Sec. IV-A, IV-C), sampled and held at ``period``.
+
+    Inputs: ``state_estimate`` (x_hat, paper order), ``friction_compensation_Nm`` (F_hat, the estimated friction
+    torque on the arm, in the paper's convention tau = u + F; read only when ``friction_compensation``, zero
+    when unconnected), ``state_reference`` (x_ref, zero when unconnected). Outputs, both discrete state held
+    from t_k to t_k+1: ``arm_torque_Nm`` (the command, saturated at +-``torque_limit``) and ``lqr_torque_Nm``
+    (u_LQ before compensation and saturation).
+    """
+
+    def __init__(self, K, period: float, torque_limit: float, friction_compensation: bool = False):
+        super().__init__()
+        K = np.asarray(K, dtype=float)
+        if K.size != 4 or not np.all(np.isfinite(K)):
+            raise ConfigError(f"LQR gain must be 4 finite numbers, got {K.ravel().tolist()}")
+        for name, value in (("period", period), ("torque_limit", torque_limit)):
+            if not _finite(value) or value <= 0:
+                raise ConfigError(f"LqrController {name} must be a positive finite number, got {value!r}")
+        self._negative_gain = -K.ravel()
+        self._limit = float(torque_limit)
+        self._compensate = bool(friction_compensation)
+        self._estimate_port = self.DeclareVectorInputPort("state_estimate", 4)
+        self._friction_port = self.DeclareVectorInputPort("friction_compensation_Nm", 1)
+        self._reference_port = self.DeclareVectorInputPort("state_reference", 4)
+        self._command = self.DeclareDiscreteState(1)
+        self._lqr_torque = self.DeclareDiscreteState(1)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        self.DeclareStateOutputPort("arm_torque_Nm", self._command)
+        self.DeclareStateOutputPort("lqr_torque_Nm", self._lqr_torque)
+
+    def _update(self, context, discrete_state):
+        error = self._estimate_port.Eval(context)
+        if self._reference_port.HasValue(context):
+            error = error - self._reference_port.Eval(context)
+        u_lq = float(self._negative_gain @ error)
+        u = u_lq
+        if self._compensate and self._friction_port.HasValue(context):
+            u -= self._friction_port.Eval(context)[0]
+        u = min(max(u, -self._limit), self._limit)
+        discrete_state.get_mutable_vector(self._command).SetAtIndex(0, u)
+        discrete_state.get_mutable_vector(self._lqr_torque).SetAtIndex(0, u_lq)
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+__all__ = [
+    "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "closed_loop_eigenvalues",
+    "check_stabilizing", "LqrController",
+]
