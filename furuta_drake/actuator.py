@@ -1,0 +1,194 @@
+"""What stands between the commanded arm torque and the rigid bodies: actuator imperfections, a spring or
+cogging on the arm, and a DC motor driven by voltage.
+
+These are the sim-to-real effects of the diagnosis vocabulary (``spec/diagnosis-interface.md``:
+``input_delay``, ``actuator_lag``, ``actuator_deadzone``, ``torque_gain_error``, ``actuator_saturation``,
+``arm_spring``), built from Drake's C++ primitives so that they add next to nothing to a closed-loop run; the
+nominal values make every block an identity and leave it out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder, InputPort, LeafSystem, OutputPort
+from pydrake.systems.primitives import (
+    Adder, AffineSystem, DiscreteTimeDelay, FirstOrderLowPassFilter, Gain, MatrixGain, Multiplexer, PassThrough,
+    Saturation, ZeroOrderHold,
+)
+
+from furuta_drake.errors import ConfigError
+from furuta_drake.rig import MotorParameters
+
+
+@dataclass
+class ActuatorParameters:
+    """The actuator chain u_cmd -> delay -> first-order lag -> dead zone -> gain -> saturation -> u."""
+
+    gain: float = 1.0  # torque gain (1 + torque_gain_error) [-]
+    deadzone: float = 0.0  # half-width of the dead zone [N m]
+    saturation: float | None = None  # torque limit of the actuator [N m]; None: no limit beyond the controller's
+    delay: float = 0.0  # pure input delay [s]
+    lag_time_constant: float = 0.0  # first-order lag [s]
+
+    def validate(self, where: str = "actuator") -> None:
+        if not _finite(self.gain) or self.gain <= 0:
+            raise ConfigError(f"{where}.gain must be a positive finite number, got {self.gain!r}")
+        for name in ("deadzone", "delay", "lag_time_constant"):
+            value = getattr(self, name)
+            if not _finite(value) or value < 0:
+                raise ConfigError(f"{where}.{name} must be a non-negative finite number, got {value!r}")
+        if self.saturation is not None and (not _finite(self.saturation) or self.saturation <= 0):
+            raise ConfigError(f"{where}.saturation must be a positive finite number or null, "
+                              f"got {self.saturation!r}")
+
+
+def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
+                 delay_resolution: float) -> tuple[InputPort, OutputPort]:
+    """Add the actuator chain to ``builder``; return its (input port, output port), torques in N m.
+
+    The chain starts with a ``PassThrough`` (the one input port) followed by the blocks that are not an
+    identity, so the nominal chain is that pass-through alone:
+
+    - delay: ``ZeroOrderHold(delay_resolution, offset = delay_resolution / 2)`` then
+      ``DiscreteTimeDelay(delay_resolution, n - 1)``, n = round(delay / delay_resolution). A command that changes
+      at a multiple of ``delay_resolution`` (every command of the diagram: they are held at the control period)
+      reaches the output exactly n delay_resolution later. The half-period offset of the hold keeps its samples
+      away from those instants, where sampling at the same instant would read the command before or after its
+      update depending on the last bit of the two event times; a continuously varying input is delayed by
+      n delay_resolution +- delay_resolution / 2.
+    - lag: ``FirstOrderLowPassFilter(lag_time_constant)``, tau du/dt = u_in - u, starting from 0.
+    - dead zone: u - sat_d(u) with ``Saturation(-deadzone, deadzone)``, a negated copy and an ``Adder``.
+    - gain: ``Gain(gain)``; saturation: ``Saturation(-saturation, saturation)``.
+    """
+    params.validate()
+    if not _finite(delay_resolution) or delay_resolution <= 0:
+        raise ConfigError(f"actuator delay_resolution must be a positive finite number, got {delay_resolution!r}")
+    entry = builder.AddNamedSystem("actuator_input", PassThrough(1))
+    signal = entry.get_output_port()
+
+    def then(name: str, system) -> None:
+        nonlocal signal
+        builder.AddNamedSystem(name, system)
+        builder.Connect(signal, system.get_input_port(0))
+        signal = system.get_output_port(0)
+
+    delay_steps = round(params.delay / delay_resolution)
+    if delay_steps > 0:
+        then("actuator_delay_sampler", ZeroOrderHold(delay_resolution, 1, offset_sec=delay_resolution / 2))
+        then("actuator_delay", DiscreteTimeDelay(delay_resolution, delay_steps - 1, 1))
+    if params.lag_time_constant > 0:
+        then("actuator_lag", FirstOrderLowPassFilter(params.lag_time_constant, 1))
+    if params.deadzone > 0:
+        clipped = builder.AddNamedSystem("actuator_deadzone_clip",
+                                         Saturation([-params.deadzone], [params.deadzone]))
+        negated = builder.AddNamedSystem("actuator_deadzone_negate", Gain(-1.0, 1))
+        deadzone = builder.AddNamedSystem("actuator_deadzone", Adder(2, 1))
+        builder.Connect(signal, clipped.get_input_port())
+        builder.Connect(clipped.get_output_port(), negated.get_input_port())
+        builder.Connect(signal, deadzone.get_input_port(0))
+        builder.Connect(negated.get_output_port(), deadzone.get_input_port(1))
+        signal = deadzone.get_output_port()
+    if params.gain != 1.0:
+        then("actuator_gain", Gain(params.gain, 1))
+    if params.saturation is not None:
+        then("actuator_saturation", Saturation([-params.saturation], [params.saturation]))
+    return entry.get_input_port(), signal
+
+
+@dataclass
+class DisturbanceParameters:
+    """Position-dependent torques on the arm: a spring (e.g. a cable) and motor cogging."""
+
+    arm_spring_stiffness: float = 0.0  # k [N m/rad]
+    arm_spring_equilibrium: float = 0.0  # phi0 [rad]
+    cogging_amplitude: float = 0.0  # A [N m]
+    cogging_periods: int = 0  # N, periods per arm revolution
+    cogging_phase: float = 0.0  # psi [rad]
+
+    def validate(self, where: str = "disturbance") -> None:
+        for name in ("arm_spring_stiffness", "cogging_amplitude"):
+            value = getattr(self, name)
+            if not _finite(value) or value < 0:
+                raise ConfigError(f"{where}.{name} must be a non-negative finite number, got {value!r}")
+        for name in ("arm_spring_equilibrium", "cogging_phase"):
+            value = getattr(self, name)
+            if not _finite(value):
+                raise ConfigError(f"{where}.{name} must be a finite number, got {value!r}")
+        periods = self.cogging_periods
+        if isinstance(periods, bool) or not isinstance(periods, int) or periods < 0:
+            raise ConfigError(f"{where}.cogging_periods must be a non-negative integer, got {periods!r}")
+        if self.cogging_amplitude > 0 and periods == 0:
+            raise ConfigError(f"{where}.cogging_periods must be >= 1 when cogging_amplitude > 0")
+
+
+class CoggingTorque(LeafSystem):
+    """Cogging torque on the arm, A sin(N phi + psi). Input ``true_state`` (paper x), output ``arm_torque_Nm``
+    (a static map of phi: direct feedthrough)."""
+
+    def __init__(self, amplitude: float, periods: int, phase: float):
+        super().__init__()
+        self._amplitude, self._periods, self._phase = float(amplitude), float(periods), float(phase)
+        self._state_port = self.DeclareVectorInputPort("true_state", 4)
+        self.DeclareVectorOutputPort("arm_torque_Nm", 1, self._calc, prerequisites_of_calc={
+            self.input_port_ticket(self._state_port.get_index())})
+
+    def _calc(self, context, output):
+        phi = self._state_port.Eval(context)[1]
+        output.SetAtIndex(0, self._amplitude * math.sin(self._periods * phi + self._phase))
+
+
+def add_arm_disturbance(builder: DiagramBuilder, params: DisturbanceParameters,
+                        true_state_port: OutputPort) -> OutputPort | None:
+    """Add the arm's spring -k (phi - phi0) and cogging A sin(N phi + psi) fed by ``true_state_port`` (paper x);
+    return the port of their sum, the torque on the arm [N m], or None when both are zero.
+
+    The spring is a stateless C++ ``AffineSystem`` (y = -k phi + k phi0); the cogging a :class:`CoggingTorque`.
+    """
+    params.validate()
+    torques = []
+    if params.arm_spring_stiffness > 0:
+        k = params.arm_spring_stiffness
+        spring = builder.AddNamedSystem("arm_spring", AffineSystem(
+            A=np.zeros((0, 0)), B=np.zeros((0, 4)), f0=np.zeros(0), C=np.zeros((1, 0)),
+            D=np.array([[0.0, -k, 0.0, 0.0]]), y0=np.array([k * params.arm_spring_equilibrium])))
+        builder.Connect(true_state_port, spring.get_input_port())
+        torques.append(spring.get_output_port())
+    if params.cogging_amplitude > 0:
+        cogging = builder.AddNamedSystem("arm_cogging", CoggingTorque(
+            params.cogging_amplitude, params.cogging_periods, params.cogging_phase))
+        builder.Connect(true_state_port, cogging.get_input_port())
+        torques.append(cogging.get_output_port())
+    if len(torques) < 2:
+        return torques[0] if torques else None
+    total = builder.AddNamedSystem("arm_disturbance", Adder(2, 1))
+    for i, torque in enumerate(torques):
+        builder.Connect(torque, total.get_input_port(i))
+    return total.get_output_port()
+
+
+def add_dc_motor(builder: DiagramBuilder, motor: MotorParameters, voltage_port: OutputPort,
+                 true_state_port: OutputPort) -> OutputPort:
+    """Add an armature-controlled DC motor, tau = kt (V - ke phi_dot) / R (inductance neglected): a C++
+    ``MatrixGain`` on [V; x] (``Multiplexer``), x the paper's state. Returns the arm torque port [N m]."""
+    motor.validate()
+    stacked = builder.AddNamedSystem("motor_inputs", Multiplexer([1, 4]))
+    kt_over_r = motor.torque_constant / motor.resistance
+    torque = builder.AddNamedSystem("motor_torque", MatrixGain(
+        np.array([[kt_over_r, 0.0, 0.0, 0.0, -kt_over_r * motor.backemf_constant]])))
+    builder.Connect(voltage_port, stacked.get_input_port(0))
+    builder.Connect(true_state_port, stacked.get_input_port(1))
+    builder.Connect(stacked.get_output_port(), torque.get_input_port())
+    return torque.get_output_port()
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+__all__ = [
+    "ActuatorParameters", "add_actuator", "DisturbanceParameters", "CoggingTorque", "add_arm_disturbance",
+    "add_dc_motor",
+]
