@@ -20,7 +20,7 @@ from pydrake.systems.primitives import (
 )
 
 from furuta_drake.errors import ConfigError
-from furuta_drake.rig import MotorParameters
+from furuta_drake.rig import MotorParameters, _require_nonnegative, _require_positive
 
 
 @dataclass
@@ -34,15 +34,11 @@ class ActuatorParameters:
     lag_time_constant: float = 0.0  # first-order lag [s]
 
     def validate(self, where: str = "actuator") -> None:
-        if not _finite(self.gain) or self.gain <= 0:
-            raise ConfigError(f"{where}.gain must be a positive finite number, got {self.gain!r}")
+        _require_positive(self.gain, f"{where}.gain")
         for name in ("deadzone", "delay", "lag_time_constant"):
-            value = getattr(self, name)
-            if not _finite(value) or value < 0:
-                raise ConfigError(f"{where}.{name} must be a non-negative finite number, got {value!r}")
-        if self.saturation is not None and (not _finite(self.saturation) or self.saturation <= 0):
-            raise ConfigError(f"{where}.saturation must be a positive finite number or null, "
-                              f"got {self.saturation!r}")
+            _require_nonnegative(getattr(self, name), f"{where}.{name}")
+        if self.saturation is not None:
+            _require_positive(self.saturation, f"{where}.saturation")
 
 
 def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
@@ -64,8 +60,7 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
     - gain: ``Gain(gain)``; saturation: ``Saturation(-saturation, saturation)``.
     """
     params.validate()
-    if not _finite(delay_resolution) or delay_resolution <= 0:
-        raise ConfigError(f"actuator delay_resolution must be a positive finite number, got {delay_resolution!r}")
+    _require_positive(delay_resolution, "actuator delay_resolution")
     entry = builder.AddNamedSystem("actuator_input", PassThrough(1))
     signal = entry.get_output_port()
 
@@ -110,12 +105,10 @@ class DisturbanceParameters:
 
     def validate(self, where: str = "disturbance") -> None:
         for name in ("arm_spring_stiffness", "cogging_amplitude"):
-            value = getattr(self, name)
-            if not _finite(value) or value < 0:
-                raise ConfigError(f"{where}.{name} must be a non-negative finite number, got {value!r}")
+            _require_nonnegative(getattr(self, name), f"{where}.{name}")
         for name in ("arm_spring_equilibrium", "cogging_phase"):
             value = getattr(self, name)
-            if not _finite(value):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ConfigError(f"{where}.{name} must be a finite number, got {value!r}")
         periods = self.cogging_periods
         if isinstance(periods, bool) or not isinstance(periods, int) or periods < 0:
@@ -182,10 +175,6 @@ def add_dc_motor(builder: DiagramBuilder, motor: MotorParameters, voltage_port: 
     builder.Connect(true_state_port, stacked.get_input_port(1))
     builder.Connect(stacked.get_output_port(), torque.get_input_port())
     return torque.get_output_port()
-
-
-def _finite(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 __all__ = [

@@ -8,7 +8,6 @@ the sample at t_k and held over [t_k, t_k+1) like the rig's 1 kHz controller.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,6 +19,7 @@ from pydrake.systems.primitives import Linearize, LinearSystem
 
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import plant_to_paper_permutation
+from furuta_drake.rig import _require_nonnegative, _require_positive
 
 
 def upright_linearization(plant: MultibodyPlant) -> tuple[np.ndarray, np.ndarray]:
@@ -67,14 +67,13 @@ class LqrParameters:
     torque_limit: float = 0.2  # [N m]
 
     def validate(self, where: str = "lqr") -> None:
-        weights = self.state_weights
-        if len(weights) != 4 or not all(_finite(w) and w >= 0 for w in weights):
-            raise ConfigError(f"{where}.state_weights must be 4 non-negative finite numbers [theta, phi, "
-                              f"theta_dot, phi_dot], got {weights!r}")
+        if len(self.state_weights) != 4:
+            raise ConfigError(f"{where}.state_weights must be 4 weights [theta, phi, theta_dot, phi_dot], "
+                              f"got {self.state_weights!r}")
+        for i, weight in enumerate(self.state_weights):
+            _require_nonnegative(weight, f"{where}.state_weights[{i}]")
         for name in ("input_weight", "period", "torque_limit"):
-            value = getattr(self, name)
-            if not _finite(value) or value <= 0:
-                raise ConfigError(f"{where}.{name} must be a positive finite number, got {value!r}")
+            _require_positive(getattr(self, name), f"{where}.{name}")
         if not isinstance(self.discrete, bool):
             raise ConfigError(f"{where}.discrete must be true or false, got {self.discrete!r}")
 
@@ -154,9 +153,8 @@ class LqrController(LeafSystem):
         K = np.asarray(K, dtype=float)
         if K.size != 4 or not np.all(np.isfinite(K)):
             raise ConfigError(f"LQR gain must be 4 finite numbers, got {K.ravel().tolist()}")
-        for name, value in (("period", period), ("torque_limit", torque_limit)):
-            if not _finite(value) or value <= 0:
-                raise ConfigError(f"LqrController {name} must be a positive finite number, got {value!r}")
+        _require_positive(period, "LqrController period")
+        _require_positive(torque_limit, "LqrController torque_limit")
         self._negative_gain = -K.ravel()
         self._limit = float(torque_limit)
         self._compensate = bool(friction_compensation)
@@ -180,10 +178,6 @@ class LqrController(LeafSystem):
         u = min(max(u, -self._limit), self._limit)
         discrete_state.get_mutable_vector(self._command).SetAtIndex(0, u)
         discrete_state.get_mutable_vector(self._lqr_torque).SetAtIndex(0, u_lq)
-
-
-def _finite(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 __all__ = [
