@@ -35,7 +35,8 @@ class ControllerConfig:
     """Sec. IV-A: LQR state feedback u = -K (x_hat - x_ref), optionally minus the friction estimate (Sec. IV-C).
 
     ``mode = "open_loop"`` applies only the excitation torque (hanging identification runs).
-    ``velocity_source`` picks the state estimate the LQR uses: the true state (reference diagram (iv)), a
+    ``velocity_source`` picks the state estimate the LQR uses: the encoder angles with the true velocities
+    (reference diagram (iv)), a
     discrete derivative of the encoder angles, the HG observer (Eq. 4, diagram (i)) or the VFE observer with the
     Dahl friction observer (Eq. 8-13, diagrams (ii)-(iii)). ``gain`` overrides the LQR design (checked to
     stabilise the nominal linearization).

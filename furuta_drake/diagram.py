@@ -170,10 +170,16 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         builder.Connect(measured, mux.get_input_port(0))
         builder.Connect(derivative.get_output_port(), mux.get_input_port(1))
         estimates["derivative"] = mux.get_output_port()
+    if controller is not None and config.controller.velocity_source == "true":
+        # The reference diagram (iv): encoder angles with the true velocities.
+        velocities = builder.AddNamedSystem("true_velocities", MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
+        mux = builder.AddNamedSystem("angles_and_true_velocities", Multiplexer([2, 2]))
+        builder.Connect(true_state, velocities.get_input_port())
+        builder.Connect(measured, mux.get_input_port(0))
+        builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
+        estimates["true"] = mux.get_output_port()
     if controller is not None:
-        source = config.controller.velocity_source
-        builder.Connect(true_state if source == "true" else estimates[source],
-                        controller.GetInputPort("state_estimate"))
+        builder.Connect(estimates[config.controller.velocity_source], controller.GetInputPort("state_estimate"))
 
     # --- Loggers, sampled at the control period like the rig's data ------------------------------------------
     true_sampled = builder.AddNamedSystem("true_state_sample", ZeroOrderHold(period, 4))
@@ -185,7 +191,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
     log("torque", command)
     log("true_friction", friction_sampled.get_output_port())
     for name, port in estimates.items():
-        log(f"estimate_{name}", port)
+        if name != "true":
+            log(f"estimate_{name}", port)
 
     if meshcat is not None:
         from pydrake.geometry import MeshcatVisualizer
