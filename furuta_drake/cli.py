@@ -50,6 +50,14 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--meshcat", action="store_true", help="animate live in Meshcat")
     sim.add_argument("--html", type=Path, help="also save a self-contained Meshcat recording (HTML)")
     sim.set_defaults(run=_run_simulate)
+
+    sweep = sub.add_parser("sweep", help="simulate a grid or random sample of configs on Dask, write a CSV of metrics")
+    sweep.add_argument("--config", type=Path, required=True, help="sweep YAML (see furuta_drake.sweep)")
+    sweep.add_argument("--out", type=Path, required=True, help="output directory")
+    sweep.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    sweep.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
+    sweep.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+    sweep.set_defaults(run=_run_sweep)
     return parser
 
 
@@ -107,6 +115,27 @@ def _run_simulate(args) -> int:
     rate = config.duration / result.wall_time if result.wall_time > 0 else float("inf")
     print(f"simulated {config.duration:g} s in {result.wall_time:.2f} s ({rate:.1f}x real time); "
           f"max |theta| = {abs(result.state[:, 0]).max():.4f} rad; wrote {args.out}")
+    return 0
+
+
+def _run_sweep(args) -> int:
+    import time
+
+    from tqdm import tqdm
+
+    from furuta_drake.sweep import load_sweep, run_sweep
+
+    sweep = load_sweep(args.config)
+    bar = tqdm(total=len(sweep.points), desc="sweep", unit="point", disable=not sys.stderr.isatty())
+    start = time.perf_counter()
+    try:
+        rows = run_sweep(sweep, args.out, force=args.force, scheduler=args.scheduler, workers=args.workers,
+                         progress=lambda done, total: bar.update(done - bar.n))
+    finally:
+        bar.close()
+    diverged = sum(row["diverged"] for row in rows)
+    print(f"swept {len(rows)} points ({diverged} diverged) in {time.perf_counter() - start:.1f} s; "
+          f"wrote {args.out}")
     return 0
 
 
