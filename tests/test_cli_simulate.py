@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
@@ -25,7 +26,7 @@ def test_simulate_writes_log_config_summary_and_plot(tmp_path, capsys):
     rig_path = tmp_path / "rig.yaml"
     rig_path.write_text(dump_yaml_dataclass(lund_rig()))
     log = load_log(out / "log.csv", load_rig(rig_path))
-    assert log.input_kind == "torque" and log.sample_period == 1e-3
+    assert log.input_kind == "torque" and log.sample_period == pytest.approx(1e-3, rel=1e-9)
     assert "real time" in capsys.readouterr().out
 
 
