@@ -159,11 +159,11 @@ def _resolve(config: SweepConfig, text: str, source: str, base_dir: Path) -> Swe
             raise ConfigError(f"{source}: base_file: {err}") from None
     if config.mode == "grid":
         axes = {path: _typed_values(base, path, key_node, values_node, source)
-                for path, key_node, values_node in _entries(root, "parameters")}
+                for path, key_node, values_node in _entries(root, "parameters", source)}
         values = [dict(zip(axes, combination)) for combination in itertools.product(*axes.values())]
     else:
         samplers = {path: _sampler(base, path, key_node, config.ranges[path], source)
-                    for path, key_node, _ in _entries(root, "ranges")}
+                    for path, key_node, _ in _entries(root, "ranges", source)}
         values = []
         for index in range(config.samples):
             rng = np.random.default_rng(np.random.SeedSequence(config.seed, spawn_key=(index, 1)))
@@ -172,10 +172,15 @@ def _resolve(config: SweepConfig, text: str, source: str, base_dir: Path) -> Swe
     return Sweep(dataclasses.replace(config, base=base, base_file=None), points, source)
 
 
-def _entries(root, key: str) -> list[tuple[str, Any, Any]]:
+def _entries(root, key: str, source: str) -> list[tuple[str, Any, Any]]:
     """(dotted path, key node, value node) of the mapping under ``key`` of the sweep file, in file order."""
     for key_node, value_node in root.value:
         if key_node.value == key:
+            seen = set()
+            for path_node, _ in value_node.value:
+                if path_node.value in seen:
+                    raise ConfigError(f"{_at(source, path_node)} {key}.{path_node.value}: duplicate path")
+                seen.add(path_node.value)
             return [(k.value, k, v) for k, v in value_node.value]
     return []
 
@@ -328,8 +333,8 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, tasks:
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers must be >= 1, got {workers}")
     count = workers or max(1, min(os.cpu_count() or 1, tasks or os.cpu_count() or 1))
-    with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
         yield client
 
 
@@ -410,7 +415,7 @@ def _cell(value) -> str:
         return "true" if value else "false"
     if isinstance(value, float):
         return f"{value:.12g}"
-    if isinstance(value, (list, tuple, dict)):
+    if isinstance(value, (list, tuple, dict)) or dataclasses.is_dataclass(value):
         return json.dumps(to_plain(value))
     return str(value)
 
