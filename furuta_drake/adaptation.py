@@ -1,11 +1,17 @@
 """K_sigma adaptation, paper Eq. 16-18 and Sec. V-C.
 
-The Dahl observer's estimate is scaled by K_sigma (F_hat = -K_sigma sigma0 z_hat, Eq. 16); the gradient law
-Eq. 18, dK_sigma/dt = -gamma eps_hat_F sigma0 z_hat, drives the VFE's friction-error estimate eps_hat_F (arm
-entry) to zero. As in Sec. V-C there are two gains, K_sigma+ used while the velocity estimate is positive and
-K_sigma- while it is negative; each adapts only while |v| exceeds ``velocity_threshold`` (enough excitation,
-one sign held) and after ``enable_time``. Discrete at the control period (explicit Euler: the law's rate
-gamma (sigma0 z_hat)^2 is far below 2 / period for the gains used here, so the step is stable).
+The Dahl observer's estimate is scaled by K_sigma (F_hat = -K_sigma sigma0 z_hat, Eq. 16 as NOTES.md reads
+it). The VFE observer's eps_hat_F estimates the friction error e = F - F_hat, whose sensitivity is
+de/dK_sigma = sigma0 z_hat, so the gradient law Eq. 17, dK_sigma/dt = -gamma e de/dK_sigma, is Eq. 18 as
+printed: dK_sigma/dt = -gamma eps_hat_F sigma0 z_hat. As in Sec. V-C there are two gains, K_sigma+ used while
+the velocity estimate is positive and K_sigma- otherwise; the active one adapts only while |v| exceeds
+``velocity_threshold`` (enough excitation, one sign held) and from ``enable_time`` on (t = 7.8 s in Sec. V-D).
+
+Discrete at the control period h, explicit Euler. Near steady sliding sigma0 z_hat ~ Fc sign(v) and
+e ~ F - K_sigma sigma0 z_hat, so the law is linear in K_sigma with rate gamma (sigma0 z_hat)^2 ~ gamma Fc^2:
+Euler is stable for h gamma Fc^2 < 2 and monotone below 1. The default gamma = 5000 / ((N m)^2 s) gives
+0.7-1.6 1/s at the paper's 0.012-0.018 N m (h gamma Fc^2 ~ 1e-3, far inside the bound), an adaptation much
+slower than the VFE's eps_hat_F (eigenvalues of 20 1/s and faster), as Sec. V-B requires.
 """
 
 from __future__ import annotations
@@ -20,10 +26,12 @@ from furuta_drake.errors import ConfigError
 
 @dataclass
 class KSigmaAdaptationParameters:
-    gamma: float = 5000.0  # adaptation gain [1 / (N m)^2 / s]
-    velocity_threshold: float = 0.1  # [rad/s]
-    enable_time: float = 0.0  # [s]
-    initial: float = 1.0
+    """Eq. 18's gain and the Sec. V-C activation conditions."""
+
+    gamma: float = 5000.0  # adaptation gain [1 / ((N m)^2 s)]
+    velocity_threshold: float = 0.1  # adapt only while |v| > this [rad/s]
+    enable_time: float = 0.0  # adapt only from this time on [s]
+    initial: float = 1.0  # K_sigma+ and K_sigma- at t = 0 [-]
     period: float = 1e-3  # [s]
 
     def validate(self, where: str = "observers.adaptation") -> None:
@@ -38,16 +46,21 @@ class KSigmaAdaptationParameters:
 
 
 class KSigmaAdapter(LeafSystem):
-    """Inputs ``arm_velocity_estimate_rad_per_s``, ``friction_error_estimate_Nm`` (the VFE's eps_hat_F, the arm
-    entry is used) and ``bristle_state_rad`` (z_hat); state [K_sigma+, K_sigma-]; outputs ``K_sigma`` (the
-    branch of the velocity's sign) and ``K_sigma_branches``."""
+    """Eq. 18 with the Sec. V-C branches, discrete at ``params.period``; ``sigma0`` [N m/rad] is the Dahl
+    observer's bristle stiffness.
+
+    Inputs: ``arm_velocity_estimate_rad_per_s`` (v), ``friction_error_estimate_Nm`` (the VFE's eps_hat_F =
+    [pendulum, arm]; the arm entry drives the law), ``bristle_state_rad`` (the Dahl observer's z_hat). State
+    [K_sigma+, K_sigma-]. Outputs: ``K_sigma`` (K_sigma+ while v > 0, else K_sigma-; feeds through v only) and
+    ``K_sigma_branches`` ([K_sigma+, K_sigma-]).
+    """
 
     def __init__(self, params: KSigmaAdaptationParameters | None = None, *, sigma0: float):
         LeafSystem.__init__(self)
         params = params or KSigmaAdaptationParameters()
         params.validate()
         if not (math.isfinite(sigma0) and sigma0 > 0):
-            raise ConfigError(f"observers.dahl.sigma0 must be > 0, got {sigma0!r}")
+            raise ConfigError(f"KSigmaAdapter sigma0 (the Dahl observer's) must be > 0, got {sigma0!r}")
         self.params, self.sigma0 = params, sigma0
         self._velocity = self.DeclareVectorInputPort("arm_velocity_estimate_rad_per_s", 1)
         self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
@@ -59,8 +72,8 @@ class KSigmaAdapter(LeafSystem):
         self.DeclareStateOutputPort("K_sigma_branches", state)
 
     def _calc_gain(self, context, output: BasicVector):
-        branches = context.get_discrete_state_vector()
-        output.SetAtIndex(0, branches.GetAtIndex(0 if self._velocity.Eval(context)[0] > 0 else 1))
+        branch = 0 if self._velocity.Eval(context)[0] > 0 else 1
+        output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(branch))
 
     def _update(self, context, discrete_state):
         p = self.params

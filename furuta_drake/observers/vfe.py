@@ -3,15 +3,23 @@
     x_hat'     = A x_hat + B u + B_F (F_hat + eps_hat_F) + K1 (y - C x_hat)
     eps_hat_F' = K2 (y - C x_hat)
 
-eps_hat_F is a state (A_F of Eq. 13 has a zero block for it; Eq. 15 needs it), with two entries [pendulum,
-arm] entering through B_F like the friction F, and F_hat = [0, F_hat_phi] from the Dahl observer in the arm
-entry. K_F = [K1; K2] is placed (scipy's ``place_poles``) so that G = A_F - K_F C_F (Eq. 12) has the chosen
-eigenvalues; with a slowly varying friction error, eps_hat_F converges to F - F_hat (Eq. 14-15).
+eps_hat_F is a state (Eq. 11 prints a static map, but A_F of Eq. 13 has a zero block for it and Eq. 15 needs
+it), with two entries [pendulum, arm] entering through B_F like the friction F, and F_hat = [0, F_hat_phi]
+from the Dahl observer in the arm entry (Eq. 11 prints [F_hat_phi, 0]). K_F = [K1; K2] is placed (scipy's
+``place_poles``) so that G = A_F - K_F C_F (Eq. 12) has the chosen eigenvalues. G is also the dynamics of the
+error [x - x_hat; (F - F_hat) - eps_hat_F] while F - F_hat is constant, so then eps_hat_F converges to the
+friction error F - F_hat (Eq. 14-15) and x_hat to x.
+
+Default eigenvalues -20, -23, ..., -35 rad/s: at least as fast as the fastest pole of the default LQ loop
+(-19.5 rad/s), so the estimate does not slow the regulation, and about 7 times slower than the default HG
+observer, which is what makes the VFE estimate quiet (Table II): for 4096-count quantisation noise the arm
+velocity estimate's std is about 3e-3 rad/s against 2e-2 for the HG.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,25 +27,29 @@ from pydrake.systems.primitives import LinearSystem
 from scipy.signal import place_poles
 
 from furuta_drake.errors import ConfigError
-from furuta_drake.observers.linear import DiscreteLinearObserver
-
-ANGLES = np.hstack([np.eye(2), np.zeros((2, 2))])
+from furuta_drake.observers.linear import ANGLES, DiscreteLinearObserver, model_matrices
 
 
 @dataclass
 class VfeParameters:
-    """The six eigenvalues of G (Eq. 12) [1/s] (distinct, negative) and the sampling period."""
+    """The six eigenvalues of G (Eq. 12) [1/s] (negative reals, none repeated more than twice: the two
+    measured angles allow a multiplicity of two) and the sampling period."""
 
     eigenvalues: list[float] = field(default_factory=lambda: [-20.0, -23.0, -26.0, -29.0, -32.0, -35.0])
     period: float = 1e-3  # [s]
 
     def validate(self, where: str = "observers.vfe") -> None:
         if len(self.eigenvalues) != 6:
-            raise ConfigError(f"{where}.eigenvalues must list 6 eigenvalues of G, got {len(self.eigenvalues)}")
-        if not all(math.isfinite(e) and e < 0 for e in self.eigenvalues):
-            raise ConfigError(f"{where}.eigenvalues must be negative (a stable G, Eq. 12), got {self.eigenvalues}")
-        if len(set(self.eigenvalues)) != 6:
-            raise ConfigError(f"{where}.eigenvalues must be distinct for pole placement, got {self.eigenvalues}")
+            raise ConfigError(f"{where}.eigenvalues must list 6 eigenvalues of G (Eq. 12), "
+                              f"got {len(self.eigenvalues)}")
+        for i, value in enumerate(self.eigenvalues):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value < 0):
+                raise ConfigError(f"{where}.eigenvalues[{i}] must be a negative real (a stable G, Eq. 12), "
+                                  f"got {value!r}")
+        for value in self.eigenvalues:
+            if self.eigenvalues.count(value) > 2:
+                raise ConfigError(f"{where}.eigenvalues repeats {value} {self.eigenvalues.count(value)} times; "
+                                  f"two angle measurements allow at most 2")
         if not (math.isfinite(self.period) and self.period > 0):
             raise ConfigError(f"{where}.period must be > 0, got {self.period!r}")
 
@@ -51,37 +63,50 @@ def augmented_model(A: np.ndarray, B_F: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def vfe_gains(A: np.ndarray, B_F: np.ndarray, eigenvalues) -> np.ndarray:
-    """K_F = [K1; K2] (6x2) placing the eigenvalues of G = A_F - K_F C_F (Eq. 12)."""
+    """K_F = [K1; K2] (6x2, K1 the first four rows) placing the eigenvalues of G = A_F - K_F C_F (Eq. 12).
+
+    Pole placement on the dual pair (A_F^T, C_F^T); the placed eigenvalues are checked to 1e-6 relative
+    (scipy only warns when its robustness refinement stops early, which does not affect the placement)."""
     A_F, C_F = augmented_model(A, B_F)
-    return place_poles(A_F.T, C_F.T, np.asarray(eigenvalues, dtype=float)).gain_matrix.T
+    wanted = np.sort(np.asarray(eigenvalues, dtype=float))
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Convergence was not reached", category=UserWarning)
+        K_F = place_poles(A_F.T, C_F.T, wanted).gain_matrix.T
+    placed = np.sort(np.linalg.eigvals(A_F - K_F @ C_F).real)
+    if not np.allclose(placed, wanted, rtol=1e-6, atol=0.0):
+        raise ConfigError(f"observers.vfe.eigenvalues {wanted.tolist()} could not be placed (got "
+                          f"{placed.tolist()})")
+    return K_F
 
 
 def vfe_error_matrix(A: np.ndarray, B_F: np.ndarray, K_F: np.ndarray) -> np.ndarray:
-    """G = A_F - K_F C_F of Eq. 12."""
+    """G = A_F - K_F C_F of Eq. 12 (6x6): the dynamics of [x - x_hat; F - F_hat - eps_hat_F]."""
     A_F, C_F = augmented_model(A, B_F)
     return A_F - K_F @ C_F
 
 
 def continuous_vfe_observer(A: np.ndarray, B_F: np.ndarray, params: VfeParameters) -> LinearSystem:
-    """Eq. 11 as a continuous LinearSystem: input [y_theta, y_phi, u, F_hat_phi], output [x_hat, eps_hat_F]."""
+    """Eq. 11 as a continuous LinearSystem: input [y_theta, y_phi, u, F_hat_phi], output [x_hat, eps_hat_F];
+    its input matrix's first two columns are K_F."""
     K_F = vfe_gains(A, B_F, params.eigenvalues)
-    A_F, C_F = augmented_model(A, B_F)
-    arm = np.concatenate([B_F[:, 1], np.zeros(2)]).reshape(6, 1)
-    return LinearSystem(A_F - K_F @ C_F, np.hstack([K_F, arm, arm]), np.eye(6), np.zeros((6, 4)))
+    arm = np.concatenate([B_F[:, 1], np.zeros(2)]).reshape(6, 1)  # u and F_hat_phi both act on the arm
+    return LinearSystem(vfe_error_matrix(A, B_F, K_F), np.hstack([K_F, arm, arm]), np.eye(6), np.zeros((6, 4)))
 
 
 class VfeObserver(DiscreteLinearObserver):
-    """Eq. 11 sampled at ``params.period``. Inputs ``measured_angles_rad``, ``arm_torque_Nm`` (u) and
-    ``friction_estimate_Nm`` (F_hat_phi); outputs ``state_estimate`` (x_hat) and ``friction_error_estimate_Nm``
-    (eps_hat_F = [pendulum, arm])."""
+    """Eq. 11 sampled at ``params.period`` (exact zero-order hold of the inputs). ``rig_or_AB``: a RigParameters
+    or (A, B_F). Inputs ``measured_angles_rad`` [theta, phi], ``arm_torque_Nm`` (u) and ``friction_estimate_Nm``
+    (F_hat_phi, the Dahl observer's arm friction); outputs ``state_estimate`` (x_hat [rad, rad/s]) and
+    ``friction_error_estimate_Nm`` (eps_hat_F = [pendulum, arm]). ``gains`` is K_F = [K1; K2]."""
 
-    def __init__(self, model, params: VfeParameters | None = None):
+    def __init__(self, rig_or_AB, params: VfeParameters | None = None):
         params = params or VfeParameters()
         params.validate()
-        A, B_F = model
+        A, B_F = model_matrices(rig_or_AB)
         self.params = params
-        self.gains = vfe_gains(A, B_F, params.eigenvalues)
+        continuous = continuous_vfe_observer(A, B_F, params)
+        self.gains = continuous.B()[:, :2]
         DiscreteLinearObserver.__init__(
-            self, continuous_vfe_observer(A, B_F, params), params.period,
+            self, continuous, params.period,
             inputs=[("measured_angles_rad", 2), ("arm_torque_Nm", 1), ("friction_estimate_Nm", 1)],
             outputs=[("state_estimate", 4), ("friction_error_estimate_Nm", 2)], name="vfe_observer")
