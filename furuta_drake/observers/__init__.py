@@ -5,10 +5,12 @@ LeafSystem with an exact exponential step. All are discrete at the control perio
 """
 
 from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters
-from furuta_drake.observers.hg import HighGainObserver, HighGainParameters, high_gain_eigenvalues
+from furuta_drake.observers.hg import (
+    HighGainObserver, HighGainParameters, high_gain_eigenvalues, high_gain_error_matrix,
+)
 from furuta_drake.observers.vfe import VfeObserver, VfeParameters, vfe_error_matrix, vfe_gains
 
 __all__ = [
     "DahlFrictionObserver", "DahlObserverParameters", "HighGainObserver", "HighGainParameters",
-    "high_gain_eigenvalues", "VfeObserver", "VfeParameters", "vfe_error_matrix", "vfe_gains",
+    "high_gain_eigenvalues", "high_gain_error_matrix", "VfeObserver", "VfeParameters", "vfe_error_matrix", "vfe_gains",
 ]
