@@ -1,20 +1,26 @@
-"""Joint friction of the Furuta pendulum: laws (vectorised numpy) and the ``JointFriction`` Drake system.
+"""Joint friction of the Furuta pendulum: the laws (vectorised numpy) and the ``JointFriction`` Drake system.
 
 Sign convention of the whole package: a friction torque is the torque friction EXERTS on its joint, opposite
 to the velocity: the paper's F in tau = [F_theta, u + F_phi] (Eq. 3). The Dahl bristle state z follows Eq. 7,
 dz/dt = v - sigma0 |v| z / Fc (so z -> Fc sign(v) / sigma0), and the exerted torque is F = -sigma0 z; with
-this sign the adaptation law Eq. 18 is a gradient descent as printed.
+this sign the adaptation law Eq. 18 is a gradient descent as printed, and the observers use the same F.
 
-Models per joint (``JointFrictionParameters.model``):
+Models per joint (``JointFrictionParameters.model``), levels per direction of motion (v > 0, v < 0):
 
-- ``static``: F = -(g(v) tanh(v / v_reg) + b v), g the Stribeck curve g(v) = Fc + (Fs - Fc) exp(-(v/vs)^2),
-  with per-direction levels. The regularisation velocity v_reg keeps the law smooth, so Drake's AutoDiffXd
-  (``Linearize``) passes through it and error-controlled integrators can step across velocity reversals.
-- ``dahl`` (Eq. 7): F = -sigma0 z, dz/dt = v - sigma0 |v| z / Fc(v), Fc per direction; plus viscous b v.
+- ``static``: F = -(g(v) tanh(v / v_reg) + b v), g the Stribeck curve g(v) = Fc + (Fs - Fc) exp(-(v / vs)^2).
+  tanh(v / v_reg) replaces sign(v) so that the law is smooth: Drake's AutoDiffXd (``Linearize``) differentiates
+  it, and error-controlled integrators step across velocity reversals instead of chattering on a discontinuity.
+  Near v = 0 it acts as a viscous damping g(0) / v_reg; it stops a sliding joint but does not hold it against
+  a torque below the breakaway level (use ``dahl`` or ``lugre`` for true presliding).
+- ``dahl`` (Eq. 7): F = -sigma0 z - b v, dz/dt = v - sigma0 |v| z / Fc(v), Fc(v) = Fc+ if v > 0 else Fc-.
 - ``lugre``: dz/dt = v - sigma0 |v| z / g(v), F = -(sigma0 z + sigma1 dz/dt + sigma2 v), sigma2 = ``viscous``.
 
-The bristle state is stiff (rate sigma0 |v| / Fc, NOTES.md): :func:`dahl_exact_step` is its exact step at
-frozen velocity, stable at any step size, used by the discrete friction observers.
+Dahl is passive: with the bristle energy sigma0 z^2 / 2, d/dt (E + sigma0 z^2 / 2) = -sigma0^2 |v| z^2 / Fc
+- b v^2 <= 0. LuGre is passive with that storage while |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2 (Barabanov
+and Ortega 2000 discuss the general condition).
+
+The bristle state is stiff (rate sigma0 |v| / Fc up to 1e4 1/s, NOTES.md): :func:`dahl_exact_step` is its
+exact step at frozen velocity, stable at any step size, for discrete-time users (the friction observers).
 """
 
 from __future__ import annotations
@@ -28,35 +34,43 @@ from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from furuta_drake.errors import ConfigError
+from furuta_drake.plant import ARM_JOINT, PENDULUM_JOINT
+from furuta_drake.rig import _require_nonnegative, _require_positive
 
 MODELS = ("none", "static", "dahl", "lugre")
 
 
 @dataclass
 class JointFrictionParameters:
-    """Friction on one joint (SI units; levels are positive magnitudes)."""
+    """Friction on one joint (SI units; levels are positive magnitudes, the torque opposes the motion)."""
 
-    model: str = "none"
-    coulomb_pos: float = 0.0  # Coulomb level for v > 0 [N m]
-    coulomb_neg: float = 0.0  # Coulomb level for v < 0 [N m]
-    static_pos: float | None = None  # Stribeck breakaway level for v > 0 [N m]; None: equal to Coulomb
-    static_neg: float | None = None  # for v < 0 [N m]
-    stribeck_velocity: float = 0.05  # [rad/s]
-    viscous: float = 0.0  # [N m s/rad] (sigma2 of LuGre)
+    model: str = "none"  # "none" | "static" | "dahl" | "lugre"
+    coulomb_pos: float = 0.0  # Coulomb level Fc+ while v > 0 [N m]
+    coulomb_neg: float = 0.0  # Coulomb level Fc- while v < 0 [N m]
+    static_pos: float | None = None  # Stribeck breakaway level Fs+ [N m]; None: no Stribeck (= Coulomb)
+    static_neg: float | None = None  # Fs- [N m]
+    stribeck_velocity: float = 0.05  # vs [rad/s]
+    viscous: float = 0.0  # b [N m s/rad] (sigma2 of LuGre)
     sigma0: float = 10.0  # bristle stiffness [N m/rad] (dahl, lugre)
     sigma1: float = 0.0  # bristle damping [N m s/rad] (lugre)
-    regularization_velocity: float = 1e-3  # [rad/s] (static model)
+    regularization_velocity: float = 1e-3  # v_reg of tanh(v / v_reg) [rad/s] (static)
 
     @classmethod
-    def coulomb(cls, level: float, viscous: float = 0.0) -> "JointFrictionParameters":
-        return cls(model="static", coulomb_pos=level, coulomb_neg=level, viscous=viscous)
+    def coulomb(cls, level: float, viscous: float = 0.0, *,
+                regularization_velocity: float = 1e-3) -> "JointFrictionParameters":
+        """Symmetric Coulomb plus viscous friction (static model)."""
+        return cls(model="static", coulomb_pos=level, coulomb_neg=level, viscous=viscous,
+                   regularization_velocity=regularization_velocity)
 
     @classmethod
-    def dahl(cls, coulomb_pos: float, coulomb_neg: float, sigma0: float) -> "JointFrictionParameters":
-        return cls(model="dahl", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg, sigma0=sigma0)
+    def dahl(cls, coulomb_pos: float, coulomb_neg: float, sigma0: float,
+             viscous: float = 0.0) -> "JointFrictionParameters":
+        """Dahl model (Eq. 7) with per-direction Coulomb levels."""
+        return cls(model="dahl", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg, sigma0=sigma0, viscous=viscous)
 
     @property
     def has_bristles(self) -> bool:
+        """True for the models with a bristle state z (dahl, lugre)."""
         return self.model in ("dahl", "lugre")
 
     @property
@@ -66,147 +80,175 @@ class JointFrictionParameters:
                 self.coulomb_neg if self.static_neg is None else self.static_neg)
 
     def validate(self, where: str = "friction.joint") -> None:
-        if self.model not in MODELS:
+        """Raise :class:`ConfigError` naming the first non-physical field."""
+        if not isinstance(self.model, str) or self.model not in MODELS:
             raise ConfigError(f"{where}.model must be one of {list(MODELS)}, got {self.model!r}")
         for name in ("coulomb_pos", "coulomb_neg", "viscous", "sigma1"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ConfigError(f"{where}.{name} must be a non-negative finite number, got {value!r}")
+            _require_nonnegative(getattr(self, name), f"{where}.{name}")
         for name in ("stribeck_velocity", "regularization_velocity"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ConfigError(f"{where}.{name} must be > 0, got {value!r}")
+            _require_positive(getattr(self, name), f"{where}.{name}")
         for name, coulomb in (("static_pos", self.coulomb_pos), ("static_neg", self.coulomb_neg)):
             value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value >= coulomb):
-                raise ConfigError(f"{where}.{name} must be >= the Coulomb level {coulomb}, got {value!r}")
+            if value is not None:
+                _require_nonnegative(value, f"{where}.{name}")
+                if value < coulomb:
+                    raise ConfigError(f"{where}.{name} must be >= the Coulomb level {coulomb}, got {value!r}")
         if self.has_bristles:
-            if not (math.isfinite(self.sigma0) and self.sigma0 > 0):
-                raise ConfigError(f"{where}.sigma0 must be > 0 for the {self.model} model, got {self.sigma0!r}")
-            if min(self.coulomb_pos, self.coulomb_neg) <= 0:
-                raise ConfigError(f"{where}: the {self.model} model needs Coulomb levels > 0 in both directions")
+            # The bristle law divides by the Coulomb level (Eq. 7) and needs a stiffness.
+            for name in ("sigma0", "coulomb_pos", "coulomb_neg"):
+                value = getattr(self, name)
+                if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                    raise ConfigError(f"{where}.{name} must be > 0 for the {self.model} model, got {value!r}")
 
 
 @dataclass
 class FrictionParameters:
     """Friction on the Furuta's two joints."""
 
-    arm: JointFrictionParameters = field(default_factory=JointFrictionParameters)
-    pendulum: JointFrictionParameters = field(default_factory=JointFrictionParameters)
+    arm: JointFrictionParameters = field(default_factory=JointFrictionParameters)  # F_phi
+    pendulum: JointFrictionParameters = field(default_factory=JointFrictionParameters)  # F_theta
 
     def validate(self, where: str = "friction") -> None:
         self.arm.validate(f"{where}.arm")
         self.pendulum.validate(f"{where}.pendulum")
 
 
+# --- The laws: the one place they are written. Scalars (float or AutoDiffXd) or numpy arrays of v. ---------------
+
 def _by_direction(v, positive, negative):
-    """``positive`` where v > 0, ``negative`` elsewhere (numpy arrays or scalars, AutoDiffXd included)."""
+    """``positive`` where v > 0, ``negative`` elsewhere."""
     if isinstance(v, np.ndarray):
         return np.where(v > 0, positive, negative)
     return positive if v > 0 else negative
 
 
 def stribeck_curve(v, p: JointFrictionParameters):
-    """g(v) = Fc + (Fs - Fc) exp(-(v / vs)^2) per direction [N m]."""
+    """g(v) = Fc + (Fs - Fc) exp(-(v / vs)^2) with the levels of the direction of v [N m] (g = Fc without
+    Stribeck levels)."""
     coulomb = _by_direction(v, p.coulomb_pos, p.coulomb_neg)
+    if p.static_pos is None and p.static_neg is None:
+        return coulomb
     static = _by_direction(v, *p.static_levels)
     return coulomb + (static - coulomb) * np.exp(-(v / p.stribeck_velocity) ** 2)
 
 
 def static_friction_torque(v, p: JointFrictionParameters):
-    """The static model's exerted torque -(g(v) tanh(v / v_reg) + b v) [N m]."""
+    """Exerted torque of the static model, -(g(v) tanh(v / v_reg) + b v) [N m]."""
     return -(stribeck_curve(v, p) * np.tanh(v / p.regularization_velocity) + p.viscous * v)
 
 
 def bristle_derivative(z, v, p: JointFrictionParameters):
-    """dz/dt of Eq. 7 (Dahl: g = Fc(v)) or of LuGre (g the Stribeck curve)."""
+    """dz/dt = v - sigma0 |v| z / Fc(v) (Dahl, Eq. 7) or v - sigma0 |v| z / g(v) (LuGre) [rad/s]."""
     level = _by_direction(v, p.coulomb_pos, p.coulomb_neg) if p.model == "dahl" else stribeck_curve(v, p)
     return v - p.sigma0 * abs(v) * z / level
 
 
 def bristle_friction_torque(z, v, p: JointFrictionParameters):
-    """Exerted torque of the Dahl (-sigma0 z - b v) or LuGre (-(sigma0 z + sigma1 dz + sigma2 v)) model."""
-    damping = p.sigma1 * bristle_derivative(z, v, p) if p.model == "lugre" else 0.0
-    return -(p.sigma0 * z + damping + p.viscous * v)
+    """Exerted torque of the Dahl (-sigma0 z - b v) or LuGre (-(sigma0 z + sigma1 dz/dt + sigma2 v)) model [N m]."""
+    torque = p.sigma0 * z + p.viscous * v
+    if p.model == "lugre" and p.sigma1 != 0.0:
+        torque = torque + p.sigma1 * bristle_derivative(z, v, p)
+    return -torque
+
+
+def joint_friction_torque(v, z, p: JointFrictionParameters):
+    """Exerted torque of ``p``'s model at velocity v and bristle state z (ignored without bristles) [N m]."""
+    if p.model == "static":
+        return static_friction_torque(v, p)
+    if p.has_bristles:
+        return bristle_friction_torque(z, v, p)
+    return 0.0 * v
 
 
 def dahl_exact_step(z, v, dt, sigma0, coulomb_level):
-    """Exact solution over ``dt`` of dz/dt = v - (sigma0 |v| / Fc) z at frozen v: z_ss + (z - z_ss) e^(-rate dt),
-    z_ss = Fc sign(v) / sigma0, rate = sigma0 |v| / Fc; z is held where v = 0. Stable at any step."""
+    """Exact solution over ``dt`` of dz/dt = v - (sigma0 |v| / Fc) z at frozen v [rad]:
+    z_ss + (z - z_ss) exp(-sigma0 |v| dt / Fc), z_ss = Fc sign(v) / sigma0. At v = 0 it holds z (z_ss = 0, no
+    decay). Stable at any step: the result lies between z and z_ss."""
     z_ss = coulomb_level * np.sign(v) / sigma0
-    decay = np.exp(-sigma0 * np.abs(v) * dt / coulomb_level)
-    return np.where(v == 0, z, z_ss + (z - z_ss) * decay)
+    return z_ss + (z - z_ss) * np.exp(-sigma0 * np.abs(v) * dt / coulomb_level)
+
+
+# --- The Drake system ------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _PlantLayout:
+    """Where the two joints sit in a Furuta plant's state, read once so the system keeps no plant reference."""
+
+    num_positions: int
+    num_velocities: int
+    theta_velocity: int  # index in v
+    phi_velocity: int
+
+    @classmethod
+    def of(cls, plant) -> "_PlantLayout":
+        return cls(plant.num_positions(), plant.num_velocities(),
+                   plant.GetJointByName(PENDULUM_JOINT).velocity_start(),
+                   plant.GetJointByName(ARM_JOINT).velocity_start())
 
 
 @TemplateSystem.define("JointFriction_", T_list=(float, AutoDiffXd))
 def JointFriction_(T):
 
     class Impl(LeafSystem_[T]):
-        """Friction on the arm and pendulum joints of the Furuta ``MultibodyPlant``.
+        """Friction on the arm (phi) and pendulum (theta) joints of the Furuta ``MultibodyPlant``.
 
-        Input ``plant_state`` (the plant's state output); outputs ``generalized_force_Nm`` (plant velocity
-        order, for the plant's applied-generalized-force port) and ``friction_torque_Nm`` = [F_theta, F_phi].
-        One continuous bristle state per joint with a Dahl or LuGre model. Scalar-convertible (AutoDiffXd), so
-        ``Linearize`` works through it.
+        Input ``plant_state`` (connect the plant's state output). Outputs ``generalized_force_Nm`` (plant
+        velocity order, for the plant's applied-generalized-force input) and ``friction_torque_Nm`` =
+        [F_theta, F_phi] (Eq. 3 order). Continuous state: one bristle z [rad] per joint with a Dahl or LuGre
+        model, pendulum before arm. Scalar-convertible to AutoDiffXd, so ``Linearize`` works through it.
         """
 
-        def _construct(self, plant=None, params: FrictionParameters | None = None, *, layout=None,
-                       converter=None):
-            LeafSystem_[T].__init__(self, converter)
-            params = params or FrictionParameters()
-            params.validate()
-            if layout is None:
-                nq = plant.num_positions()
-                layout = {"nx": plant.num_multibody_states(), "nv": plant.num_velocities(),
-                          "theta_v": plant.GetJointByName("pendulum").velocity_start(),
-                          "phi_v": plant.GetJointByName("arm").velocity_start(), "nq": nq}
-            self._layout, self._params = layout, params
-            # Joints in the paper's order [theta, phi] with their parameters.
-            self._joints = [(layout["theta_v"], params.pendulum), (layout["phi_v"], params.arm)]
-            self._bristles = [i for i, (_, p) in enumerate(self._joints) if p.has_bristles]
-            if self._bristles:
-                self.DeclareContinuousState(len(self._bristles))
-            self.DeclareVectorInputPort("plant_state", layout["nx"])
-            self.DeclareVectorOutputPort("generalized_force_Nm", layout["nv"], self._calc_generalized_force)
-            self.DeclareVectorOutputPort("friction_torque_Nm", 2, self._calc_friction_torque)
+        def _construct(self, plant, params: FrictionParameters, converter=None):
+            self._declare(_PlantLayout.of(plant), params, converter)
 
         def _construct_copy(self, other, converter=None):
-            Impl._construct(self, None, other._params, layout=other._layout, converter=converter)
+            self._declare(other._layout, other._params, converter)
 
-        def _velocities(self, context):
-            x = self.get_input_port(0).Eval(context)
-            nq = self._layout["nq"]
-            return [x[nq + index] for index, _ in self._joints]
+        def _declare(self, layout: _PlantLayout, params: FrictionParameters, converter):
+            LeafSystem_[T].__init__(self, converter)
+            params.validate()
+            self._layout, self._params = layout, params
+            nq = layout.num_positions
+            # (state index of v, generalized-force index, parameters, bristle index or None), paper order.
+            joints, bristles = [], 0
+            for velocity, p in ((layout.theta_velocity, params.pendulum), (layout.phi_velocity, params.arm)):
+                joints.append((nq + velocity, velocity, p, bristles if p.has_bristles else None))
+                bristles += p.has_bristles
+            self._joints = tuple(joints)
+            self._bristle_joints = tuple(j for j in joints if j[3] is not None)
+            self._dtype = float if T == float else object
+            self._state_port = self.DeclareVectorInputPort("plant_state", nq + layout.num_velocities)
+            tickets = {self._state_port.ticket()}
+            if bristles:
+                self.DeclareContinuousState(bristles)
+                tickets.add(self.xc_ticket())
+            self.DeclareVectorOutputPort("generalized_force_Nm", layout.num_velocities,
+                                         self._calc_generalized_force, prerequisites_of_calc=tickets)
+            self.DeclareVectorOutputPort("friction_torque_Nm", 2, self._calc_friction_torque,
+                                         prerequisites_of_calc=tickets)
 
         def _torques(self, context):
-            velocities = self._velocities(context)
-            z = context.get_continuous_state_vector().CopyToVector() if self._bristles else ()
-            torques = []
-            for i, (_, p) in enumerate(self._joints):
-                v = velocities[i]
-                if p.model == "none":
-                    torques.append(0.0 * v)
-                elif p.model == "static":
-                    torques.append(static_friction_torque(v, p))
-                else:
-                    torques.append(bristle_friction_torque(z[self._bristles.index(i)], v, p))
-            return torques
-
-        def _calc_friction_torque(self, context, output):
-            output.SetFromVector(np.array(self._torques(context)))
+            """[F_theta, F_phi] [N m]."""
+            x = self._state_port.Eval(context)
+            z = context.get_continuous_state_vector().CopyToVector() if self._bristle_joints else None
+            return [joint_friction_torque(x[state], None if k is None else z[k], p)
+                    for state, _, p, k in self._joints]
 
         def _calc_generalized_force(self, context, output):
-            force = np.zeros(self._layout["nv"], dtype=object if T != float else float)
-            force[:] = 0.0
-            for (index, _), torque in zip(self._joints, self._torques(context)):
+            force = np.zeros(self._layout.num_velocities, dtype=self._dtype)
+            for (_, index, _, _), torque in zip(self._joints, self._torques(context)):
                 force[index] = torque
             output.SetFromVector(force)
 
+        def _calc_friction_torque(self, context, output):
+            output.SetFromVector(np.array(self._torques(context), dtype=self._dtype))
+
         def DoCalcTimeDerivatives(self, context, derivatives):
-            velocities = self._velocities(context)
+            x = self._state_port.Eval(context)
             z = context.get_continuous_state_vector().CopyToVector()
-            rates = [bristle_derivative(z[k], velocities[i], self._joints[i][1]) for k, i in enumerate(self._bristles)]
-            derivatives.get_mutable_vector().SetFromVector(np.array(rates))
+            derivatives.get_mutable_vector().SetFromVector(np.array(
+                [bristle_derivative(z[k], x[state], p) for state, _, p, k in self._bristle_joints],
+                dtype=self._dtype))
 
     return Impl
 
