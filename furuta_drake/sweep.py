@@ -322,7 +322,8 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, tasks:
     single-threaded processes (default: one per core, at most one per task), closed on exit."""
     if scheduler is not None:
         if workers is not None:
-            raise ConfigError("--workers sizes a local cluster; with --scheduler the cluster's own workers run")
+            raise ConfigError("workers (--workers) sizes a local cluster; with a scheduler (--scheduler) the "
+                              "cluster's own workers run the sweep")
         try:
             client = Client(scheduler, timeout=10)
         except (OSError, ValueError) as err:
@@ -331,8 +332,9 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, tasks:
             yield client
         return
     if workers is not None and workers < 1:
-        raise ConfigError(f"--workers must be >= 1, got {workers}")
-    count = workers or max(1, min(os.cpu_count() or 1, tasks or os.cpu_count() or 1))
+        raise ConfigError(f"workers (--workers) must be >= 1, got {workers}")
+    cores = os.cpu_count() or 1
+    count = workers or max(1, min(cores, tasks or cores))
     with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
         yield client

@@ -140,7 +140,7 @@ def test_the_cli_refuses_bad_input_in_one_line_before_running_anything(tmp_path,
     assert main(["sweep", "--config", str(sweep_file), "--out", str(tmp_path / "full")]) == 2
     assert "not empty" in capsys.readouterr().err
     assert main(["sweep", "--config", str(sweep_file), "--out", str(tmp_path / "out"), "--workers", "0"]) == 2
-    assert "--workers must be >= 1" in capsys.readouterr().err
+    assert "workers (--workers) must be >= 1, got 0" in capsys.readouterr().err
     assert main(["sweep", "--config", str(sweep_file), "--out", str(tmp_path / "out"),
                  "--scheduler", "tcp://127.0.0.1:9", "--workers", "2"]) == 2
     assert "--scheduler" in capsys.readouterr().err
