@@ -87,7 +87,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         applied_forces.append(back_emf.get_output_port())
     _sum_into(builder, applied_forces, plant.get_applied_generalized_force_input_port(), "applied_forces")
 
-    actuator_input, actuator_output = add_actuator(builder, config.actuator, delay_resolution=period / 10.0)
+    # Delays are resolved to half a control period (a finer clock costs an integrator stop per tick).
+    actuator_input, actuator_output = add_actuator(builder, config.actuator, delay_resolution=period / 2.0)
     builder.Connect(actuator_output, plant.get_actuation_input_port())
 
     # --- Sensors ---------------------------------------------------------------------------------------------

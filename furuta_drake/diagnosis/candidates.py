@@ -1,0 +1,116 @@
+"""The effect vocabulary of the spec as candidates: parameters, bounds, starts, and how each one changes the
+surrogate model and a simulate config.
+
+Every parameter is in SI units and is the effect's own level (not an increment over the rig file), as the
+report's ranking lists it. Scales come from the rig: torques from m g l and the logged commands, damping
+from the lumped inertias, times from the sample period.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from furuta_drake.diagnosis.surrogate import REGULARIZATION_VELOCITY, Model
+from furuta_drake.friction import JointFrictionParameters
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Physical scales of a rig and its logs that set bounds and starts."""
+
+    torque: float  # m g l [N m]
+    command: float  # largest |command| in the train logs [N m]
+    arm_inertia: float  # a [kg m^2]
+    pendulum_inertia: float  # b [kg m^2]
+    period: float  # [s]
+
+
+@dataclass(frozen=True)
+class Candidate:
+    name: str
+    params: tuple[str, ...]
+    bounds: Callable[[Scales], tuple[list[float], list[float]]]
+    starts: Callable[[Scales], list[list[float]]]
+    apply: Callable[[Model, np.ndarray], Model]
+    fit: bool = True  # False: estimated from the data directly (sensor effects)
+
+
+def _static(coulomb_pos, coulomb_neg, viscous=0.0, static=None, stribeck_velocity=0.05):
+    return JointFrictionParameters(model="static", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg,
+                                   static_pos=static, static_neg=static, stribeck_velocity=stribeck_velocity,
+                                   viscous=viscous, regularization_velocity=REGULARIZATION_VELOCITY)
+
+
+def _arm(model: Model, **changes) -> Model:
+    return model.replace(arm_friction=dataclasses.replace(model.arm_friction, **changes))
+
+
+CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
+    Candidate("arm_coulomb_friction", ("coulomb",),
+              lambda s: ([0.0], [0.5 * s.torque]), lambda s: [[0.05 * s.torque]],
+              lambda m, p: _arm(m, coulomb_pos=p[0], coulomb_neg=p[0])),
+    Candidate("arm_viscous_friction", ("viscous",),
+              lambda s: ([0.0], [50.0 * s.arm_inertia]), lambda s: [[1.0 * s.arm_inertia]],
+              lambda m, p: _arm(m, viscous=p[0])),
+    Candidate("arm_stribeck", ("coulomb", "static", "stribeck_velocity"),
+              lambda s: ([0.0, 0.0, 0.01], [0.5 * s.torque, 1.0 * s.torque, 1.0]),
+              lambda s: [[0.03 * s.torque, 0.08 * s.torque, 0.1]],
+              lambda m, p: _arm(m, coulomb_pos=p[0], coulomb_neg=p[0], static_pos=max(p[1], p[0]),
+                                static_neg=max(p[1], p[0]), stribeck_velocity=p[2])),
+    Candidate("friction_asymmetry", ("coulomb_pos", "coulomb_neg"),
+              lambda s: ([0.0, 0.0], [0.5 * s.torque, 0.5 * s.torque]),
+              lambda s: [[0.03 * s.torque, 0.06 * s.torque], [0.06 * s.torque, 0.03 * s.torque]],
+              lambda m, p: _arm(m, coulomb_pos=p[0], coulomb_neg=p[1])),
+    Candidate("pendulum_friction", ("coulomb", "viscous"),
+              lambda s: ([0.0, 0.0], [0.1 * s.torque, 20.0 * s.pendulum_inertia]),
+              lambda s: [[0.005 * s.torque, 0.2 * s.pendulum_inertia]],
+              lambda m, p: m.replace(pendulum_friction=dataclasses.replace(
+                  m.pendulum_friction, coulomb_pos=p[0], coulomb_neg=p[0], viscous=p[1]))),
+    Candidate("encoder_quantization", ("counts_per_rev",), lambda s: ([4.0], [1e7]), lambda s: [],
+              lambda m, p: m.replace(counts_per_rev=int(round(p[0]))), fit=False),
+    Candidate("measurement_noise", ("noise_std",), lambda s: ([0.0], [1.0]), lambda s: [],
+              lambda m, p: m.replace(noise_std=float(p[0])), fit=False),
+    Candidate("input_delay", ("delay",),
+              lambda s: ([0.0], [20.0 * s.period]), lambda s: [[1.0 * s.period], [4.0 * s.period]],
+              lambda m, p: m.replace(delay=p[0])),
+    Candidate("torque_gain_error", ("gain",), lambda s: ([0.2], [5.0]), lambda s: [[1.0]],
+              lambda m, p: m.replace(gain=p[0])),
+    Candidate("actuator_deadzone", ("deadzone",),
+              lambda s: ([0.0], [0.5 * s.command]), lambda s: [[0.05 * s.command]],
+              lambda m, p: m.replace(deadzone=p[0])),
+    Candidate("actuator_lag", ("time_constant",),
+              lambda s: ([0.0], [0.1]), lambda s: [[2.0 * s.period], [0.01]],
+              lambda m, p: m.replace(lag=p[0])),
+    Candidate("actuator_saturation", ("limit",),
+              lambda s: ([0.05 * s.command], [1.0 * s.command]), lambda s: [[0.8 * s.command], [0.4 * s.command]],
+              lambda m, p: m.replace(saturation=p[0])),
+    Candidate("arm_spring", ("stiffness", "equilibrium"),
+              lambda s: ([0.0, -1.0], [5.0 * s.torque, 1.0]), lambda s: [[0.1 * s.torque, 0.0]],
+              lambda m, p: m.replace(spring_stiffness=p[0], spring_equilibrium=p[1])),
+    Candidate("inertia_mismatch", ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale",
+                                   "gravity_scale"),
+              lambda s: ([0.3] * 4, [3.0] * 4), lambda s: [[1.0] * 4],
+              lambda m, p: m.replace(a=m.a * p[0], b=m.b * p[1], c=m.c * p[2], d=m.d * p[3])),
+]}
+
+
+def apply_effects(model: Model, effects: dict[str, np.ndarray]) -> Model:
+    """``model`` with every (effect name -> parameter vector) applied in turn."""
+    for name, params in effects.items():
+        model = CANDIDATES[name].apply(model, np.asarray(params, dtype=float))
+    return model
+
+
+def describe(name: str, params, nominal: Model) -> dict[str, float]:
+    """SI parameters for the report; inertia scales are also given as the lumped constants they produce."""
+    values = {key: float(v) for key, v in zip(CANDIDATES[name].params, params)}
+    if name == "inertia_mismatch":
+        values.update(arm_inertia_total=nominal.a * values["arm_inertia_scale"],
+                      pendulum_inertia_total=nominal.b * values["pendulum_inertia_scale"],
+                      coupling=nominal.c * values["coupling_scale"],
+                      gravity_torque=nominal.d * values["gravity_scale"])
+    return values

@@ -1,0 +1,146 @@
+"""Fit each candidate on the train windows: bounded least squares of the k-step residuals
+(``scipy.optimize.least_squares``, several starts where the cost is multimodal), in parallel over candidates.
+
+The sensor effects are estimated from the data directly, because no trajectory can fit white noise:
+``encoder_quantization`` from the grid the angle increments lie on (the largest k such that every increment is
+a multiple of k counts of the rig's encoder), ``measurement_noise`` from the robust spread of the angles' second
+differences (white noise sigma gives a second difference of std sqrt(6) sigma, quantisation of a smooth motion
+almost none).
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from furuta_drake.diagnosis.candidates import CANDIDATES, Scales, apply_effects
+from furuta_drake.diagnosis.gap import Windows, evaluate_gap, residuals
+from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.surrogate import Model
+
+FIT_WINDOWS = 20  # windows of the train logs used in the least squares (evenly drawn, seeded)
+NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise
+
+
+@dataclass
+class FitResult:
+    name: str  # a candidate, or "a+b" for a pair
+    effects: dict[str, list[float]]  # effect name -> fitted parameters (SI)
+    train_gap: float  # [counts]
+    success: bool
+    message: str
+
+
+def scales_of(logs: list[RunLog], model: Model) -> Scales:
+    command = max(float(np.max(np.abs(log.torque_command))) for log in logs)
+    return Scales(torque=model.d, command=max(command, 1e-9), arm_inertia=model.a, pendulum_inertia=model.b,
+                  period=float(np.median([log.sample_period for log in logs])))
+
+
+def quantization_estimate(logs: list[RunLog], nominal_counts: int) -> float:
+    """Counts per revolution the angle increments support: nominal / k for the largest k <= 64 dividing every
+    non-zero increment (in nominal counts), or the nominal counts when none does."""
+    count = 2 * np.pi / nominal_counts
+    steps = np.concatenate([np.round(np.diff(np.concatenate([log.theta, log.phi])) / count) for log in logs])
+    steps = np.abs(steps[(steps != 0)])
+    if steps.size < 20:
+        return float(nominal_counts)
+    for k in range(64, 1, -1):
+        if np.mean(steps % k == 0) > 0.99:
+            return float(nominal_counts / k)
+    return float(nominal_counts)
+
+
+def noise_estimate(logs: list[RunLog], nominal_counts: int) -> float:
+    """White measurement noise sigma [rad] from the second differences' median absolute deviation; 0 when it
+    is below ``NOISE_FLOOR_COUNTS`` counts."""
+    count = 2 * np.pi / nominal_counts
+    second = np.concatenate([np.diff(angle, 2) / count for log in logs for angle in (log.theta, log.phi)])
+    sigma = 1.4826 * np.median(np.abs(second - np.median(second))) / np.sqrt(6.0)
+    return float(sigma * count) if sigma >= NOISE_FLOOR_COUNTS else 0.0
+
+
+def _joint(names: tuple[str, ...], scales: Scales):
+    lows, highs, sizes = [], [], []
+    for name in names:
+        low, high = CANDIDATES[name].bounds(scales)
+        lows += low
+        highs += high
+        sizes.append(len(low))
+    starts = [[]]
+    for name in names:
+        starts = [s + list(t) for s in starts for t in CANDIDATES[name].starts(scales)]
+    return np.array(lows), np.array(highs), sizes, starts
+
+
+def _split(names, sizes, x) -> dict[str, list[float]]:
+    out, i = {}, 0
+    for name, size in zip(names, sizes):
+        out[name] = [float(v) for v in x[i:i + size]]
+        i += size
+    return out
+
+
+def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: list[RunLog],
+                nominal_counts: int) -> FitResult:
+    """Fit the candidates ``names`` jointly (one name: a single candidate) on ``windows``."""
+    scales = scales_of(logs, model)
+    fixed = {}
+    for name in names:
+        if not CANDIDATES[name].fit:
+            fixed[name] = [quantization_estimate(logs, nominal_counts) if name == "encoder_quantization"
+                           else noise_estimate(logs, nominal_counts)]
+    fitted_names = tuple(n for n in names if CANDIDATES[n].fit)
+    base = apply_effects(model, fixed)
+    subset = windows.subset(FIT_WINDOWS)
+    if not fitted_names:
+        gap = evaluate_gap(base, windows, nominal_counts).gap
+        return FitResult("+".join(names), fixed, gap, True, "estimated from the data")
+    low, high, sizes, starts = _joint(fitted_names, scales)
+    span = high - low
+
+    def cost(x):
+        r = residuals(apply_effects(base, _split(fitted_names, sizes, x)), subset, nominal_counts)
+        flat = np.concatenate([v[1:].ravel() for v in r])
+        return np.nan_to_num(flat, nan=1e6, posinf=1e6, neginf=-1e6)
+
+    best = None
+    for start in starts:
+        x0 = np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span)
+        result = least_squares(cost, x0, bounds=(low, high), x_scale=np.maximum(span, 1e-12) / 10.0,
+                               diff_step=1e-3, max_nfev=20, method="trf")
+        if best is None or result.cost < best[0]:
+            best = (result.cost, result.x, bool(result.success), result.message)
+    _, x, success, message = best
+    effects = {**fixed, **_split(fitted_names, sizes, x)}
+    gap = evaluate_gap(apply_effects(model, effects), windows, nominal_counts).gap
+    return FitResult("+".join(names), effects, gap, success, str(message))
+
+
+def _fit_task(args):
+    return fit_effects(*args)
+
+
+def fit_all(groups: list[tuple[str, ...]], model: Model, windows: Windows, logs: list[RunLog],
+            nominal_counts: int, workers: int | None = None, progress=None) -> dict[str, FitResult]:
+    """Fit every group of candidates (a 1-tuple for a single effect) in parallel processes."""
+    workers = workers or os.cpu_count() or 1
+    tasks = [(group, model, windows, logs, nominal_counts) for group in groups]
+    results = {}
+    if workers == 1:
+        for task in tasks:
+            result = _fit_task(task)
+            results[result.name] = result
+            if progress is not None:
+                progress(result.name)
+        return results
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for result in pool.map(_fit_task, tasks):
+            results[result.name] = result
+            if progress is not None:
+                progress(result.name)
+    return results

@@ -1,0 +1,128 @@
+"""``furuta-drake diagnose``: load -> windows and gap -> fit candidates -> select -> replay in Drake ->
+localise -> report (spec/diagnosis-interface.md)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from furuta_drake.config import SimulationConfig
+from furuta_drake.diagnosis.candidates import CANDIDATES, apply_effects, describe
+from furuta_drake.diagnosis.fit import fit_all
+from furuta_drake.diagnosis.gap import (
+    evaluate_gap, gap_metric_definition, horizon_seconds, make_windows, window_residuals,
+)
+from furuta_drake.diagnosis.localize import localize
+from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
+from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gap
+from furuta_drake.diagnosis.report import effect_curve, input_record, write_report
+from furuta_drake.diagnosis.select import THRESHOLD_NOTE, decide
+from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.friction import FrictionParameters
+
+HOLDOUT_FRACTION = 0.3
+PAIR_CANDIDATES = 3
+
+
+def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
+    """Without --heldout: the last 30 % of every log is held out, the first 70 % trains."""
+    train, heldout = [], []
+    for log in logs:
+        cut = int(log.time.size * (1.0 - HOLDOUT_FRACTION))
+        for part, sl in ((train, slice(None, cut)), (heldout, slice(cut, None))):
+            part.append(dataclasses.replace(log, time=log.time[sl], theta=log.theta[sl], phi=log.phi[sl],
+                                            input=log.input[sl]))
+    return train, heldout, (f"no --heldout logs: the last {HOLDOUT_FRACTION:.0%} of every train log was held out "
+                            f"and never used for fitting")
+
+
+def fitted_config(rig, model: Model) -> SimulationConfig:
+    """The corrected Drake model as a simulate config (open loop: users add their controller)."""
+    config = SimulationConfig.from_rig(model_rig(model, rig).replace(motor=rig.motor))
+    return dataclasses.replace(
+        config,
+        friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
+        actuator=dataclasses.replace(model_actuator(model), delay=model.delay),
+        disturbance=dataclasses.replace(config.disturbance, arm_spring_stiffness=model.spring_stiffness,
+                                        arm_spring_equilibrium=model.spring_equilibrium),
+        encoder=dataclasses.replace(config.encoder, counts_per_rev=model.counts_per_rev,
+                                    noise_std=model.noise_std))
+
+
+def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, workers=None, progress=None,
+                  echo=print) -> dict:
+    """Diagnose the gap between the rig file's nominal model and the logs; write the report to ``out``."""
+    rig = load_rig(rig_path)
+    logs = load_logs(train_paths, rig, rig_path)
+    heldout_logs = load_logs(heldout_paths, rig, rig_path) if heldout_paths else []
+    note = ignored_columns_note(logs + heldout_logs)
+    if note:
+        echo(note)
+    if heldout_logs:
+        holdout_note = "held-out logs: " + ", ".join(log.name for log in heldout_logs)
+    else:
+        logs, heldout_logs, holdout_note = split_heldout(logs)
+    train_windows, heldout_windows = make_windows(logs, rig), make_windows(heldout_logs, rig)
+    counts = rig.counts_per_rev
+    nominal = Model.from_rig(rig)
+
+    singles = [(name,) for name in CANDIDATES]
+    fits = fit_all(singles, nominal, train_windows, logs, counts, workers=workers, progress=progress)
+    heldout = {name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
+               for name, fit in fits.items()}
+    nominal_heldout = evaluate_gap(nominal, heldout_windows, counts)
+    order = sorted(heldout, key=lambda name: heldout[name].gap)[:PAIR_CANDIDATES]
+    pairs = [(a, b) for i, a in enumerate(order) for b in order[i + 1:]]
+    pair_fits = fit_all(pairs, nominal, train_windows, logs, counts, workers=workers, progress=progress)
+    fits.update(pair_fits)
+    heldout.update({name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
+                    for name, fit in pair_fits.items()})
+    decision = decide(nominal_heldout.per_window, {name: g.per_window for name, g in heldout.items()})
+
+    accepted = apply_effects(nominal, fits[decision.accepted].effects) if decision.accepted else nominal
+    # The headline held-out figures come from Drake diagrams of the project's systems.
+    drake_nominal = replay_gap(nominal, rig, heldout_windows, nominal_heldout.initial_states)
+    drake_accepted = (replay_gap(accepted, rig, heldout_windows, heldout[decision.accepted].initial_states)
+                      if decision.accepted else drake_nominal)
+    train_nominal = evaluate_gap(nominal, train_windows, counts).gap
+    train_accepted = fits[decision.accepted].train_gap if decision.accepted else train_nominal
+    reduction = 1.0 - drake_accepted.gap / drake_nominal.gap if drake_nominal.gap > 0 else 0.0
+
+    ranking = []
+    for row in decision.ranking:
+        fit = fits[row["name"]]
+        params = {}
+        for name, values in fit.effects.items():
+            prefix = f"{name}." if "+" in row["name"] else ""
+            params.update({prefix + k: v for k, v in describe(name, values, nominal).items()})
+        ranking.append({"effect": row["name"], "params": params, "heldout_gap": row["heldout_gap"],
+                        "heldout_reduction": row["heldout_reduction"], "evidence": row["evidence"],
+                        "train_gap": fit.train_gap, "evaluated_by": "surrogate"})
+    before = window_residuals(drake_nominal, nominal, heldout_windows, rig)
+    after = window_residuals(drake_accepted, accepted, heldout_windows, rig) if decision.accepted else None
+    report = {
+        "verdict": decision.verdict,
+        "effects": decision.effects,
+        "gap": {"metric": gap_metric_definition(horizon_seconds(rig)),
+                "nominal": {"train": train_nominal, "heldout": drake_nominal.gap},
+                "with_effects": {"train": train_accepted, "heldout": drake_accepted.gap},
+                "heldout_reduction": reduction,
+                "per_signal_nominal_heldout": drake_nominal.per_signal,
+                "evaluated_by": "drake replay of the held-out windows"},
+        "ranking": ranking,
+        "localization": localize(before, after, noise_variance=drake_nominal.sensor_variance,
+                                 noise_variance_after=drake_accepted.sensor_variance),
+    }
+    curves = [effect_curve(name, describe(name, values, nominal), rig)
+              for name, values in (fits[decision.accepted].effects.items() if decision.accepted else [])]
+    record = input_record(rig_path=rig_path, train=train_paths, heldout=heldout_paths,
+                          seeds={"bootstrap": 0, "fit_windows": 0},
+                          options={"workers": workers, "holdout": holdout_note})
+    write_report(out, report, before=before, after=after, curves=curves,
+                 fitted_config=fitted_config(rig, accepted), config_record=record,
+                 threshold_note=THRESHOLD_NOTE, holdout_note=holdout_note,
+                 noise_variance=drake_nominal.sensor_variance, force=force,
+                 protect=[Path(rig_path), *map(Path, train_paths), *map(Path, heldout_paths)])
+    return report

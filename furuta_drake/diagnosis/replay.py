@@ -1,0 +1,123 @@
+"""Held-out figures from Drake: the windows replayed through a diagram of the project's own systems.
+
+The diagram is the MultibodyPlant of the model's rig, :class:`~furuta_drake.friction.JointFriction` with the
+model's friction, the back-EMF and spring torques, and :func:`~furuta_drake.actuator.add_actuator` (lag, dead
+zone, gain, saturation) fed by the logged command as a zero-order-hold ``TrajectorySource``; a pure input
+delay of an open-loop replay is exactly a time shift of that source. Each window starts from the initial state
+the surrogate refined for this model and is integrated by Drake's error-controlled RK3; the residuals give the
+same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Adder, AffineSystem, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+
+from furuta_drake.actuator import ActuatorParameters, add_actuator
+from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
+from furuta_drake.diagnosis.surrogate import Model, sensor_variance
+from furuta_drake.friction import FrictionParameters, JointFriction
+from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
+from furuta_drake.rig import RigParameters
+
+
+def model_rig(model: Model, rig: RigParameters) -> RigParameters:
+    """A rigid body with the model's lumped constants a = J_arm + m r^2, b = J_p + m l^2, c = m l r, d = m g l
+    (gravity kept): m l = d / g, r = c g / d, the pendulum mass kept where the inertias allow it."""
+    ml = model.d / rig.gravity
+    r = model.c / ml
+    mass = float(np.clip(rig.pendulum_mass, 1.0001 * ml**2 / model.b, 0.9999 * model.a / r**2))
+    com = ml / mass
+    return dataclasses.replace(
+        rig, arm_length=r, pendulum_mass=mass, pendulum_com=com, pendulum_inertia=model.b - mass * com**2,
+        arm_inertia=model.a - mass * r**2, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
+        pendulum_viscous=0.0, motor=None)
+
+
+def model_actuator(model: Model) -> ActuatorParameters:
+    """The actuator blocks of the model other than the delay (a time shift of the replayed command)."""
+    return ActuatorParameters(gain=model.gain, deadzone=model.deadzone,
+                              saturation=None if not np.isfinite(model.saturation) else model.saturation,
+                              delay=0.0, lag_time_constant=model.lag)
+
+
+class WindowReplayer:
+    """One Drake diagram for a model and a log; :meth:`replay` integrates one window from a state."""
+
+    def __init__(self, model: Model, rig: RigParameters, time: np.ndarray, command: np.ndarray):
+        builder = DiagramBuilder()
+        plant, _ = add_furuta_plant(builder, model_rig(model, rig), time_step=0.0, with_scene_graph=False)
+        self.plant = plant
+        self.P = plant_to_paper_permutation(plant)
+        friction = builder.AddSystem(JointFriction(plant, FrictionParameters(
+            arm=model.arm_friction, pendulum=model.pendulum_friction)))
+        builder.Connect(plant.get_state_output_port(), friction.get_input_port())
+        # Back-EMF damping and the arm spring: tau_phi = -k_emf phi_dot - k (phi - phi_0), one affine block.
+        arm = np.zeros((plant.num_velocities(), 1))
+        arm[plant.GetJointByName("arm").velocity_start(), 0] = 1.0
+        gains = np.zeros((1, 4))
+        gains[0, 1], gains[0, 3] = -model.spring_stiffness, -model.back_emf_damping
+        linear = builder.AddSystem(AffineSystem(
+            np.zeros((0, 0)), np.zeros((0, self.P.shape[1])), np.zeros(0), np.zeros((0, 0)),
+            arm @ gains @ self.P, (arm * model.spring_stiffness * model.spring_equilibrium).ravel()))
+        builder.Connect(plant.get_state_output_port(), linear.get_input_port())
+        forces = builder.AddSystem(Adder(2, plant.num_velocities()))
+        builder.Connect(friction.GetOutputPort("generalized_force_Nm"), forces.get_input_port(0))
+        builder.Connect(linear.get_output_port(), forces.get_input_port(1))
+        builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
+        period = float(np.median(np.diff(time)))
+        breaks = np.append(time, time[-1] + period) + model.delay
+        source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
+            breaks, np.append(command, command[-1]).reshape(1, -1))))
+        actuator_in, actuator_out = add_actuator(builder, model_actuator(model), delay_resolution=period)
+        builder.Connect(source.get_output_port(), actuator_in)
+        builder.Connect(actuator_out, plant.get_actuation_input_port())
+        self.diagram = builder.Build()
+        self.simulator = Simulator(self.diagram)
+        self.simulator.get_mutable_integrator().set_target_accuracy(1e-4)
+        self.context = self.simulator.get_mutable_context()
+        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        self.default_context = self.context.Clone()
+        self.lag = model.lag > 0
+
+    def replay(self, start_time: float, x0: np.ndarray, command_at_start: float, times: np.ndarray) -> np.ndarray:
+        """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (lag filter at the command)."""
+        self.context.SetTimeStateAndParametersFrom(self.default_context)
+        self.context.SetTime(start_time)
+        if self.lag:
+            self.context.get_mutable_continuous_state_vector().SetFromVector(
+                self._with_lag_state(command_at_start))
+        self.plant.SetPositionsAndVelocities(self.plant_context, self.P.T @ x0)
+        self.simulator.Initialize()
+        out = np.empty((times.size, 2))
+        out[0] = x0[:2]
+        for k, t in enumerate(times[1:], start=1):
+            self.simulator.AdvanceTo(t)
+            out[k] = (self.P @ self.plant.GetPositionsAndVelocities(self.plant_context))[:2]
+        return out
+
+    def _with_lag_state(self, value: float) -> np.ndarray:
+        state = self.context.get_continuous_state_vector().CopyToVector()
+        # The lag filter's state is the last continuous entry (plant states and bristles come first).
+        state[-1] = value
+        return state
+
+
+def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray]) -> GapResult:
+    """The gap of ``model`` on ``windows`` from Drake replays started at ``initial_states`` (per log, 4 x W)."""
+    count = 2 * np.pi / rig.counts_per_rev
+    out = []
+    for log, starts, x0, measured in zip(windows.logs, windows.starts, initial_states, windows.measured):
+        replayer = WindowReplayer(model, rig, log.time, log.torque_command)
+        r = np.empty_like(measured)
+        for w, start in enumerate(starts):
+            times = log.time[start:start + windows.horizon]
+            predicted = replayer.replay(log.time[start], x0[:, w], log.torque_command[start], times)
+            r[:, :, w] = (measured[:, :, w] - predicted) / count
+        out.append(r)
+    return gap_from_residuals(out, sensor_variance(model, rig.counts_per_rev), initial_states)

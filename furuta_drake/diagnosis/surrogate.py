@@ -1,0 +1,132 @@
+"""Fast batch surrogate of the Furuta pendulum with the vocabulary's effects, for fitting candidates.
+
+Many short windows are integrated at once (numpy arrays over windows, fixed-step RK4 with substeps). The rigid
+body is the full nonlinear Furuta model in the four lumped constants a = J_arm + m r^2, b = J_p + m l^2,
+c = m l r, d = m g l (q = [theta, phi], theta = 0 upright):
+
+    [b, c cos(theta)] [theta'']   [ d sin(theta) + b sin(theta) cos(theta) phi'^2                    + tau_theta ]
+    [c cos(theta), a + b sin^2(theta)] [phi''] = [ c sin(theta) theta'^2 - 2 b sin(theta) cos(theta) theta' phi' + tau_phi ]
+
+(a test checks it against Drake's MultibodyPlant). Friction uses the laws of :mod:`furuta_drake.friction`
+(static model with a regularisation velocity of ``REGULARIZATION_VELOCITY``, the same in the Drake replay).
+The held-out figures of a report come from the Drake diagram (:mod:`furuta_drake.diagnosis.replay`), not
+from here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from furuta_drake.friction import JointFrictionParameters, static_friction_torque
+from furuta_drake.rig import RigParameters
+
+REGULARIZATION_VELOCITY = 0.02  # [rad/s] smooth sign(v) for the static friction laws of the diagnosis models
+
+
+@dataclass(frozen=True)
+class Model:
+    """The nominal rig plus effect parameters, all in SI units (see the effect vocabulary)."""
+
+    a: float
+    b: float
+    c: float
+    d: float
+    arm_friction: JointFrictionParameters
+    pendulum_friction: JointFrictionParameters
+    back_emf_damping: float = 0.0  # kt ke / R [N m s/rad]
+    gain: float = 1.0
+    deadzone: float = 0.0  # [N m]
+    saturation: float = np.inf  # [N m]
+    delay: float = 0.0  # [s]
+    lag: float = 0.0  # [s]
+    spring_stiffness: float = 0.0  # [N m/rad]
+    spring_equilibrium: float = 0.0  # [rad]
+    counts_per_rev: int = 4096
+    noise_std: float = 0.0  # [rad]
+
+    @classmethod
+    def from_rig(cls, rig: RigParameters) -> "Model":
+        def joint(coulomb, viscous):
+            return JointFrictionParameters(model="static", coulomb_pos=coulomb, coulomb_neg=coulomb,
+                                           viscous=viscous, regularization_velocity=REGULARIZATION_VELOCITY)
+
+        return cls(a=rig.arm_inertia_total, b=rig.pendulum_inertia_total, c=rig.coupling, d=rig.gravity_torque,
+                   arm_friction=joint(rig.arm_coulomb, rig.arm_viscous),
+                   pendulum_friction=joint(rig.pendulum_coulomb, rig.pendulum_viscous),
+                   back_emf_damping=0.0 if rig.motor is None else rig.motor.back_emf_damping,
+                   counts_per_rev=rig.counts_per_rev)
+
+    def replace(self, **changes) -> "Model":
+        return dataclasses.replace(self, **changes)
+
+
+def sensor_variance(model: Model, nominal_counts: int) -> float:
+    """Expected variance [counts^2 of the nominal encoder] of a measured angle about the true one: the
+    model's quantisation step^2 / 12 plus its white noise."""
+    count = 2 * np.pi / nominal_counts
+    step = 2 * np.pi / model.counts_per_rev
+    return (step / count) ** 2 / 12.0 + (model.noise_std / count) ** 2
+
+
+def applied_torque(model: Model, command: np.ndarray) -> np.ndarray:
+    """The actuator's static map after delay and lag: dead zone (u - sat(u)), gain, saturation."""
+    u = command - np.clip(command, -model.deadzone, model.deadzone)
+    return np.clip(model.gain * u, -model.saturation, model.saturation)
+
+
+def _accelerations(model: Model, x: np.ndarray, tau_arm: np.ndarray) -> np.ndarray:
+    theta, phi, theta_dot, phi_dot = x
+    s, c_ = np.sin(theta), np.cos(theta)
+    tau_theta = static_friction_torque(theta_dot, model.pendulum_friction)
+    tau_phi = (tau_arm + static_friction_torque(phi_dot, model.arm_friction) - model.back_emf_damping * phi_dot
+               - model.spring_stiffness * (phi - model.spring_equilibrium))
+    m11, m12, m22 = model.b, model.c * c_, model.a + model.b * s * s
+    r1 = model.d * s + model.b * s * c_ * phi_dot**2 + tau_theta
+    r2 = model.c * s * theta_dot**2 - 2.0 * model.b * s * c_ * theta_dot * phi_dot + tau_phi
+    det = m11 * m22 - m12 * m12
+    return np.array([theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det])
+
+
+def _delayed_command(command, starts, t, dt, period, delay):
+    """The held command delayed by ``delay``, averaged over [t, t + dt) (relative to each window's start):
+    a fractional delay moves the switch inside the step, so the step sees the time-weighted mix."""
+    position = (t - delay) / period + 1e-9
+    first = np.floor(position).astype(int)
+    switch = (first + 1) * period + delay  # time the next held value starts
+    late = np.clip((t + dt - switch) / dt, 0.0, 1.0)
+    last = command.size - 1
+    current = command[np.clip(starts + first, 0, last)]
+    following = command[np.clip(starts + first + 1, 0, last)]
+    return (1.0 - late) * current + late * following
+
+
+def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: np.ndarray, horizon: int,
+                    period: float, substeps: int) -> np.ndarray:
+    """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
+
+    ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period);
+    ``starts``: (W,) sample index of each window. Returns (horizon, 2, W); row k is the prediction at
+    start + k (row 0 is the initial angle).
+    """
+    dt = period / substeps
+    x = np.array(x0, dtype=float)
+    lag_state = command[starts].astype(float)
+    out = np.empty((horizon, 2, x.shape[1]))
+    out[0] = x[:2]
+    for k in range(1, horizon):
+        for j in range(substeps):
+            u = _delayed_command(command, starts, (k - 1) * period + j * dt, dt, period, model.delay)
+            if model.lag > 0:
+                lag_state = u + (lag_state - u) * np.exp(-dt / model.lag)
+                u = lag_state
+            tau = applied_torque(model, u)
+            k1 = _accelerations(model, x, tau)
+            k2 = _accelerations(model, x + 0.5 * dt * k1, tau)
+            k3 = _accelerations(model, x + 0.5 * dt * k2, tau)
+            k4 = _accelerations(model, x + dt * k3, tau)
+            x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        out[k] = x[:2]
+    return out
