@@ -1,0 +1,140 @@
+"""The diagnosis engine: the surrogate against Drake, the gap metric on logs whose answer is known, the
+decision rule on per-window evidence."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from furuta_drake.config import SimulationConfig
+from furuta_drake.diagnosis.candidates import CANDIDATES, apply_effects
+from furuta_drake.diagnosis.fit import fit_effects, noise_estimate, quantization_estimate
+from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
+from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.replay import model_rig, replay_gap
+from furuta_drake.diagnosis.select import decide
+from furuta_drake.diagnosis.surrogate import Model, _accelerations
+from furuta_drake.diagnosis.suite import run_configs, with_effect
+from furuta_drake.plant import joint_indices, make_furuta_plant
+from furuta_drake.rig import RIGS
+from furuta_drake.simulate import simulate
+
+
+@pytest.mark.parametrize("name", sorted(RIGS))
+def test_surrogate_dynamics_equal_the_multibody_plant(name):
+    rig = RIGS[name]().replace(motor=None)
+    plant = make_furuta_plant(rig)
+    context = plant.CreateDefaultContext()
+    theta, phi = joint_indices(plant)
+    model = Model.from_rig(rig)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        x = rng.uniform(-3, 3, 4)
+        tau = rng.uniform(-0.05, 0.05)
+        q, v = np.zeros(2), np.zeros(2)
+        q[theta], q[phi], v[theta], v[phi] = x
+        plant.SetPositions(context, q)
+        plant.SetVelocities(context, v)
+        plant.get_actuation_input_port().FixValue(context, [tau])
+        plant.get_applied_generalized_force_input_port().FixValue(context, np.zeros(2))
+        xdot = plant.EvalTimeDerivatives(context).CopyToVector()
+        accel = _accelerations(model, x, np.array(tau))
+        np.testing.assert_allclose([accel[2], accel[3]], [xdot[2 + theta], xdot[2 + phi]], rtol=1e-7, atol=1e-9)
+
+
+def test_model_rig_reproduces_the_lumped_constants():
+    rig = RIGS["lund"]()
+    model = Model.from_rig(rig).replace(a=0.004, b=0.0035, c=0.0026, d=0.09)
+    back = Model.from_rig(model_rig(model, rig))
+    np.testing.assert_allclose([back.a, back.b, back.c, back.d], [0.004, 0.0035, 0.0026, 0.09], rtol=1e-12)
+
+
+def hanging_log(seed: int, effect: str | None = None, level: int = 2, duration: float = 3.0) -> RunLog:
+    """A Lund hanging run under an open-loop multisine, simulated in Drake, as a diagnosis log."""
+    rig = RIGS["lund"]()
+    config = run_configs(rig, seed, duration)["hanging"]
+    if effect is not None:
+        config = with_effect(config, effect, level)
+    result = simulate(config)
+    return RunLog(name=f"hanging_{seed}.csv", path="", time=result.time, theta=result.measured[:, 0],
+                  phi=result.measured[:, 1], input_kind="torque", input=result.torque, sample_period=1e-3)
+
+
+@pytest.fixture(scope="module")
+def clean_logs():
+    return [hanging_log(1), hanging_log(2)]
+
+
+def test_exact_model_sits_at_the_sensor_floor_and_drake_agrees(clean_logs):
+    rig = RIGS["lund"]()
+    windows = make_windows(clean_logs, rig)
+    surrogate = evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev)
+    assert surrogate.gap < 0.25  # counts: the residual is the encoder's own rounding
+    drake = replay_gap(Model.from_rig(rig), rig, windows, surrogate.initial_states)
+    assert abs(drake.gap - surrogate.gap) < 0.1
+
+
+def test_a_hidden_delay_is_fitted_and_the_gap_closes():
+    """A 4.5-period input delay hidden in a Drake simulation: the fit finds it and the gap shrinks."""
+    rig = RIGS["lund"]()
+    train = [hanging_log(3, "input_delay")]
+    windows = make_windows(train, rig)
+    nominal = evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev)
+    fit = fit_effects(("input_delay",), Model.from_rig(rig), windows, train, rig.counts_per_rev)
+    assert fit.effects["input_delay"][0] == pytest.approx(4.5e-3, abs=0.5e-3)
+    assert fit.train_gap < 0.5 * nominal.gap
+
+
+def test_sensor_effects_are_read_from_the_data(clean_logs):
+    rig = RIGS["lund"]()
+    assert quantization_estimate(clean_logs, rig.counts_per_rev) == rig.counts_per_rev
+    assert noise_estimate(clean_logs, rig.counts_per_rev) == 0.0
+    coarse = [hanging_log(4, "encoder_quantization", level=1)]
+    assert quantization_estimate(coarse, rig.counts_per_rev) == rig.counts_per_rev / 4
+    noisy = [hanging_log(5, "measurement_noise", level=2)]
+    sigma = 3.0 * 2 * np.pi / rig.counts_per_rev  # the suite's level-2 noise: 3 counts
+    assert noise_estimate(noisy, rig.counts_per_rev) == pytest.approx(sigma, rel=0.25)
+
+
+def test_decide_none_at_the_floor_effect_when_supported_unexplained_otherwise():
+    rng = np.random.default_rng(0)
+    floor = rng.normal(0.0, 0.01, 60)
+    assert decide(floor, {"arm_spring": floor * 0.5}).verdict == "none"
+    nominal = 4.0 + rng.normal(0.0, 0.5, 60)
+    closed = {"input_delay": 0.05 * nominal, "actuator_lag": 0.2 * nominal, "arm_spring": 0.95 * nominal}
+    decision = decide(nominal, closed)
+    assert decision.verdict == "input_delay" and decision.effects == ["input_delay"]
+    assert decide(nominal, {"arm_spring": 0.9 * nominal}).verdict == "unexplained"
+
+
+def test_decide_prefers_the_simpler_of_two_equal_explanations():
+    nominal = np.full(40, 9.0) + np.random.default_rng(1).normal(0, 0.2, 40)
+    decision = decide(nominal, {"arm_stribeck": 0.04 * nominal, "arm_coulomb_friction": 0.05 * nominal})
+    assert decision.verdict == "arm_coulomb_friction"
+
+
+def test_every_vocabulary_effect_is_a_candidate():
+    from furuta_drake.diagnosis.suite import VOCABULARY
+    assert set(CANDIDATES) == set(VOCABULARY)
+    model = Model.from_rig(RIGS["qube_servo2"]())
+    for name, candidate in CANDIDATES.items():
+        low, high = candidate.bounds(_scales(model))
+        changed = apply_effects(model, {name: [0.5 * (lo + hi) for lo, hi in zip(low, high)]})
+        assert changed != model, name
+
+
+def _scales(model):
+    from furuta_drake.diagnosis.candidates import Scales
+    return Scales(torque=model.d, command=0.05, arm_inertia=model.a, pendulum_inertia=model.b, period=2e-3)
+
+
+def test_fitted_model_is_a_simulate_config_that_runs():
+    from furuta_drake.diagnosis.pipeline import fitted_config
+    rig = RIGS["lund"]()
+    model = apply_effects(Model.from_rig(rig), {"arm_coulomb_friction": [0.01], "input_delay": [0.003]})
+    config = fitted_config(rig, model)
+    config.validate()
+    config = dataclasses.replace(config, duration=0.5)
+    result = simulate(config)
+    assert np.max(np.abs(result.state[:, 0])) < 0.2
+    assert isinstance(config, SimulationConfig)
