@@ -83,3 +83,20 @@ def separation_error(closed_loop: np.ndarray, controller: np.ndarray, observer: 
     cost = np.abs(closed_loop[:, None] - union[None, :])
     rows, cols = linear_sum_assignment(cost)
     return float(cost[rows, cols].max())
+
+
+def observer_for_analysis(kind: str, A: np.ndarray, B_F: np.ndarray, params) -> tuple[LinearSystem, np.ndarray]:
+    """The continuous observer ``kind`` ('hg' or 'vfe') as a LinearSystem with input [y (2); u] and output
+    x_hat (the VFE's friction input held at zero, its eps_hat_F output dropped), and its error eigenvalues:
+    eig(A - H C) for HG (Eq. 4), eig(G) for VFE (Eq. 12)."""
+    from furuta_drake.observers.hg import continuous_high_gain_observer, high_gain_error_matrix
+    from furuta_drake.observers.vfe import continuous_vfe_observer, vfe_error_matrix, vfe_gains
+
+    if kind == "hg":
+        return continuous_high_gain_observer(A, B_F, params), np.linalg.eigvals(high_gain_error_matrix(A, params))
+    if kind == "vfe":
+        full = continuous_vfe_observer(A, B_F, params)
+        reduced = LinearSystem(full.A(), full.B()[:, :3], full.C()[:4], full.D()[:4, :3])
+        G = vfe_error_matrix(A, B_F, vfe_gains(A, B_F, params.eigenvalues))
+        return reduced, np.linalg.eigvals(G)
+    raise ValueError(f"unknown observer {kind!r}: 'hg' or 'vfe'")
