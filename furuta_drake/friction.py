@@ -16,8 +16,8 @@ Models per joint (``JointFrictionParameters.model``), levels per direction of mo
 - ``lugre``: dz/dt = v - sigma0 |v| z / g(v), F = -(sigma0 z + sigma1 dz/dt + sigma2 v), sigma2 = ``viscous``.
 
 Dahl is passive: with the bristle energy sigma0 z^2 / 2, d/dt (E + sigma0 z^2 / 2) = -sigma0^2 |v| z^2 / Fc
-- b v^2 <= 0. LuGre is passive with that storage while |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2 (Barabanov
-and Ortega 2000 discuss the general condition).
+- b v^2 <= 0. For LuGre the same storage is non-increasing whenever |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2
+(a sufficient condition; Barabanov and Ortega 2000, the paper's [5], give the necessary and sufficient one).
 
 The bristle state is stiff (rate sigma0 |v| / Fc up to 1e4 1/s, NOTES.md): :func:`dahl_exact_step` is its
 exact step at frozen velocity, stable at any step size, for discrete-time users (the friction observers).
