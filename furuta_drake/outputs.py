@@ -31,6 +31,11 @@ def prepare_output_dir(out: str | Path, force: bool = False, protect: Iterable[s
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
+    for parent in out.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ConfigError(f"{out}: cannot create it, {parent} is not a directory")
+            break
     if out.is_dir() and any(out.iterdir()):
         if not force:
             raise ConfigError(f"{out}: directory is not empty; pass --force to replace it")
