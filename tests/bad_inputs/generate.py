@@ -64,7 +64,6 @@ def synthetic_logs() -> None:
     write_rows("log_missing_theta.csv", ["time", "phi", "torque"], [[r[0], r[2], r[3]] for r in rows])
     write_rows("log_no_input.csv", ["time", "theta", "phi", "current"], rows)
     write_rows("log_torque_and_voltage.csv", header + ["voltage"], [r + ["0.5"] for r in rows])
-    write_rows("log_semicolons.csv", [";".join(header)], [[";".join(r)] for r in rows])
 
     def edited(row: int, column: int, value: str) -> list[list[str]]:
         out = [list(r) for r in rows]
@@ -115,8 +114,6 @@ def rigs() -> None:
         "rig_zero_sample_period.yaml": ("sample_period: 0.001", "sample_period: 0"),
         "rig_zero_counts.yaml": ("counts_per_rev: 4096", "counts_per_rev: 0"),
         "rig_wrong_type.yaml": ("arm_length: 0.25", "arm_length: 25 cm"),
-        "rig_motor_typo.yaml": ("torque_limit: 0.2", "torque_limit: 0.2\nmotor: {resistance: 8.4, "
-                                                     "torque_const: 0.042, backemf_constant: 0.042}"),
     }
     for name, (old, new) in edits.items():
         assert old in LUND_RIG, old
