@@ -20,3 +20,19 @@ class SimulationDiverged(FurutaError, RuntimeError):
         super().__init__(message)
         self.time = time
         self.cause = cause
+
+
+def read_input_text(path, expected: str, error: type[FurutaError]) -> str:
+    """The text of an input file; ``error`` naming the file when it is a directory, missing or unreadable.
+    ``expected`` says what it should be (e.g. "a YAML file")."""
+    from pathlib import Path
+
+    path = Path(path)
+    if path.is_dir():
+        raise error(f"{path}: is a directory, expected {expected}")
+    try:
+        return path.read_text()
+    except FileNotFoundError:
+        raise error(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise error(f"{path}: cannot read ({err})") from None

@@ -16,20 +16,12 @@ from pathlib import Path
 
 import yaml
 
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, read_input_text
 
 
 def load_yaml_dataclass(path: str | Path, schema: type, validate: bool = True):
     """Load ``path`` into an instance of the dataclass ``schema``; raise ConfigError naming file:line:key."""
-    path = Path(path)
-    if path.is_dir():
-        raise ConfigError(f"{path}: is a directory, expected a YAML file")
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"{path}: cannot read ({err})") from None
+    text = read_input_text(path, "a YAML file", ConfigError)
     return loads_yaml_dataclass(text, schema, source=str(path), validate=validate)
 
 

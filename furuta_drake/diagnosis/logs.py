@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import savgol_filter
 
-from furuta_drake.errors import LogError
+from furuta_drake.errors import LogError, read_input_text
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import load_yaml_dataclass
 
@@ -262,15 +262,7 @@ class _Where:
 
 
 def _read_lines(path: Path) -> list[str]:
-    if path.is_dir():
-        raise LogError(f"{path}: is a directory, expected a CSV log")
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise LogError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise LogError(f"{path}: cannot read ({err})") from None
-    lines = text.splitlines()
+    lines = read_input_text(path, "a CSV log", LogError).splitlines()
     while lines and not lines[-1].strip():
         lines.pop()
     if not lines:
