@@ -159,13 +159,15 @@ def evaluate_gap(model: Model, windows: Windows, nominal_counts: int) -> GapResu
     return gap_from_residuals(r, sensor_variance(model, nominal_counts), states)
 
 
-def window_residuals(result: GapResult, model: Model, windows: Windows, rig: RigParameters) -> list[WindowResiduals]:
-    """The residuals as :class:`WindowResiduals` for the localisation and the plots."""
+def window_residuals(result: GapResult, windows: Windows, rig: RigParameters) -> list[WindowResiduals]:
+    """The residuals as :class:`WindowResiduals` for the localisation and the plots; the states are the
+    measured angles and their smoothed derivatives (the regimes are read from them)."""
     out = []
     for log, starts, r in zip(windows.logs, windows.starts, result.residuals):
-        period = windows.period
         command = log.torque_command
-        velocity = np.gradient(np.vstack([log.theta, log.phi]), period, axis=1)
+        smooth = max(5, int(round(SMOOTHING_S / log.sample_period)) | 1)
+        velocity = savgol_filter(np.vstack([log.theta, log.phi]), smooth, 3, deriv=1, delta=log.sample_period,
+                                 axis=1)
         for w, start in enumerate(starts):
             index = start + np.arange(windows.horizon)
             state = np.vstack([log.theta[index], log.phi[index], velocity[:, index]]).T
