@@ -52,7 +52,7 @@ from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.outputs import atomic_output_dir, prepare_output_dir
 from furuta_drake.results import config_yaml_with_provenance, summary
 from furuta_drake.simulate import simulate
-from furuta_drake.yamlio import _convert, dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass, to_plain
+from furuta_drake.yamlio import convert_node, dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass, to_plain
 
 VELOCITY_MSE = "velocity_mse"
 METRICS = (VELOCITY_MSE, "mean_theta_sq_rad2", "std_theta_sq_rad2", "mean_phi_sq_rad2", "std_phi_sq_rad2",
@@ -254,7 +254,7 @@ def _typed_values(base: SimulationConfig, path: str, key_node, values_node, sour
     where = f"{_at(source, key_node)} parameters.{path}:"
     segments = _segments(path, where)
     tp = _leaf_type(segments, where)
-    values = [_convert(node, tp, source, f"parameters.{path}[{i}]") for i, node in enumerate(values_node.value)]
+    values = [convert_node(node, tp, source, f"parameters.{path}[{i}]") for i, node in enumerate(values_node.value)]
     try:
         _set(base, segments, values[0])
     except ConfigError as err:

@@ -35,7 +35,7 @@ def loads_yaml_dataclass(text: str, schema: type, source: str = "<string>", vali
         raise ConfigError(f"{source}{line}: not valid YAML ({getattr(err, 'problem', err)})") from None
     if node is None:
         raise ConfigError(f"{source}: empty YAML file, expected a mapping of {schema.__name__} fields")
-    obj = _convert(node, schema, source, key_path="")
+    obj = convert_node(node, schema, source, key_path="")
     if validate and hasattr(obj, "validate"):
         try:
             obj.validate()
@@ -68,7 +68,9 @@ def _where(source: str, node, key_path: str) -> str:
     return f"{source}:{line}:{key}" if line is not None else f"{source}:{key}"
 
 
-def _convert(node, tp, source: str, key_path: str):
+def convert_node(node, tp, source: str, key_path: str):
+    """A composed YAML node as type ``tp`` (a dataclass, list, dict, Literal, Optional or scalar); errors name
+    ``source``, the node's line and ``key_path``."""
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
     if origin in (typing.Union, types.UnionType):
@@ -77,7 +79,7 @@ def _convert(node, tp, source: str, key_path: str):
                 return None
         non_none = [a for a in args if a is not type(None)]
         if len(non_none) == 1:
-            return _convert(node, non_none[0], source, key_path)
+            return convert_node(node, non_none[0], source, key_path)
         raise ConfigError(f"{_where(source, node, key_path)} unsupported union type {tp}")
     if dataclasses.is_dataclass(tp):
         if not isinstance(node, yaml.MappingNode):
@@ -94,19 +96,19 @@ def _convert(node, tp, source: str, key_path: str):
                     f"(known keys: {', '.join(sorted(fields))})")
             if key in values:
                 raise ConfigError(f"{_where(source, key_node, sub_path)} duplicate key {key!r}")
-            values[key] = _convert(value_node, hints[key], source, sub_path)
+            values[key] = convert_node(value_node, hints[key], source, sub_path)
         return tp(**values)
     if origin in (list, tuple):
         if not isinstance(node, yaml.SequenceNode):
             raise ConfigError(f"{_where(source, node, key_path)} expected a list")
         item_tp = args[0] if args else typing.Any
-        items = [_convert(n, item_tp, source, f"{key_path}[{i}]") for i, n in enumerate(node.value)]
+        items = [convert_node(n, item_tp, source, f"{key_path}[{i}]") for i, n in enumerate(node.value)]
         return items if origin is list else tuple(items)
     if origin is dict:
         if not isinstance(node, yaml.MappingNode):
             raise ConfigError(f"{_where(source, node, key_path)} expected a mapping")
         value_tp = args[1] if len(args) == 2 else typing.Any
-        return {k.value: _convert(v, value_tp, source, f"{key_path}.{k.value}") for k, v in node.value}
+        return {k.value: convert_node(v, value_tp, source, f"{key_path}.{k.value}") for k, v in node.value}
     if origin is typing.Literal:
         value = _scalar(node, source, key_path)
         if value not in args:
