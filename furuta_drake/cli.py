@@ -105,7 +105,7 @@ def _run_simulate(args) -> int:
         raise ConfigError(f"{args.html}: exists; pass --force to overwrite it")
     meshcat = _start_meshcat() if (args.meshcat or args.html is not None) else None
     with atomic_output_dir(args.out, force=args.force) as out:
-        progress = _progress_bar(config.duration, "simulate")
+        progress = _Progress(config.duration, "simulate")
         if meshcat is not None:
             meshcat.StartRecording()
         try:
@@ -186,10 +186,6 @@ class _Progress:
 
     def close(self) -> None:
         self.bar.close()
-
-
-def _progress_bar(total: float, label: str) -> _Progress:
-    return _Progress(total, label)
 
 
 if __name__ == "__main__":

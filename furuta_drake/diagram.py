@@ -139,15 +139,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
         estimates["hg"] = hg.GetOutputPort("state_estimate")
     if "vfe" in needed:
-        vfe = builder.AddNamedSystem("vfe_observer", VfeObserver((A_model, B_F), config.observers.vfe))
-        dahl = builder.AddNamedSystem("dahl_observer", DahlFrictionObserver(config.observers.dahl))
-        arm_velocity = builder.AddNamedSystem("vfe_arm_velocity", MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
-        builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
-        builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
-        builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
-        builder.Connect(vfe.GetOutputPort("state_estimate"), arm_velocity.get_input_port())
-        builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
-        builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
+        vfe, dahl, arm_velocity = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe,
+                                                    config.observers.dahl, measured, command)
         estimates["vfe"] = vfe.GetOutputPort("state_estimate")
         log("friction_estimate", dahl.GetOutputPort("friction_estimate_Nm"))
         log("friction_error_estimate", vfe.GetOutputPort("friction_error_estimate_Nm"))
@@ -202,6 +195,22 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
     diagram = builder.Build()
     diagram.set_name("furuta_" + config.controller.mode)
     return FurutaDiagram(diagram, plant, scene_graph, loggers, lqr_gain, config)
+
+
+def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, measured: OutputPort,
+                      command: OutputPort):
+    """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
+    (Eq. 8, 16), which reads the VFE's arm velocity estimate. Returns (vfe, dahl, arm_velocity)."""
+    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params))
+    dahl = builder.AddNamedSystem("dahl_observer", DahlFrictionObserver(dahl_params))
+    arm_velocity = builder.AddNamedSystem("vfe_arm_velocity", MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
+    builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
+    builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
+    builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
+    builder.Connect(vfe.GetOutputPort("state_estimate"), arm_velocity.get_input_port())
+    builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
+    builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
+    return vfe, dahl, arm_velocity
 
 
 def _arm_torque_to_generalized_force(plant: MultibodyPlant) -> np.ndarray:

@@ -18,15 +18,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput, MatrixGain, TrajectorySource
+from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.config import ExcitationConfig, SimulationConfig
+from furuta_drake.diagram import add_vfe_with_dahl
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
-from furuta_drake.observers.dahl import DahlFrictionObserver
 from furuta_drake.observers.hg import HighGainObserver
-from furuta_drake.observers.vfe import VfeObserver
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import SimulationResult, simulate
 
@@ -142,15 +141,8 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
         loggers["hg"] = LogVectorOutput(hg_system.GetOutputPort("state_estimate"), builder, period)
     if vfe is not None:
         vfe_params, dahl_params = vfe
-        vfe_system = builder.AddSystem(VfeObserver((A, B_F), vfe_params))
-        dahl = builder.AddSystem(DahlFrictionObserver(dahl_params))
-        arm_velocity = builder.AddSystem(MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
-        builder.Connect(angles.get_output_port(), vfe_system.GetInputPort("measured_angles_rad"))
-        builder.Connect(torque.get_output_port(), vfe_system.GetInputPort("arm_torque_Nm"))
-        builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe_system.GetInputPort("friction_estimate_Nm"))
-        builder.Connect(vfe_system.GetOutputPort("state_estimate"), arm_velocity.get_input_port())
-        builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
-        builder.Connect(angles.get_output_port(), dahl.GetInputPort("measured_angles_rad"))
+        vfe_system, _, _ = add_vfe_with_dahl(builder, (A, B_F), vfe_params, dahl_params, angles.get_output_port(),
+                                             torque.get_output_port())
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
     diagram = builder.Build()
     simulator = Simulator(diagram)
