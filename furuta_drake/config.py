@@ -54,9 +54,9 @@ class ControllerConfig:
             if len(self.gain) != 4 or not all(math.isfinite(g) for g in self.gain):
                 raise ConfigError(f"{where}.gain must be 4 finite numbers [theta, phi, theta_dot, phi_dot], "
                                   f"got {self.gain!r}")
-        if self.friction_compensation and self.velocity_source != "vfe":
-            raise ConfigError(f"{where}.friction_compensation needs the Dahl observer: set "
-                              f"{where}.velocity_source to 'vfe'")
+        if self.friction_compensation and self.velocity_source not in ("hg", "vfe"):
+            raise ConfigError(f"{where}.friction_compensation needs the Dahl observer, which reads an observer's "
+                              f"arm velocity: set {where}.velocity_source to 'hg' or 'vfe'")
 
 
 @dataclass

@@ -138,6 +138,13 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         builder.Connect(measured, hg.GetInputPort("measured_angles_rad"))
         builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
         estimates["hg"] = hg.GetOutputPort("state_estimate")
+        if controller is not None and config.controller.friction_compensation \
+                and config.controller.velocity_source == "hg":
+            # Sec. IV-A: u = u_LQ - F_hat with F_hat from the Dahl observer (Eq. 8) on the HG arm velocity.
+            hg_dahl, _ = add_dahl_observer(builder, config.observers.dahl, hg.GetOutputPort("state_estimate"),
+                                           measured, "hg")
+            builder.Connect(hg_dahl.GetOutputPort("friction_estimate_Nm"),
+                            controller.GetInputPort("friction_compensation_Nm"))
     if "vfe" in needed:
         vfe, dahl, arm_velocity = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe,
                                                     config.observers.dahl, measured, command)
@@ -154,7 +161,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
             builder.Connect(dahl.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
             builder.Connect(adapter.GetOutputPort("K_sigma"), dahl.GetInputPort("K_sigma"))
             log("K_sigma", adapter.GetOutputPort("K_sigma_branches"))
-        if controller is not None and config.controller.friction_compensation:
+        if controller is not None and config.controller.friction_compensation \
+                and config.controller.velocity_source == "vfe":
             builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"),
                             controller.GetInputPort("friction_compensation_Nm"))
     if "derivative" == config.controller.velocity_source and config.controller.mode == "lqr":
@@ -202,14 +210,10 @@ def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, m
     """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
     (Eq. 8, 16), which reads the VFE's arm velocity estimate. Returns (vfe, dahl, arm_velocity)."""
     vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params))
-    dahl = builder.AddNamedSystem("dahl_observer", DahlFrictionObserver(dahl_params))
-    arm_velocity = builder.AddNamedSystem("vfe_arm_velocity", MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
+    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, vfe.GetOutputPort("state_estimate"), measured, "vfe")
     builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
     builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
-    builder.Connect(vfe.GetOutputPort("state_estimate"), arm_velocity.get_input_port())
-    builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
-    builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
     return vfe, dahl, arm_velocity
 
 
@@ -232,3 +236,14 @@ def _sum_into(builder: DiagramBuilder, ports: list[OutputPort], destination, nam
     if destination is not None:
         builder.Connect(summed, destination)
     return summed
+
+
+def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str):
+    """The Dahl friction observer (Eq. 8, 16) on the arm velocity of an observer's ``state_estimate`` (paper
+    order). Returns (dahl, arm_velocity), named ``{prefix}_dahl_observer`` and ``{prefix}_arm_velocity``."""
+    dahl = builder.AddNamedSystem(f"{prefix}_dahl_observer", DahlFrictionObserver(params))
+    arm_velocity = builder.AddNamedSystem(f"{prefix}_arm_velocity", MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
+    builder.Connect(state_estimate, arm_velocity.get_input_port())
+    builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
+    builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
+    return dahl, arm_velocity
