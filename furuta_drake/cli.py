@@ -60,6 +60,18 @@ def _parser() -> argparse.ArgumentParser:
     diag.add_argument("--workers", type=int, help="processes for the candidate fits (default: all cores)")
     diag.set_defaults(run=_run_diagnose)
 
+    rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
+    rep.add_argument("--only", nargs="+", metavar="EXPERIMENT",
+                     help="experiments to run among table1 table2 fig5 fig6 fig7 (default: all)")
+    rep.add_argument("--seed", type=int, default=0, help="seed of the excitation and encoder noise (default 0)")
+    rep.add_argument("--table-duration", type=float, default=20.0,
+                     help="length of the runs of Tables I-II and Fig. 5 [s] (default 20, as the paper)")
+    rep.add_argument("--adaptation-duration", type=float, default=40.0,
+                     help="length of the run of Figs. 6-7 [s] (default 40; adaptation starts at 7.8 s)")
+    rep.add_argument("--out", type=Path, required=True, help="output directory")
+    rep.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    rep.set_defaults(run=_run_reproduce)
+
     sweep = sub.add_parser("sweep", help="simulate a grid or random sample of configs on Dask, write a CSV of metrics")
     sweep.add_argument("--config", type=Path, required=True, help="sweep YAML (see furuta_drake.sweep)")
     sweep.add_argument("--out", type=Path, required=True, help="output directory")
@@ -124,6 +136,24 @@ def _run_simulate(args) -> int:
     rate = config.duration / result.wall_time if result.wall_time > 0 else float("inf")
     print(f"simulated {config.duration:g} s in {result.wall_time:.2f} s ({rate:.1f}x real time); "
           f"max |theta| = {abs(result.state[:, 0]).max():.4f} rad; wrote {args.out}")
+    return 0
+
+
+def _run_reproduce(args) -> int:
+    from tqdm import tqdm
+
+    from furuta_drake.reproduction_report import EXPERIMENTS, ReproductionSettings, run_reproduction
+
+    settings = ReproductionSettings(only=args.only or list(EXPERIMENTS), seed=args.seed,
+                                    table_duration=args.table_duration,
+                                    adaptation_duration=args.adaptation_duration)
+    settings.validate()
+    only = set(settings.only)
+    steps = 4 * bool(only & {"table1", "table2"}) + 2 * ("fig5" in only) + bool(only & {"fig6", "fig7"})
+    with tqdm(total=steps, desc="reproduce", unit="run", disable=not sys.stderr.isatty()) as bar:
+        figures = run_reproduction(settings, args.out, force=args.force,
+                                   progress=lambda message: (bar.set_postfix_str(message), bar.update(1)))
+    print(f"reproduced {', '.join(settings.only)} in {figures['wall_time_s']:.0f} s; see {args.out / 'report.md'}")
     return 0
 
 

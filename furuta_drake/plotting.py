@@ -52,11 +52,77 @@ def plot_velocity_estimates(result, reference: np.ndarray | None = None, path: s
     return _save(fig, path)
 
 
-def plot_friction_estimates(result, path: str | Path | None = None, title: str = ""):
+def plot_friction_estimates(result, path: str | Path | None = None, title: str = "",
+                            calibrated: tuple[float, float] | None = None):
     """Arm friction: the Dahl estimate F_hat, F_hat + eps_hat_F (paper Fig. 5, 7) and the true friction."""
     fig, ax = plt.subplots(figsize=(9, 4))
+    _draw_friction(ax, result, calibrated)
+    ax.set_title(title)
+    ax.legend(fontsize=8, ncol=3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_fig5(results: dict, calibrated: tuple[float, float], path: str | Path | None = None):
+    """Fig. 5: F_hat, eps_hat_F and F_hat + eps_hat_F for each Dahl parameter set ({title: result}), with the
+    calibrated steady levels (pos, neg) [N m] and the true friction."""
+    fig, axes = plt.subplots(len(results), 1, figsize=(9, 3.6 * len(results)), sharex=True, squeeze=False)
+    for ax, (title, result) in zip(axes[:, 0], results.items()):
+        _draw_friction(ax, result, calibrated)
+        ax.set_title(title, fontsize=10)
+    axes[0, 0].legend(fontsize=8, ncol=3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_k_sigma(result, enable_time: float, paper_range: tuple[float, float], path: str | Path | None = None):
+    """Fig. 6: the K_sigma in use (black), K_sigma- (red dashed) and K_sigma+ (blue dashed) over time."""
+    fig, ax = plt.subplots(figsize=(9, 4))
+    branches = result.signals["K_sigma"]
+    in_use = np.where(result.estimates["vfe"][:, 3] > 0, branches[:, 0], branches[:, 1])
+    ax.plot(result.time, in_use, "k", lw=0.8, label=r"$K_\sigma$ in use")
+    ax.plot(result.time, branches[:, 1], "r--", lw=1.4, label=r"$K_\sigma^-$ ($\dot\phi < 0$)")
+    ax.plot(result.time, branches[:, 0], "b--", lw=1.4, label=r"$K_\sigma^+$ ($\dot\phi > 0$)")
+    ax.axvline(enable_time, color="0.5", ls=":", lw=1.0, label=f"adaptation on, t = {enable_time:g} s")
+    ax.axhspan(*paper_range, color="0.85", alpha=0.5, label="paper's range")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(r"$K_\sigma$ [-]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_observer_sweep(rows: list[dict], path: str | Path | None = None):
+    """The fairness sweep of Tables I-II: each observer's mean squared velocity errors (vs the true velocity,
+    solid; vs the 5 Hz Butterworth reference, dashed) against its tuning parameter, the chosen one circled."""
+    observers = list(dict.fromkeys(row["observer"] for row in rows))
+    fig, axes = plt.subplots(1, len(observers), figsize=(5 * len(observers), 4), squeeze=False)
+    for ax, observer in zip(axes[0], observers):
+        mine = [row for row in rows if row["observer"] == observer]
+        x = np.array([row["value"] for row in mine])
+        for signal, color in (("phi_dot", "tab:blue"), ("theta_dot", "tab:orange")):
+            for reference, style in (("true", "-"), ("butterworth", "--")):
+                ax.plot(x, [row[f"{signal}_mse_{reference}"] for row in mine], style, marker="o", ms=3,
+                        color=color, label=f"{signal} vs {reference}")
+            best = next(row for row in mine if row["best"])
+            ax.plot(best["value"], best[f"{signal}_mse_true"], "o", ms=11, mfc="none", color="k")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"{observer.upper()} {mine[0]['parameter']}")
+        ax.set_ylabel(r"mean squared velocity error [rad$^2$/s$^2$]")
+        ax.grid(alpha=0.3, which="both")
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _draw_friction(ax, result, calibrated: tuple[float, float] | None):
     t = result.time
-    ax.plot(t, result.true_friction[:, 1], "g-.", lw=1.2, label="true arm friction")
+    ax.plot(t, result.true_friction[:, 1], color="tab:green", lw=1.0, alpha=0.7, label="true arm friction")
+    if calibrated is not None:
+        for level in (-calibrated[0], calibrated[1]):
+            ax.axhline(level, color="tab:green", ls="-.", lw=1.0)
     if "friction_estimate" in result.signals:
         f_hat = result.signals["friction_estimate"][:, 0]
         ax.plot(t, f_hat, "k", lw=1.0, label=r"$\hat F_\phi$")
@@ -66,11 +132,7 @@ def plot_friction_estimates(result, path: str | Path | None = None, title: str =
             ax.plot(t, f_hat + eps, "b:", lw=1.2, label=r"$\hat F_\phi + \hat\epsilon_{F\phi}$")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("arm friction torque [N m]")
-    ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
-    fig.tight_layout()
-    return _save(fig, path)
 
 
 def _save(fig, path):

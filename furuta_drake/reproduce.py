@@ -104,10 +104,8 @@ def table2(runs: TableRuns) -> list[dict]:
     zero-phase 5 Hz Butterworth reference (as the paper) and against the true velocity (which the simulation
     knows)."""
     run = runs.vfe_run
+    references = velocity_references(run, runs.config)
     keep = _after_transient(run)
-    period = runs.config.encoder.sample_period
-    references = {"butterworth": butterworth_velocity_reference(run.measured, period),
-                  "true": run.state[:, 2:]}
     rows = []
     for reference_name, reference in references.items():
         for index, signal in ((1, "phi_dot"), (0, "theta_dot")):
@@ -122,15 +120,23 @@ def table2(runs: TableRuns) -> list[dict]:
     return rows
 
 
+def velocity_references(result: SimulationResult, config: SimulationConfig) -> dict[str, np.ndarray]:
+    """Table II's two references for [theta_dot, phi_dot]: the paper's zero-phase 5 Hz Butterworth of the
+    encoder angles' derivative, and the true velocity."""
+    return {"butterworth": butterworth_velocity_reference(result.measured, config.encoder.sample_period),
+            "true": result.state[:, 2:]}
+
+
 def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=None, vfe=None) -> dict:
     """Run observers offline on a run's logged encoder angles and torque commands (a Drake diagram of
     ``TrajectorySource`` s and the observer systems), returning their state estimates aligned with the run.
 
-    The sources are shifted by one period so that, as in the closed loop, the update at t_k reads the
-    measurement of t_{k-1} and the torque applied over [t_{k-1}, t_k).
+    Row k of the log (the sample of t_k, see ``simulate._tape``) is fed from t_k + period / 2 on, so that, as in
+    the closed loop, the update at t_{k+1} reads the measurement of t_k and the torque applied over
+    [t_k, t_{k+1}); after the start-up transient the replayed estimates equal the closed loop's.
     """
     period = config.encoder.sample_period
-    times = result.time + period / 2  # half a period early: robust to the rounding of the re-timed log
+    times = result.time + period / 2  # between two updates: immune to the rounding of the re-timed log
     builder = DiagramBuilder()
     angles = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, result.measured.T)))
     torque = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
@@ -160,10 +166,8 @@ def observer_sweep(pilot: SimulationResult, config: SimulationConfig) -> list[di
     every scale of its eigenvalues in ``VFE_SCALES`` on the pilot run's measurements, and give each one's mean
     squared velocity errors against both references (rows marked ``best`` have the lowest arm error vs the
     true velocity, per observer)."""
-    period = config.encoder.sample_period
     keep = _after_transient(pilot)
-    references = {"true": pilot.state[keep, 2:],
-                  "butterworth": butterworth_velocity_reference(pilot.measured, period)[keep]}
+    references = velocity_references(pilot, config)
     candidates = [("hg", "eps", eps, {"hg": dataclasses.replace(config.observers.hg, eps_theta=eps, eps_phi=eps)})
                   for eps in HG_EPS]
     candidates += [("vfe", "eigenvalue_scale", scale, {"vfe": (_scaled_vfe(config, scale), config.observers.dahl)})
@@ -174,7 +178,8 @@ def observer_sweep(pilot: SimulationResult, config: SimulationConfig) -> list[di
         row = {"observer": observer, "parameter": parameter, "value": value}
         for reference_name, reference in references.items():
             for index, signal in ((1, "phi_dot"), (0, "theta_dot")):
-                row[f"{signal}_mse_{reference_name}"] = float(np.mean((estimate[:, index] - reference[:, index]) ** 2))
+                error = estimate[:, index] - reference[keep, index]
+                row[f"{signal}_mse_{reference_name}"] = squared_error_statistics(error)["mean"]
         rows.append(row)
     for observer in ("hg", "vfe"):
         mine = [row for row in rows if row["observer"] == observer]
@@ -239,7 +244,8 @@ def steady_friction_values(result: SimulationResult, config: SimulationConfig, s
     return values
 
 
-def fig5_experiment(config: SimulationConfig, factors=(("set1_low", 0.7), ("set2_high", 1.3))) -> dict:
+def fig5_experiment(config: SimulationConfig, factors=(("set1_low", 0.7), ("set2_high", 1.3)),
+                    progress=None) -> dict:
     """Fig. 5: LQR on VFE without friction compensation (u = u_LQ), with Dahl observer parameters (Fc and
     sigma0) calibrated too low and too high; F_hat differs between the sets, F_hat + eps_hat_F should not."""
     outcome = {}
@@ -251,12 +257,13 @@ def fig5_experiment(config: SimulationConfig, factors=(("set1_low", 0.7), ("set2
             controller=dataclasses.replace(config.controller, velocity_source="vfe", friction_compensation=False),
             observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]))
         result = simulate(run_config)
-        outcome[name] = {"factor": factor, "result": result,
+        _report(progress, f"Fig. 5 run, {name}")
+        outcome[name] = {"factor": factor, "result": result, "config": run_config,
                          "steady": steady_friction_values(result, run_config)}
     return outcome
 
 
-def adaptation_config(config: SimulationConfig, duration: float = 30.0) -> SimulationConfig:
+def adaptation_config(config: SimulationConfig, duration: float = 40.0) -> SimulationConfig:
     """Figs. 6-7: an underestimated Dahl observer (Fc_hat = 0.009 N m both ways, K_sigma = 1), LQR on VFE
     without compensation (Sec. V-C: the arm must move to excite the adaptation), K_sigma adaptation enabled
     at t = 7.8 s."""
@@ -271,10 +278,11 @@ def adaptation_config(config: SimulationConfig, duration: float = 30.0) -> Simul
                                       run=["vfe"]))
 
 
-def adaptation_experiment(config: SimulationConfig, duration: float = 30.0) -> dict:
+def adaptation_experiment(config: SimulationConfig, duration: float = 40.0, progress=None) -> dict:
     """Run Figs. 6-7 and read the final K_sigma+/- and the adapted friction estimate in the last third."""
     run_config = adaptation_config(config, duration)
     result = simulate(run_config)
+    _report(progress, "Figs. 6-7 run")
     branches = result.signals["K_sigma"]
     steady = steady_friction_values(result, run_config, start_time=run_config.duration * 2.0 / 3.0)
     return {

@@ -6,6 +6,8 @@ the same config and seed give byte-identical files.
 
 from __future__ import annotations
 
+import csv
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -14,6 +16,7 @@ import numpy as np
 
 from furuta_drake.config import SimulationConfig, dump_config
 from furuta_drake.outputs import versions
+from furuta_drake.yamlio import to_plain
 
 LOG_COLUMNS = ["time", "torque", "theta", "phi", "theta_true", "phi_true", "theta_dot_true", "phi_dot_true"]
 
@@ -54,6 +57,28 @@ def summary(result, config: SimulationConfig) -> dict:
         out[f"{name}_velocity_mse"] = {"theta_dot": float(np.mean(err[:, 0] ** 2)),
                                        "phi_dot": float(np.mean(err[:, 1] ** 2))}
     return out
+
+
+def write_table_csv(rows: list[dict], path: str | Path) -> None:
+    """Deterministic CSV of rows with the same keys: floats to 12 significant digits, booleans true/false,
+    lists as JSON, None empty."""
+    with open(path, "w", newline="") as file:
+        writer = csv.writer(file, lineterminator="\n")
+        writer.writerow(list(rows[0]))
+        writer.writerows([table_cell(value) for value in row.values()] for row in rows)
+
+
+def table_cell(value) -> str:
+    """One CSV cell of :func:`write_table_csv`."""
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return f"{value:.12g}"
+    if isinstance(value, (list, tuple, dict)) or dataclasses.is_dataclass(value):
+        return json.dumps(to_plain(value))
+    return str(value)
 
 
 def write_json(path: str | Path, data: dict) -> None:

@@ -27,10 +27,8 @@ default, or an existing cluster's scheduler (whose workers must have this packag
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import itertools
-import json
 import logging
 import math
 import os
@@ -50,9 +48,9 @@ from dask.distributed import Client, LocalCluster, as_completed
 from furuta_drake.config import SimulationConfig, load_config
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.outputs import atomic_output_dir, prepare_output_dir
-from furuta_drake.results import config_yaml_with_provenance, summary
+from furuta_drake.results import config_yaml_with_provenance, summary, table_cell, write_table_csv
 from furuta_drake.simulate import simulate
-from furuta_drake.yamlio import convert_node, dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass, to_plain
+from furuta_drake.yamlio import convert_node, dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass
 
 VELOCITY_MSE = "velocity_mse"
 METRICS = (VELOCITY_MSE, "mean_theta_sq_rad2", "std_theta_sq_rad2", "mean_phi_sq_rad2", "std_phi_sq_rad2",
@@ -124,7 +122,7 @@ class SweepPoint:
     config: SimulationConfig
 
     def describe(self) -> str:
-        return f"point {self.index} ({', '.join(f'{p}={_cell(v)}' for p, v in self.values.items())})"
+        return f"point {self.index} ({', '.join(f'{p}={table_cell(v)}' for p, v in self.values.items())})"
 
 
 @dataclass
@@ -378,7 +376,7 @@ def run_sweep(sweep: Sweep | SweepConfig, out_dir: str | Path, *, force: bool = 
              "diverged": outcome["diverged"], "diverged_time": outcome["diverged_time"], "cause": outcome["cause"]}
             for point, outcome in zip(sweep.points, outcomes)]
     with atomic_output_dir(out_dir, force) as out:
-        write_results_csv(rows, out / "results.csv")
+        write_table_csv(rows, out / "results.csv")
         (out / "sweep.yaml").write_text(config_yaml_with_provenance(sweep.config))
         for parameter in sweep.points[0].values:
             plot_metrics_vs_parameter(rows, parameter, metric_columns,
@@ -402,26 +400,6 @@ def _metric_columns(metrics: list[str], outcomes: list[dict]) -> list[str]:
     return columns
 
 
-def write_results_csv(rows: list[dict], path: str | Path) -> None:
-    """Deterministic CSV: floats to 12 significant digits, booleans true/false, lists as JSON, None empty."""
-    with open(path, "w", newline="") as file:
-        writer = csv.writer(file, lineterminator="\n")
-        writer.writerow(list(rows[0]))
-        writer.writerows([_cell(value) for value in row.values()] for row in rows)
-
-
-def _cell(value) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return f"{value:.12g}"
-    if isinstance(value, (list, tuple, dict)) or dataclasses.is_dataclass(value):
-        return json.dumps(to_plain(value))
-    return str(value)
-
-
 def _metric_label(name: str) -> str:
     observer_error = re.fullmatch(r"(\w+)_velocity_mse_(theta|phi)_dot", name)
     if observer_error:
@@ -439,8 +417,8 @@ def plot_metrics_vs_parameter(rows: list[dict], parameter: str, metric_columns: 
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in raw):
         x = np.array(raw, dtype=float)
     else:
-        categories = list(dict.fromkeys(_cell(v) for v in raw))
-        x = np.array([categories.index(_cell(v)) for v in raw], dtype=float)
+        categories = list(dict.fromkeys(table_cell(v) for v in raw))
+        x = np.array([categories.index(table_cell(v)) for v in raw], dtype=float)
         axes[-1, 0].set_xticks(range(len(categories)), categories, rotation=20, fontsize=8)
     for ax, name in zip(axes[:, 0], names):
         y = np.array([math.nan if row[name] is None else float(row[name]) for row in rows])
