@@ -1,0 +1,24 @@
+"""Beyond the paper: the open problems of its Sections VI-VII, each compared with the paper's own method on the
+same simulated rig and seed (``furuta-drake reproduce --only beyond``).
+
+Every study is a module of this package with a function ``study(seed: int = 0, small: bool = False) ->
+BeyondStudy``; ``small`` shortens it for the tests and notebooks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class BeyondStudy:
+    """One study's outcome: ``rows`` of beyond.md (keys: ``metric``, ``paper``, ``extension``, ``unit``,
+    ``note``; ``paper`` is the paper's method's figure, ``extension`` ours, None when not applicable),
+    ``figures`` ({file stem: matplotlib Figure}), ``logs`` ({name: SimulationResult} worth keeping) and the
+    ``summary`` text of what it shows."""
+
+    title: str
+    rows: list[dict]
+    summary: str
+    figures: dict = field(default_factory=dict)
+    logs: dict = field(default_factory=dict)
