@@ -71,10 +71,13 @@ class ObserverConfig:
     adaptation: KSigmaAdaptationParameters = field(default_factory=KSigmaAdaptationParameters)
     adaptation_enabled: bool = False
     run: list[Literal["hg", "vfe"]] = field(default_factory=list)
+    pendulum_friction: DahlObserverParameters | None = None  # a friction observer on the pendulum, feeding VFE
 
     def validate(self, where: str = "observers") -> None:
         self.hg.validate(f"{where}.hg")
         self.dahl.validate(f"{where}.dahl")
+        if self.pendulum_friction is not None:
+            self.pendulum_friction.validate(f"{where}.pendulum_friction")
         self.vfe.validate(f"{where}.vfe")
         self.adaptation.validate(f"{where}.adaptation")
 

@@ -147,7 +147,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
                             controller.GetInputPort("friction_compensation_Nm"))
     if "vfe" in needed:
         vfe, dahl, arm_velocity = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe,
-                                                    config.observers.dahl, measured, command)
+                                                    config.observers.dahl, measured, command,
+                                                    config.observers.pendulum_friction)
         estimates["vfe"] = vfe.GetOutputPort("state_estimate")
         log("friction_estimate", dahl.GetOutputPort("friction_estimate_Nm"))
         log("friction_error_estimate", vfe.GetOutputPort("friction_error_estimate_Nm"))
@@ -206,14 +207,21 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
 
 
 def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, measured: OutputPort,
-                      command: OutputPort):
+                      command: OutputPort, pendulum_params=None):
     """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
-    (Eq. 8, 16), which reads the VFE's arm velocity estimate. Returns (vfe, dahl, arm_velocity)."""
-    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params))
-    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, vfe.GetOutputPort("state_estimate"), measured, "vfe")
+    (Eq. 8, 16), which reads the VFE's arm velocity estimate; with ``pendulum_params`` a second friction
+    observer on the pendulum joint feeds F_hat_theta too (Sec. VII). Returns (vfe, dahl, arm_velocity)."""
+    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params,
+                                                             pendulum_friction_input=pendulum_params is not None))
+    estimate = vfe.GetOutputPort("state_estimate")
+    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe")
     builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
     builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
+    if pendulum_params is not None:
+        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", joint="pendulum")
+        builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
+                        vfe.GetInputPort("pendulum_friction_estimate_Nm"))
     return vfe, dahl, arm_velocity
 
 
@@ -238,12 +246,17 @@ def _sum_into(builder: DiagramBuilder, ports: list[OutputPort], destination, nam
     return summed
 
 
-def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str):
-    """The Dahl friction observer (Eq. 8, 16) on the arm velocity of an observer's ``state_estimate`` (paper
-    order). Returns (dahl, arm_velocity), named ``{prefix}_dahl_observer`` and ``{prefix}_arm_velocity``."""
-    dahl = builder.AddNamedSystem(f"{prefix}_dahl_observer", DahlFrictionObserver(params))
-    arm_velocity = builder.AddNamedSystem(f"{prefix}_arm_velocity", MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
-    builder.Connect(state_estimate, arm_velocity.get_input_port())
-    builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
+def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
+                      joint: str = "arm"):
+    """The Dahl (or LuGre) friction observer (Eq. 8, 16) of ``joint`` on that joint's velocity in an observer's
+    ``state_estimate`` (paper order). Returns (observer, velocity selector), named ``{prefix}_dahl_observer`` and
+    ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer`` and
+    ``{prefix}_pendulum_velocity`` for the pendulum."""
+    label = prefix if joint == "arm" else f"{prefix}_pendulum"
+    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", DahlFrictionObserver(params, joint))
+    row = np.array([[0.0, 0.0, 0.0, 1.0]]) if joint == "arm" else np.array([[0.0, 0.0, 1.0, 0.0]])
+    velocity = builder.AddNamedSystem(f"{prefix}_{joint}_velocity", MatrixGain(row))
+    builder.Connect(state_estimate, velocity.get_input_port())
+    builder.Connect(velocity.get_output_port(), dahl.GetInputPort(f"{joint}_velocity_estimate_rad_per_s"))
     builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
-    return dahl, arm_velocity
+    return dahl, velocity

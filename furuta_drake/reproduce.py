@@ -151,7 +151,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     if vfe is not None:
         vfe_params, dahl_params = vfe
         vfe_system, _, _ = add_vfe_with_dahl(builder, (A, B_F), vfe_params, dahl_params, angles.get_output_port(),
-                                             torque.get_output_port())
+                                             torque.get_output_port(), config.observers.pendulum_friction)
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
     diagram = builder.Build()
     simulator = Simulator(diagram)

@@ -26,6 +26,13 @@ constant input, dz/dt = (v + K_z) - r z, r = sigma0 |v| / Fc, and it takes its E
 exponential step is stable at any stiffness r (the Dahl state's rate reaches 1e4 1/s at a few rad/s) where an
 explicit Euler step at 1 kHz diverges once r h > 2, and it settles to the continuous steady state exactly.
 
+LuGre (Sec. VII's open point, Freidovich et al. 2006): with Stribeck levels (``static_pos/neg``,
+``stribeck_velocity``), ``sigma1`` and ``sigma2`` the same system is the LuGre observer: Fc(v) becomes the
+Stribeck curve g(v) in the z equation and F_hat = -K_sigma (sigma0 z_hat + sigma1 z_hat' + sigma2 v), z_hat' the
+model's bristle rate (friction.bristle_friction_torque). Without them it is exactly Dahl. ``joint='pendulum'``
+observes the pendulum's friction F_theta from the pendulum velocity estimate; nothing can compensate it (the
+pendulum has no actuator), so it feeds the VFE observer only and, with ``rho = None``, runs without injection.
+
 Defaults: the paper's measured arm levels (0.012 N m for v > 0, 0.018 for v < 0, Sec. V-D), sigma0 = 10 N m/rad
 (NOTES.md), and rho = 100 N m s/rad, rho2 = 0.1 s: a gentle injection (K_z / v of a few percent over Table I's
 motion, eps_phi ~ 0.05 rad, v ~ 0.5 rad/s), so that F_hat reflects the Dahl model's calibration, as in Fig. 5.
@@ -39,73 +46,109 @@ from dataclasses import dataclass
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from furuta_drake.errors import ConfigError
-from furuta_drake.friction import dahl_exact_step
+from furuta_drake.friction import (JointFrictionParameters, bristle_friction_torque, dahl_exact_step,
+                                   stribeck_curve)
+
+JOINTS = ("arm", "pendulum")
 
 
 @dataclass
 class DahlObserverParameters:
-    """The observer's Dahl model (Eq. 8) and Eq. 9's design constants."""
+    """The observer's Dahl model (Eq. 8), or LuGre model with Stribeck levels, and Eq. 9's design constants."""
 
     coulomb_pos: float = 0.012  # Fc used while v > 0 [N m]
     coulomb_neg: float = 0.018  # Fc used while v <= 0 [N m]
     sigma0: float = 10.0  # bristle stiffness [N m/rad]
-    sigma1: float = 0.0  # Eq. 9's bristle damping [N m s/rad]
+    sigma1: float = 0.0  # bristle damping [N m s/rad] (LuGre; also Eq. 9's injection factor)
     sigma1_sign: int = -1  # sign of the sigma1 term of Eq. 9 (printed +1; see the module docstring)
-    rho: float = 100.0  # injection scale [N m s/rad]: K_z = -(sigma0/rho) (...) [eps_phi + rho2 eps_v]
+    rho: float | None = 100.0  # injection scale [N m s/rad]: K_z = -(sigma0/rho) (...) [eps + rho2 eps_v]; None: off
     rho2: float = 0.1  # velocity-error weight [s]
     period: float = 1e-3  # [s]
+    static_pos: float | None = None  # LuGre Stribeck breakaway level Fs+ [N m]; None: no Stribeck (Dahl)
+    static_neg: float | None = None  # Fs- [N m]
+    stribeck_velocity: float = 0.05  # vs [rad/s]
+    sigma2: float = 0.0  # viscous coefficient [N m s/rad] (LuGre)
 
     def validate(self, where: str = "observers.dahl") -> None:
-        for name in ("coulomb_pos", "coulomb_neg", "sigma0", "rho", "period"):
+        for name in ("coulomb_pos", "coulomb_neg", "sigma0", "period", "stribeck_velocity"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"{where}.{name} must be > 0, got {value!r}")
-        for name in ("sigma1", "rho2"):
+        if self.rho is not None and not (math.isfinite(self.rho) and self.rho > 0):
+            raise ConfigError(f"{where}.rho must be > 0 (or null: no injection), got {self.rho!r}")
+        for name in ("sigma1", "rho2", "sigma2"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{where}.{name} must be >= 0, got {value!r}")
         if self.sigma1_sign not in (1, -1):
             raise ConfigError(f"{where}.sigma1_sign must be 1 or -1, got {self.sigma1_sign!r}")
+        self.friction_law().validate(where)
+
+    def friction_law(self) -> JointFrictionParameters:
+        """The observer's model as a friction law of :mod:`furuta_drake.friction` (LuGre; Dahl without
+        Stribeck levels, sigma1 and sigma2)."""
+        return JointFrictionParameters(
+            model="lugre", coulomb_pos=self.coulomb_pos, coulomb_neg=self.coulomb_neg, static_pos=self.static_pos,
+            static_neg=self.static_neg, stribeck_velocity=self.stribeck_velocity, viscous=self.sigma2,
+            sigma0=self.sigma0, sigma1=self.sigma1)
 
 
 class DahlFrictionObserver(LeafSystem):
-    """Eq. 8-9, 16 of the arm joint, discrete at ``params.period`` (exact step, see the module docstring).
+    """Eq. 8-9, 16 of one joint (the arm by default), discrete at ``params.period`` (exact step, see the module
+    docstring).
 
-    Inputs: ``arm_velocity_estimate_rad_per_s`` (v), ``measured_angles_rad`` ([theta, phi]; phi gives
-    eps_phi), ``arm_reference_rad`` ([phi_ref [rad], v_ref [rad/s]], zero if unconnected), ``K_sigma`` (1 if
-    unconnected; the adapter drives it). State z_hat [rad]. Outputs: ``friction_estimate_Nm`` (F_hat =
-    -K_sigma sigma0 z_hat [N m], the arm friction; feeds through K_sigma only) and ``bristle_state_rad``.
+    Inputs: ``{joint}_velocity_estimate_rad_per_s`` (v), ``measured_angles_rad`` ([theta, phi]; the joint's
+    angle gives eps), ``arm_reference_rad`` (arm only: [phi_ref [rad], v_ref [rad/s]], zero if unconnected),
+    ``K_sigma`` (1 if unconnected; the adapter drives it). State z_hat [rad]. Outputs: ``friction_estimate_Nm``
+    (F_hat = -K_sigma sigma0 z_hat [N m] for Dahl; feeds through K_sigma, and v for LuGre's sigma1, sigma2) and
+    ``bristle_state_rad``.
     """
 
-    def __init__(self, params: DahlObserverParameters | None = None):
+    def __init__(self, params: DahlObserverParameters | None = None, joint: str = "arm"):
         LeafSystem.__init__(self)
         params = params or DahlObserverParameters()
         params.validate()
-        self.params = params
-        self._velocity = self.DeclareVectorInputPort("arm_velocity_estimate_rad_per_s", 1)
+        if joint not in JOINTS:
+            raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
+        self.params, self.joint = params, joint
+        self._law = params.friction_law()
+        self._angle_index = 1 if joint == "arm" else 0
+        self._velocity = self.DeclareVectorInputPort(f"{joint}_velocity_estimate_rad_per_s", 1)
         self._angles = self.DeclareVectorInputPort("measured_angles_rad", 2)
-        self._reference = self.DeclareVectorInputPort("arm_reference_rad", 2)
+        self._reference = self.DeclareVectorInputPort("arm_reference_rad", 2) if joint == "arm" else None
         self._k_sigma = self.DeclareVectorInputPort("K_sigma", 1)
         state = self.DeclareDiscreteState(1)
         self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
-        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction,
-                                     prerequisites_of_calc={self.xd_ticket(), self._k_sigma.ticket()})
+        tickets = {self.xd_ticket(), self._k_sigma.ticket()}
+        if params.sigma1 > 0 or params.sigma2 > 0:
+            tickets.add(self._velocity.ticket())
+        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction, prerequisites_of_calc=tickets)
         self.DeclareStateOutputPort("bristle_state_rad", state)
 
     def _calc_friction(self, context, output: BasicVector):
         k_sigma = self._k_sigma.Eval(context)[0] if self._k_sigma.HasValue(context) else 1.0
-        output.SetAtIndex(0, -k_sigma * self.params.sigma0 * context.get_discrete_state_vector().GetAtIndex(0))
+        z = context.get_discrete_state_vector().GetAtIndex(0)
+        p = self.params
+        if p.sigma1 > 0 or p.sigma2 > 0:
+            torque = bristle_friction_torque(z, self._velocity.Eval(context)[0], self._law)
+        else:
+            torque = -p.sigma0 * z
+        output.SetAtIndex(0, k_sigma * torque)
 
     def _update(self, context, discrete_state):
         p = self.params
         v = self._velocity.Eval(context)[0]
-        phi = self._angles.Eval(context)[1]
-        phi_ref, v_ref = self._reference.Eval(context) if self._reference.HasValue(context) else (0.0, 0.0)
         z = context.get_discrete_state_vector().GetAtIndex(0)
-        level = p.coulomb_pos if v > 0 else p.coulomb_neg
-        k_z = -(p.sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (
-            (phi - phi_ref) + p.rho2 * (v - v_ref))
-        rate = p.sigma0 * abs(v) / level
-        held_input_gain = -math.expm1(-rate * p.period) / rate if rate > 0 else p.period  # int_0^h e^(-r s) ds
-        z_next = float(dahl_exact_step(z, v, p.period, p.sigma0, level)) + held_input_gain * k_z
+        level = stribeck_curve(v, self._law)
+        z_next = float(dahl_exact_step(z, v, p.period, p.sigma0, level))
+        if p.rho is not None:
+            angle = self._angles.Eval(context)[self._angle_index]
+            reference = (0.0, 0.0)
+            if self._reference is not None and self._reference.HasValue(context):
+                reference = self._reference.Eval(context)
+            k_z = -(p.sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (
+                (angle - reference[0]) + p.rho2 * (v - reference[1]))
+            rate = p.sigma0 * abs(v) / level
+            held_input_gain = -math.expm1(-rate * p.period) / rate if rate > 0 else p.period  # int_0^h e^(-r s) ds
+            z_next += held_input_gain * k_z
         discrete_state.get_mutable_vector().SetAtIndex(0, z_next)

@@ -85,28 +85,37 @@ def vfe_error_matrix(A: np.ndarray, B_F: np.ndarray, K_F: np.ndarray) -> np.ndar
     return A_F - K_F @ C_F
 
 
-def continuous_vfe_observer(A: np.ndarray, B_F: np.ndarray, params: VfeParameters) -> LinearSystem:
-    """Eq. 11 as a continuous LinearSystem: input [y_theta, y_phi, u, F_hat_phi], output [x_hat, eps_hat_F];
-    its input matrix's first two columns are K_F."""
+def continuous_vfe_observer(A: np.ndarray, B_F: np.ndarray, params: VfeParameters,
+                            pendulum_friction_input: bool = False) -> LinearSystem:
+    """Eq. 11 as a continuous LinearSystem: input [y_theta, y_phi, u, F_hat_phi] (then F_hat_theta with
+    ``pendulum_friction_input``: a friction observer on the pendulum too), output [x_hat, eps_hat_F]; its input
+    matrix's first two columns are K_F."""
     K_F = vfe_gains(A, B_F, params.eigenvalues)
     arm = np.concatenate([B_F[:, 1], np.zeros(2)]).reshape(6, 1)  # u and F_hat_phi both act on the arm
-    return LinearSystem(vfe_error_matrix(A, B_F, K_F), np.hstack([K_F, arm, arm]), np.eye(6), np.zeros((6, 4)))
+    columns = [K_F, arm, arm]
+    if pendulum_friction_input:
+        columns.append(np.concatenate([B_F[:, 0], np.zeros(2)]).reshape(6, 1))
+    B = np.hstack(columns)
+    return LinearSystem(vfe_error_matrix(A, B_F, K_F), B, np.eye(6), np.zeros((6, B.shape[1])))
 
 
 class VfeObserver(DiscreteLinearObserver):
     """Eq. 11 sampled at ``params.period`` (exact zero-order hold of the inputs). ``rig_or_AB``: a RigParameters
     or (A, B_F). Inputs ``measured_angles_rad`` [theta, phi], ``arm_torque_Nm`` (u) and ``friction_estimate_Nm``
-    (F_hat_phi, the Dahl observer's arm friction); outputs ``state_estimate`` (x_hat [rad, rad/s]) and
-    ``friction_error_estimate_Nm`` (eps_hat_F = [pendulum, arm]). ``gains`` is K_F = [K1; K2]."""
+    (F_hat_phi, the Dahl observer's arm friction), and with ``pendulum_friction_input``
+    ``pendulum_friction_estimate_Nm`` (F_hat_theta, Eq. 10's full F_hat); outputs ``state_estimate`` (x_hat
+    [rad, rad/s]) and ``friction_error_estimate_Nm`` (eps_hat_F = [pendulum, arm]). ``gains`` is K_F = [K1; K2]."""
 
-    def __init__(self, rig_or_AB, params: VfeParameters | None = None):
+    def __init__(self, rig_or_AB, params: VfeParameters | None = None, pendulum_friction_input: bool = False):
         params = params or VfeParameters()
         params.validate()
         A, B_F = model_matrices(rig_or_AB)
         self.params = params
-        continuous = continuous_vfe_observer(A, B_F, params)
+        continuous = continuous_vfe_observer(A, B_F, params, pendulum_friction_input)
         self.gains = continuous.B()[:, :2]
+        inputs = [("measured_angles_rad", 2), ("arm_torque_Nm", 1), ("friction_estimate_Nm", 1)]
+        if pendulum_friction_input:
+            inputs.append(("pendulum_friction_estimate_Nm", 1))
         DiscreteLinearObserver.__init__(
-            self, continuous, params.period,
-            inputs=[("measured_angles_rad", 2), ("arm_torque_Nm", 1), ("friction_estimate_Nm", 1)],
+            self, continuous, params.period, inputs=inputs,
             outputs=[("state_estimate", 4), ("friction_error_estimate_Nm", 2)], name="vfe_observer")
