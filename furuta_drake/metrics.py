@@ -39,3 +39,18 @@ def steady_phases(velocity: np.ndarray, threshold: float, min_samples: int) -> d
                 masks[int(sign[start])][start + (i - start) // 2:i] = True
             start = i
     return masks
+
+
+def observer_figures(result, start_time: float) -> dict[str, float]:
+    """The VFE run's figures of merit after ``start_time`` [s]: mean squared velocity errors of the VFE estimate
+    [(rad/s)^2], control errors (mean theta^2, phi^2 [rad^2]) and the RMS errors of the arm friction estimate
+    F_hat and of F_hat + eps_hat_F against the true arm friction [N m]."""
+    keep = result.time >= start_time
+    error = result.estimates["vfe"][keep, 2:] - result.state[keep, 2:]
+    true_arm = result.true_friction[keep, 1]
+    f_hat = result.signals["friction_estimate"][keep, 0]
+    eps = result.signals["friction_error_estimate"][keep, 1]
+    return {"theta_dot_mse": float(np.mean(error[:, 0] ** 2)), "phi_dot_mse": float(np.mean(error[:, 1] ** 2)),
+            "theta_sq": float(np.mean(result.state[keep, 0] ** 2)), "phi_sq": float(np.mean(result.state[keep, 1] ** 2)),
+            "F_hat_rms_error": float(np.sqrt(np.mean((f_hat - true_arm) ** 2))),
+            "F_hat_plus_eps_rms_error": float(np.sqrt(np.mean((f_hat + eps - true_arm) ** 2)))}
