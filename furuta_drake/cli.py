@@ -122,6 +122,12 @@ def _run_simulate(args) -> int:
             meshcat.StartRecording()
         try:
             result = simulate(config, meshcat=meshcat, progress=progress.update_to)
+        except ConfigError as err:  # found while building the diagram (e.g. a gain that does not stabilise)
+            if args.config is None:
+                raise
+            from furuta_drake.yamlio import locate_in_file
+
+            raise locate_in_file(args.config, err) from None
         finally:
             progress.close()
         write_log_csv(result, out / "log.csv")

@@ -9,6 +9,7 @@ dataclasses' own ``validate`` methods.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
 import types
 import typing
@@ -40,8 +41,58 @@ def loads_yaml_dataclass(text: str, schema: type, source: str = "<string>", vali
         try:
             obj.validate()
         except ConfigError as err:
-            raise ConfigError(f"{source}: {err}") from None
+            raise ConfigError(locate(_relative_to_file(str(err), obj.validate), source, key_lines(node))) from None
     return obj
+
+
+def key_lines(node) -> dict[str, int]:
+    """The 1-based line of every key path of a composed YAML tree: ``{"controller": 2, "controller.gain": 3,
+    "controller.gain[0]": 3, ...}`` (a mapping entry is at its key's line, a list item at its own)."""
+    lines: dict[str, int] = {}
+
+    def walk(node, path: str) -> None:
+        if isinstance(node, yaml.MappingNode):
+            for key_node, value_node in node.value:
+                sub_path = f"{path}.{key_node.value}" if path else str(key_node.value)
+                lines.setdefault(sub_path, key_node.start_mark.line + 1)
+                walk(value_node, sub_path)
+        elif isinstance(node, yaml.SequenceNode):
+            for i, item in enumerate(node.value):
+                lines.setdefault(f"{path}[{i}]", item.start_mark.line + 1)
+                walk(item, f"{path}[{i}]")
+
+    walk(node, "")
+    return lines
+
+
+def locate(message: str, source: str, lines: dict[str, int]) -> str:
+    """``message``, which starts with the key path it is about (as ``validate`` messages do), as
+    ``"source:line: message"`` at the line of the longest key path of ``lines`` it starts with; as
+    ``"source: message"`` when it starts with none (a key the file leaves at its default)."""
+    def starts_with(path: str) -> bool:
+        following = message[len(path):len(path) + 1]
+        return message.startswith(path) and not (following.isalnum() or following == "_")
+
+    path = max(filter(starts_with, lines), key=len, default=None)
+    return f"{source}:{lines[path]}: {message}" if path is not None else f"{source}: {message}"
+
+
+def locate_in_file(path: str | Path, err: ConfigError) -> ConfigError:
+    """``err``, raised about a config read from the YAML file ``path`` after loading (e.g. a controller gain
+    the diagram finds not stabilising), as a ConfigError naming ``path`` and the line of its key."""
+    try:
+        node = yaml.compose(Path(path).read_text(), Loader=yaml.SafeLoader)
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        node = None
+    return ConfigError(locate(str(err), str(path), key_lines(node) if node is not None else {}))
+
+
+def _relative_to_file(message: str, validate) -> str:
+    """A ``validate`` message without its default root (``RigParameters.validate`` says "rig.pendulum_mass",
+    but a rig file's key is ``pendulum_mass``)."""
+    where = inspect.signature(validate).parameters.get("where")
+    root = where.default if where is not None and isinstance(where.default, str) else ""
+    return message[len(root) + 1:] if root and message.startswith(f"{root}.") else message
 
 
 def dump_yaml_dataclass(obj) -> str:
