@@ -1,0 +1,291 @@
+"""Wall time and real-time factor of a closed loop per diagram configuration, against the C++ floor and a scipy
+peer (issue 8 targets: the full paper diagram >= 10x real time on one core, <= 3x its C++ floor, >= 5x faster
+than the scipy peer).
+
+Configurations, all on the default Lund config (``SimulationConfig.from_rig("lund")``: 4096-count encoders at
+1 kHz, LQR with the 0.2 N m limit, RK3 at accuracy 1e-4, theta0 = 0.1 rad):
+
+- ``true LQR``: LQR on the encoder angles and the true velocities (reference diagram (iv));
+- ``HG``: LQR on the high-gain observer (Eq. 4);
+- ``VFE+Dahl``: LQR on the VFE observer (Eq. 11) with the Dahl observer (Eq. 8) and u = u_LQ - F_hat;
+- ``VFE+Dahl+K``: the same with the K_sigma adaptation (Eq. 18): the full paper diagram.
+
+Each is timed three ways in the same process, interleaved, best of ``--repeats``:
+
+- ``furuta_drake.simulate.simulate`` (the package, monitor included; build time excluded);
+- the C++ floor: the same sampled loop from Drake's C++ systems only (the MultibodyPlant, a ``ZeroOrderHold``
+  sampler in place of the quantising encoder, the observer's discrete ``LinearSystem``, the LQR as
+  ``MatrixGain`` -> ``Saturation`` -> ``ZeroOrderHold``, the same loggers and integrator); the Dahl observer and
+  the adapter have no C++ equivalent, so both VFE configurations share the VFE floor;
+- the scipy peer: the same sampled loop written for this benchmark, the closed-form Furuta equations (lumped
+  constants a, b, c, d of ``RigParameters``) integrated by ``solve_ivp`` (RK45, rtol 1e-8, atol 1e-10; a looser
+  tolerance is not faster: each 1 ms period is one or two RK45 steps and the per-call overhead dominates) over
+  each period with the torque held, the discrete blocks updated at each sample from the values held before it
+  (Drake's discrete semantics).
+
+The peer must give the package's trajectory. With the 4096-count encoder two correct integrations agree only
+until the first sample at which they read different counts: while the counts do not change the loop does not
+see a sub-count deviation, which grows at the pendulum's unstable pole (6.9 1/s) until it flips a count (the
+package at accuracy 1e-4 and at 1e-10 part the same way). So the table prints the deviation until the first
+differing count and when that happens, and the check is made on the same loops with a 2^32-count encoder (one
+count 1.5e-9 rad), over the whole run: max |x_package - x_peer| <= ``TOLERANCE``.
+
+Run from the repository root: ``PYTHONPATH=. python benchmarks/closed_loop.py [--duration 10] [--repeats 3]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import time
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import (
+    ConstantVectorSource, LogVectorOutput, MatrixGain, Multiplexer, Saturation, ZeroOrderHold,
+)
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+
+from furuta_drake.config import SimulationConfig
+from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer
+from furuta_drake.observers.vfe import VfeObserver, continuous_vfe_observer
+from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
+from furuta_drake.rig import linearized_upright
+from furuta_drake.simulate import SimulationResult, simulate
+
+TARGET_REAL_TIME, TARGET_FLOOR_RATIO, TARGET_PEER_SPEEDUP = 10.0, 3.0, 5.0
+TOLERANCE = 1e-4  # [rad, rad/s] package vs peer with the fine encoder: RK3 at accuracy 1e-4 against RK45 at 1e-8
+FINE_COUNTS = 2**32
+PEER_RTOL, PEER_ATOL = 1e-8, 1e-10
+
+
+def configurations(duration: float) -> dict[str, SimulationConfig]:
+    """The four diagrams of the table on the default Lund config."""
+    base = dataclasses.replace(SimulationConfig.from_rig("lund"), duration=duration)
+
+    def variant(source: str, compensation: bool = False, adaptation: bool = False) -> SimulationConfig:
+        return dataclasses.replace(
+            base, controller=dataclasses.replace(base.controller, velocity_source=source,
+                                                 friction_compensation=compensation),
+            observers=dataclasses.replace(base.observers, adaptation_enabled=adaptation))
+
+    return {"true LQR": variant("true"), "HG": variant("hg"), "VFE+Dahl": variant("vfe", True),
+            "VFE+Dahl+K": variant("vfe", True, True)}
+
+
+# --- The C++ floor ------------------------------------------------------------------------------------------------
+
+def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
+    """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring)."""
+    rig, period = config.rig, config.encoder.sample_period
+    builder = DiagramBuilder()
+    plant, _ = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=False)
+    to_paper = builder.AddSystem(MatrixGain(plant_to_paper_permutation(plant)))
+    builder.Connect(plant.get_state_output_port(), to_paper.get_input_port())
+    true_state = to_paper.get_output_port()
+    state_sample = builder.AddSystem(ZeroOrderHold(period, 4))
+    builder.Connect(true_state, state_sample.get_input_port())
+    angles = builder.AddSystem(MatrixGain(np.hstack([np.eye(2), np.zeros((2, 2))])))
+    builder.Connect(true_state, angles.get_input_port())
+    encoder = builder.AddSystem(ZeroOrderHold(period, 2))
+    builder.Connect(angles.get_output_port(), encoder.get_input_port())
+    measured = encoder.get_output_port()
+
+    lqr = builder.AddSystem(MatrixGain(-np.asarray(gain).reshape(1, 4)))
+    saturation = builder.AddSystem(Saturation([-config.controller.lqr.torque_limit],
+                                              [config.controller.lqr.torque_limit]))
+    hold = builder.AddSystem(ZeroOrderHold(period, 1))
+    builder.Connect(lqr.get_output_port(), saturation.get_input_port())
+    builder.Connect(saturation.get_output_port(), hold.get_input_port())
+    builder.Connect(hold.get_output_port(), plant.get_actuation_input_port())
+    command = hold.get_output_port()
+
+    source = config.controller.velocity_source
+    model = linearized_upright(rig)
+    if source == "true":
+        velocities = builder.AddSystem(MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
+        builder.Connect(true_state, velocities.get_input_port())
+        mux = builder.AddSystem(Multiplexer([2, 2]))
+        builder.Connect(measured, mux.get_input_port(0))
+        builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
+        estimate = mux.get_output_port()
+    elif source == "hg":
+        observer = builder.AddSystem(HighGainObserver(model, config.observers.hg))
+        estimate = observer.GetOutputPort("state_estimate")
+    else:
+        observer = builder.AddSystem(VfeObserver(model, config.observers.vfe))
+        no_friction = builder.AddSystem(ConstantVectorSource([0.0]))
+        builder.Connect(no_friction.get_output_port(), observer.GetInputPort("friction_estimate_Nm"))
+        estimate = observer.GetOutputPort("state_estimate")
+        LogVectorOutput(observer.GetOutputPort("friction_error_estimate_Nm"), builder, publish_period=period)
+    if source != "true":
+        builder.Connect(measured, observer.GetInputPort("measured_angles_rad"))
+        builder.Connect(command, observer.GetInputPort("arm_torque_Nm"))
+        LogVectorOutput(estimate, builder, publish_period=period)
+    builder.Connect(estimate, lqr.get_input_port())
+    for port in (state_sample.get_output_port(), measured, command):
+        LogVectorOutput(port, builder, publish_period=period)
+
+    simulator = Simulator(builder.Build())
+    ApplySimulatorConfig(SimulatorConfig(**dataclasses.asdict(config.simulator)), simulator)
+    plant_context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    plant.SetPositionsAndVelocities(plant_context, plant_to_paper_permutation(plant).T @ config.initial_state)
+    return simulator
+
+
+def time_floor(config: SimulationConfig, gain: np.ndarray) -> float:
+    simulator = floor_simulator(config, gain)
+    start = time.perf_counter()
+    simulator.Initialize()
+    simulator.AdvanceTo(config.duration)
+    return time.perf_counter() - start
+
+
+# --- The scipy peer -----------------------------------------------------------------------------------------------
+
+def held_input_discretisation(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Ad, Bd of dx/dt = A x + B u with u held over h (matrix exponential of the augmented system)."""
+    n, m = B.shape
+    augmented = np.zeros((n + m, n + m))
+    augmented[:n, :n], augmented[:n, n:] = A, B
+    exponential = expm(augmented * h)
+    return exponential[:n, :n], exponential[:n, n:]
+
+
+def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Wall time, true states [theta, phi, theta_dot, phi_dot] and encoder angles at each sample of the peer
+    (see the module docstring). Row k is the sample at t_k = k h, like ``SimulationResult.state``/``measured``."""
+    rig, h = config.rig, config.encoder.sample_period
+    a, b, c, d = rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque
+    count = config.encoder.resolution
+    limit = config.controller.lqr.torque_limit
+    negative_gain = -np.asarray(gain, dtype=float).ravel()
+    source = config.controller.velocity_source
+    compensate = config.controller.friction_compensation
+    A, B_F = linearized_upright(rig)
+    if source == "hg":
+        continuous = continuous_high_gain_observer(A, B_F, config.observers.hg)
+    else:
+        continuous = continuous_vfe_observer(A, B_F, config.observers.vfe)
+    Ad, Bd = held_input_discretisation(continuous.A(), continuous.B(), h)
+    dahl, adaptation = config.observers.dahl, config.observers.adaptation
+    adapt = config.observers.adaptation_enabled
+    sigma0 = dahl.sigma0
+
+    def dynamics(t, x, u):
+        theta, _, theta_dot, phi_dot = x
+        s, co = math.sin(theta), math.cos(theta)
+        m12, m22 = c * co, a + b * s * s
+        r1 = d * s + b * s * co * phi_dot * phi_dot
+        r2 = c * s * theta_dot * theta_dot - 2.0 * b * s * co * theta_dot * phi_dot + u
+        det = b * m22 - m12 * m12
+        return [theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (b * r2 - m12 * r1) / det]
+
+    def quantise(x):
+        return np.array([count * round(x[0] / count), count * round(x[1] / count)])
+
+    steps = round(config.duration / h)
+    states, measured = np.empty((steps, 4)), np.empty((steps, 2))
+    start = time.perf_counter()
+    x = np.asarray(config.initial_state, dtype=float)
+    y = quantise(x)  # the encoder's initialization sample
+    observer = np.zeros(Ad.shape[0])
+    z, k_sigma, u = 0.0, [adaptation.initial, adaptation.initial], 0.0
+    for k in range(steps):
+        t = k * h
+        states[k] = x
+        # Every block reads the values held before this sample (Drake's discrete update semantics).
+        f_hat = 0.0
+        if source == "vfe":
+            v = observer[3]
+            branch = 0 if v > 0 else 1
+            f_hat = -(k_sigma[branch] if adapt else 1.0) * sigma0 * z
+            level = dahl.coulomb_pos if v > 0 else dahl.coulomb_neg
+            rate = sigma0 * abs(v) / level
+            decay = math.exp(-rate * h)
+            steady = level * np.sign(v) / sigma0
+            injection = -(sigma0 / dahl.rho) * (y[1] + dahl.rho2 * v)
+            held = -math.expm1(-rate * h) / rate if rate > 0 else h
+            z_next = steady + (z - steady) * decay + held * injection
+            if adapt and t >= adaptation.enable_time and abs(v) > adaptation.velocity_threshold:
+                k_sigma[branch] += h * -adaptation.gamma * observer[5] * sigma0 * z
+            observer_input = np.array([y[0], y[1], u, f_hat])
+            z = z_next
+        elif source == "hg":
+            observer_input = np.array([y[0], y[1], u])
+        if source == "true":
+            estimate = np.array([y[0], y[1], x[2], x[3]])
+        else:
+            estimate = observer[:4]
+        u_lq = float(negative_gain @ estimate)
+        if source != "true":
+            observer = Ad @ observer + Bd @ observer_input
+        u = min(max(u_lq - f_hat if compensate else u_lq, -limit), limit)
+        y = measured[k] = quantise(x)
+        x = solve_ivp(dynamics, (t, t + h), x, args=(u,), rtol=PEER_RTOL, atol=PEER_ATOL).y[:, -1]
+    return time.perf_counter() - start, states, measured
+
+
+# --- The table ----------------------------------------------------------------------------------------------------
+
+def agreement(config: SimulationConfig, result: SimulationResult, states: np.ndarray,
+              measured: np.ndarray) -> tuple[float, float]:
+    """(max |x_package - x_peer| up to the first sample whose encoder counts differ, that sample's time [s];
+    the run's duration if none differs)."""
+    differs = np.flatnonzero(np.any(result.measured != measured, axis=1))
+    first = differs[0] if differs.size else len(states)
+    return float(np.max(np.abs(result.state[:first] - states[:first]))), first * config.encoder.sample_period
+
+
+def with_fine_encoder(config: SimulationConfig) -> SimulationConfig:
+    return dataclasses.replace(config, encoder=dataclasses.replace(config.encoder, counts_per_rev=FINE_COUNTS))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=10.0, help="simulated seconds per run")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs per configuration (the best is kept)")
+    args = parser.parse_args()
+
+    configs = configurations(args.duration)
+    package, floor, peer = ({name: math.inf for name in configs} for _ in range(3))
+    until, check = {}, {}
+    for repeat in range(args.repeats):  # interleaved: other load on the machine comes and goes
+        for name, config in configs.items():
+            result = simulate(config)
+            package[name] = min(package[name], result.wall_time)
+            floor[name] = min(floor[name], time_floor(config, result.lqr_gain))
+            wall, states, measured = scipy_closed_loop(config, result.lqr_gain)
+            peer[name] = min(peer[name], wall)
+            if repeat == 0:
+                until[name] = agreement(config, result, states, measured)
+                fine = with_fine_encoder(config)
+                _, fine_states, _ = scipy_closed_loop(fine, result.lqr_gain)
+                check[name] = float(np.max(np.abs(simulate(fine).state - fine_states)))
+
+    print(f"{args.duration:g} s closed loop, Lund rig, one core, best of {args.repeats}; ratio = wall / C++ floor, "
+          f"speedup = scipy peer wall / wall")
+    print(f"{'config':<11} {'wall [s]':>8} {'x real':>7} {'floor [s]':>9} {'ratio':>6} {'scipy [s]':>9} "
+          f"{'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}")
+    for name in configs:
+        deviation, time_differs = until[name]
+        print(f"{name:<11} {package[name]:>8.3f} {args.duration / package[name]:>7.1f} {floor[name]:>9.3f} "
+              f"{package[name] / floor[name]:>6.2f} {peer[name]:>9.2f} {peer[name] / package[name]:>7.1f} | "
+              f"{deviation:>22.1e} ({time_differs:>5.2f} s) {check[name]:>18.1e}")
+    full = "VFE+Dahl+K"
+    checks = [
+        (f"full diagram >= {TARGET_REAL_TIME:g}x real time", args.duration / package[full] >= TARGET_REAL_TIME),
+        (f"full diagram <= {TARGET_FLOOR_RATIO:g}x its C++ floor", package[full] / floor[full] <= TARGET_FLOOR_RATIO),
+        (f"full diagram >= {TARGET_PEER_SPEEDUP:g}x faster than the scipy peer",
+         peer[full] / package[full] >= TARGET_PEER_SPEEDUP),
+        (f"package = scipy peer within {TOLERANCE:g} (2^32-count encoder)", max(check.values()) <= TOLERANCE),
+    ]
+    for label, met in checks:
+        print(f"{label}: {'met' if met else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    main()
