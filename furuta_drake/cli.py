@@ -113,8 +113,8 @@ def _run_simulate(args) -> int:
     from furuta_drake.simulate import simulate
 
     config = _simulate_config(args)
-    if args.html is not None and args.html.exists() and not args.force:
-        raise ConfigError(f"{args.html}: exists; pass --force to overwrite it")
+    if args.html is not None:
+        _check_html_path(args.html, args.force)
     meshcat = _start_meshcat() if (args.meshcat or args.html is not None) else None
     with atomic_output_dir(args.out, force=args.force) as out:
         progress = _Progress(config.duration, "simulate")
@@ -138,11 +138,23 @@ def _run_simulate(args) -> int:
         meshcat.StopRecording()
         meshcat.PublishRecording()
         if args.html is not None:
-            args.html.write_text(meshcat.StaticHtml())
+            staging = args.html.with_name(f".{args.html.name}.partial")
+            staging.write_text(meshcat.StaticHtml())
+            staging.replace(args.html)
     rate = config.duration / result.wall_time if result.wall_time > 0 else float("inf")
     print(f"simulated {config.duration:g} s in {result.wall_time:.2f} s ({rate:.1f}x real time); "
           f"max |theta| = {abs(result.state[:, 0]).max():.4f} rad; wrote {args.out}")
     return 0
+
+
+def _check_html_path(path: Path, force: bool) -> None:
+    """Refuse an ``--html`` path that cannot take the recording, before the run."""
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, expected the path of an HTML file (--html)")
+    if path.exists() and not force:
+        raise ConfigError(f"{path}: exists; pass --force to overwrite it")
+    if not path.parent.is_dir():
+        raise ConfigError(f"{path}: cannot write the recording there, {path.parent} is not a directory")
 
 
 def _run_reproduce(args) -> int:

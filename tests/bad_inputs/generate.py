@@ -77,6 +77,9 @@ def synthetic_logs() -> None:
     write_rows("log_time_backwards.csv", header, edited(150, 0, rows[100][0]))  # file line 152
     write_rows("log_irregular_period.csv", header, edited(80, 0, "0.0802"))  # 1.2 ms then 0.8 ms; line 82
     write_rows("log_time_gap.csv", header, rows[:100] + rows[120:])  # 20 samples missing before line 102
+    # The arm turned near +pi and logged wrapped into (-pi, pi]: it jumps to -pi at file line 139.
+    write_rows("log_wrapped_phi.csv", header,
+               [[t, theta, f"{math.remainder(float(phi) + 3.1, 2 * math.pi):.6f}", u] for t, theta, phi, u in rows])
     truncated = "".join(",".join(r) + "\n" for r in rows[:250])
     (HERE / "log_truncated.csv").write_text(",".join(header) + "\n" + truncated + rows[250][0] + ","
                                             + rows[250][1][:3])  # cut mid-row at line 252, no newline
