@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
+import re
 import types
 import typing
 from pathlib import Path
@@ -18,6 +19,9 @@ from pathlib import Path
 import yaml
 
 from furuta_drake.errors import ConfigError, read_input_text
+
+
+YAML12_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
 
 
 def load_yaml_dataclass(path: str | Path, schema: type, validate: bool = True):
@@ -168,6 +172,8 @@ def convert_node(node, tp, source: str, key_path: str):
     if tp is typing.Any:
         return yaml.safe_load(yaml.serialize(node))
     value = _scalar(node, source, key_path)
+    if tp in (float, int) and isinstance(value, str) and node.style is None and YAML12_FLOAT.fullmatch(value):
+        value = float(value)  # 1e-3: a number in YAML 1.2, a string to PyYAML's YAML 1.1 resolver
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"{_where(source, node, key_path)} expected a number, got {value!r}")
@@ -175,7 +181,8 @@ def convert_node(node, tp, source: str, key_path: str):
             raise ConfigError(f"{_where(source, node, key_path)} must be finite, got {value!r}")
         return float(value)
     if tp is int:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+        if (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+                or value != int(value)):
             raise ConfigError(f"{_where(source, node, key_path)} expected an integer, got {value!r}")
         return int(value)
     if tp is bool:
