@@ -2,7 +2,8 @@
 
 Each case runs ``python -m furuta_drake.cli`` in a subprocess on a copy of the corpus and must end with the
 manifest's exit code (2), exactly one stderr line starting with "furuta-drake" that contains every expected
-fragment, no traceback, and nothing written or overwritten anywhere in the run's directory tree.
+fragment, no traceback, and nothing written or overwritten anywhere in the run's directory tree. Property
+tests feed the CSV log loader random variations of a valid log: it returns a checked log or raises LogError.
 """
 
 from __future__ import annotations
@@ -14,10 +15,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings, strategies as st
 
 from conftest import REPO
+from furuta_drake.diagnosis.logs import load_log
+from furuta_drake.errors import LogError
+from furuta_drake.rig import lund_rig
 
 CORPUS = Path(__file__).resolve().parent / "bad_inputs"
 MANIFEST = yaml.safe_load((CORPUS / "manifest.yaml").read_text())["cases"]
@@ -86,3 +92,75 @@ def test_bad_input_exits_2_with_one_clear_line_and_writes_nothing(case, tmp_path
         assert fragment in lines[0], f"missing {fragment!r}" + shown
     assert result.returncode == case["exit"], shown
     assert snapshot(tmp_path) == before, "the run wrote or changed files" + shown
+
+
+# --- The CSV log loader on random variations of a valid log (in-process, hypothesis) -----------------------
+
+GARBAGE = ["", " ", "nan", "-inf", "1e999", "0x10", "1,5", "#VALUE!", "\"0.1\"", "1.2.3", "١٢", "--1", "0.1 0.2",
+           "\x00", "é", "1e-400", "+.5", "TRUE"]
+
+
+def valid_log_lines(n: int) -> list[str]:
+    """Header and n rows of a quiet 1 kHz torque log."""
+    return ["time,theta,phi,torque"] + [
+        f"{k * 1e-3:.3f},{0.02 * np.sin(9.4 * k * 1e-3):.6f},{0.1 * np.sin(3.1 * k * 1e-3):.6f},"
+        f"{0.01 * np.cos(6.3 * k * 1e-3):.6f}" for k in range(n)]
+
+
+@st.composite
+def mangled_logs(draw) -> bytes:
+    """A valid log with up to three random edits: a cell replaced by garbage, a row deleted, duplicated or
+    swapped, a blank line, a renamed or extra column, a cut, random bytes, CRLF endings, a BOM."""
+    lines = valid_log_lines(draw(st.integers(3, 40)))
+    for _ in range(draw(st.integers(0, 3))):
+        edit = draw(st.sampled_from(["cell", "delete", "duplicate", "swap", "blank", "rename", "extra"]))
+        row = draw(st.integers(1, len(lines) - 1)) if len(lines) > 1 else 0
+        if edit == "cell":
+            fields = lines[row].split(",")
+            fields[draw(st.integers(0, len(fields) - 1))] = draw(st.sampled_from(GARBAGE) | st.text(max_size=6))
+            lines[row] = ",".join(fields)
+        elif edit == "delete":
+            del lines[row]
+        elif edit == "duplicate":
+            lines.insert(row, lines[row])
+        elif edit == "swap" and row + 1 < len(lines):
+            lines[row], lines[row + 1] = lines[row + 1], lines[row]
+        elif edit == "blank":
+            lines.insert(row, draw(st.sampled_from(["", " ", ",,,"])))
+        elif edit == "rename":
+            names = lines[0].split(",")
+            names[draw(st.integers(0, 3))] = draw(st.sampled_from(["voltage", "Theta", "time", "", "phi "]))
+            lines[0] = ",".join(names)
+        elif edit == "extra":
+            lines = [line + ("," + draw(st.sampled_from(["x", "1.0", ""]))) for line in lines]
+    text = draw(st.sampled_from(["\n", "\r\n"])).join(lines) + draw(st.sampled_from(["", "\n"]))
+    data = draw(st.sampled_from([b"", "\ufeff".encode()])) + text.encode()
+    if draw(st.booleans()):
+        data = data[:draw(st.integers(0, len(data)))]
+    if draw(st.booleans()):
+        at = draw(st.integers(0, len(data)))
+        data = data[:at] + draw(st.binary(max_size=4)) + data[at:]
+    return data
+
+
+@settings(max_examples=25, deadline=None)
+@given(data=mangled_logs())
+def test_a_mangled_log_loads_checked_or_raises_log_error(tmp_path_factory, data):
+    path = tmp_path_factory.mktemp("log") / "run.csv"
+    path.write_bytes(data)
+    try:
+        log = load_log(path, lund_rig())
+    except LogError as err:
+        assert str(err).startswith(str(path)) and "\n" not in str(err)
+    else:
+        assert log.time.size >= 3 and np.all(np.diff(log.time) > 0)
+        assert all(np.all(np.isfinite(a)) for a in (log.time, log.theta, log.phi, log.input))
+
+
+@settings(max_examples=25, deadline=None)
+@given(data=st.binary(max_size=200))
+def test_random_bytes_raise_log_error(tmp_path_factory, data):
+    path = tmp_path_factory.mktemp("log") / "run.csv"
+    path.write_bytes(data)
+    with pytest.raises(LogError):
+        load_log(path, lund_rig())
