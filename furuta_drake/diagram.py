@@ -49,10 +49,15 @@ class FurutaDiagram:
     config: SimulationConfig
 
 
-def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDiagram:
+def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_controller=None) -> FurutaDiagram:
     """Build the closed loop (or the open-loop excitation run) that ``config`` describes.
 
     With ``meshcat`` (a ``pydrake.geometry.Meshcat``) a ``MeshcatVisualizer`` draws the plant.
+    ``make_controller(builder, lqr_gain, measured)`` replaces the LqrController of ``controller.mode = 'lqr'``
+    (e.g. :mod:`furuta_drake.swingup`): it adds a system with the LqrController's ports (``arm_torque_Nm`` out,
+    ``state_estimate`` in, fed the ``velocity_source`` estimate unless it connected it itself, and
+    ``friction_compensation_Nm`` when compensating) and returns (system, {name: estimate port of an observer it
+    added}); its other outputs are logged into ``signals`` and the estimates into ``estimates``.
     """
     config.validate()
     rig, period = config.rig, config.encoder.sample_period
@@ -116,9 +121,16 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
                               "controller.gain")
         else:
             lqr_gain = design_lqr(plant, config.controller.lqr)
-        controller = builder.AddNamedSystem("lqr", LqrController(
-            lqr_gain, config.controller.lqr.period, config.controller.lqr.torque_limit,
-            friction_compensation=config.controller.friction_compensation))
+        if make_controller is None:
+            controller = builder.AddNamedSystem("lqr", LqrController(
+                lqr_gain, config.controller.lqr.period, config.controller.lqr.torque_limit,
+                friction_compensation=config.controller.friction_compensation))
+        else:
+            controller, own_estimates = make_controller(builder, lqr_gain, measured)
+            estimates.update(own_estimates)
+            for i in range(controller.num_output_ports()):
+                if controller.get_output_port(i).get_name() != "arm_torque_Nm":
+                    log(f"signal_{controller.get_output_port(i).get_name()}", controller.get_output_port(i))
         commands.append(controller.GetOutputPort("arm_torque_Nm"))
         reference = arm_reference_trajectory(config.excitation, config.duration)
         if reference is not None:
@@ -181,7 +193,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         builder.Connect(measured, mux.get_input_port(0))
         builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
         estimates["true"] = mux.get_output_port()
-    if controller is not None:
+    if controller is not None and not builder.IsConnectedOrExported(controller.GetInputPort("state_estimate")):
         builder.Connect(estimates[config.controller.velocity_source], controller.GetInputPort("state_estimate"))
 
     # --- Loggers, sampled at the control period like the rig's data ------------------------------------------

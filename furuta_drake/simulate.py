@@ -133,6 +133,7 @@ def _tape(built: FurutaDiagram, context, config: SimulationConfig, wall: float) 
     estimates = {name[len("estimate_"):]: data(name) for name in logs if name.startswith("estimate_")}
     signals = {name: data(name) for name in ("friction_estimate", "friction_error_estimate", "K_sigma")
                if name in logs}
+    signals.update({name[len("signal_"):]: data(name) for name in logs if name.startswith("signal_")})
     return SimulationResult(
         time=time, state=data("state"), measured=data("measured_angles"), torque=data("torque")[:, 0],
         true_friction=data("true_friction"), estimates=estimates, signals=signals, lqr_gain=built.lqr_gain,
