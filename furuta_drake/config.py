@@ -21,6 +21,7 @@ from furuta_drake.control import LqrParameters
 from furuta_drake.encoder import EncoderParameters
 from furuta_drake.errors import ConfigError
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
+from furuta_drake.observers.adaptive_dahl import DahlAdaptationParameters
 from furuta_drake.observers.dahl import DahlObserverParameters
 from furuta_drake.observers.hg import HighGainParameters
 from furuta_drake.observers.vfe import VfeParameters
@@ -72,12 +73,15 @@ class ObserverConfig:
     adaptation_enabled: bool = False
     run: list[Literal["hg", "vfe"]] = field(default_factory=list)
     pendulum_friction: DahlObserverParameters | None = None  # a friction observer on the pendulum, feeding VFE
+    dahl_adaptation: DahlAdaptationParameters | None = None  # adapt the arm observer's Fc+/-, sigma0 (Sec. VII)
 
     def validate(self, where: str = "observers") -> None:
         self.hg.validate(f"{where}.hg")
         self.dahl.validate(f"{where}.dahl")
         if self.pendulum_friction is not None:
             self.pendulum_friction.validate(f"{where}.pendulum_friction")
+        if self.dahl_adaptation is not None:
+            self.dahl_adaptation.validate(f"{where}.dahl_adaptation")
         self.vfe.validate(f"{where}.vfe")
         self.adaptation.validate(f"{where}.adaptation")
 

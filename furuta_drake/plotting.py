@@ -117,6 +117,29 @@ def plot_observer_sweep(rows: list[dict], path: str | Path | None = None):
     return _save(fig, path)
 
 
+def plot_parameter_adaptation(trajectories: dict, true: dict, enable_time: float, path: str | Path | None = None):
+    """Dahl parameters over time, divided by their true values, for the one-gain law (dashed: what K_sigma
+    implies) and the two-parameter law (solid), one column per start ({start: (time, paper, ours)})."""
+    fig, axes = plt.subplots(1, len(trajectories), figsize=(6 * len(trajectories), 4), sharey=True, squeeze=False)
+    colors = {"Fc+": "tab:blue", "Fc-": "tab:red", "sigma0": "k"}
+    for ax, (start, (time, paper, ours)) in zip(axes[0], trajectories.items()):
+        for name, values in ours.items():
+            ax.plot(time, values / true[name], color=colors[name], lw=1.4, label=f"{name}, two-parameter law")
+        for name, values in paper.items():
+            truth = true["sigma0"] if name.startswith("sigma0") else true[name]
+            color = colors["sigma0"] if name.startswith("sigma0") else colors[name]
+            ax.plot(time, values / truth, color=color, lw=1.0, ls="--", label=f"{name}, one-gain law (Eq. 18)")
+        ax.axhline(1.0, color="0.5", lw=0.8)
+        ax.axvline(enable_time, color="0.5", ls=":", lw=1.0)
+        ax.set_title(f"{start} start", fontsize=10)
+        ax.set_xlabel("time [s]")
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("estimate / true value [-]")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def _draw_friction(ax, result, calibrated: tuple[float, float] | None):
     t = result.time
     ax.plot(t, result.true_friction[:, 1], color="tab:green", lw=1.0, alpha=0.7, label="true arm friction")

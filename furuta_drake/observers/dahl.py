@@ -117,13 +117,25 @@ class DahlFrictionObserver(LeafSystem):
         self._angles = self.DeclareVectorInputPort("measured_angles_rad", 2)
         self._reference = self.DeclareVectorInputPort("arm_reference_rad", 2) if joint == "arm" else None
         self._k_sigma = self.DeclareVectorInputPort("K_sigma", 1)
-        state = self.DeclareDiscreteState(1)
+        initial = self._initial_state(params)
+        state = self.DeclareDiscreteState(initial)
         self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
         tickets = {self.xd_ticket(), self._k_sigma.ticket()}
         if params.sigma1 > 0 or params.sigma2 > 0:
             tickets.add(self._velocity.ticket())
         self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction, prerequisites_of_calc=tickets)
-        self.DeclareStateOutputPort("bristle_state_rad", state)
+        if len(initial) == 1:
+            self.DeclareStateOutputPort("bristle_state_rad", state)
+        else:  # a subclass keeps more than z_hat (its first entry)
+            self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle,
+                                         prerequisites_of_calc={self.xd_ticket()})
+
+    def _initial_state(self, params: DahlObserverParameters) -> list[float]:
+        """The discrete state at t = 0: z_hat = 0."""
+        return [0.0]
+
+    def _calc_bristle(self, context, output: BasicVector):
+        output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(0))
 
     def _calc_friction(self, context, output: BasicVector):
         k_sigma = self._k_sigma.Eval(context)[0] if self._k_sigma.HasValue(context) else 1.0
@@ -135,6 +147,15 @@ class DahlFrictionObserver(LeafSystem):
             torque = -p.sigma0 * z
         output.SetAtIndex(0, k_sigma * torque)
 
+    def tracking_errors(self, context) -> tuple[float, float]:
+        """(eps, eps_v) of Eq. 9: the joint angle and velocity minus the reference (zero for the pendulum)."""
+        angle = self._angles.Eval(context)[self._angle_index]
+        v = self._velocity.Eval(context)[0]
+        if self._reference is not None and self._reference.HasValue(context):
+            reference = self._reference.Eval(context)
+            return angle - reference[0], v - reference[1]
+        return angle, v
+
     def _update(self, context, discrete_state):
         p = self.params
         v = self._velocity.Eval(context)[0]
@@ -142,13 +163,16 @@ class DahlFrictionObserver(LeafSystem):
         level = stribeck_curve(v, self._law)
         z_next = float(dahl_exact_step(z, v, p.period, p.sigma0, level))
         if p.rho is not None:
-            angle = self._angles.Eval(context)[self._angle_index]
-            reference = (0.0, 0.0)
-            if self._reference is not None and self._reference.HasValue(context):
-                reference = self._reference.Eval(context)
-            k_z = -(p.sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (
-                (angle - reference[0]) + p.rho2 * (v - reference[1]))
-            rate = p.sigma0 * abs(v) / level
-            held_input_gain = -math.expm1(-rate * p.period) / rate if rate > 0 else p.period  # int_0^h e^(-r s) ds
-            z_next += held_input_gain * k_z
+            k_z = injection(p, p.sigma0, v, level, *self.tracking_errors(context))
+            z_next += held_input_gain(p.sigma0 * abs(v) / level, p.period) * k_z
         discrete_state.get_mutable_vector().SetAtIndex(0, z_next)
+
+
+def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
+    """K_z of Eq. 9 [rad/s]: -(sigma0 / rho) (1 + s1 sigma1 |v| / g(v)) (eps + rho2 eps_v)."""
+    return -(sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (eps + p.rho2 * eps_v)
+
+
+def held_input_gain(rate: float, period: float) -> float:
+    """int_0^h e^(-r s) ds: what a constant input adds over one period to dz/dt = -r z + input."""
+    return -math.expm1(-rate * period) / rate if rate > 0 else period

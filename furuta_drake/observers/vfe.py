@@ -85,6 +85,17 @@ def vfe_error_matrix(A: np.ndarray, B_F: np.ndarray, K_F: np.ndarray) -> np.ndar
     return A_F - K_F @ C_F
 
 
+def friction_error_response(A: np.ndarray, B_F: np.ndarray, K_F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(M, N) of w' = M w + N F_tilde_phi, w = [x - x_hat; eps_hat_F]: how eps_hat_F (w[5], the arm entry) answers
+    an arm friction error F_tilde_phi = F_phi - F_hat_phi (Eq. 11 subtracted from the plant; the DC gain is 1,
+    eig(M) = eig(G) of Eq. 12)."""
+    K1, K2 = K_F[:4], K_F[4:]
+    M = np.zeros((6, 6))
+    M[:4, :4], M[:4, 4:] = A - K1 @ ANGLES, -B_F
+    M[4:, :4] = K2 @ ANGLES
+    return M, np.concatenate([B_F[:, 1], np.zeros(2)]).reshape(6, 1)
+
+
 def continuous_vfe_observer(A: np.ndarray, B_F: np.ndarray, params: VfeParameters,
                             pendulum_friction_input: bool = False) -> LinearSystem:
     """Eq. 11 as a continuous LinearSystem: input [y_theta, y_phi, u, F_hat_phi] (then F_hat_theta with
