@@ -1,0 +1,196 @@
+"""Blind validation of ``furuta-drake diagnose`` (issue 7): confusion matrix, accuracy, false alarms on ``none``,
+median held-out gap reduction where right, seconds per case.
+
+The suite (:mod:`furuta_drake.diagnosis.suite`): each vocabulary effect at two magnitudes on both rigs and the
+seeds asked for, plus ``none`` cases, a combined pair and an effect outside the vocabulary (cogging torque,
+expected ``unexplained``). Its logs are simulated on Dask (the sweep's cluster, one case per task) into
+``OUT/suite/cases/<case>/`` and the answers go to ``OUT/suite/answers.json``; the diagnosis is then run on each
+case folder alone (rig.yaml, train_*.csv, heldout_*.csv), blind, and scored against the answers afterwards.
+
+Writes ``OUT/results.csv`` (one row per case), ``OUT/results.json`` (the figures and every row) and
+``OUT/config.json`` (the options, cases and versions). Targets: >= 90 % right, no false alarm on ``none``,
+median held-out reduction >= 50 % where right, <= 60 s per case of four 8 s logs at 1 kHz on 2 cores.
+
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_confusion.py --out /tmp/confusion``
+(``--quick``: a handful of cases with 8 s logs; ``--suite DIR`` reuses logs written earlier).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import platform
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from furuta_drake.diagnosis.pipeline import run_diagnosis
+from furuta_drake.diagnosis.suite import CaseSpec, default_cases, verdict_is_right, write_case
+from furuta_drake.sweep import dask_client, map_on_dask
+
+QUICK = (
+    CaseSpec("lund", (), 0, 1), CaseSpec("lund", ("input_delay",), 2, 1),
+    CaseSpec("lund", ("arm_coulomb_friction",), 2, 1), CaseSpec("qube_servo2", ("actuator_lag",), 2, 1),
+    CaseSpec("qube_servo2", ("arm_viscous_friction",), 2, 1), CaseSpec("lund", ("cogging_torque",), 2, 1),
+)
+TARGETS = {"accuracy": 0.9, "false_alarm_rate": 0.0, "median_reduction_where_right": 0.5, "seconds_per_case": 60.0}
+
+
+def _write_case(args):
+    case, directory, duration = args
+    return write_case(case, Path(directory), duration)
+
+
+def generate(cases: list[CaseSpec], suite: Path, duration: float, workers: int | None, scheduler: str | None
+             ) -> list[dict]:
+    """Simulate every case's logs on Dask; write and return the answers (kept apart from the case folders)."""
+    tasks = [(case, str(suite / "cases" / case.name), duration) for case in cases]
+    with dask_client(scheduler, workers, len(tasks)) as client:
+        answers = map_on_dask(client, _write_case, tasks,
+                              progress=lambda done, total: print(f"\r  simulated {done}/{total} cases", end=""))
+    print()
+    (suite / "answers.json").write_text(json.dumps(answers, indent=2, sort_keys=True) + "\n")
+    return answers
+
+
+def diagnose_blind(case_dir: Path, out: Path, workers: int | None) -> tuple[dict, float]:
+    """Run the diagnosis on one case folder (no answer in sight); return its report and wall time."""
+    start = time.perf_counter()
+    report = run_diagnosis(rig_path=case_dir / "rig.yaml", train_paths=sorted(case_dir.glob("train_*.csv")),
+                           heldout_paths=sorted(case_dir.glob("heldout_*.csv")), out=out, force=True,
+                           workers=workers, echo=lambda line: None)
+    return report, time.perf_counter() - start
+
+
+def confusion(rows: list[dict]) -> tuple[list[str], list[str], np.ndarray]:
+    expected = sorted({row["expected"] for row in rows})
+    found = sorted({row["found"] for row in rows} | set(expected))
+    matrix = np.zeros((len(expected), len(found)), dtype=int)
+    for row in rows:
+        matrix[expected.index(row["expected"]), found.index(row["found"])] += 1
+    return expected, found, matrix
+
+
+def print_confusion(expected: list[str], found: list[str], matrix: np.ndarray) -> None:
+    short = {name: f"{i:>2}" for i, name in enumerate(found)}
+    width = max(len(name) for name in expected)
+    print("\nconfusion matrix (rows: expected, columns: found)")
+    for name in found:
+        print(f"  [{short[name]}] {name}")
+    print(" " * (width + 2) + " ".join(short[name] for name in found))
+    for i, name in enumerate(expected):
+        cells = " ".join(f"{v:>2}" if v else " ." for v in matrix[i])
+        print(f"  {name:<{width}}{cells}")
+
+
+def summarise(rows: list[dict]) -> dict:
+    right = [row for row in rows if row["right"]]
+    none_rows = [row for row in rows if row["expected"] == "none"]
+    reductions = [row["heldout_reduction"] for row in right if row["expected"] != "none"]
+    return {
+        "cases": len(rows),
+        "right": len(right),
+        "accuracy": len(right) / len(rows) if rows else float("nan"),
+        "false_alarm_rate": (sum(row["found"] != "none" for row in none_rows) / len(none_rows)
+                             if none_rows else float("nan")),
+        "median_reduction_where_right": float(np.median(reductions)) if reductions else float("nan"),
+        "seconds_per_case": float(np.mean([row["seconds"] for row in rows])) if rows else float("nan"),
+        "max_seconds": float(np.max([row["seconds"] for row in rows])) if rows else float("nan"),
+    }
+
+
+def select_cases(args) -> list[CaseSpec]:
+    if args.quick:
+        return list(QUICK)
+    cases = default_cases(rigs=tuple(args.rigs), seeds=tuple(args.seeds), levels=tuple(args.levels))
+    if args.only:
+        cases = [case for case in cases if any(word in case.name for word in args.only)]
+    return cases
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True, help="output directory (suite, reports, results)")
+    parser.add_argument("--quick", action="store_true", help=f"{len(QUICK)} cases only")
+    parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[1])
+    parser.add_argument("--levels", nargs="+", type=int, default=[1, 2])
+    parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")
+    parser.add_argument("--duration", type=float, default=8.0, help="length of every log [s] (default 8)")
+    parser.add_argument("--suite", type=Path, help="reuse a suite written earlier (its answers.json and cases/)")
+    parser.add_argument("--workers", type=int, help="processes (default: all cores)")
+    parser.add_argument("--scheduler", help="Dask scheduler address for the log generation (default: local)")
+    args = parser.parse_args(argv)
+
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    cases = select_cases(args)
+    if args.suite is not None:
+        suite = args.suite
+        answers = json.loads((suite / "answers.json").read_text())
+        names = {case.name for case in cases}
+        answers = [a for a in answers if a["case"] in names] or answers
+    else:
+        suite = out / "suite"
+        print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}")
+        start = time.perf_counter()
+        answers = generate(cases, suite, args.duration, args.workers, args.scheduler)
+        print(f"  {time.perf_counter() - start:.0f} s")
+
+    rows = []
+    for i, answer in enumerate(answers, start=1):
+        report, seconds = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"],
+                                         args.workers)
+        found = "+".join(sorted(report["effects"])) if "+" in answer["expected_verdict"] else report["verdict"]
+        row = {"case": answer["case"], "rig": answer["rig"], "expected": answer["expected_verdict"],
+               "found": found, "right": verdict_is_right(answer, report),
+               "heldout_reduction": report["gap"]["heldout_reduction"],
+               "nominal_heldout_gap": report["gap"]["nominal"]["heldout"],
+               "runner_up": report["ranking"][0]["effect"] if report["ranking"] else "",
+               "fitted": json.dumps(next((r["params"] for r in report["ranking"] if r["effect"] == report["verdict"]),
+                                         {}), sort_keys=True),
+               "seconds": seconds}
+        rows.append(row)
+        mark = "ok " if row["right"] else "BAD"
+        print(f"[{i}/{len(answers)}] {mark} {row['case']:<55} -> {found:<24} "
+              f"reduction {row['heldout_reduction']:6.1%}  {seconds:5.1f} s", flush=True)
+
+    expected, found, matrix = confusion(rows)
+    print_confusion(expected, found, matrix)
+    figures = summarise(rows)
+    print(f"\naccuracy {figures['accuracy']:.1%} ({figures['right']}/{figures['cases']}), "
+          f"false alarms on none {figures['false_alarm_rate']:.0%}, "
+          f"median held-out reduction where right {figures['median_reduction_where_right']:.1%}, "
+          f"{figures['seconds_per_case']:.1f} s per case (max {figures['max_seconds']:.1f} s)")
+    print("targets: " + ", ".join(f"{k} {v:g}" for k, v in TARGETS.items()))
+
+    with open(out / "results.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    (out / "results.json").write_text(json.dumps(
+        {"figures": figures, "targets": TARGETS, "confusion": {"expected": expected, "found": found,
+                                                                "matrix": matrix.tolist()},
+         "rows": rows}, indent=2) + "\n")
+    (out / "config.json").write_text(json.dumps(
+        {"argv": sys.argv[1:] if argv is None else argv, "suite": str(suite), "duration_s": args.duration,
+         "cases": [a["case"] for a in answers], "workers": args.workers, "python": platform.python_version(),
+         "numpy": np.__version__, "pydrake": _drake_version()}, indent=2) + "\n")
+    return 0
+
+
+def _drake_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("drake")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
