@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
@@ -15,8 +15,8 @@ from pydrake.systems.primitives import Linearize
 
 from furuta_drake.errors import ConfigError
 from furuta_drake.friction import (
-    FrictionParameters, JointFriction, JointFrictionParameters, bristle_derivative, dahl_exact_step,
-    static_friction_torque,
+    FrictionParameters, JointFriction, JointFrictionParameters, bristle_derivative, bristle_friction_torque,
+    dahl_exact_step, static_friction_torque, stribeck_curve,
 )
 from furuta_drake.plant import add_furuta_plant, make_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright, lund_rig
@@ -322,3 +322,56 @@ def test_dahl_exact_step_is_bounded_and_is_a_flow(z0, v, dt, sigma0, coulomb_lev
     assert abs(z1) <= max(abs(z0), coulomb_level / sigma0) * (1 + 1e-12)
     z2 = dahl_exact_step(z1, v, dt[1], sigma0, coulomb_level)
     assert z2 == pytest.approx(dahl_exact_step(z0, v, dt[0] + dt[1], sigma0, coulomb_level), rel=1e-9, abs=1e-15)
+
+
+positive_levels = st.floats(1e-4, 0.1)
+normal_velocities = st.floats(-100.0, 100.0, allow_subnormal=False)  # subnormal products lose their digits
+
+
+def bristle_dissipation(z, v, p: JointFrictionParameters) -> float:
+    """Power the friction torque puts into the joint plus the rate of the bristle energy sigma0 z^2 / 2 [W]:
+    F v + sigma0 z dz/dt. Passivity of the bristle element is this being <= 0."""
+    return bristle_friction_torque(z, v, p) * v + p.sigma0 * z * bristle_derivative(z, v, p)
+
+
+@settings(max_examples=25, deadline=None)
+@given(coulomb_pos=positive_levels, coulomb_neg=positive_levels, sigma0=st.floats(0.1, 1e4), viscous=levels,
+       z=st.floats(-1.0, 1.0, allow_subnormal=False), v=normal_velocities)
+def test_dahl_friction_never_injects_energy_at_any_bristle_state(coulomb_pos, coulomb_neg, sigma0, viscous, z, v):
+    """Dahl (Eq. 7): F v + sigma0 z dz/dt = -b v^2 - sigma0^2 |v| z^2 / Fc <= 0 for every z and v."""
+    p = JointFrictionParameters.dahl(coulomb_pos, coulomb_neg, sigma0=sigma0, viscous=viscous)
+    p.validate()
+    level = coulomb_pos if v > 0 else coulomb_neg
+    dissipation = bristle_dissipation(z, v, p)
+    rounding = 1e-12 * sigma0 * abs(z * v) + 1e-300  # F v and sigma0 z dz/dt cancel their sigma0 z v terms
+    assert dissipation <= rounding
+    assert dissipation == pytest.approx(-viscous * v**2 - sigma0**2 * abs(v) * z**2 / level, rel=1e-9, abs=rounding)
+
+
+@settings(max_examples=25, deadline=None)
+@given(coulomb=st.tuples(positive_levels, positive_levels), stribeck_extra=st.tuples(levels, levels),
+       stribeck_velocity=st.floats(1e-3, 1.0), sigma0=st.floats(0.1, 1e4), sigma1=st.floats(1e-6, 1e-1),
+       viscous=levels, speed=st.floats(1e-3, 100.0), direction=st.sampled_from([1.0, -1.0]), z_share=st.floats(-1, 1))
+def test_lugre_friction_never_injects_energy_within_its_velocity_bound(coulomb, stribeck_extra, stribeck_velocity,
+                                                                       sigma0, sigma1, viscous, speed, direction,
+                                                                       z_share):
+    """LuGre: F v + sigma0 z dz/dt = -(sigma1 + sigma2) v^2 + sigma1 sigma0 |v| v z / g - sigma0^2 |v| z^2 / g, a
+    concave quadratic in z whose maximum sigma1^2 |v|^3 / (4 g) - (sigma1 + sigma2) v^2 is <= 0 exactly when
+    |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2 (the bound friction.py states). Checked at the maximising z (an
+    energy-injecting bristle state exists beyond the bound) and at a random z (none within it)."""
+    p = JointFrictionParameters(model="lugre", coulomb_pos=coulomb[0], coulomb_neg=coulomb[1],
+                                static_pos=coulomb[0] + stribeck_extra[0], static_neg=coulomb[1] + stribeck_extra[1],
+                                stribeck_velocity=stribeck_velocity, sigma0=sigma0, sigma1=sigma1, viscous=viscous)
+    p.validate()
+    v = direction * speed
+    g = float(stribeck_curve(v, p))
+    bound = 4 * g * (sigma1 + viscous) / sigma1**2
+    assume(abs(speed / bound - 1) > 1e-6)
+    z_worst = sigma1 * v / (2 * sigma0)  # argmax over z of the dissipation
+    worst = bristle_dissipation(z_worst, v, p)
+    if speed < bound:
+        assert worst <= 1e-12 * (sigma1 + viscous) * v**2
+        z = z_share * 2 * g / sigma0
+        assert bristle_dissipation(z, v, p) <= 1e-12 * ((sigma1 + viscous) * v**2 + sigma0 * abs(z * v))
+    else:
+        assert worst > 0.0
