@@ -14,8 +14,10 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import DiscreteTimeApproximation
 from pydrake.systems.controllers import DiscreteTimeLinearQuadraticRegulator, LinearQuadraticRegulator
-from pydrake.systems.framework import LeafSystem
-from pydrake.systems.primitives import Linearize, LinearSystem
+from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import (
+    Demultiplexer, Linearize, LinearSystem, MatrixGain, Multiplexer, Saturation, ZeroOrderHold,
+)
 
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import plant_to_paper_permutation
@@ -145,16 +147,12 @@ class LqrController(LeafSystem):
     torque on the arm, in the paper's convention tau = u + F; read only when ``friction_compensation``, zero
     when unconnected), ``state_reference`` (x_ref, zero when unconnected). Outputs, both discrete state held
     from t_k to t_k+1: ``arm_torque_Nm`` (the command, saturated at +-``torque_limit``) and ``lqr_torque_Nm``
-    (u_LQ before compensation and saturation).
+    (u_LQ before compensation and saturation). :class:`LqrControllerDiagram` is the same law from C++ blocks.
     """
 
     def __init__(self, K, period: float, torque_limit: float, friction_compensation: bool = False):
         super().__init__()
-        K = np.asarray(K, dtype=float)
-        if K.size != 4 or not np.all(np.isfinite(K)):
-            raise ConfigError(f"LQR gain must be 4 finite numbers, got {K.ravel().tolist()}")
-        _require_positive(period, "LqrController period")
-        _require_positive(torque_limit, "LqrController torque_limit")
+        K = _checked_gain(K, period, torque_limit)
         self._negative_gain = -K.ravel()
         self._limit = float(torque_limit)
         self._compensate = bool(friction_compensation)
@@ -180,7 +178,59 @@ class LqrController(LeafSystem):
         discrete_state.get_mutable_vector(self._lqr_torque).SetAtIndex(0, u_lq)
 
 
+class LqrControllerDiagram(Diagram):
+    """:class:`LqrController`'s law from Drake's C++ blocks, for closed loops (a Python update at every sample
+    costs more than the rest of the controller): ``Multiplexer`` [x_hat; F_hat; x_ref] -> ``MatrixGain``
+    [[-K, -1, K], [-K, 0, K]] -> ``Saturation`` (+-``torque_limit`` on the command, none on u_LQ) ->
+    ``ZeroOrderHold`` at ``period`` -> ``Demultiplexer``. The hold samples the law at t_k and holds it, like the
+    LeafSystem's discrete update, so both give the same outputs; the ports are the LeafSystem's, but only those
+    in use exist: ``friction_compensation_Nm`` with ``friction_compensation``, ``state_reference`` with
+    ``reference`` (a C++ block has no unconnected-means-zero input)."""
+
+    def __init__(self, K, period: float, torque_limit: float, friction_compensation: bool = False,
+                 reference: bool = False):
+        Diagram.__init__(self)
+        K = _checked_gain(K, period, torque_limit).reshape(1, 4)
+        inputs = [("state_estimate", 4, -K)]
+        if friction_compensation:
+            inputs.append(("friction_compensation_Nm", 1, np.array([[-1.0]])))
+        if reference:
+            inputs.append(("state_reference", 4, K))
+        gains = np.vstack([np.hstack([gain for _, _, gain in inputs]),
+                           np.hstack([0.0 * gain if name == "friction_compensation_Nm" else gain
+                                      for name, _, gain in inputs])])
+        builder = DiagramBuilder()
+        law = builder.AddNamedSystem("law", MatrixGain(gains))
+        if len(inputs) == 1:
+            builder.ExportInput(law.get_input_port(), inputs[0][0])
+        else:
+            mux = builder.AddNamedSystem("inputs", Multiplexer([size for _, size, _ in inputs]))
+            builder.Connect(mux.get_output_port(), law.get_input_port())
+            for i, (name, _, _) in enumerate(inputs):
+                builder.ExportInput(mux.get_input_port(i), name)
+        limit = float(torque_limit)
+        saturation = builder.AddNamedSystem("saturation", Saturation([-limit, -np.inf], [limit, np.inf]))
+        hold = builder.AddNamedSystem("hold", ZeroOrderHold(period, 2))
+        outputs = builder.AddNamedSystem("outputs", Demultiplexer(2))
+        builder.Connect(law.get_output_port(), saturation.get_input_port())
+        builder.Connect(saturation.get_output_port(), hold.get_input_port())
+        builder.Connect(hold.get_output_port(), outputs.get_input_port())
+        builder.ExportOutput(outputs.get_output_port(0), "arm_torque_Nm")
+        builder.ExportOutput(outputs.get_output_port(1), "lqr_torque_Nm")
+        builder.BuildInto(self)
+        self.set_name("lqr")
+
+
+def _checked_gain(K, period: float, torque_limit: float) -> np.ndarray:
+    K = np.asarray(K, dtype=float)
+    if K.size != 4 or not np.all(np.isfinite(K)):
+        raise ConfigError(f"LQR gain must be 4 finite numbers, got {K.ravel().tolist()}")
+    _require_positive(period, "LqrController period")
+    _require_positive(torque_limit, "LqrController torque_limit")
+    return K
+
+
 __all__ = [
     "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "closed_loop_eigenvalues",
-    "check_stabilizing", "LqrController",
+    "check_stabilizing", "LqrController", "LqrControllerDiagram",
 ]

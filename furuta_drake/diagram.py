@@ -19,14 +19,14 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
-    Adder, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
-    ZeroOrderHold,
+    Adder, ConstantVectorSource, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource,
+    VectorLogSink, ZeroOrderHold,
 )
 
 from furuta_drake.actuator import add_actuator, add_arm_disturbance
 from furuta_drake.adaptation import KSigmaAdapter
 from furuta_drake.config import SimulationConfig
-from furuta_drake.control import LqrController, check_stabilizing, design_lqr, upright_linearization
+from furuta_drake.control import LqrControllerDiagram, check_stabilizing, design_lqr, upright_linearization
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.friction import JointFriction
@@ -74,9 +74,16 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
     builder.Connect(plant.get_state_output_port(), to_paper_order.get_input_port())
     true_state = to_paper_order.get_output_port()
 
-    friction = builder.AddNamedSystem("friction", JointFriction(plant, config.friction))
-    builder.Connect(plant.get_state_output_port(), friction.get_input_port())
-    applied_forces = [friction.GetOutputPort("generalized_force_Nm")]
+    applied_forces = []
+    if config.friction.arm.model == "none" and config.friction.pendulum.model == "none":
+        # No friction: a constant zero for the log rather than a Python system evaluated twice at every integrator
+        # stage (a fifth of a frictionless closed loop's time in the profile).
+        true_friction = builder.AddNamedSystem("friction", ConstantVectorSource(np.zeros(2))).get_output_port()
+    else:
+        friction = builder.AddNamedSystem("friction", JointFriction(plant, config.friction))
+        builder.Connect(plant.get_state_output_port(), friction.get_input_port())
+        applied_forces.append(friction.GetOutputPort("generalized_force_Nm"))
+        true_friction = friction.GetOutputPort("friction_torque_Nm")
 
     arm_torque_to_generalized = _arm_torque_to_generalized_force(plant)
     disturbance = add_arm_disturbance(builder, config.disturbance, true_state)
@@ -90,7 +97,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
             -rig.motor.back_emf_damping * arm_torque_to_generalized @ np.array([[0.0, 0.0, 0.0, 1.0]])))
         builder.Connect(true_state, back_emf.get_input_port())
         applied_forces.append(back_emf.get_output_port())
-    _sum_into(builder, applied_forces, plant.get_applied_generalized_force_input_port(), "applied_forces")
+    if applied_forces:
+        _sum_into(builder, applied_forces, plant.get_applied_generalized_force_input_port(), "applied_forces")
 
     # Delays are resolved to half a control period (a finer clock costs an integrator stop per tick).
     actuator_input, actuator_output = add_actuator(builder, config.actuator, delay_resolution=period / 2.0)
@@ -121,10 +129,11 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
                               "controller.gain")
         else:
             lqr_gain = design_lqr(plant, config.controller.lqr)
+        reference = arm_reference_trajectory(config.excitation, config.duration)
         if make_controller is None:
-            controller = builder.AddNamedSystem("lqr", LqrController(
+            controller = builder.AddNamedSystem("lqr", LqrControllerDiagram(
                 lqr_gain, config.controller.lqr.period, config.controller.lqr.torque_limit,
-                friction_compensation=config.controller.friction_compensation))
+                friction_compensation=config.controller.friction_compensation, reference=reference is not None))
         else:
             controller, own_estimates = make_controller(builder, lqr_gain, measured)
             estimates.update(own_estimates)
@@ -132,7 +141,6 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
                 if controller.get_output_port(i).get_name() != "arm_torque_Nm":
                     log(f"signal_{controller.get_output_port(i).get_name()}", controller.get_output_port(i))
         commands.append(controller.GetOutputPort("arm_torque_Nm"))
-        reference = arm_reference_trajectory(config.excitation, config.duration)
         if reference is not None:
             source = builder.AddNamedSystem("arm_reference", TrajectorySource(reference))
             builder.Connect(source.get_output_port(), controller.GetInputPort("state_reference"))
@@ -200,7 +208,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
     true_sampled = builder.AddNamedSystem("true_state_sample", ZeroOrderHold(period, 4))
     builder.Connect(true_state, true_sampled.get_input_port())
     friction_sampled = builder.AddNamedSystem("true_friction_sample", ZeroOrderHold(period, 2))
-    builder.Connect(friction.GetOutputPort("friction_torque_Nm"), friction_sampled.get_input_port())
+    builder.Connect(true_friction, friction_sampled.get_input_port())
     log("state", true_sampled.get_output_port())
     log("measured_angles", measured)
     log("torque", command)

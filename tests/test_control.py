@@ -10,7 +10,8 @@ from pydrake.systems.primitives import Linearize, MatrixGain
 from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
 
 from furuta_drake.control import (
-    LqrController, LqrParameters, check_stabilizing, closed_loop_eigenvalues, design_lqr, upright_linearization,
+    LqrController, LqrControllerDiagram, LqrParameters, check_stabilizing, closed_loop_eigenvalues, design_lqr,
+    upright_linearization,
 )
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import add_furuta_plant, make_furuta_plant, plant_to_paper_permutation
@@ -220,3 +221,30 @@ def test_weights_that_leave_the_arm_unregulated_are_rejected(lund_plant):
     for discrete in (True, False):
         with pytest.raises(ConfigError, match=r"controller.lqr.state_weights .* out of the cost"):
             design_lqr(lund_plant, LqrParameters(state_weights=[10.0, 0.0, 0.1, 0.0], discrete=discrete))
+
+
+def diagram_update(controller, estimate, friction=None, reference=None):
+    """(arm_torque_Nm, lqr_torque_Nm) of an LqrControllerDiagram after its sample at t = 0."""
+    context = controller.CreateDefaultContext()
+    controller.GetInputPort("state_estimate").FixValue(context, estimate)
+    if friction is not None:
+        controller.GetInputPort("friction_compensation_Nm").FixValue(context, [friction])
+    if reference is not None:
+        controller.GetInputPort("state_reference").FixValue(context, reference)
+    Simulator(controller, context).AdvanceTo(5e-4)
+    return tuple(controller.GetOutputPort(name).Eval(context)[0] for name in ("arm_torque_Nm", "lqr_torque_Nm"))
+
+
+def test_lqr_controller_diagram_is_the_same_law_from_cpp_blocks():
+    K = np.array([[-2.0, -0.5, -0.4, -0.2]])
+    x = np.array([0.01, 0.1, 0.0, 0.2])
+    u_lq = 0.02 + 0.05 + 0.04  # -K x
+    plain = LqrControllerDiagram(K, 1e-3, 0.2)
+    assert [plain.get_input_port(i).get_name() for i in range(plain.num_input_ports())] == ["state_estimate"]
+    assert diagram_update(plain, x) == pytest.approx((u_lq, u_lq))
+    assert diagram_update(plain, 10 * x) == pytest.approx((0.2, 10 * u_lq))
+    assert diagram_update(plain, -10 * x) == pytest.approx((-0.2, -10 * u_lq))
+    compensating = LqrControllerDiagram(K, 1e-3, 0.2, friction_compensation=True, reference=True)
+    reference = np.array([0.0, 0.1, 0.0, 0.0])  # at the arm reference: only theta and phi_dot act
+    assert diagram_update(compensating, x, friction=-0.012, reference=reference) == pytest.approx((0.072, 0.06))
+    assert not compensating.HasAnyDirectFeedthrough()
