@@ -81,20 +81,24 @@ class Encoder(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(params.sample_period, 0.0, update)
         self.DeclareStateOutputPort("measured_angles_rad", self._measured)
 
-    def _quantise(self, angles):
-        return self._resolution * np.round(angles / self._resolution)
+    def _quantise(self, theta: float, phi: float) -> list[float]:
+        # Python's round() rounds half to even like numpy's, on floats: no array allocation per sample.
+        q = self._resolution
+        return [q * round(theta / q), q * round(phi / q)]
 
     def _sample(self, context, discrete_state):
-        x = self._state_port.Eval(context)
-        discrete_state.set_value(self._measured, self._quantise(x[:2]))
+        x = self._state_port.Eval(context).tolist()
+        discrete_state.get_mutable_vector(self._measured).SetFromVector(self._quantise(x[0], x[1]))
 
     def _sample_with_noise(self, context, discrete_state):
-        x = self._state_port.Eval(context)
+        x = self._state_port.Eval(context).tolist()
         k = int(context.get_discrete_state(self._counter).GetAtIndex(0))
         block, offset = divmod(k, self.NOISE_BLOCK)
         if self._block[0] != block:
-            self._block = (block, self._noise_block(block))
-        discrete_state.set_value(self._measured, self._quantise(x[:2] + self._block[1][offset]))
+            self._block = (block, self._noise_block(block).tolist())
+        noise = self._block[1][offset]
+        discrete_state.get_mutable_vector(self._measured).SetFromVector(
+            self._quantise(x[0] + noise[0], x[1] + noise[1]))
         discrete_state.get_mutable_vector(self._counter).SetAtIndex(0, k + 1)
 
     def _noise_block(self, block: int) -> np.ndarray:

@@ -163,7 +163,11 @@ def joint_friction_torque(v, z, p: JointFrictionParameters):
 def dahl_exact_step(z, v, dt, sigma0, coulomb_level):
     """Exact solution over ``dt`` of dz/dt = v - (sigma0 |v| / Fc) z at frozen v [rad]:
     z_ss + (z - z_ss) exp(-sigma0 |v| dt / Fc), z_ss = Fc sign(v) / sigma0. At v = 0 it holds z (z_ss = 0, no
-    decay). Stable at any step: the result lies between z and z_ss."""
+    decay). Stable at any step: the result lies between z and z_ss. Floats (an observer's step at every sample)
+    take the math module, three times cheaper than numpy on scalars."""
+    if isinstance(z, float) and isinstance(v, float):
+        z_ss = math.copysign(coulomb_level / sigma0, v) if v != 0.0 else 0.0
+        return z_ss + (z - z_ss) * math.exp(-sigma0 * abs(v) * dt / coulomb_level)
     z_ss = coulomb_level * np.sign(v) / sigma0
     return z_ss + (z - z_ss) * np.exp(-sigma0 * np.abs(v) * dt / coulomb_level)
 
