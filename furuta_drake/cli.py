@@ -62,12 +62,15 @@ def _parser() -> argparse.ArgumentParser:
 
     rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
     rep.add_argument("--only", nargs="+", metavar="EXPERIMENT",
-                     help="experiments to run among table1 table2 fig5 fig6 fig7 (default: all)")
+                     help="experiments to run among table1 table2 fig5 fig6 fig7 beyond (default: the paper's, "
+                          "table1 ... fig7; beyond runs the studies of the paper's open problems, a few minutes)")
     rep.add_argument("--seed", type=int, default=0, help="seed of the excitation and encoder noise (default 0)")
     rep.add_argument("--table-duration", type=float, default=20.0,
                      help="length of the runs of Tables I-II and Fig. 5 [s] (default 20, as the paper)")
     rep.add_argument("--adaptation-duration", type=float, default=40.0,
                      help="length of the run of Figs. 6-7 [s] (default 40; adaptation starts at 7.8 s)")
+    rep.add_argument("--quick", action="store_true",
+                     help="short runs everywhere (4 s tables, 12 s adaptation, short studies): a smoke test")
     rep.add_argument("--out", type=Path, required=True, help="output directory")
     rep.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     rep.set_defaults(run=_run_reproduce)
@@ -160,14 +163,16 @@ def _check_html_path(path: Path, force: bool) -> None:
 def _run_reproduce(args) -> int:
     from tqdm import tqdm
 
-    from furuta_drake.reproduction_report import EXPERIMENTS, ReproductionSettings, run_reproduction
+    from furuta_drake.reproduction_report import (BEYOND_STUDIES, PAPER_EXPERIMENTS, ReproductionSettings,
+                                                  run_reproduction)
 
-    settings = ReproductionSettings(only=args.only or list(EXPERIMENTS), seed=args.seed,
-                                    table_duration=args.table_duration,
-                                    adaptation_duration=args.adaptation_duration)
+    quick = {"table_duration": 4.0, "adaptation_duration": 12.0, "small_beyond": True} if args.quick else {
+        "table_duration": args.table_duration, "adaptation_duration": args.adaptation_duration}
+    settings = ReproductionSettings(only=args.only or list(PAPER_EXPERIMENTS), seed=args.seed, **quick)
     settings.validate()
     only = set(settings.only)
-    steps = 4 * bool(only & {"table1", "table2"}) + 2 * ("fig5" in only) + bool(only & {"fig6", "fig7"})
+    steps = (4 * bool(only & {"table1", "table2"}) + 2 * ("fig5" in only) + bool(only & {"fig6", "fig7"})
+             + len(BEYOND_STUDIES) * ("beyond" in only))
     with tqdm(total=steps, desc="reproduce", unit="run", disable=not sys.stderr.isatty()) as bar:
         figures = run_reproduction(settings, args.out, force=args.force,
                                    progress=lambda message: (bar.set_postfix_str(message), bar.update(1)))

@@ -207,18 +207,18 @@ def run_table_experiments(config: SimulationConfig, progress=None) -> TableRuns:
     (``observer_sweep``), then the two runs of Sec. IV use the tuned observers: LQR on HG, and LQR on VFE
     with friction compensation, both observers running side by side in each, same seed and excitation."""
     pilot = simulate(with_velocity_source(config, "vfe"))
-    _report(progress, "pilot run")
+    report_progress(progress, "pilot run")
     sweep = observer_sweep(pilot, config)
-    _report(progress, "observer sweep")
+    report_progress(progress, "observer sweep")
     tuned = tuned_config(config, sweep)
     runs = {}
     for source in ("hg", "vfe"):
         runs[source] = simulate(with_velocity_source(tuned, source))
-        _report(progress, f"table run with LQR on {source.upper()}")
+        report_progress(progress, f"table run with LQR on {source.upper()}")
     return TableRuns(runs["hg"], runs["vfe"], tuned, sweep)
 
 
-def _report(progress, message: str) -> None:
+def report_progress(progress, message: str) -> None:
     if progress is not None:
         progress(message)
 
@@ -257,7 +257,7 @@ def fig5_experiment(config: SimulationConfig, factors=(("set1_low", 0.7), ("set2
             controller=dataclasses.replace(config.controller, velocity_source="vfe", friction_compensation=False),
             observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]))
         result = simulate(run_config)
-        _report(progress, f"Fig. 5 run, {name}")
+        report_progress(progress, f"Fig. 5 run, {name}")
         outcome[name] = {"factor": factor, "result": result, "config": run_config,
                          "steady": steady_friction_values(result, run_config)}
     return outcome
@@ -282,7 +282,7 @@ def adaptation_experiment(config: SimulationConfig, duration: float = 40.0, prog
     """Run Figs. 6-7 and read the final K_sigma+/- and the adapted friction estimate in the last third."""
     run_config = adaptation_config(config, duration)
     result = simulate(run_config)
-    _report(progress, "Figs. 6-7 run")
+    report_progress(progress, "Figs. 6-7 run")
     branches = result.signals["K_sigma"]
     steady = steady_friction_values(result, run_config, start_time=run_config.duration * 2.0 / 3.0)
     return {

@@ -4,7 +4,8 @@
 writes, into a directory that appears complete or not at all: ``table1.csv``, ``table2.csv`` (and the
 fairness sweep ``observer_sweep.csv``), ``fig3.png`` ... ``fig7.png``, ``adaptation.json``, ``report.md``,
 ``config.yaml`` (the simulated rig, a ``simulate`` config), ``reproduction.yaml`` (these settings and the
-tuned observers) and every run's raw log with its config in ``logs/``. CSV and JSON files are byte-identical
+tuned observers) and every run's raw log with its config in ``logs/``; ``beyond`` adds ``beyond.md`` and the
+plots of the studies of :mod:`furuta_drake.beyond` (the open problems of the paper's Sec. VI-VII). CSV and JSON files are byte-identical
 for the same settings.
 """
 
@@ -23,17 +24,20 @@ from furuta_drake.plotting import (plot_fig5, plot_friction_estimates, plot_k_si
 from furuta_drake.results import config_yaml_with_provenance, write_json, write_log_csv, write_table_csv
 from furuta_drake.yamlio import dump_yaml_dataclass
 
-EXPERIMENTS = ("table1", "table2", "fig5", "fig6", "fig7")
+EXPERIMENTS = ("table1", "table2", "fig5", "fig6", "fig7", "beyond")
+PAPER_EXPERIMENTS = EXPERIMENTS[:-1]
+BEYOND_STUDIES = ("pendulum_observer", "parameter_adaptation", "lugre_observer")  # furuta_drake.beyond modules
 
 
 @dataclass
 class ReproductionSettings:
     """What ``furuta-drake reproduce`` runs: the experiments, the seed and the run lengths."""
 
-    only: list[str] = field(default_factory=lambda: list(EXPERIMENTS))
+    only: list[str] = field(default_factory=lambda: list(PAPER_EXPERIMENTS))
     seed: int = 0
     table_duration: float = 20.0  # [s] Sec. IV's two 20 s tests; also each run of Fig. 5
     adaptation_duration: float = 40.0  # [s] Figs. 6-7, adaptation enabled at 7.8 s
+    small_beyond: bool = False  # the beyond-the-paper studies in their short form
 
     def validate(self) -> None:
         unknown = sorted(set(self.only) - set(EXPERIMENTS))
@@ -93,10 +97,55 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
             _write_run(logs, "adaptation", result, adaptation["config"])
         if only & {"fig5", "fig6", "fig7"}:
             write_json(staging / "adaptation.json", _adaptation_json(figures))
+        if "beyond" in only:
+            studies = run_beyond(settings.seed, settings.small_beyond, progress)
+            figures["beyond"] = studies
+            for study in studies:
+                for stem, figure in study.figures.items():
+                    figure.savefig(staging / f"beyond_{stem}.png", dpi=110)
+                for name, result in study.logs.items():
+                    write_log_csv(result, logs / f"beyond_{name}.csv")
+            write_table_csv([{"study": study.title, **row} for study in studies for row in study.rows],
+                            staging / "beyond.csv")
         (staging / "reproduction.yaml").write_text(_settings_yaml(settings, tuned))
         figures["wall_time_s"] = time.perf_counter() - started
         (staging / "report.md").write_text(report_markdown(figures, settings))
+        if "beyond" in only:
+            (staging / "beyond.md").write_text(beyond_markdown(figures["beyond"], settings))
     return figures
+
+
+def run_beyond(seed: int, small: bool, progress=None) -> list:
+    """Every study of :mod:`furuta_drake.beyond` (``BEYOND_STUDIES``), each on the paper's rig and ``seed``."""
+    import importlib
+
+    studies = []
+    for name in BEYOND_STUDIES:
+        studies.append(importlib.import_module(f"furuta_drake.beyond.{name}").study(seed=seed, small=small))
+        reproduce.report_progress(progress, f"beyond: {name}")
+    return studies
+
+
+def beyond_markdown(studies: list, settings: ReproductionSettings) -> str:
+    """beyond.md: each study's table (the paper's method next to the extension) and what it shows."""
+    lines = ["# Beyond the paper: the open problems of its Sections VI-VII", "",
+             f"Each study runs the paper's method and the extension on the same simulated rig and seed "
+             f"({settings.seed}){' in its short form' if settings.small_beyond else ''}; `beyond.csv` has the "
+             f"numbers, `beyond_*.png` the plots, `logs/beyond_*.csv` the raw logs.", ""]
+    for study in studies:
+        lines += [f"## {study.title}", "", study.summary, "",
+                  "| metric | paper's method | extension | unit | paper / extension | note |", "|---|---|---|---|---|---|"]
+        for row in study.rows:
+            paper, extension = row["paper"], row["extension"]
+            ratio = f"{paper / extension:.2f}" if paper is not None and extension else ""
+            lines.append(f"| {row['metric']} | {_number(paper)} | {_number(extension)} | {row['unit']} | {ratio} | "
+                         f"{row['note']} |")
+        lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+def _number(value) -> str:
+    return "" if value is None else f"{value:.4g}"
 
 
 def _write_tables(staging: Path, runs: reproduce.TableRuns, figures: dict) -> None:
@@ -207,6 +256,9 @@ def report_markdown(figures: dict, settings: ReproductionSettings) -> str:
                   f"| max abs(theta) [rad] | {a['theta_abs_max']:.4f} | < 0.1 | |",
                   "", f"The paper reports K_sigma settling in {reproduce.PAPER_K_SIGMA_RANGE[0]:g}-"
                       f"{reproduce.PAPER_K_SIGMA_RANGE[1]:g}.", ""]
+    if "beyond" in figures:
+        lines += ["## Beyond the paper", "", "The studies of the paper's open problems (Sec. VI-VII) are in `beyond.md`.",
+                  ""]
     return "\n".join(lines) + "\n"
 
 

@@ -79,3 +79,20 @@ def test_only_runs_the_selected_experiments(tmp_path):
     other = tmp_path / "fig5_seed7"
     assert main(["reproduce", "--only", "fig5", "--seed", "7", *SHORT, "--out", str(other)]) == 0
     assert (out / "logs/fig5_set1_low.csv").read_bytes() != (other / "logs/fig5_set1_low.csv").read_bytes()
+
+
+def test_beyond_writes_its_table_plots_and_logs(tmp_path, monkeypatch):
+    # One short study through the real command (each study's figures are asserted in its own tests).
+    from furuta_drake import reproduction_report
+
+    monkeypatch.setattr(reproduction_report, "BEYOND_STUDIES", ("lugre_observer",))
+    out = tmp_path / "beyond"
+    assert main(["reproduce", "--only", "beyond", "--quick", "--out", str(out)]) == 0
+    text = (out / "beyond.md").read_text()
+    assert "## LuGre observer" in text and "| F_hat_rms_error |" in text
+    with open(out / "beyond.csv") as file:
+        rows = list(csv.DictReader(file))
+    assert list(rows[0])[:4] == ["study", "metric", "paper", "extension"]
+    assert (out / "beyond_lugre_observer_lugre.png").stat().st_size > 0
+    assert (out / "logs" / "beyond_lugre_rig_lugre_observer.csv").exists()
+    assert not (out / "table1.csv").exists()

@@ -1,0 +1,58 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Beyond the paper: the open problems of its Sections VI-VII
+# Each study runs the paper's method and an extension on the same simulated Lund rig and seed, as
+# `furuta-drake reproduce --only beyond` does (`beyond.md`). `FURUTA_NOTEBOOK_SMALL=1` (set by the tests) runs
+# the short form of each study.
+
+# %%
+import os
+
+from furuta_drake.beyond import lugre_observer, parameter_adaptation, pendulum_observer
+
+SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
+
+
+def show(study):
+    print(study.title)
+    print(study.summary)
+    for row in study.rows:
+        print(f"  {row['metric']:45s} paper {row['paper']:.4g}  extension {row['extension']:.4g} [{row['unit']}]")
+
+
+# %% [markdown]
+# ## A friction observer on both joints
+# A Dahl observer on the pendulum joint too, feeding F_hat_theta into the VFE observer (Eq. 10's full F_hat).
+
+# %%
+study = pendulum_observer.study(small=SMALL)
+show(study)
+study.figures["pendulum_observer_velocities"]
+
+# %% [markdown]
+# ## A LuGre observer on a rig with a Stribeck effect
+
+# %%
+study = lugre_observer.study(small=SMALL)
+show(study)
+study.figures["lugre_observer_lugre"]
+
+# %% [markdown]
+# ## Adapting sigma0 and Fc, not one gain
+# The two-parameter law against Eq. 18 from an under- and an over-estimated Dahl set (four 30-40 s runs).
+
+# %%
+study = parameter_adaptation.study(small=SMALL)
+show(study)
+study.figures["parameter_adaptation"]
