@@ -30,9 +30,10 @@ from furuta_drake.control import LqrControllerDiagram, check_stabilizing, design
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.friction import JointFriction
+from furuta_drake.observers.adaptive_dahl import AdaptiveDahlObserver
 from furuta_drake.observers.dahl import DahlFrictionObserver
 from furuta_drake.observers.hg import HighGainObserver
-from furuta_drake.observers.vfe import VfeObserver
+from furuta_drake.observers.vfe import VfeObserver, friction_error_response
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
 
@@ -168,7 +169,10 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
     if "vfe" in needed:
         vfe, dahl, arm_velocity = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe,
                                                     config.observers.dahl, measured, command,
-                                                    config.observers.pendulum_friction)
+                                                    config.observers.pendulum_friction,
+                                                    config.observers.dahl_adaptation)
+        if config.observers.dahl_adaptation is not None:
+            log("dahl_parameters", dahl.GetOutputPort("dahl_parameters"))
         estimates["vfe"] = vfe.GetOutputPort("state_estimate")
         log("friction_estimate", dahl.GetOutputPort("friction_estimate_Nm"))
         log("friction_error_estimate", vfe.GetOutputPort("friction_error_estimate_Nm"))
@@ -227,14 +231,19 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
 
 
 def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, measured: OutputPort,
-                      command: OutputPort, pendulum_params=None):
+                      command: OutputPort, pendulum_params=None, adaptation=None):
     """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
     (Eq. 8, 16), which reads the VFE's arm velocity estimate; with ``pendulum_params`` a second friction
-    observer on the pendulum joint feeds F_hat_theta too (Sec. VII). Returns (vfe, dahl, arm_velocity)."""
+    observer on the pendulum joint feeds F_hat_theta too, and with ``adaptation`` (DahlAdaptationParameters)
+    the arm observer adapts Fc+/- and sigma0 from eps_hat_F (Sec. VII). Returns (vfe, dahl, arm_velocity)."""
     vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params,
                                                              pendulum_friction_input=pendulum_params is not None))
     estimate = vfe.GetOutputPort("state_estimate")
-    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe")
+    error_response = None if adaptation is None else friction_error_response(*model, vfe.gains)
+    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe", adaptation=adaptation,
+                                           error_response=error_response)
+    if adaptation is not None:
+        builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"), dahl.GetInputPort("friction_error_estimate_Nm"))
     builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
     builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
@@ -267,13 +276,15 @@ def _sum_into(builder: DiagramBuilder, ports: list[OutputPort], destination, nam
 
 
 def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
-                      joint: str = "arm"):
+                      joint: str = "arm", adaptation=None, error_response=None):
     """The Dahl (or LuGre) friction observer (Eq. 8, 16) of ``joint`` on that joint's velocity in an observer's
     ``state_estimate`` (paper order). Returns (observer, velocity selector), named ``{prefix}_dahl_observer`` and
     ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer`` and
-    ``{prefix}_pendulum_velocity`` for the pendulum."""
+    ``{prefix}_pendulum_velocity`` for the pendulum; with ``adaptation`` the arm's is an AdaptiveDahlObserver
+    (``error_response``: its VFE's ``friction_error_response``)."""
     label = prefix if joint == "arm" else f"{prefix}_pendulum"
-    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", DahlFrictionObserver(params, joint))
+    observer = DahlFrictionObserver(params, joint) if adaptation is None else AdaptiveDahlObserver(params, adaptation, error_response)
+    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", observer)
     row = np.array([[0.0, 0.0, 0.0, 1.0]]) if joint == "arm" else np.array([[0.0, 0.0, 1.0, 0.0]])
     velocity = builder.AddNamedSystem(f"{prefix}_{joint}_velocity", MatrixGain(row))
     builder.Connect(state_estimate, velocity.get_input_port())
