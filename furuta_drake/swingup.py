@@ -52,7 +52,7 @@ class SwingUpParameters:
     arm_velocity_gain: float = 0.025  # k_phidot / torque limit [s/rad]
     catch_angle: float = 0.3  # [rad] hand over to the LQR when |theta_w| < catch_angle ...
     catch_energy: float = 0.4  # ... and |E| / (m g l) < catch_energy [-]
-    catch_torque_ratio: float = 2.0  # ... and the LQR's command (arm term aside) below this times the limit [-]
+    catch_torque_ratio: float = 1.0  # ... and the LQR's command (arm term aside) below this times the limit [-]
     release_angle: float = 0.8  # [rad] back to pumping when |theta_w| > release_angle
     velocity_eps: float = 0.005  # [s] scale of the kinematic high-gain velocity observer (poles -1/eps)
     arm_return_time: float = 2.0  # [s] time constant of the LQR's arm reference, from phi at the catch to 0
@@ -181,11 +181,12 @@ def swingup_config(config_or_rig: SimulationConfig | RigParameters | str, durati
 
 def build_swingup_diagram(config_or_rig: SimulationConfig | RigParameters | str,
                           params: SwingUpParameters | None = None, *, duration: float = 10.0,
-                          theta0: float = math.pi, meshcat=None) -> FurutaDiagram:
+                          theta0: float = math.pi, velocity: str = "kinematic_hg", meshcat=None) -> FurutaDiagram:
     """The rig of :func:`furuta_drake.diagram.build_furuta_diagram` (plant, friction, actuator, encoder, the
     observers of ``config.observers.run``, the LQR gain from Drake's linearization) with the
     :class:`EnergySwingUpController` in place of the LqrController, fed by the kinematic high-gain observer
-    (logged as ``estimates['kinematic_hg']``); swingup_mode and pendulum_energy_J are logged in ``signals``.
+    (``velocity = 'kinematic_hg'``, logged as ``estimates['kinematic_hg']``) or by one of the config's velocity
+    sources ('true', 'derivative', 'hg', 'vfe'); swingup_mode and pendulum_energy_J are logged in ``signals``.
 
     ``config_or_rig`` goes through :func:`swingup_config` (hanging start, no theta bound). Returns the
     FurutaDiagram and the config it was built from in ``.config``. Every linear observer (the kinematic HG and
@@ -194,15 +195,19 @@ def build_swingup_diagram(config_or_rig: SimulationConfig | RigParameters | str,
     params = params or SwingUpParameters()
     params.validate()
     config = swingup_config(config_or_rig, duration, theta0)
+    if velocity != "kinematic_hg":
+        config = dataclasses.replace(config, controller=dataclasses.replace(config.controller, velocity_source=velocity))
     lqr = config.controller.lqr
 
     def make_controller(builder, lqr_gain, measured):
-        observer = builder.AddNamedSystem("kinematic_hg_observer", HighGainObserver(
-            kinematic_model(), HighGainParameters(eps_theta=params.velocity_eps, eps_phi=params.velocity_eps,
-                                                  period=lqr.period)))
         controller = builder.AddNamedSystem("swingup", EnergySwingUpController(
             config.rig, lqr_gain, params, lqr.period, lqr.torque_limit,
             friction_compensation=config.controller.friction_compensation))
+        if velocity != "kinematic_hg":
+            return controller, {}
+        observer = builder.AddNamedSystem("kinematic_hg_observer", HighGainObserver(
+            kinematic_model(), HighGainParameters(eps_theta=params.velocity_eps, eps_phi=params.velocity_eps,
+                                                  period=lqr.period)))
         estimate = observer.GetOutputPort("state_estimate")
         builder.Connect(measured, observer.GetInputPort("measured_angles_rad"))
         builder.Connect(controller.GetOutputPort("arm_torque_Nm"), observer.GetInputPort("arm_torque_Nm"))
@@ -220,11 +225,12 @@ def build_swingup_diagram(config_or_rig: SimulationConfig | RigParameters | str,
 
 
 def simulate_swingup(config_or_rig: SimulationConfig | RigParameters | str, params: SwingUpParameters | None = None,
-                     *, duration: float = 10.0, theta0: float = math.pi, meshcat=None,
-                     progress=None) -> SimulationResult:
+                     *, duration: float = 10.0, theta0: float = math.pi, velocity: str = "kinematic_hg",
+                     meshcat=None, progress=None) -> SimulationResult:
     """Swing up from hanging and catch (:func:`build_swingup_diagram`), run by
     :func:`furuta_drake.simulate.simulate` (same envelope monitor, minus the theta bound, and the same tape)."""
-    built = build_swingup_diagram(config_or_rig, params, duration=duration, theta0=theta0, meshcat=meshcat)
+    built = build_swingup_diagram(config_or_rig, params, duration=duration, theta0=theta0, velocity=velocity,
+                                  meshcat=meshcat)
     return simulate(built.config, built=built, progress=progress)
 
 
