@@ -52,3 +52,21 @@ plot_states(result);
 
 # %%
 plot_velocity_estimates(result);
+
+# %% [markdown]
+# ## Meshcat
+# The same run drawn in Meshcat (open the printed URL while it runs), recorded and saved as a self-contained
+# HTML file that plays back in a browser without a server (`furuta-drake simulate --meshcat --html run.html`
+# does the same from the shell).
+
+# %%
+from pydrake.geometry import StartMeshcat
+
+meshcat = StartMeshcat()
+meshcat.StartRecording()
+simulate(dataclasses.replace(config, duration=min(DURATION, 2.0)), meshcat=meshcat)
+meshcat.StopRecording()
+meshcat.PublishRecording()
+with open("furuta_run.html", "w") as file:
+    file.write(meshcat.StaticHtml())
+print(f"Meshcat at {meshcat.web_url()}; recording saved to furuta_run.html")
