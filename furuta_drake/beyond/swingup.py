@@ -83,8 +83,9 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
     else:
         summary += "."
     if caught is not None:
-        summary += (f" The catch is sensitive to the start: {caught} of {len(START_OFFSETS)} perturbed starts are caught "
-                    f"within {duration:g} s (the pendulum's energy alone is not conserved when the arm moves).")
+        summary += (f" From perturbed starts {caught} of {len(START_OFFSETS)} are caught within {duration:g} s; the "
+                    f"time to catch varies from start to start, as the pendulum's energy alone is not conserved "
+                    f"while the arm moves.")
         summary += " " + _diagnose(ours, config, t_ours)
 
     return BeyondStudy(title="Swing-up and catch", rows=rows, summary=summary,
