@@ -19,7 +19,7 @@
 # %%
 import os
 
-from furuta_drake.beyond import lugre_observer, parameter_adaptation, pendulum_observer
+from furuta_drake.beyond import lugre_observer, parameter_adaptation, pendulum_observer, swingup
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
 
@@ -56,3 +56,13 @@ study.figures["lugre_observer_lugre"]
 study = parameter_adaptation.study(small=SMALL)
 show(study)
 study.figures["parameter_adaptation"]
+
+# %% [markdown]
+# ## Swing-up and catch
+# An energy-based swing-up (Astrom-Furuta) hands over to the LQR near the top: large, periodic motions for
+# the observers. The full study also feeds the swing-up log to `furuta-drake diagnose`.
+
+# %%
+study = swingup.study(small=SMALL)
+show(study)
+list(study.figures.values())[0]
