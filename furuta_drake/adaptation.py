@@ -7,7 +7,7 @@ printed: dK_sigma/dt = -gamma eps_hat_F sigma0 z_hat. As in Sec. V-C there are t
 the velocity estimate is positive and K_sigma- otherwise; the active one adapts only while |v| exceeds
 ``velocity_threshold`` (enough excitation, one sign held) and from ``enable_time`` on (t = 7.8 s in Sec. V-D).
 
-Discrete at the control period h, explicit Euler. Near steady sliding sigma0 z_hat ~ Fc sign(v) and
+Discrete at the control period h, explicit Euler (:func:`adapting_branch`, :func:`k_sigma_step`). Near steady sliding sigma0 z_hat ~ Fc sign(v) and
 e ~ F - K_sigma sigma0 z_hat, so the law is linear in K_sigma with rate gamma (sigma0 z_hat)^2 ~ gamma Fc^2:
 Euler is stable for h gamma Fc^2 < 2 and monotone below 1. The default gamma = 5000 / ((N m)^2 s) gives
 0.7-1.6 1/s at the paper's 0.012-0.018 N m (h gamma Fc^2 ~ 1e-3, far inside the bound), an adaptation much
@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from furuta_drake.errors import ConfigError
+from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters
 
 
 @dataclass
@@ -76,11 +77,58 @@ class KSigmaAdapter(LeafSystem):
         output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(branch))
 
     def _update(self, context, discrete_state):
-        p = self.params
-        v = self._velocity.Eval(context)[0]
-        if context.get_time() < p.enable_time or abs(v) <= p.velocity_threshold:
+        branch = adapting_branch(self.params, context.get_time(), self._velocity.Eval(context)[0])
+        if branch is None:
             return
-        branch = 0 if v > 0 else 1
         state = discrete_state.get_mutable_vector()
-        rate = -p.gamma * self._error.Eval(context)[1] * self.sigma0 * self._bristle.Eval(context)[0]
-        state.SetAtIndex(branch, state.GetAtIndex(branch) + p.period * rate)
+        state.SetAtIndex(branch, state.GetAtIndex(branch) + k_sigma_step(
+            self.params, self.sigma0, self._error.Eval(context)[1], self._bristle.Eval(context)[0]))
+
+
+class KSigmaDahlObserver(DahlFrictionObserver):
+    """The arm's Dahl observer (Eq. 8-9, 16) and its K_sigma adaptation (Eq. 18, Sec. V-C) in one system: the
+    same laws as a :class:`DahlFrictionObserver` driven by a :class:`KSigmaAdapter`, and the same values (both
+    steps read the values held before the sample), for one Python update per sample instead of two updates and
+    an output. Ports: the Dahl observer's without its ``K_sigma`` input (K_sigma is state here), plus the
+    adapter's input ``friction_error_estimate_Nm`` (eps_hat_F) and output ``K_sigma_branches``. The estimate
+    F_hat feeds through v, which picks the branch."""
+
+    K_SIGMA_INPUT = False
+
+    def __init__(self, params: DahlObserverParameters, adaptation: KSigmaAdaptationParameters):
+        adaptation.validate()
+        self.adaptation = adaptation
+        DahlFrictionObserver.__init__(self, params)
+        self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
+        self._branches = self.DeclareDiscreteState([adaptation.initial, adaptation.initial])
+        self.DeclareStateOutputPort("K_sigma_branches", self._branches)
+
+    def _friction_prerequisites(self) -> set:
+        return {self.xd_ticket(), self._velocity.ticket()}
+
+    def _k_sigma_value(self, context) -> float:
+        branch = 0 if self._velocity.Eval(context)[0] > 0 else 1
+        return context.get_discrete_state(self._branches).GetAtIndex(branch)
+
+    def _update(self, context, discrete_state):
+        DahlFrictionObserver._update(self, context, discrete_state)
+        branch = adapting_branch(self.adaptation, context.get_time(), self._velocity.Eval(context)[0])
+        if branch is None:
+            return
+        state = discrete_state.get_mutable_vector(self._branches)
+        state.SetAtIndex(branch, state.GetAtIndex(branch) + k_sigma_step(
+            self.adaptation, self.params.sigma0, self._error.Eval(context)[1],
+            context.get_discrete_state(0).GetAtIndex(0)))
+
+
+def adapting_branch(p: KSigmaAdaptationParameters, time: float, v: float) -> int | None:
+    """The K_sigma that Eq. 18 adapts over the period from ``time`` [s] at velocity estimate v [rad/s]: 0
+    (K_sigma+) for v > 0, 1 (K_sigma-) for v < 0, None before ``enable_time`` or while |v| <= the threshold."""
+    if time < p.enable_time or abs(v) <= p.velocity_threshold:
+        return None
+    return 0 if v > 0 else 1
+
+
+def k_sigma_step(p: KSigmaAdaptationParameters, sigma0: float, friction_error: float, bristle: float) -> float:
+    """Eq. 18 over one period (explicit Euler): -h gamma eps_hat_F sigma0 z_hat, eps_hat_F the arm entry."""
+    return p.period * (-p.gamma * friction_error * sigma0 * bristle)

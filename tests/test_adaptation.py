@@ -9,7 +9,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, Gain, LogVectorOutput, Multiplexer
 
-from furuta_drake.adaptation import KSigmaAdaptationParameters, KSigmaAdapter
+from furuta_drake.adaptation import KSigmaAdaptationParameters, KSigmaAdapter, KSigmaDahlObserver
 from furuta_drake.errors import ConfigError
 from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters
 
@@ -84,14 +84,16 @@ def test_k_sigma_output_is_the_branch_of_the_velocity_sign(v, branch):
     assert adapter.GetOutputPort("K_sigma").Eval(context)[0] == [1.3, 1.8][branch]
 
 
+@pytest.mark.parametrize("merged", [False, True], ids=["DahlFrictionObserver+KSigmaAdapter", "KSigmaDahlObserver"])
 @pytest.mark.parametrize("v, level", [(0.5, 0.012), (-0.5, 0.018)])
-def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
+def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level, merged):
     """A Dahl observer with K_sigma from the adapter and a 'true' Dahl friction K_true = 1.7 times larger on the
     same v: eps_hat_F = F - F_hat = -(K_true - K) sigma0 z_hat, so Eq. 18 is
     dK/dt = -gamma (sigma0 z_hat)^2 (K - K_true), and z_hat = z_ss (1 - exp(-r t)) (Eq. 8, r = sigma0 |v| / Fc):
     K - K_true = (1 - K_true) exp(-gamma Fc^2 int_0^t (1 - e^(-r s))^2 ds), about exp(-gamma Fc^2 t) once the
     bristle has settled. gamma = 40000 / ((N m)^2 s): rate a = gamma Fc^2 = 5.8 (Fc = 0.012) or 13 (0.018) 1/s.
-    Tolerance 5 %: the explicit Euler step, (1 - a h)^n against exp(-a n h), drifts by n (a h)^2 / 2 <= 3.4 %."""
+    Tolerance 5 %: the explicit Euler step, (1 - a h)^n against exp(-a n h), drifts by n (a h)^2 / 2 <= 3.4 %.
+    The same with the adaptation inside the observer (KSigmaDahlObserver)."""
     k_true, gamma, duration = 1.7, 40000.0, 0.4
     dahl_params = DahlObserverParameters(coulomb_pos=0.012, coulomb_neg=0.018, sigma0=SIGMA0)
     builder = DiagramBuilder()
@@ -99,8 +101,12 @@ def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
     angles = builder.AddSystem(ConstantVectorSource([0.0, 0.0]))
     reference = builder.AddSystem(ConstantVectorSource([0.0, v]))  # no tracking error: K_z = 0
     true_gain = builder.AddSystem(ConstantVectorSource([k_true]))
-    observer, truth = (builder.AddSystem(DahlFrictionObserver(dahl_params)) for _ in range(2))
-    adapter = builder.AddSystem(KSigmaAdapter(KSigmaAdaptationParameters(gamma=gamma), sigma0=SIGMA0))
+    truth = builder.AddSystem(DahlFrictionObserver(dahl_params))
+    if merged:
+        observer = adapter = builder.AddSystem(KSigmaDahlObserver(dahl_params, KSigmaAdaptationParameters(gamma=gamma)))
+    else:
+        observer = builder.AddSystem(DahlFrictionObserver(dahl_params))
+        adapter = builder.AddSystem(KSigmaAdapter(KSigmaAdaptationParameters(gamma=gamma), sigma0=SIGMA0))
     negate = builder.AddSystem(Gain(-1.0, 1))
     error = builder.AddSystem(Adder(2, 1))
     no_pendulum_error = builder.AddSystem(ConstantVectorSource([0.0]))
@@ -110,20 +116,21 @@ def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
         builder.Connect(angles.get_output_port(), dahl.GetInputPort("measured_angles_rad"))
         builder.Connect(reference.get_output_port(), dahl.GetInputPort("arm_reference_rad"))
     builder.Connect(true_gain.get_output_port(), truth.GetInputPort("K_sigma"))
-    builder.Connect(adapter.GetOutputPort("K_sigma"), observer.GetInputPort("K_sigma"))
     builder.Connect(truth.GetOutputPort("friction_estimate_Nm"), error.get_input_port(0))
     builder.Connect(observer.GetOutputPort("friction_estimate_Nm"), negate.get_input_port())
     builder.Connect(negate.get_output_port(), error.get_input_port(1))
     builder.Connect(no_pendulum_error.get_output_port(), errors.get_input_port(0))
     builder.Connect(error.get_output_port(), errors.get_input_port(1))
     builder.Connect(errors.get_output_port(), adapter.GetInputPort("friction_error_estimate_Nm"))
-    builder.Connect(velocity.get_output_port(), adapter.GetInputPort("arm_velocity_estimate_rad_per_s"))
-    builder.Connect(observer.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
-    log = LogVectorOutput(adapter.GetOutputPort("K_sigma"), builder, PERIOD)
+    if not merged:
+        builder.Connect(adapter.GetOutputPort("K_sigma"), observer.GetInputPort("K_sigma"))
+        builder.Connect(velocity.get_output_port(), adapter.GetInputPort("arm_velocity_estimate_rad_per_s"))
+        builder.Connect(observer.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
+    log = LogVectorOutput(adapter.GetOutputPort("K_sigma_branches"), builder, PERIOD)
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     Simulator(diagram, context).AdvanceTo(duration)
-    t, k_sigma = log.FindLog(context).sample_times(), log.FindLog(context).data()[0]
+    t, k_sigma = log.FindLog(context).sample_times(), log.FindLog(context).data()[0 if v > 0 else 1]
     r = SIGMA0 * abs(v) / level
     settled_time = t - 2 * (1 - np.exp(-r * t)) / r + (1 - np.exp(-2 * r * t)) / (2 * r)
     expected = k_true + (1.0 - k_true) * np.exp(-gamma * level**2 * settled_time)

@@ -116,30 +116,41 @@ class DahlFrictionObserver(LeafSystem):
         self._velocity = self.DeclareVectorInputPort(f"{joint}_velocity_estimate_rad_per_s", 1)
         self._angles = self.DeclareVectorInputPort("measured_angles_rad", 2)
         self._reference = self.DeclareVectorInputPort("arm_reference_rad", 2) if joint == "arm" else None
-        self._k_sigma = self.DeclareVectorInputPort("K_sigma", 1)
+        self._k_sigma = self.DeclareVectorInputPort("K_sigma", 1) if self.K_SIGMA_INPUT else None
         initial = self._initial_state(params)
         state = self.DeclareDiscreteState(initial)
         self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
-        tickets = {self.xd_ticket(), self._k_sigma.ticket()}
-        if params.sigma1 > 0 or params.sigma2 > 0:
-            tickets.add(self._velocity.ticket())
-        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction, prerequisites_of_calc=tickets)
+        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction,
+                                     prerequisites_of_calc=self._friction_prerequisites())
         if len(initial) == 1:
             self.DeclareStateOutputPort("bristle_state_rad", state)
         else:  # a subclass keeps more than z_hat (its first entry)
             self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle,
                                          prerequisites_of_calc={self.xd_ticket()})
 
+    K_SIGMA_INPUT = True  # a subclass that keeps K_sigma itself declares no K_sigma input
+
+    def _friction_prerequisites(self) -> set:
+        """What F_hat depends on: the state, K_sigma, and v for LuGre's sigma1, sigma2."""
+        tickets = {self.xd_ticket(), self._k_sigma.ticket()}
+        if self.params.sigma1 > 0 or self.params.sigma2 > 0:
+            tickets.add(self._velocity.ticket())
+        return tickets
+
+    def _k_sigma_value(self, context) -> float:
+        """K_sigma of Eq. 16: the input, 1 while unconnected."""
+        return self._k_sigma.Eval(context)[0] if self._k_sigma.HasValue(context) else 1.0
+
     def _initial_state(self, params: DahlObserverParameters) -> list[float]:
         """The discrete state at t = 0: z_hat = 0."""
         return [0.0]
 
     def _calc_bristle(self, context, output: BasicVector):
-        output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(0))
+        output.SetAtIndex(0, context.get_discrete_state(0).GetAtIndex(0))
 
     def _calc_friction(self, context, output: BasicVector):
-        k_sigma = self._k_sigma.Eval(context)[0] if self._k_sigma.HasValue(context) else 1.0
-        z = context.get_discrete_state_vector().GetAtIndex(0)
+        k_sigma = self._k_sigma_value(context)
+        z = context.get_discrete_state(0).GetAtIndex(0)
         p = self.params
         if p.sigma1 > 0 or p.sigma2 > 0:
             torque = bristle_friction_torque(z, self._velocity.Eval(context)[0], self._law)
@@ -159,13 +170,13 @@ class DahlFrictionObserver(LeafSystem):
     def _update(self, context, discrete_state):
         p = self.params
         v = self._velocity.Eval(context)[0]
-        z = context.get_discrete_state_vector().GetAtIndex(0)
+        z = context.get_discrete_state(0).GetAtIndex(0)
         level = stribeck_curve(v, self._law)
         z_next = float(dahl_exact_step(z, v, p.period, p.sigma0, level))
         if p.rho is not None:
             k_z = injection(p, p.sigma0, v, level, *self.tracking_errors(context))
             z_next += held_input_gain(p.sigma0 * abs(v) / level, p.period) * k_z
-        discrete_state.get_mutable_vector().SetAtIndex(0, z_next)
+        discrete_state.get_mutable_vector(0).SetAtIndex(0, z_next)
 
 
 def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
