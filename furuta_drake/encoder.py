@@ -81,14 +81,16 @@ class Encoder(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(params.sample_period, 0.0, update)
         self.DeclareStateOutputPort("measured_angles_rad", self._measured)
 
-    def _quantise(self, theta: float, phi: float) -> list[float]:
-        # Python's round() rounds half to even like numpy's, on floats: no array allocation per sample.
+    def _write(self, discrete_state, theta: float, phi: float) -> None:
+        """Quantise into the state: Python's round() rounds half to even like numpy's, on floats, written
+        through the state's array view (no array built per sample)."""
         q = self._resolution
-        return [q * round(theta / q), q * round(phi / q)]
+        measured = discrete_state.get_mutable_value(self._measured)
+        measured[0], measured[1] = q * round(theta / q), q * round(phi / q)
 
     def _sample(self, context, discrete_state):
         x = self._state_port.Eval(context).tolist()
-        discrete_state.get_mutable_vector(self._measured).SetFromVector(self._quantise(x[0], x[1]))
+        self._write(discrete_state, x[0], x[1])
 
     def _sample_with_noise(self, context, discrete_state):
         x = self._state_port.Eval(context).tolist()
@@ -97,8 +99,7 @@ class Encoder(LeafSystem):
         if self._block[0] != block:
             self._block = (block, self._noise_block(block).tolist())
         noise = self._block[1][offset]
-        discrete_state.get_mutable_vector(self._measured).SetFromVector(
-            self._quantise(x[0] + noise[0], x[1] + noise[1]))
+        self._write(discrete_state, x[0] + noise[0], x[1] + noise[1])
         discrete_state.get_mutable_vector(self._counter).SetAtIndex(0, k + 1)
 
     def _noise_block(self, block: int) -> np.ndarray:

@@ -158,10 +158,12 @@ class DahlFrictionObserver(LeafSystem):
             torque = -p.sigma0 * z
         output.SetAtIndex(0, k_sigma * torque)
 
-    def tracking_errors(self, context) -> tuple[float, float]:
-        """(eps, eps_v) of Eq. 9: the joint angle and velocity minus the reference (zero for the pendulum)."""
+    def tracking_errors(self, context, v: float | None = None) -> tuple[float, float]:
+        """(eps, eps_v) of Eq. 9: the joint angle and velocity (``v`` when the caller has read it) minus the
+        reference (zero for the pendulum)."""
         angle = self._angles.Eval(context)[self._angle_index]
-        v = self._velocity.Eval(context)[0]
+        if v is None:
+            v = self._velocity.Eval(context)[0]
         if self._reference is not None and self._reference.HasValue(context):
             reference = self._reference.Eval(context)
             return angle - reference[0], v - reference[1]
@@ -169,12 +171,12 @@ class DahlFrictionObserver(LeafSystem):
 
     def _update(self, context, discrete_state):
         p = self.params
-        v = self._velocity.Eval(context)[0]
+        v = float(self._velocity.Eval(context)[0])  # a float: math, not numpy scalars, in the step
         z = context.get_discrete_state(0).GetAtIndex(0)
         level = stribeck_curve(v, self._law)
         z_next = float(dahl_exact_step(z, v, p.period, p.sigma0, level))
         if p.rho is not None:
-            k_z = injection(p, p.sigma0, v, level, *self.tracking_errors(context))
+            k_z = injection(p, p.sigma0, v, level, *self.tracking_errors(context, v))
             z_next += held_input_gain(p.sigma0 * abs(v) / level, p.period) * k_z
         discrete_state.get_mutable_vector(0).SetAtIndex(0, z_next)
 
