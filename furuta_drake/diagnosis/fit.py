@@ -1,5 +1,8 @@
 """Fit each candidate on the train windows: bounded least squares of the k-step residuals
-(``scipy.optimize.least_squares``, several starts where the cost is multimodal), in parallel over candidates.
+(``scipy.optimize.least_squares`` from the best of several starts where the cost is multimodal), in parallel over
+candidates. The cost re-projects the windows' initial states for every parameter vector (variable projection);
+its Jacobian is Kaufman's approximation (the residuals' change at the projected states, with the part the
+states could absorb projected out), so a column costs one batch prediction.
 
 The sensor effects are estimated from the data directly, because no trajectory can fit white noise:
 ``encoder_quantization`` from the grid the angle increments lie on (the largest k such that every increment is
@@ -18,11 +21,15 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, Scales, apply_effects
-from furuta_drake.diagnosis.gap import Windows, evaluate_gap, residuals
+from furuta_drake.diagnosis.gap import (
+    Windows, evaluate_gap, fixed_state_residuals, project_out_states, projected_residuals,
+)
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.surrogate import Model
 
-FIT_WINDOWS = 20  # windows of the train logs used in the least squares (evenly drawn, seeded)
+FIT_WINDOWS = 40  # windows of the train logs used in the least squares (evenly drawn, seeded)
+MAX_NFEV = 20  # cost evaluations of one least-squares fit (Jacobians not counted)
+JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise
 
 
@@ -103,19 +110,41 @@ def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: li
     low, high, sizes, starts = _joint(fitted_names, scales)
     span = high - low
 
-    def cost(x):
-        r = residuals(apply_effects(base, _split(fitted_names, sizes, x)), subset, nominal_counts)
-        flat = np.concatenate([v[1:].ravel() for v in r])
-        return np.nan_to_num(flat, nan=1e6, posinf=1e6, neginf=-1e6)
+    last = {}
 
-    best = None
-    for start in starts:
-        x0 = np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span)
-        result = least_squares(cost, x0, bounds=(low, high), x_scale=np.maximum(span, 1e-12) / 10.0,
-                               diff_step=1e-3, max_nfev=20, method="trf")
-        if best is None or result.cost < best[0]:
-            best = (result.cost, result.x, bool(result.success), result.message)
-    _, x, success, message = best
+    def flat(r):
+        return np.nan_to_num(np.concatenate([v[1:].ravel() for v in r]), nan=1e6, posinf=1e6, neginf=-1e6)
+
+    def model_at(x):
+        return apply_effects(base, _split(fitted_names, sizes, x))
+
+    def cost(x):
+        r, states, state_jacobians = projected_residuals(model_at(x), subset, nominal_counts)
+        last.update(x=np.array(x), states=states, raw=r, state_jacobians=state_jacobians, r=flat(r))
+        return last["r"]
+
+    def jacobian(x):
+        if "x" not in last or not np.array_equal(last["x"], x):
+            cost(x)
+        columns = []
+        for i in range(x.size):
+            step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)
+            if x[i] + step > high[i]:
+                step = -step
+            shifted = x.copy()
+            shifted[i] += step
+            shifted_r = fixed_state_residuals(model_at(shifted), subset, last["states"], nominal_counts)
+            change = [project_out_states(new - old, J)
+                      for new, old, J in zip(shifted_r, last["raw"], last["state_jacobians"])]
+            columns.append(flat(change) / step)
+        return np.column_stack(columns)
+
+    # Several starts where the cost is multimodal: the least squares runs from the one with the lowest cost.
+    candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
+    x0 = min(candidates, key=lambda x: float(np.sum(cost(x) ** 2)))
+    result = least_squares(cost, x0, jac=jacobian, bounds=(low, high), x_scale=np.maximum(span, 1e-12) / 10.0,
+                           max_nfev=MAX_NFEV, method="trf")
+    x, success, message = result.x, bool(result.success), result.message
     effects = {**fixed, **_split(fitted_names, sizes, x)}
     gap = evaluate_gap(apply_effects(model, effects), windows, nominal_counts).gap
     return FitResult("+".join(names), effects, gap, success, str(message))

@@ -45,11 +45,11 @@ def horizon_seconds(rig: RigParameters) -> float:
 
 @dataclass
 class Windows:
-    """Windows of one or more logs, with what every model evaluation needs."""
+    """Windows of one or more logs, with what every model evaluation needs. Each log keeps its own sample
+    period and horizon (logs at 250 Hz and 1 kHz can be diagnosed together)."""
 
     logs: list[RunLog]
-    horizon: int  # samples per window
-    period: float
+    horizons: list[int]  # per log: samples per window
     starts: list[np.ndarray]  # per log: start indices
     initial_states: list[np.ndarray]  # per log: (4, W)
     measured: list[np.ndarray]  # per log: (horizon, 2, W) measured angles
@@ -65,27 +65,65 @@ class Windows:
         rng = np.random.default_rng(seed)
         keep = [np.sort(rng.choice(s.size, max(1, round(max_windows * s.size / self.count)), replace=False))
                 for s in self.starts]
-        return Windows(self.logs, self.horizon, self.period, [s[k] for s, k in zip(self.starts, keep)],
+        return Windows(self.logs, self.horizons, [s[k] for s, k in zip(self.starts, keep)],
                        [x[:, k] for x, k in zip(self.initial_states, keep)],
                        [m[:, :, k] for m, k in zip(self.measured, keep)])
+
+    def batches(self) -> list["Batch"]:
+        """The windows as one array problem per (sample period, horizon): fewer, wider surrogate calls."""
+        groups: dict[tuple[float, int], list[int]] = {}
+        for i, (log, horizon) in enumerate(zip(self.logs, self.horizons)):
+            groups.setdefault((round(log.sample_period, 9), horizon), []).append(i)
+        out = []
+        for (period, horizon), members in groups.items():
+            commands, starts, offset = [], [], 0
+            for i in members:
+                command = self.logs[i].torque_command
+                # Pad each log with its first command so a delayed window never reads the previous log.
+                commands.append(np.concatenate([np.full(COMMAND_PAD, command[0]), command]))
+                starts.append(self.starts[i] + offset + COMMAND_PAD)
+                offset += COMMAND_PAD + command.size
+            out.append(Batch(members, period, horizon, np.concatenate(commands), np.concatenate(starts),
+                             np.concatenate([self.initial_states[i] for i in members], axis=1),
+                             np.concatenate([self.measured[i] for i in members], axis=2),
+                             np.cumsum([0] + [self.starts[i].size for i in members])))
+        return out
+
+
+COMMAND_PAD = 64  # samples of padding between logs in a batch (more than the largest fitted delay)
+
+
+@dataclass
+class Batch:
+    """The windows of the logs ``members`` that share a sample period and horizon, concatenated."""
+
+    members: list[int]
+    period: float
+    horizon: int
+    command: np.ndarray  # the members' torque commands, padded and concatenated
+    starts: np.ndarray  # (W,) window starts in ``command``
+    initial_states: np.ndarray  # (4, W)
+    measured: np.ndarray  # (horizon, 2, W)
+    bounds: np.ndarray  # member j's windows are [bounds[j], bounds[j + 1])
 
 
 def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
     """Cut every log into consecutive windows of the rig's horizon, with smoothed initial states."""
-    period = float(np.median([log.sample_period for log in logs]))
-    horizon = max(5, int(round(horizon_seconds(rig) / period)))
-    smooth = max(5, int(round(SMOOTHING_S / period)) | 1)
-    starts, states, measured = [], [], []
+    horizon_s = horizon_seconds(rig)
+    horizons, starts, states, measured = [], [], [], []
     for log in logs:
+        horizon = max(5, int(round(horizon_s / log.sample_period)))
+        smooth = max(5, int(round(SMOOTHING_S / log.sample_period)) | 1)
         angles = np.vstack([log.theta, log.phi])
         position = savgol_filter(angles, smooth, 3, axis=1)
         velocity = savgol_filter(angles, smooth, 3, deriv=1, delta=log.sample_period, axis=1)
         first, last = smooth, log.time.size - horizon - smooth
         s = np.arange(first, max(first, last), horizon)
+        horizons.append(horizon)
         starts.append(s)
         states.append(np.vstack([position[:, s], velocity[:, s]]))
         measured.append(np.stack([angles[:, s + k] for k in range(horizon)]))
-    return Windows(logs, horizon, period, starts, states, measured)
+    return Windows(logs, horizons, starts, states, measured)
 
 
 def substeps_for(period: float) -> int:
@@ -99,25 +137,26 @@ _PERTURBATION = np.array([1e-4, 1e-4, 1e-3, 1e-3])
 
 
 def residuals(model: Model, windows: Windows, nominal_counts: int) -> list[np.ndarray]:
-    """Per log: (horizon, 2, W) measured minus predicted angles [counts of the nominal encoder], after one
-    Gauss-Newton step on each window's initial state (variable projection: every model is judged with its own
-    best initial states; the sensitivities are batch finite differences, and the residual is re-simulated from
-    the refined states)."""
+    """Per log: (horizon, 2, W) measured minus predicted angles [counts of the nominal encoder], after
+    ``GAUSS_NEWTON_STEPS`` Gauss-Newton steps on each window's initial state (variable projection: every model is
+    judged with its own best initial states; the sensitivities are batch finite differences, and the residual
+    is re-simulated from the refined states)."""
     return projected_residuals(model, windows, nominal_counts)[0]
 
 
 def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
-    """:func:`residuals` and, per log, the refined initial states (4, W)."""
+    """:func:`residuals`, per log the refined initial states (4, W), and per log the residuals' sensitivities
+    to the initial states (h, 2, W, 4) [counts per unit of state] of the last Gauss-Newton step."""
     count = 2 * np.pi / nominal_counts
-    substeps = substeps_for(windows.period)
-    out, states = [], []
-    for log, starts, x0, measured in zip(windows.logs, windows.starts, windows.initial_states, windows.measured):
-        W = starts.size
-        x = x0
+    out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
+    for batch in windows.batches():
+        substeps = substeps_for(batch.period)
+        W, x, measured = batch.starts.size, batch.initial_states, batch.measured
+        tiled = np.tile(batch.starts, 5)
         for _ in range(GAUSS_NEWTON_STEPS):
             perturbed = np.concatenate([x] + [x + _PERTURBATION[i] * np.eye(4)[:, [i]] for i in range(4)], axis=1)
-            predicted = predict_windows(model, perturbed, log.torque_command, np.tile(starts, 5), windows.horizon,
-                                        windows.period, substeps)
+            predicted = predict_windows(model, perturbed, batch.command, tiled, batch.horizon, batch.period,
+                                        substeps)
             base = predicted[:, :, :W]
             r = (measured - base) / count  # (h, 2, W)
             J = np.stack([(predicted[:, :, (i + 1) * W:(i + 2) * W] - base) / _PERTURBATION[i] / count
@@ -127,10 +166,40 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
             normal = np.einsum("wki,wkj->wij", Jw, Jw) + 1e-9 * np.eye(4)
             x = x + np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, rw)[..., None])[..., 0].T
         # Re-simulate from the refined states: near friction stick a linearised residual would flatter.
-        final = predict_windows(model, x, log.torque_command, starts, windows.horizon, windows.period, substeps)
-        out.append((measured - final) / count)
-        states.append(x)
-    return out, states
+        final = (measured - predict_windows(model, x, batch.command, batch.starts, batch.horizon, batch.period,
+                                            substeps)) / count
+        for j, i in enumerate(batch.members):
+            part = slice(batch.bounds[j], batch.bounds[j + 1])
+            out[i], states[i], jacobians[i] = final[:, :, part], x[:, part], J[:, :, part]
+    return out, states, jacobians
+
+
+def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
+    """``change`` (h, 2, W) of a log's residuals minus its least-squares fit on the window's state sensitivities
+    (h, 2, W, 4): what a change of the model's parameters does to the residuals once the initial states are
+    re-projected (Kaufman's approximation of the variable-projection Jacobian)."""
+    h, _, W, n = state_jacobian.shape
+    Jw = state_jacobian.transpose(2, 0, 1, 3).reshape(W, -1, n)
+    cw = change.transpose(2, 0, 1).reshape(W, -1)
+    normal = np.einsum("wki,wkj->wij", Jw, Jw) + 1e-9 * np.eye(n)
+    coef = np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, cw)[..., None])[..., 0]
+    fitted = np.einsum("wki,wi->wk", Jw, coef)
+    return change - fitted.reshape(W, h, 2).transpose(1, 2, 0)
+
+
+def fixed_state_residuals(model: Model, windows: Windows, states: list[np.ndarray], nominal_counts: int
+                          ) -> list[np.ndarray]:
+    """Per log: measured minus predicted angles [counts] from given initial states (no refinement)."""
+    count = 2 * np.pi / nominal_counts
+    out = [None] * len(windows.logs)
+    for batch in windows.batches():
+        x = np.concatenate([states[i] for i in batch.members], axis=1)
+        predicted = predict_windows(model, x, batch.command, batch.starts, batch.horizon, batch.period,
+                                    substeps_for(batch.period))
+        r = (batch.measured - predicted) / count
+        for j, i in enumerate(batch.members):
+            out[i] = r[:, :, batch.bounds[j]:batch.bounds[j + 1]]
+    return out
 
 
 @dataclass
@@ -145,9 +214,10 @@ class GapResult:
 
 def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: list[np.ndarray]) -> GapResult:
     """The gap and its parts from per-log (horizon, 2, W) residuals [counts] and the sensor variance."""
-    squared = np.concatenate([x[1:] ** 2 for x in r], axis=2)  # (horizon-1, 2, W), row 0 is the start
-    per_window = squared.mean(axis=(0, 1)) - variance
-    per_signal = {name: float(np.sqrt(max(squared[:, i].mean() - variance, 0.0)))
+    squared = [x[1:] ** 2 for x in r]  # row 0 is the start
+    per_window = np.concatenate([x.mean(axis=(0, 1)) for x in squared]) - variance
+    samples = sum(x.shape[0] * x.shape[2] for x in squared)
+    per_signal = {name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - variance, 0.0)))
                   for i, name in enumerate(("theta", "phi"))}
     return GapResult(float(np.sqrt(max(per_window.mean(), 0.0))), per_signal, per_window, variance, r,
                      initial_states)
@@ -155,7 +225,7 @@ def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: lis
 
 def evaluate_gap(model: Model, windows: Windows, nominal_counts: int) -> GapResult:
     """The gap of ``model`` on ``windows`` (see the module docstring), from the surrogate."""
-    r, states = projected_residuals(model, windows, nominal_counts)
+    r, states, _ = projected_residuals(model, windows, nominal_counts)
     return gap_from_residuals(r, sensor_variance(model, nominal_counts), states)
 
 
@@ -163,13 +233,13 @@ def window_residuals(result: GapResult, windows: Windows, rig: RigParameters) ->
     """The residuals as :class:`WindowResiduals` for the localisation and the plots; the states are the
     measured angles and their smoothed derivatives (the regimes are read from them)."""
     out = []
-    for log, starts, r in zip(windows.logs, windows.starts, result.residuals):
+    for log, horizon, starts, r in zip(windows.logs, windows.horizons, windows.starts, result.residuals):
         command = log.torque_command
         smooth = max(5, int(round(SMOOTHING_S / log.sample_period)) | 1)
         velocity = savgol_filter(np.vstack([log.theta, log.phi]), smooth, 3, deriv=1, delta=log.sample_period,
                                  axis=1)
         for w, start in enumerate(starts):
-            index = start + np.arange(windows.horizon)
+            index = start + np.arange(horizon)
             state = np.vstack([log.theta[index], log.phi[index], velocity[:, index]]).T
             out.append(WindowResiduals(log_name=log.name, time=log.time[index], residual=r[:, :, w],
                                        state=state, torque=command[index],

@@ -112,11 +112,12 @@ def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_state
     """The gap of ``model`` on ``windows`` from Drake replays started at ``initial_states`` (per log, 4 x W)."""
     count = 2 * np.pi / rig.counts_per_rev
     out = []
-    for log, starts, x0, measured in zip(windows.logs, windows.starts, initial_states, windows.measured):
+    for log, horizon, starts, x0, measured in zip(windows.logs, windows.horizons, windows.starts, initial_states,
+                                                  windows.measured):
         replayer = WindowReplayer(model, rig, log.time, log.torque_command)
         r = np.empty_like(measured)
         for w, start in enumerate(starts):
-            times = log.time[start:start + windows.horizon]
+            times = log.time[start:start + horizon]
             predicted = replayer.replay(log.time[start], x0[:, w], log.torque_command[start], times)
             r[:, :, w] = (measured[:, :, w] - predicted) / count
         out.append(r)

@@ -73,26 +73,42 @@ def sensor_variance(model: Model, nominal_counts: int) -> float:
 
 def applied_torque(model: Model, command: np.ndarray) -> np.ndarray:
     """The actuator's static map after delay and lag: dead zone (u - sat(u)), gain, saturation."""
-    u = command - np.clip(command, -model.deadzone, model.deadzone)
-    return np.clip(model.gain * u, -model.saturation, model.saturation)
+    u = command - np.clip(command, -model.deadzone, model.deadzone) if model.deadzone > 0 else command
+    u = model.gain * u if model.gain != 1.0 else u
+    return np.clip(u, -model.saturation, model.saturation) if np.isfinite(model.saturation) else u
 
 
-def _accelerations(model: Model, x: np.ndarray, tau_arm: np.ndarray) -> np.ndarray:
+def _acts(p: JointFrictionParameters) -> bool:
+    return p.model != "none" and (p.coulomb_pos > 0 or p.coulomb_neg > 0 or p.viscous > 0
+                                  or bool(p.static_pos) or bool(p.static_neg))
+
+
+def _accelerations(model: Model, x: np.ndarray, tau_arm: np.ndarray, arm_friction: bool = True,
+                   pendulum_friction: bool = True) -> np.ndarray:
+    """x' of the Furuta model (module docstring); the flags skip friction terms known to be zero."""
     theta, phi, theta_dot, phi_dot = x
     s, c_ = np.sin(theta), np.cos(theta)
-    tau_theta = static_friction_torque(theta_dot, model.pendulum_friction)
-    tau_phi = (tau_arm + static_friction_torque(phi_dot, model.arm_friction) - model.back_emf_damping * phi_dot
-               - model.spring_stiffness * (phi - model.spring_equilibrium))
-    m11, m12, m22 = model.b, model.c * c_, model.a + model.b * s * s
-    r1 = model.d * s + model.b * s * c_ * phi_dot**2 + tau_theta
-    r2 = model.c * s * theta_dot**2 - 2.0 * model.b * s * c_ * theta_dot * phi_dot + tau_phi
-    det = m11 * m22 - m12 * m12
-    return np.array([theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det])
+    sc = s * c_
+    tau_phi = tau_arm
+    if arm_friction:
+        tau_phi = tau_phi + static_friction_torque(phi_dot, model.arm_friction)
+    if model.back_emf_damping:
+        tau_phi = tau_phi - model.back_emf_damping * phi_dot
+    if model.spring_stiffness:
+        tau_phi = tau_phi - model.spring_stiffness * (phi - model.spring_equilibrium)
+    m12, m22 = model.c * c_, model.a + model.b * s * s
+    r1 = model.d * s + model.b * sc * phi_dot**2
+    if pendulum_friction:
+        r1 = r1 + static_friction_torque(theta_dot, model.pendulum_friction)
+    r2 = model.c * s * theta_dot**2 - 2.0 * model.b * sc * theta_dot * phi_dot + tau_phi
+    det = model.b * m22 - m12 * m12
+    return np.array([theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (model.b * r2 - m12 * r1) / det])
 
 
 def _delayed_command(command, starts, t, dt, period, delay):
     """The held command delayed by ``delay``, averaged over [t, t + dt) (relative to each window's start):
-    a fractional delay moves the switch inside the step, so the step sees the time-weighted mix."""
+    a fractional delay moves the switch inside the step, so the step sees the time-weighted mix. ``t`` may be
+    a column of times (one row per step)."""
     position = (t - delay) / period + 1e-9
     first = np.floor(position).astype(int)
     switch = (first + 1) * period + delay  # time the next held value starts
@@ -113,20 +129,27 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
     """
     dt = period / substeps
     x = np.array(x0, dtype=float)
-    lag_state = command[starts].astype(float)
+    steps = (horizon - 1) * substeps
+    times = (np.arange(steps) * dt)[:, None]
+    held = _delayed_command(command, starts[None, :], times, dt, period, model.delay)  # (steps, W)
+    if model.lag > 0:  # exact first-order filter of the held input over each substep
+        decay = np.exp(-dt / model.lag)
+        lag_state = command[starts].astype(float)
+        for i in range(steps):
+            lag_state = held[i] + (lag_state - held[i]) * decay
+            held[i] = lag_state
+    torque = applied_torque(model, held)
+    arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
     out = np.empty((horizon, 2, x.shape[1]))
     out[0] = x[:2]
-    for k in range(1, horizon):
-        for j in range(substeps):
-            u = _delayed_command(command, starts, (k - 1) * period + j * dt, dt, period, model.delay)
-            if model.lag > 0:
-                lag_state = u + (lag_state - u) * np.exp(-dt / model.lag)
-                u = lag_state
-            tau = applied_torque(model, u)
-            k1 = _accelerations(model, x, tau)
-            k2 = _accelerations(model, x + 0.5 * dt * k1, tau)
-            k3 = _accelerations(model, x + 0.5 * dt * k2, tau)
-            k4 = _accelerations(model, x + dt * k3, tau)
-            x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        out[k] = x[:2]
+    half = 0.5 * dt
+    for i in range(steps):
+        tau = torque[i]
+        k1 = _accelerations(model, x, tau, arm, pendulum)
+        k2 = _accelerations(model, x + half * k1, tau, arm, pendulum)
+        k3 = _accelerations(model, x + half * k2, tau, arm, pendulum)
+        k4 = _accelerations(model, x + dt * k3, tau, arm, pendulum)
+        x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        if (i + 1) % substeps == 0:
+            out[(i + 1) // substeps] = x[:2]
     return out
