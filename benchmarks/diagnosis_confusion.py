@@ -122,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")
     parser.add_argument("--duration", type=float, default=8.0, help="length of every log [s] (default 8)")
     parser.add_argument("--suite", type=Path, help="reuse a suite written earlier (its answers.json and cases/)")
+    parser.add_argument("--generate-only", action="store_true", help="write the suite and stop")
     parser.add_argument("--workers", type=int, help="processes (default: all cores)")
     parser.add_argument("--scheduler", help="Dask scheduler address for the log generation (default: local)")
     args = parser.parse_args(argv)
@@ -140,6 +141,8 @@ def main(argv: list[str] | None = None) -> int:
         start = time.perf_counter()
         answers = generate(cases, suite, args.duration, args.workers, args.scheduler)
         print(f"  {time.perf_counter() - start:.0f} s")
+        if args.generate_only:
+            return 0
 
     rows = []
     for i, answer in enumerate(answers, start=1):

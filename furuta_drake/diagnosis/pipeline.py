@@ -52,8 +52,9 @@ def fitted_config(rig, model: Model) -> SimulationConfig:
 
 
 def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, workers=None, progress=None,
-                  echo=print) -> dict:
-    """Diagnose the gap between the rig file's nominal model and the logs; write the report to ``out``."""
+                  echo=print, candidates=None) -> dict:
+    """Diagnose the gap between the rig file's nominal model and the logs; write the report to ``out``.
+    ``candidates``: the effects to try (default: the whole vocabulary)."""
     rig = load_rig(rig_path)
     logs = load_logs(train_paths, rig, rig_path)
     heldout_logs = load_logs(heldout_paths, rig, rig_path) if heldout_paths else []
@@ -68,7 +69,7 @@ def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, 
     counts = rig.counts_per_rev
     nominal = Model.from_rig(rig)
 
-    singles = [(name,) for name in CANDIDATES]
+    singles = [(name,) for name in (candidates or CANDIDATES)]
     fits = fit_all(singles, nominal, train_windows, logs, counts, workers=workers, progress=progress)
     heldout = {name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
                for name, fit in fits.items()}
@@ -119,7 +120,8 @@ def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, 
               for name, values in (fits[decision.accepted].effects.items() if decision.accepted else [])]
     record = input_record(rig_path=rig_path, train=train_paths, heldout=heldout_paths,
                           seeds={"bootstrap": 0, "fit_windows": 0},
-                          options={"workers": workers, "holdout": holdout_note})
+                          options={"workers": workers, "holdout": holdout_note,
+                                   "candidates": list(candidates or CANDIDATES)})
     write_report(out, report, before=before, after=after, curves=curves,
                  fitted_config=fitted_config(rig, accepted), config_record=record,
                  threshold_note=THRESHOLD_NOTE, holdout_note=holdout_note,
