@@ -195,6 +195,8 @@ class SimulationConfig:
                               f"{prefix}excitation.torque_rms > 0")
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise ConfigError(f"{prefix}duration must be a positive number of seconds, got {self.duration!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
+            raise ConfigError(f"{prefix}seed must be an integer in [0, 2^32), got {self.seed!r}")
 
     @classmethod
     def from_rig(cls, rig: RigParameters | str, **sections) -> "SimulationConfig":
