@@ -10,9 +10,11 @@ Configurations, all on the default Lund config (``SimulationConfig.from_rig("lun
 - ``VFE+Dahl``: LQR on the VFE observer (Eq. 11) with the Dahl observer (Eq. 8) and u = u_LQ - F_hat;
 - ``VFE+Dahl+K``: the same with the K_sigma adaptation (Eq. 18): the full paper diagram.
 
-Each is timed three ways in the same process, interleaved, best of ``--repeats``:
+Each is timed three ways in the same process, interleaved, best of ``--repeats``, in CPU seconds of this
+process (``time.process_time``: the wall time of the run alone on one core; on a machine shared with other jobs
+the wall time also counts their time slices, so the package's best wall time is printed beside it):
 
-- ``furuta_drake.simulate.simulate`` (the package, monitor included; build time excluded);
+- ``furuta_drake.simulate.simulate`` on a built diagram (the package, monitor included; build time excluded);
 - the C++ floor: the same sampled loop from Drake's C++ systems only (the MultibodyPlant, a ``ZeroOrderHold``
   sampler in place of the quantising encoder, the observer's discrete ``LinearSystem``, the LQR as
   ``MatrixGain`` -> ``Saturation`` -> ``ZeroOrderHold``, the same loggers and integrator); the Dahl observer and
@@ -30,14 +32,17 @@ package at accuracy 1e-4 and at 1e-10 part the same way). So the table prints th
 differing count and when that happens, and the check is made on the same loops with a 2^32-count encoder (one
 count 1.5e-9 rad), over the whole run: max |x_package - x_peer| <= ``TOLERANCE``.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/closed_loop.py [--duration 10] [--repeats 3]``.
+Run from the repository root: ``PYTHONPATH=. python benchmarks/closed_loop.py [--duration 10] [--repeats 3]
+[--profile]`` (``--profile``: also the cProfile top entries of one run of the full diagram).
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import dataclasses
 import math
+import pstats
 import time
 
 import numpy as np
@@ -50,6 +55,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from furuta_drake.config import SimulationConfig
+from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer
 from furuta_drake.observers.vfe import VfeObserver, continuous_vfe_observer
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
@@ -138,10 +144,17 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
 
 def time_floor(config: SimulationConfig, gain: np.ndarray) -> float:
     simulator = floor_simulator(config, gain)
-    start = time.perf_counter()
+    start = time.process_time()
     simulator.Initialize()
     simulator.AdvanceTo(config.duration)
-    return time.perf_counter() - start
+    return time.process_time() - start
+
+
+def time_package(config: SimulationConfig) -> tuple[float, SimulationResult]:
+    built = build_furuta_diagram(config)
+    start = time.process_time()
+    result = simulate(config, built=built)
+    return time.process_time() - start, result
 
 
 # --- The scipy peer -----------------------------------------------------------------------------------------------
@@ -156,7 +169,7 @@ def held_input_discretisation(A: np.ndarray, B: np.ndarray, h: float) -> tuple[n
 
 
 def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Wall time, true states [theta, phi, theta_dot, phi_dot] and encoder angles at each sample of the peer
+    """CPU time, true states [theta, phi, theta_dot, phi_dot] and encoder angles at each sample of the peer
     (see the module docstring). Row k is the sample at t_k = k h, like ``SimulationResult.state``/``measured``."""
     rig, h = config.rig, config.encoder.sample_period
     a, b, c, d = rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque
@@ -189,7 +202,7 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
 
     steps = round(config.duration / h)
     states, measured = np.empty((steps, 4)), np.empty((steps, 2))
-    start = time.perf_counter()
+    start = time.process_time()
     x = np.asarray(config.initial_state, dtype=float)
     y = quantise(x)  # the encoder's initialization sample
     observer = np.zeros(Ad.shape[0])
@@ -226,7 +239,7 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
         u = min(max(u_lq - f_hat if compensate else u_lq, -limit), limit)
         y = measured[k] = quantise(x)
         x = solve_ivp(dynamics, (t, t + h), x, args=(u,), rtol=PEER_RTOL, atol=PEER_ATOL).y[:, -1]
-    return time.perf_counter() - start, states, measured
+    return time.process_time() - start, states, measured
 
 
 # --- The table ----------------------------------------------------------------------------------------------------
@@ -248,32 +261,34 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=10.0, help="simulated seconds per run")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per configuration (the best is kept)")
+    parser.add_argument("--profile", action="store_true", help="print the profile of the full diagram's run")
     args = parser.parse_args()
 
     configs = configurations(args.duration)
-    package, floor, peer = ({name: math.inf for name in configs} for _ in range(3))
+    package, wall, floor, peer = ({name: math.inf for name in configs} for _ in range(4))
     until, check = {}, {}
     for repeat in range(args.repeats):  # interleaved: other load on the machine comes and goes
         for name, config in configs.items():
-            result = simulate(config)
-            package[name] = min(package[name], result.wall_time)
+            seconds, result = time_package(config)
+            package[name], wall[name] = min(package[name], seconds), min(wall[name], result.wall_time)
             floor[name] = min(floor[name], time_floor(config, result.lqr_gain))
-            wall, states, measured = scipy_closed_loop(config, result.lqr_gain)
-            peer[name] = min(peer[name], wall)
+            seconds, states, measured = scipy_closed_loop(config, result.lqr_gain)
+            peer[name] = min(peer[name], seconds)
             if repeat == 0:
                 until[name] = agreement(config, result, states, measured)
                 fine = with_fine_encoder(config)
                 _, fine_states, _ = scipy_closed_loop(fine, result.lqr_gain)
                 check[name] = float(np.max(np.abs(simulate(fine).state - fine_states)))
 
-    print(f"{args.duration:g} s closed loop, Lund rig, one core, best of {args.repeats}; ratio = wall / C++ floor, "
-          f"speedup = scipy peer wall / wall")
-    print(f"{'config':<11} {'wall [s]':>8} {'x real':>7} {'floor [s]':>9} {'ratio':>6} {'scipy [s]':>9} "
-          f"{'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}")
+    print(f"{args.duration:g} s closed loop, Lund rig, best of {args.repeats}, CPU seconds on one core; x real = "
+          f"simulated / CPU s, ratio = CPU s / C++ floor's, speedup = scipy peer's CPU s / CPU s")
+    print(f"{'config':<11} {'cpu [s]':>7} {'wall [s]':>8} {'x real':>6} {'floor [s]':>9} {'ratio':>5} "
+          f"{'scipy [s]':>9} {'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}")
     for name in configs:
         deviation, time_differs = until[name]
-        print(f"{name:<11} {package[name]:>8.3f} {args.duration / package[name]:>7.1f} {floor[name]:>9.3f} "
-              f"{package[name] / floor[name]:>6.2f} {peer[name]:>9.2f} {peer[name] / package[name]:>7.1f} | "
+        print(f"{name:<11} {package[name]:>7.3f} {wall[name]:>8.3f} {args.duration / package[name]:>6.1f} "
+              f"{floor[name]:>9.3f} "
+              f"{package[name] / floor[name]:>5.2f} {peer[name]:>9.2f} {peer[name] / package[name]:>7.1f} | "
               f"{deviation:>22.1e} ({time_differs:>5.2f} s) {check[name]:>18.1e}")
     full = "VFE+Dahl+K"
     checks = [
@@ -285,6 +300,14 @@ def main() -> None:
     ]
     for label, met in checks:
         print(f"{label}: {'met' if met else 'NOT met'}")
+    print(f"the C++ floor itself is {peer[full] / floor[full]:.1f}x faster than the scipy peer (full diagram's loop): "
+          f"the ceiling of the speedup for any Drake diagram of this loop")
+
+    if args.profile:
+        profiler = cProfile.Profile()
+        built = build_furuta_diagram(configs[full])
+        profiler.runcall(simulate, configs[full], built=built)
+        pstats.Stats(profiler).sort_stats("tottime").print_stats(12)
 
 
 if __name__ == "__main__":
