@@ -7,11 +7,12 @@ printed: dK_sigma/dt = -gamma eps_hat_F sigma0 z_hat. As in Sec. V-C there are t
 the velocity estimate is positive and K_sigma- otherwise; the active one adapts only while |v| exceeds
 ``velocity_threshold`` (enough excitation, one sign held) and from ``enable_time`` on (t = 7.8 s in Sec. V-D).
 
-Discrete at the control period h, explicit Euler (:func:`adapting_branch`, :func:`k_sigma_step`). Near steady sliding sigma0 z_hat ~ Fc sign(v) and
-e ~ F - K_sigma sigma0 z_hat, so the law is linear in K_sigma with rate gamma (sigma0 z_hat)^2 ~ gamma Fc^2:
-Euler is stable for h gamma Fc^2 < 2 and monotone below 1. The default gamma = 5000 / ((N m)^2 s) gives
-0.7-1.6 1/s at the paper's 0.012-0.018 N m (h gamma Fc^2 ~ 1e-3, far inside the bound), an adaptation much
-slower than the VFE's eps_hat_F (eigenvalues of 20 1/s and faster), as Sec. V-B requires.
+Discrete at the control period h, explicit Euler (:func:`adapting_branch`, :func:`k_sigma_step`). Near steady
+sliding sigma0 z_hat ~ Fc sign(v) and e ~ F - K_sigma sigma0 z_hat, so the law is linear in K_sigma with rate
+gamma (sigma0 z_hat)^2 ~ gamma Fc^2: Euler is stable for h gamma Fc^2 < 2 and monotone below 1. The default
+gamma = 5000 / ((N m)^2 s) gives 0.7-1.6 1/s at the paper's 0.012-0.018 N m (h gamma Fc^2 ~ 1e-3, far inside
+the bound), an adaptation much slower than the VFE's eps_hat_F (eigenvalues of 20 1/s and faster), as Sec. V-B
+requires. In a closed loop the diagram runs Eq. 18 inside the Dahl observer (:class:`KSigmaDahlObserver`).
 """
 
 from __future__ import annotations

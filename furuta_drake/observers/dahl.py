@@ -104,6 +104,8 @@ class DahlFrictionObserver(LeafSystem):
     ``bristle_state_rad``.
     """
 
+    K_SIGMA_INPUT = True  # a subclass that keeps K_sigma itself declares no K_sigma input
+
     def __init__(self, params: DahlObserverParameters | None = None, joint: str = "arm"):
         LeafSystem.__init__(self)
         params = params or DahlObserverParameters()
@@ -127,8 +129,6 @@ class DahlFrictionObserver(LeafSystem):
         else:  # a subclass keeps more than z_hat (its first entry)
             self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle,
                                          prerequisites_of_calc={self.xd_ticket()})
-
-    K_SIGMA_INPUT = True  # a subclass that keeps K_sigma itself declares no K_sigma input
 
     def _friction_prerequisites(self) -> set:
         """What F_hat depends on: the state, K_sigma, and v for LuGre's sigma1, sigma2."""
