@@ -205,6 +205,8 @@ def _run_diagnose(args) -> int:
     from furuta_drake.diagnosis.pipeline import run_diagnosis
     from furuta_drake.outputs import prepare_output_dir
 
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError(f"--workers must be >= 1, got {args.workers}")
     prepare_output_dir(args.out, force=args.force, protect=[args.rig, *args.train, *args.heldout])
     from tqdm import tqdm
 
