@@ -1,13 +1,19 @@
 """``furuta-drake simulate``: files in the spec's format, safe output directories (reruns: test_determinism.py)."""
 
+import base64
 import json
+import re
 
+import msgpack
 import numpy as np
 import pytest
+from pydrake.common.eigen_geometry import AngleAxis, Quaternion
+from pydrake.math import RotationMatrix
 
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
 from furuta_drake.diagnosis.logs import load_log, load_rig
+from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import lund_rig
 from furuta_drake.yamlio import dump_yaml_dataclass
 
@@ -57,3 +63,53 @@ def test_qube_rig_simulates_with_its_motor_back_emf(tmp_path):
     assert main(["simulate", "--rig", "qube_servo2", "--out", str(out), "--duration", "1"]) == 0
     data = np.loadtxt(out / "log.csv", delimiter=",", skiprows=1)
     assert np.max(np.abs(data[:, 2])) < 0.2  # balanced
+
+
+def recorded_animation(html: str) -> dict:
+    """The Meshcat animation a static HTML page embeds (msgpack commands as base64 data URIs), by path."""
+    commands = [msgpack.unpackb(base64.b64decode(blob))
+                for blob in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)]
+    (animation,) = [command for command in commands if command["type"] == "set_animation"]
+    return {entry["path"].rsplit("/", 1)[-1]: entry["clip"] for entry in animation["animations"]}
+
+
+def test_html_recording_is_self_contained_replays_the_logged_run_and_leaves_the_log_unchanged(tmp_path):
+    plain, recorded, html = tmp_path / "plain", tmp_path / "recorded", tmp_path / "run.html"
+    run = ["simulate", "--duration", "0.3", "--seed", "2", "--out"]
+    assert main([*run, str(plain)]) == 0
+    assert main([*run, str(recorded), "--html", str(html)]) == 0
+    # Recording (a visualizer in the diagram) must not perturb the simulation.
+    for file in ("log.csv", "summary.json"):
+        assert (recorded / file).read_bytes() == (plain / file).read_bytes(), file
+    page = html.read_text()
+    assert page.startswith("<!DOCTYPE html>")
+    # Self-contained: no script, style or model fetched from a server.
+    assert not re.search(r"<script[^>]+src=|<link[^>]+stylesheet|fetch\(\"(?!data:)", page)
+    clips = recorded_animation(page)
+    # The pendulum body's recorded pose is the logged state's: forward kinematics of the same rig, frame by
+    # frame. A pose published at t lands on frame round(t fps), so allow the motion over half a frame.
+    log = np.loadtxt(recorded / "log.csv", delimiter=",", skiprows=1)
+    time, theta, phi, theta_dot, phi_dot = log[:, 0], log[:, 4], log[:, 5], log[:, 6], log[:, 7]
+    clip = clips["pendulum"]
+    tracks = {track["name"]: track["keys"] for track in clip["tracks"]}
+    frames = [key["time"] for key in tracks[".position"]]
+    assert frames[0] == 0 and np.all(np.diff(frames) > 0)
+    assert frames[-1] / clip["fps"] == pytest.approx(0.3, abs=0.03)  # the whole run
+    half_frame = 0.5 / clip["fps"]
+    rig = lund_rig()
+    plant = make_furuta_plant(rig)
+    context = plant.CreateDefaultContext()
+    theta_index, phi_index = joint_indices(plant)
+    body = plant.GetBodyByName("pendulum")
+    tolerance_angle = (np.max(np.abs(theta_dot)) + np.max(np.abs(phi_dot))) * half_frame + 1e-6
+    tolerance_position = rig.arm_length * np.max(np.abs(phi_dot)) * half_frame + 1e-9
+    for position, quaternion in zip(tracks[".position"], tracks[".quaternion"]):
+        t = min(position["time"] / clip["fps"], time[-1])
+        q = np.zeros(plant.num_positions())
+        q[theta_index], q[phi_index] = np.interp(t, time, theta), np.interp(t, time, phi)
+        plant.SetPositions(context, q)
+        expected = plant.EvalBodyPoseInWorld(context, body)
+        assert np.linalg.norm(np.array(position["value"]) - expected.translation()) <= tolerance_position
+        x, y, z, w = quaternion["value"]  # three.js order
+        relative = RotationMatrix(Quaternion(w, x, y, z)).InvertAndCompose(expected.rotation())
+        assert AngleAxis(relative.matrix()).angle() <= tolerance_angle
