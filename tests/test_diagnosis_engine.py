@@ -131,7 +131,7 @@ def _scales(model):
 def test_fitted_model_is_a_simulate_config_that_runs():
     from furuta_drake.diagnosis.pipeline import fitted_config
     rig = RIGS["lund"]()
-    model = apply_effects(Model.from_rig(rig), {"arm_coulomb_friction": [0.01], "input_delay": [0.003]})
+    model = apply_effects(Model.from_rig(rig), {"arm_coulomb_friction": [0.01, 2e-3], "input_delay": [0.003]})
     config = fitted_config(rig, model)
     config.validate()
     config = dataclasses.replace(config, duration=0.5)

@@ -2,7 +2,10 @@
 surrogate model and a simulate config.
 
 Every parameter is in SI units and is the effect's own level (not an increment over the rig file), as the
-report's ranking lists it. Scales come from the rig: torques from m g l and the logged commands, damping
+report's ranking lists it. The Coulomb and asymmetry candidates are Dahl friction (Eq. 7): real arm friction
+has presliding (a bristle spring of a few mrad before gross sliding) that a static law misses at every
+velocity reversal, so its presliding displacement is fitted with the levels (a static-like law is its small
+end). Scales come from the rig: torques from m g l and the logged commands, damping
 from the lumped inertias, times from the sample period.
 """
 
@@ -45,14 +48,28 @@ def _static(coulomb_pos, coulomb_neg, viscous=0.0, static=None, stribeck_velocit
                                    viscous=viscous, regularization_velocity=REGULARIZATION_VELOCITY)
 
 
+PRESLIDING = (1e-4, 0.05)  # bounds of the presliding displacement Fc / sigma0 of the Dahl arm friction [rad]
+PRESLIDING_STARTS = (1e-3, 1e-2)  # [rad]
+
+
+def _dahl_arm(model: Model, coulomb_pos: float, coulomb_neg: float, presliding: float) -> Model:
+    """The arm's friction replaced by Dahl's (Eq. 7): Coulomb levels per direction, bristle stiffness
+    sigma0 = mean level / presliding displacement, the rig file's viscous term kept."""
+    sigma0 = max(0.5 * (coulomb_pos + coulomb_neg), 1e-9) / presliding
+    return model.replace(arm_friction=JointFrictionParameters(
+        model="dahl", coulomb_pos=max(coulomb_pos, 1e-12), coulomb_neg=max(coulomb_neg, 1e-12), sigma0=sigma0,
+        viscous=model.arm_friction.viscous))
+
+
 def _arm(model: Model, **changes) -> Model:
     return model.replace(arm_friction=dataclasses.replace(model.arm_friction, **changes))
 
 
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
-    Candidate("arm_coulomb_friction", ("coulomb",),
-              lambda s: ([0.0], [0.5 * s.torque]), lambda s: [[0.005 * s.torque], [0.03 * s.torque], [0.1 * s.torque]],
-              lambda m, p: _arm(m, coulomb_pos=p[0], coulomb_neg=p[0])),
+    Candidate("arm_coulomb_friction", ("coulomb", "presliding"),
+              lambda s: ([0.0, PRESLIDING[0]], [0.5 * s.torque, PRESLIDING[1]]),
+              lambda s: [[level * s.torque, z] for level in (0.005, 0.03, 0.1) for z in PRESLIDING_STARTS],
+              lambda m, p: _dahl_arm(m, p[0], p[0], p[1])),
     Candidate("arm_viscous_friction", ("viscous",),
               lambda s: ([0.0], [50.0 * s.arm_inertia]), lambda s: [[0.1 * s.arm_inertia], [1.0 * s.arm_inertia],
                                                                   [5.0 * s.arm_inertia]],
@@ -62,11 +79,11 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
               lambda s: [[0.01 * s.torque, 0.03 * s.torque, 0.1], [0.03 * s.torque, 0.08 * s.torque, 0.1]],
               lambda m, p: _arm(m, coulomb_pos=p[0], coulomb_neg=p[0], static_pos=max(p[1], p[0]),
                                 static_neg=max(p[1], p[0]), stribeck_velocity=p[2])),
-    Candidate("friction_asymmetry", ("coulomb_pos", "coulomb_neg"),
-              lambda s: ([0.0, 0.0], [0.5 * s.torque, 0.5 * s.torque]),
-              lambda s: [[0.01 * s.torque, 0.01 * s.torque], [0.03 * s.torque, 0.06 * s.torque],
-                          [0.06 * s.torque, 0.03 * s.torque]],
-              lambda m, p: _arm(m, coulomb_pos=p[0], coulomb_neg=p[1])),
+    Candidate("friction_asymmetry", ("coulomb_pos", "coulomb_neg", "presliding"),
+              lambda s: ([0.0, 0.0, PRESLIDING[0]], [0.5 * s.torque, 0.5 * s.torque, PRESLIDING[1]]),
+              lambda s: [[pos * s.torque, neg * s.torque, z] for pos, neg in ((0.01, 0.01), (0.03, 0.06), (0.06, 0.03))
+                         for z in PRESLIDING_STARTS],
+              lambda m, p: _dahl_arm(m, p[0], p[1], p[2])),
     Candidate("pendulum_friction", ("coulomb", "viscous"),
               lambda s: ([0.0, 0.0], [0.1 * s.torque, 20.0 * s.pendulum_inertia]),
               lambda s: [[0.0005 * s.torque, 0.02 * s.pendulum_inertia], [0.005 * s.torque, 0.2 * s.pendulum_inertia]],

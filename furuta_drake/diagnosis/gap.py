@@ -23,7 +23,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
-from furuta_drake.diagnosis.surrogate import Model, predict_windows, sensor_variance
+from furuta_drake.diagnosis.surrogate import Model, dahl_path, predict_windows, sensor_variance
 from furuta_drake.rig import RigParameters, linearized_upright
 
 MAX_HORIZON_S = 0.25
@@ -53,6 +53,7 @@ class Windows:
     starts: list[np.ndarray]  # per log: start indices
     initial_states: list[np.ndarray]  # per log: (4, W)
     measured: list[np.ndarray]  # per log: (horizon, 2, W) measured angles
+    arm_paths: list[np.ndarray]  # per log: the smoothed arm angle [rad] at every sample
 
     @property
     def count(self) -> int:
@@ -67,7 +68,7 @@ class Windows:
                 for s in self.starts]
         return Windows(self.logs, self.horizons, [s[k] for s, k in zip(self.starts, keep)],
                        [x[:, k] for x, k in zip(self.initial_states, keep)],
-                       [m[:, :, k] for m, k in zip(self.measured, keep)])
+                       [m[:, :, k] for m, k in zip(self.measured, keep)], self.arm_paths)
 
     def batches(self) -> list["Batch"]:
         """The windows as one array problem per (sample period, horizon): fewer, wider surrogate calls."""
@@ -110,7 +111,7 @@ class Batch:
 def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
     """Cut every log into consecutive windows of the rig's horizon, with smoothed initial states."""
     horizon_s = horizon_seconds(rig)
-    horizons, starts, states, measured = [], [], [], []
+    horizons, starts, states, measured, paths = [], [], [], [], []
     for log in logs:
         horizon = max(5, int(round(horizon_s / log.sample_period)))
         smooth = max(5, int(round(SMOOTHING_S / log.sample_period)) | 1)
@@ -120,10 +121,24 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
         first, last = smooth, log.time.size - horizon - smooth
         s = np.arange(first, max(first, last), horizon)
         horizons.append(horizon)
+        paths.append(position[1])
         starts.append(s)
         states.append(np.vstack([position[:, s], velocity[:, s]]))
         measured.append(np.stack([angles[:, s + k] for k in range(horizon)]))
-    return Windows(logs, horizons, starts, states, measured)
+    return Windows(logs, horizons, starts, states, measured, paths)
+
+
+def initial_bristles(model: Model, windows: Windows) -> list[np.ndarray | None]:
+    """Per log, the arm's Dahl bristle state [rad] at each window start, read from the smoothed arm path (the
+    Dahl law is rate independent, so z depends on the path of phi alone); None per log without a Dahl arm."""
+    if model.arm_friction.model != "dahl":
+        return [None] * len(windows.logs)
+    return [dahl_path(path, model.arm_friction)[starts] for path, starts in zip(windows.arm_paths, windows.starts)]
+
+
+def _batch_bristles(bristles: list[np.ndarray | None], batch: "Batch") -> np.ndarray | None:
+    parts = [bristles[i] for i in batch.members]
+    return None if parts[0] is None else np.concatenate(parts)
 
 
 def substeps_for(period: float) -> int:
@@ -149,14 +164,16 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
     to the initial states (h, 2, W, 4) [counts per unit of state] of the last Gauss-Newton step."""
     count = 2 * np.pi / nominal_counts
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
+    bristles = initial_bristles(model, windows)
     for batch in windows.batches():
         substeps = substeps_for(batch.period)
+        z0 = _batch_bristles(bristles, batch)
         W, x, measured = batch.starts.size, batch.initial_states, batch.measured
         tiled = np.tile(batch.starts, 5)
         for _ in range(GAUSS_NEWTON_STEPS):
             perturbed = np.concatenate([x] + [x + _PERTURBATION[i] * np.eye(4)[:, [i]] for i in range(4)], axis=1)
             predicted = predict_windows(model, perturbed, batch.command, tiled, batch.horizon, batch.period,
-                                        substeps)
+                                        substeps, None if z0 is None else np.tile(z0, 5))
             base = predicted[:, :, :W]
             r = (measured - base) / count  # (h, 2, W)
             J = np.stack([(predicted[:, :, (i + 1) * W:(i + 2) * W] - base) / _PERTURBATION[i] / count
@@ -167,7 +184,7 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
             x = x + np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, rw)[..., None])[..., 0].T
         # Re-simulate from the refined states: near friction stick a linearised residual would flatter.
         final = (measured - predict_windows(model, x, batch.command, batch.starts, batch.horizon, batch.period,
-                                            substeps)) / count
+                                            substeps, z0)) / count
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
             out[i], states[i], jacobians[i] = final[:, :, part], x[:, part], J[:, :, part]
@@ -192,10 +209,11 @@ def fixed_state_residuals(model: Model, windows: Windows, states: list[np.ndarra
     """Per log: measured minus predicted angles [counts] from given initial states (no refinement)."""
     count = 2 * np.pi / nominal_counts
     out = [None] * len(windows.logs)
+    bristles = initial_bristles(model, windows)
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
         predicted = predict_windows(model, x, batch.command, batch.starts, batch.horizon, batch.period,
-                                    substeps_for(batch.period))
+                                    substeps_for(batch.period), _batch_bristles(bristles, batch))
         r = (batch.measured - predicted) / count
         for j, i in enumerate(batch.members):
             out[i] = r[:, :, batch.bounds[j]:batch.bounds[j + 1]]

@@ -19,7 +19,7 @@ from pydrake.systems.primitives import Adder, AffineSystem, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.actuator import ActuatorParameters, add_actuator
-from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
+from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, initial_bristles
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
 from furuta_drake.friction import FrictionParameters, JointFriction
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
@@ -82,16 +82,22 @@ class WindowReplayer:
         self.simulator.get_mutable_integrator().set_target_accuracy(1e-4)
         self.context = self.simulator.get_mutable_context()
         self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        self.friction = friction
         self.default_context = self.context.Clone()
         self.lag = model.lag > 0
 
-    def replay(self, start_time: float, x0: np.ndarray, command_at_start: float, times: np.ndarray) -> np.ndarray:
-        """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (lag filter at the command)."""
+    def replay(self, start_time: float, x0: np.ndarray, command_at_start: float, times: np.ndarray,
+               bristle: float | None = None) -> np.ndarray:
+        """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (lag filter at the command, the
+        arm's Dahl bristle at ``bristle``)."""
         self.context.SetTimeStateAndParametersFrom(self.default_context)
         self.context.SetTime(start_time)
         if self.lag:
             self.context.get_mutable_continuous_state_vector().SetFromVector(
                 self._with_lag_state(command_at_start))
+        if bristle is not None:  # the arm's is the friction system's only bristle (the pendulum's is static)
+            self.friction.GetMyMutableContextFromRoot(self.context).get_mutable_continuous_state_vector(
+            ).SetFromVector([bristle])
         self.plant.SetPositionsAndVelocities(self.plant_context, self.P.T @ x0)
         self.simulator.Initialize()
         out = np.empty((times.size, 2))
@@ -112,13 +118,15 @@ def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_state
     """The gap of ``model`` on ``windows`` from Drake replays started at ``initial_states`` (per log, 4 x W)."""
     count = 2 * np.pi / rig.counts_per_rev
     out = []
-    for log, horizon, starts, x0, measured in zip(windows.logs, windows.horizons, windows.starts, initial_states,
-                                                  windows.measured):
+    bristles = initial_bristles(model, windows)
+    for log, horizon, starts, x0, measured, z0 in zip(windows.logs, windows.horizons, windows.starts,
+                                                      initial_states, windows.measured, bristles):
         replayer = WindowReplayer(model, rig, log.time, log.torque_command)
         r = np.empty_like(measured)
         for w, start in enumerate(starts):
             times = log.time[start:start + horizon]
-            predicted = replayer.replay(log.time[start], x0[:, w], log.torque_command[start], times)
+            predicted = replayer.replay(log.time[start], x0[:, w], log.torque_command[start], times,
+                                        None if z0 is None else float(z0[w]))
             r[:, :, w] = (measured[:, :, w] - predicted) / count
         out.append(r)
     return gap_from_residuals(out, sensor_variance(model, rig.counts_per_rev), initial_states)
