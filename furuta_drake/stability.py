@@ -308,3 +308,106 @@ def widest_common_lyapunov(loop: LinearLoop, interval: tuple[float, float], anch
         else:
             high = middle
     return ends(low)
+
+
+@dataclass
+class LyapunovRegion:
+    """{x : x^T P x <= level} (x = [theta, phi, theta_dot, phi_dot]) where the true-state LQR loop's quadratic
+    Lyapunov function decreased at every sampled point (``samples`` of them)."""
+
+    P: np.ndarray
+    level: float
+    samples: int
+
+    def contains(self, states: np.ndarray) -> np.ndarray:
+        states = np.atleast_2d(states)
+        return np.einsum("ij,jk,ik->i", states, self.P, states) <= self.level
+
+    def theta_extent(self) -> float:
+        """Largest |theta0| at rest inside the region [rad]."""
+        return float(np.sqrt(self.level / self.P[0, 0]))
+
+
+def lyapunov_region(config: SimulationConfig, directions: int = 2000, radii: int = 40, seed: int = 0
+                    ) -> LyapunovRegion:
+    """A region-of-attraction estimate of the balancing loop with the true state: V = x^T P x from the
+    Lyapunov equation of the linearized loop with the LQ design's stage cost, (A - B K)^T P + P (A - B K) =
+    -(Q + K^T R K) (about the LQ cost-to-go), and the largest level set on
+    which dV/dt < 0 at every sampled point, with the MultibodyPlant's full nonlinear dynamics and the torque
+    limit u = sat(-K x) (no friction, no observer). Sampled, not certified: ``directions`` random directions,
+    each at ``radii`` levels up to the first increase."""
+    from pydrake.math import RealContinuousLyapunovEquation
+    from furuta_drake.plant import make_furuta_plant
+
+    plant = make_furuta_plant(config.rig)
+    context = plant.CreateDefaultContext()
+    P_perm = plant_to_paper_permutation(plant)
+    A, B = upright_linearization(plant)
+    K = _lqr_gain(config)
+    lqr = config.controller.lqr
+    P = RealContinuousLyapunovEquation(A - B @ K, np.diag(lqr.state_weights) + lqr.input_weight * K.T @ K)
+    limit = lqr.torque_limit
+    rng = np.random.default_rng(seed)
+    L = np.linalg.cholesky(P)
+    unit = rng.standard_normal((directions, 4))
+    unit = np.linalg.solve(L.T, (unit / np.linalg.norm(unit, axis=1, keepdims=True)).T).T  # x^T P x = 1
+    # The level where the torque limit is first reached, u_max^2 / (K P^-1 K^T), scales the search.
+    saturation_level = limit**2 / float((K @ np.linalg.solve(P, K.T))[0, 0])
+    levels = saturation_level * np.geomspace(0.1, 30.0, radii)
+    level = levels[-1]
+    for d in unit:
+        for v in levels[levels < level]:
+            x = np.sqrt(v) * d
+            plant.SetPositionsAndVelocities(context, P_perm.T @ x)
+            plant.get_actuation_input_port().FixValue(context, [np.clip(-(K @ x)[0], -limit, limit)])
+            xdot = P_perm @ plant.EvalTimeDerivatives(context).CopyToVector()
+            if 2.0 * x @ P @ xdot >= 0.0:
+                level = v
+                break
+    return LyapunovRegion(P, float(levels[levels < level][-1]) if np.any(levels < level) else 0.0,
+                          directions * radii)
+
+
+CAUGHT_THETA = 0.05  # [rad] |theta| over the last CAUGHT_WINDOW of a run below this: caught
+CAUGHT_WINDOW = 0.2  # [s]
+FALLEN_THETA = 0.5  # [rad] the monitor's bound in basin runs (stops a falling run early)
+
+
+def catches(config: SimulationConfig) -> bool:
+    """Whether the full nonlinear 1 kHz loop of ``config`` balances from its initial state: the monitor never
+    stops it (|theta| <= FALLEN_THETA, no runaway) and |theta| stays below CAUGHT_THETA over the last
+    CAUGHT_WINDOW."""
+    from furuta_drake.simulate import simulate
+
+    try:
+        result = simulate(config)
+    except SimulationDiverged:
+        return False
+    last = result.time >= result.time[-1] - CAUGHT_WINDOW
+    return bool(np.max(np.abs(result.state[last, 0])) < CAUGHT_THETA)
+
+
+def basin_configs(config: SimulationConfig, thetas, theta_dots, duration: float) -> list[SimulationConfig]:
+    """``config`` started at rest in the arm (phi = phi_dot = 0) from every (theta0, theta_dot0) of the grid
+    (theta0 fastest), without excitation torque, for ``duration`` s, the monitor stopping falls at
+    FALLEN_THETA."""
+    from furuta_drake.config import ExcitationConfig
+
+    base = dataclasses.replace(config, duration=duration, excitation=ExcitationConfig(),
+                               monitor=dataclasses.replace(config.monitor, theta_bound=FALLEN_THETA))
+    return [dataclasses.replace(base, initial_state=[float(theta), 0.0, float(theta_dot), 0.0])
+            for theta_dot in theta_dots for theta in thetas]
+
+
+def basin_map(config: SimulationConfig, thetas, theta_dots, duration: float = 2.0, workers: int = 1
+              ) -> np.ndarray:
+    """Caught (True) or fallen for each initial (theta0, theta_dot0): shape (len(theta_dots), len(thetas)).
+    ``workers`` > 1 runs the simulations on a local Dask cluster of that many processes."""
+    configs = basin_configs(config, thetas, theta_dots, duration)
+    if workers > 1:
+        from furuta_drake.sweep import dask_client, map_on_dask
+        with dask_client(workers=workers, tasks=len(configs)) as client:
+            outcome = map_on_dask(client, catches, configs)
+    else:
+        outcome = [catches(c) for c in configs]
+    return np.array(outcome, dtype=bool).reshape(len(theta_dots), len(thetas))
