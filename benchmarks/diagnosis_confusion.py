@@ -21,6 +21,7 @@ import argparse
 import csv
 import json
 import platform
+import resource
 import sys
 import time
 from collections import Counter
@@ -57,13 +58,20 @@ def generate(cases: list[CaseSpec], suite: Path, duration: float, workers: int |
     return answers
 
 
-def diagnose_blind(case_dir: Path, out: Path, workers: int | None) -> tuple[dict, float]:
-    """Run the diagnosis on one case folder (no answer in sight); return its report and wall time."""
-    start = time.perf_counter()
+def _cpu_seconds() -> float:
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def diagnose_blind(case_dir: Path, out: Path, workers: int | None) -> tuple[dict, float, float]:
+    """Run the diagnosis on one case folder (no answer in sight); return its report, wall time and CPU time
+    (this process and its finished worker processes: on a shared machine, CPU / cores estimates the wall time
+    the case would take with the cores to itself)."""
+    start, cpu = time.perf_counter(), _cpu_seconds()
     report = run_diagnosis(rig_path=case_dir / "rig.yaml", train_paths=sorted(case_dir.glob("train_*.csv")),
                            heldout_paths=sorted(case_dir.glob("heldout_*.csv")), out=out, force=True,
                            workers=workers, echo=lambda line: None)
-    return report, time.perf_counter() - start
+    return report, time.perf_counter() - start, _cpu_seconds() - cpu
 
 
 def confusion(rows: list[dict]) -> tuple[list[str], list[str], np.ndarray]:
@@ -100,6 +108,7 @@ def summarise(rows: list[dict]) -> dict:
         "median_reduction_where_right": float(np.median(reductions)) if reductions else float("nan"),
         "seconds_per_case": float(np.mean([row["seconds"] for row in rows])) if rows else float("nan"),
         "max_seconds": float(np.max([row["seconds"] for row in rows])) if rows else float("nan"),
+        "cpu_seconds_per_case": float(np.mean([row["cpu_seconds"] for row in rows])) if rows else float("nan"),
     }
 
 
@@ -146,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
 
     rows = []
     for i, answer in enumerate(answers, start=1):
-        report, seconds = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"],
+        report, seconds, cpu = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"],
                                          args.workers)
         found = "+".join(sorted(report["effects"])) if "+" in answer["expected_verdict"] else report["verdict"]
         row = {"case": answer["case"], "rig": answer["rig"], "expected": answer["expected_verdict"],
@@ -156,11 +165,11 @@ def main(argv: list[str] | None = None) -> int:
                "runner_up": report["ranking"][0]["effect"] if report["ranking"] else "",
                "fitted": json.dumps(next((r["params"] for r in report["ranking"] if r["effect"] == report["verdict"]),
                                          {}), sort_keys=True),
-               "seconds": seconds}
+               "seconds": seconds, "cpu_seconds": cpu}
         rows.append(row)
         mark = "ok " if row["right"] else "BAD"
         print(f"[{i}/{len(answers)}] {mark} {row['case']:<55} -> {found:<24} "
-              f"reduction {row['heldout_reduction']:6.1%}  {seconds:5.1f} s", flush=True)
+              f"reduction {row['heldout_reduction']:6.1%}  {seconds:5.1f} s (CPU {cpu:5.1f} s)", flush=True)
 
     expected, found, matrix = confusion(rows)
     print_confusion(expected, found, matrix)
@@ -168,7 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\naccuracy {figures['accuracy']:.1%} ({figures['right']}/{figures['cases']}), "
           f"false alarms on none {figures['false_alarm_rate']:.0%}, "
           f"median held-out reduction where right {figures['median_reduction_where_right']:.1%}, "
-          f"{figures['seconds_per_case']:.1f} s per case (max {figures['max_seconds']:.1f} s)")
+          f"{figures['seconds_per_case']:.1f} s per case (max {figures['max_seconds']:.1f} s; "
+          f"{figures['cpu_seconds_per_case']:.1f} CPU s per case)")
     print("targets: " + ", ".join(f"{k} {v:g}" for k, v in TARGETS.items()))
 
     with open(out / "results.csv", "w", newline="") as handle:

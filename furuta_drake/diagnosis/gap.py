@@ -2,8 +2,8 @@
 
 Each log is cut into consecutive windows of ``horizon`` samples (multiple shooting). A window's initial state is
 first estimated from the measured angles by a centred Savitzky-Golay smoother (angle and derivative), then
-refined for each model by a Gauss-Newton step on the window's residuals, so every model is judged with its own
-best initial states, and nothing depends on the rig's controller or integrator. The
+refined for each model by Gauss-Newton steps on the window's residuals (a window keeps the states with its
+smallest re-simulated residual), so every model is judged with its own best initial states, and nothing depends on the rig's controller or integrator. The
 model then predicts the angles over the window from the logged command (held over each sample). Residuals
 are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that the
 upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
@@ -170,12 +170,14 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
         z0 = _batch_bristles(bristles, batch)
         W, x, measured = batch.starts.size, batch.initial_states, batch.measured
         tiled = np.tile(batch.starts, 5)
+        best_r, best_x = None, None
         for _ in range(GAUSS_NEWTON_STEPS):
             perturbed = np.concatenate([x] + [x + _PERTURBATION[i] * np.eye(4)[:, [i]] for i in range(4)], axis=1)
             predicted = predict_windows(model, perturbed, batch.command, tiled, batch.horizon, batch.period,
                                         substeps, None if z0 is None else np.tile(z0, 5))
             base = predicted[:, :, :W]
             r = (measured - base) / count  # (h, 2, W)
+            best_r, best_x = _keep_better(best_r, best_x, r, x)
             J = np.stack([(predicted[:, :, (i + 1) * W:(i + 2) * W] - base) / _PERTURBATION[i] / count
                           for i in range(4)], axis=-1)  # (h, 2, W, 4)
             Jw = J.transpose(2, 0, 1, 3).reshape(W, -1, 4)
@@ -185,10 +187,20 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
         # Re-simulate from the refined states: near friction stick a linearised residual would flatter.
         final = (measured - predict_windows(model, x, batch.command, batch.starts, batch.horizon, batch.period,
                                             substeps, z0)) / count
+        final, x = _keep_better(best_r, best_x, final, x)
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
             out[i], states[i], jacobians[i] = final[:, :, part], x[:, part], J[:, :, part]
     return out, states, jacobians
+
+
+def _keep_better(best_r, best_x, r, x):
+    """Per window, the residuals and states with the smaller sum of squares: a Gauss-Newton step across a
+    friction stick or a swing's turning point can overshoot, and a window keeps its better states."""
+    if best_r is None:
+        return r, x
+    better = np.nansum(r**2, axis=(0, 1)) < np.nansum(best_r**2, axis=(0, 1))
+    return np.where(better, r, best_r), np.where(better, x, best_x)
 
 
 def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
