@@ -77,7 +77,7 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
             base.observers.hg, eps_theta=eps, eps_phi=eps))), "hg", True)) for eps in (HG_EPS[::2] if small else HG_EPS)})
 
     region = stability.lyapunov_region(base, directions=200 if small else 1500, seed=seed)
-    thetas = np.linspace(-0.3, 0.3, 5) if small else np.linspace(-0.4, 0.4, 17)
+    thetas = np.linspace(-0.3, 0.3, 5) if small else np.linspace(-0.36, 0.36, 13)
     theta_dots = np.array([-0.25, 0.0, 0.25]) if small else np.array([-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0])
     duration = 1.5 if small else 2.0
     basin_loops = {"HG + Dahl, K_sigma = 1 (paper)": hg_config, "VFE + Dahl + K_sigma adaptation": _adaptive_config(base)}
