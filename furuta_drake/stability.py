@@ -27,9 +27,10 @@ its two ends suffice).
 
 What this does not prove: the sliding regime (|F| at Fc, the |v| z terms) is nonlinear and outside the
 linearization; the Coulomb friction of the pendulum has no linearization (left out: it only dissipates);
-saturation and quantisation are left out. :func:`region_of_attraction` (Drake's ``RegionOfAttraction`` on a
-Taylor polynomial of the true-state LQR loop, inside the torque limit) and :func:`basin_map` (the full nonlinear
-1 kHz loop simulated from a grid of initial states) cover the large motions.
+saturation and quantisation are left out. :func:`lyapunov_region` (a sampled quadratic Lyapunov estimate of the
+true-state LQR loop with the torque limit; Drake's ``RegionOfAttraction`` on a cubic fit of the plant did not
+finish in minutes with Clarabel or CSDP) and :func:`basin_map` (the full nonlinear 1 kHz loop simulated from a
+grid of initial states) cover the large motions.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ OBSERVERS = ("vfe", "hg")
 
 
 @dataclass
-class PresplidingPlant:
+class PreslidingPlant:
     """The plant with its bristles linearized at the upright: d/dt [x; z] = A [x; z] + B u, x in paper order,
     z the bristle states (pendulum before arm, bristle models only); ``conserved`` rows W with W A = 0 (one
     z - angle per bristle)."""
@@ -66,7 +67,7 @@ class PresplidingPlant:
     conserved: np.ndarray
 
 
-def presliding_plant(config: SimulationConfig) -> PresplidingPlant:
+def presliding_plant(config: SimulationConfig) -> PreslidingPlant:
     """Drake's ``Linearize`` of the MultibodyPlant with ``config``'s bristle friction (Dahl/LuGre joints; static
     Coulomb friction has no linearization at rest and is left out) at the upright, permuted to paper order."""
     keep = {joint: p if p.has_bristles else JointFrictionParameters()
@@ -91,7 +92,7 @@ def presliding_plant(config: SimulationConfig) -> PresplidingPlant:
     W = np.zeros((nb, 4 + nb))
     for k, angle in enumerate(bristle_joints):
         W[k, 4 + k], W[k, angle] = 1.0, -1.0
-    return PresplidingPlant(A, B, W)
+    return PreslidingPlant(A, B, W)
 
 
 @dataclass
