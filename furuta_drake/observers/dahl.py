@@ -9,9 +9,13 @@ eps_phi = phi - phi_ref and eps_v = v - v_ref the controller's tracking errors (
 balancing), Fc(v) the observer's Coulomb level for the sign of v. F_hat is the friction torque EXERTED on the
 arm (opposite to the velocity, the package's convention), so Eq. 8's F_hat = sigma0 z_hat and Eq. 16's printed
 "d/dt F_hat" are read as F_hat = -K_sigma sigma0 z_hat (NOTES.md); with this sign Eq. 18 is a gradient descent
-as printed. A controller compensates with u = u_LQ - F_hat; then the printed sign of K_z is the stabilising
-one: an arm displaced to phi > phi_ref at rest makes z_hat fall and F_hat grow, so u pushes it back (integral
-action of gain K_sigma sigma0^2 / rho), and eps_v > 0 likewise brakes (damping).
+as printed. A controller compensates with u = u_LQ - F_hat; with the printed sign of K_z an arm displaced to
+phi > phi_ref at rest makes z_hat fall and F_hat grow, so u pushes the arm back: an integral action of gain
+K_sigma sigma0^2 / rho. On a free arm that restores; in the balancing loop it does not: the LQR moves the arm
+through the pendulum (K_phi < 0), and the linearized loop at rest (``furuta_drake.stability``) has a slow
+unstable mode (about +0.14 1/s at K_sigma = 1) with the printed sign and none with ``injection_sign = -1``. In
+the nonlinear loop the stick-slip limit cycle hides it (60 s balancing runs: arm RMS 0.035 rad with the
+printed sign, 0.038 rad reversed), so the default stays the paper's.
 
 Sign s1 of the sigma1 term (``sigma1_sign``, NOTES.md): Eq. 9 prints +. The cited design (Freidovich et al.
 2006) is for LuGre, F = sigma0 z + sigma1 z' + sigma2 v = sigma0 (1 - sigma1 |v| / g(v)) z + (sigma1 + sigma2) v,
@@ -63,6 +67,7 @@ class DahlObserverParameters:
     sigma1_sign: int = -1  # sign of the sigma1 term of Eq. 9 (printed +1; see the module docstring)
     rho: float | None = 100.0  # injection scale [N m s/rad]: K_z = -(sigma0/rho) (...) [eps + rho2 eps_v]; None: off
     rho2: float = 0.1  # velocity-error weight [s]
+    injection_sign: int = 1  # sign of K_z (Eq. 9 printed: +1); -1 reverses the injection (see furuta_drake.stability)
     period: float = 1e-3  # [s]
     static_pos: float | None = None  # LuGre Stribeck breakaway level Fs+ [N m]; None: no Stribeck (Dahl)
     static_neg: float | None = None  # Fs- [N m]
@@ -80,8 +85,9 @@ class DahlObserverParameters:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{where}.{name} must be >= 0, got {value!r}")
-        if self.sigma1_sign not in (1, -1):
-            raise ConfigError(f"{where}.sigma1_sign must be 1 or -1, got {self.sigma1_sign!r}")
+        for name in ("sigma1_sign", "injection_sign"):
+            if getattr(self, name) not in (1, -1):
+                raise ConfigError(f"{where}.{name} must be 1 or -1, got {getattr(self, name)!r}")
         self.friction_law().validate(where)
 
     def friction_law(self) -> JointFrictionParameters:
@@ -182,8 +188,9 @@ class DahlFrictionObserver(LeafSystem):
 
 
 def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
-    """K_z of Eq. 9 [rad/s]: -(sigma0 / rho) (1 + s1 sigma1 |v| / g(v)) (eps + rho2 eps_v)."""
-    return -(sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (eps + p.rho2 * eps_v)
+    """K_z of Eq. 9 [rad/s]: -s (sigma0 / rho) (1 + s1 sigma1 |v| / g(v)) (eps + rho2 eps_v), s = injection_sign."""
+    return -p.injection_sign * (sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (
+        eps + p.rho2 * eps_v)
 
 
 def held_input_gain(rate: float, period: float) -> float:
