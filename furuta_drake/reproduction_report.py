@@ -26,7 +26,7 @@ from furuta_drake.yamlio import dump_yaml_dataclass
 
 EXPERIMENTS = ("table1", "table2", "fig5", "fig6", "fig7", "beyond")
 PAPER_EXPERIMENTS = EXPERIMENTS[:-1]
-BEYOND_STUDIES = ("pendulum_observer", "parameter_adaptation", "lugre_observer", "swingup")  # furuta_drake.beyond
+BEYOND_STUDIES = ("pendulum_observer", "parameter_adaptation", "lugre_observer", "stability", "swingup")
 
 
 @dataclass
