@@ -71,7 +71,7 @@ def noise_estimate(logs: list[RunLog], nominal_counts: int) -> float:
     return float(sigma * count) if sigma >= NOISE_FLOOR_COUNTS else 0.0
 
 
-def _joint(names: tuple[str, ...], scales: Scales):
+def _joint(names: tuple[str, ...], scales: Scales, fitted: dict[str, list[float]]):
     lows, highs, sizes = [], [], []
     for name in names:
         low, high = CANDIDATES[name].bounds(scales)
@@ -80,7 +80,9 @@ def _joint(names: tuple[str, ...], scales: Scales):
         sizes.append(len(low))
     starts = [[]]
     for name in names:
-        starts = [s + list(t) for s in starts for t in CANDIDATES[name].starts(scales)]
+        own = CANDIDATES[name].starts(scales)
+        options = [fitted[name]] + own if name in fitted else own
+        starts = [s + list(t) for s in starts for t in options]
     return np.array(lows), np.array(highs), sizes, starts
 
 
@@ -93,8 +95,10 @@ def _split(names, sizes, x) -> dict[str, list[float]]:
 
 
 def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: list[RunLog],
-                nominal_counts: int) -> FitResult:
-    """Fit the candidates ``names`` jointly (one name: a single candidate) on ``windows``."""
+                nominal_counts: int, fitted: dict[str, list[float]] | None = None) -> FitResult:
+    """Fit the candidates ``names`` jointly (one name: a single candidate) on ``windows``. ``fitted``: single
+    fits of some members; the starts then combine each such member's fit (or its own starts) with every
+    other member's own starts (a partner that alone fitted to nothing still starts from its candidate starts)."""
     scales = scales_of(logs, model)
     fixed = {}
     for name in names:
@@ -107,7 +111,7 @@ def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: li
     if not fitted_names:
         gap = evaluate_gap(base, windows, nominal_counts).gap
         return FitResult("+".join(names), fixed, gap, True, "estimated from the data")
-    low, high, sizes, starts = _joint(fitted_names, scales)
+    low, high, sizes, starts = _joint(fitted_names, scales, fitted or {})
     span = high - low
 
     last = {}
@@ -155,10 +159,12 @@ def _fit_task(args):
 
 
 def fit_all(groups: list[tuple[str, ...]], model: Model, windows: Windows, logs: list[RunLog],
-            nominal_counts: int, workers: int | None = None, progress=None) -> dict[str, FitResult]:
-    """Fit every group of candidates (a 1-tuple for a single effect) in parallel processes."""
+            nominal_counts: int, workers: int | None = None, progress=None,
+            fitted: dict | None = None) -> dict[str, FitResult]:
+    """Fit every group of candidates (a 1-tuple for a single effect) in parallel processes; ``fitted``: group
+    -> single fits of its members to start from (see :func:`fit_effects`)."""
     workers = workers or os.cpu_count() or 1
-    tasks = [(group, model, windows, logs, nominal_counts) for group in groups]
+    tasks = [(group, model, windows, logs, nominal_counts, (fitted or {}).get(group)) for group in groups]
     results = {}
     if workers == 1:
         for task in tasks:

@@ -18,12 +18,22 @@ from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
 from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gap
 from furuta_drake.diagnosis.report import effect_curve, input_record, write_report
-from furuta_drake.diagnosis.select import THRESHOLD_NOTE, decide
+from furuta_drake.diagnosis.select import THRESHOLD_NOTE, best_single, decide, nominal_at_floor, rank
 from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import FrictionParameters
 
 HOLDOUT_FRACTION = 0.3
-PAIR_CANDIDATES = 3
+# Variants of one law (each holds an arm Coulomb level): a pair of two of them explains nothing new.
+SAME_LAW = ({"arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"},)
+
+
+def pair_groups(order: list[str], best: str) -> list[tuple[str, str]]:
+    """The pairs tried for a combined verdict: the best single candidate with every other candidate that is not
+    a variant of its own law (a second effect can be masked alone: a delay fits to zero under strong friction);
+    a pair fit starts from the best candidate's single fit."""
+    family = next((law for law in SAME_LAW if best in law), {best})
+    partners = [name for name in order if name not in family]
+    return [(best, partner) for partner in partners]
 
 
 def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
@@ -74,9 +84,14 @@ def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, 
     heldout = {name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
                for name, fit in fits.items()}
     nominal_heldout = evaluate_gap(nominal, heldout_windows, counts)
-    order = sorted(heldout, key=lambda name: heldout[name].gap)[:PAIR_CANDIDATES]
-    pairs = [(a, b) for i, a in enumerate(order) for b in order[i + 1:]]
-    pair_fits = fit_all(pairs, nominal, train_windows, logs, counts, workers=workers, progress=progress)
+    single = best_single(rank(nominal_heldout.per_window, {name: g.per_window for name, g in heldout.items()}))
+    order = sorted(heldout, key=lambda name: heldout[name].gap)
+    # No pair when the nominal model already sits at the floor: the verdict is none whatever a pair does.
+    pairs = [] if nominal_at_floor(nominal_heldout.per_window) else pair_groups(
+        order, single["name"] if single else order[0])
+    warm = {pair: {pair[0]: fits[pair[0]].effects[pair[0]]} for pair in pairs}
+    pair_fits = fit_all(pairs, nominal, train_windows, logs, counts, workers=workers, progress=progress,
+                        fitted=warm)
     fits.update(pair_fits)
     heldout.update({name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
                     for name, fit in pair_fits.items()})

@@ -9,8 +9,9 @@ the nominal and the candidate). The threshold rule, written into every report:
 - a candidate is *supported* when the 5 % lower bound of its reduction exceeds ``MARGIN``; the verdict is the
   supported candidate with the largest reduction, replaced by one with fewer parameters when that one is
   within ``PARSIMONY`` of it (Coulomb before Stribeck or asymmetry when the data cannot tell them apart);
-- a pair is accepted instead when it cuts the gap by at least ``PAIR_GAIN`` more than its best member and the
-  bound of that extra reduction is positive;
+- a pair is accepted instead when it removes at least ``PAIR_GAIN`` of the gap its best member leaves, with the
+  5 % bound of that extra reduction above ``MARGIN``, and adds at least ``PAIR_MIN_GAIN`` to the reduction
+  from nominal (a pair cannot win by shaving a gap already at the floor);
 - ``unexplained`` when the nominal gap is above the floor and no candidate or pair is supported with a
   point reduction of at least ``CLOSES``.
 """
@@ -26,7 +27,8 @@ from furuta_drake.diagnosis.candidates import CANDIDATES
 FLOOR_COUNTS = 0.25
 MARGIN = 0.2
 PARSIMONY = 0.03
-PAIR_GAIN = 0.1
+PAIR_GAIN = 0.4
+PAIR_MIN_GAIN = 0.05
 CLOSES = 0.5
 BOOTSTRAP = 1000
 THRESHOLD_NOTE = (
@@ -34,7 +36,8 @@ THRESHOLD_NOTE = (
     f"The nominal model is at the floor (verdict none) when its held-out gap is below {FLOOR_COUNTS} counts or "
     f"twice its bootstrap standard error. A candidate is supported when the 5 % lower bound of its reduction "
     f"exceeds {MARGIN:.0%}; among supported candidates a simpler one within {PARSIMONY:.0%} of the best wins; a "
-    f"pair must add {PAIR_GAIN:.0%} with a positive lower bound; a best reduction under {CLOSES:.0%} leaves the "
+    f"pair must remove {PAIR_GAIN:.0%} of the gap its best member leaves, with a lower bound above {MARGIN:.0%}, and add {PAIR_MIN_GAIN:.0%} to the reduction; "
+    f"a best reduction under {CLOSES:.0%} leaves the "
     f"gap unexplained.")
 
 
@@ -103,8 +106,9 @@ def decide(nominal: np.ndarray, candidates: dict[str, np.ndarray]) -> Decision:
         for row in ranking:
             if "+" not in row["name"] or single["name"] not in row["name"].split("+"):
                 continue
-            _, extra_low = bootstrap_reduction(candidates[single["name"]], candidates[row["name"]])
-            if row["heldout_reduction"] >= single["heldout_reduction"] + PAIR_GAIN and extra_low > 0:
+            extra, extra_low = bootstrap_reduction(candidates[single["name"]], candidates[row["name"]])
+            gained = row["heldout_reduction"] - single["heldout_reduction"]
+            if extra >= PAIR_GAIN and extra_low > MARGIN and gained >= PAIR_MIN_GAIN:
                 chosen = row
                 break
     if chosen is None or chosen["heldout_reduction"] < CLOSES:
