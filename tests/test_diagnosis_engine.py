@@ -5,6 +5,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagnosis.candidates import CANDIDATES, apply_effects
@@ -138,3 +140,34 @@ def test_fitted_model_is_a_simulate_config_that_runs():
     result = simulate(config)
     assert np.max(np.abs(result.state[:, 0])) < 0.2
     assert isinstance(config, SimulationConfig)
+
+
+def test_decide_accepts_a_pair_only_when_it_closes_most_of_what_its_best_member_leaves():
+    rng = np.random.default_rng(2)
+    nominal = 16.0 + rng.normal(0.0, 1.0, 60)
+    masked = {"arm_coulomb_friction": 0.25 * nominal, "input_delay": 0.99 * nominal,
+              "arm_coulomb_friction+input_delay": 0.01 * nominal}
+    assert sorted(decide(nominal, masked).effects) == ["arm_coulomb_friction", "input_delay"]
+    # A second effect that shaves a gap already near the floor is no pair.
+    shaved = {"actuator_lag": 0.0004 * nominal, "actuator_lag+input_delay": 0.0001 * nominal}
+    assert decide(nominal, shaved).effects == ["actuator_lag"]
+
+
+def test_pairs_join_the_best_candidate_with_every_effect_outside_its_law():
+    from furuta_drake.diagnosis.pipeline import pair_groups
+    order = ["friction_asymmetry", "arm_coulomb_friction", "arm_stribeck", "arm_viscous_friction", "input_delay"]
+    assert pair_groups(order, "arm_coulomb_friction") == [("arm_coulomb_friction", "arm_viscous_friction"),
+                                                          ("arm_coulomb_friction", "input_delay")]
+
+
+@settings(max_examples=25, deadline=None)
+@given(level=st.floats(1e-3, 0.1), presliding=st.floats(1e-4, 1e-2), travel=st.floats(1e-4, 0.05),
+       pieces=st.integers(1, 50))
+def test_dahl_bristle_follows_the_path_alone(level, presliding, travel, pieces):
+    """Dahl (Eq. 7) from z = 0 over a monotone travel D: z = z_max (1 - exp(-D / z_max)), z_max = Fc / sigma0,
+    however the travel is cut into samples (the law is rate independent)."""
+    from furuta_drake.diagnosis.surrogate import dahl_path
+    from furuta_drake.friction import JointFrictionParameters
+    p = JointFrictionParameters.dahl(level, level, level / presliding)
+    path = np.concatenate([[0.0], np.sort(np.random.default_rng(pieces).uniform(0, travel, pieces)), [travel]])
+    assert dahl_path(path, p)[-1] == pytest.approx(presliding * (1 - np.exp(-travel / presliding)), rel=1e-9)
