@@ -171,3 +171,14 @@ def test_dahl_bristle_follows_the_path_alone(level, presliding, travel, pieces):
     p = JointFrictionParameters.dahl(level, level, level / presliding)
     path = np.concatenate([[0.0], np.sort(np.random.default_rng(pieces).uniform(0, travel, pieces)), [travel]])
     assert dahl_path(path, p)[-1] == pytest.approx(presliding * (1 - np.exp(-travel / presliding)), rel=1e-9)
+
+
+def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
+    from furuta_drake.diagnosis.fit import FitResult
+    from furuta_drake.diagnosis.pipeline import name_static_free_stribeck
+    from furuta_drake.diagnosis.select import Decision
+    decision = Decision("arm_stribeck", ["arm_stribeck"], "arm_stribeck")
+    flat = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.0095, 0.1]}, 0.1, True, "")}
+    assert name_static_free_stribeck(decision, flat).effects == ["arm_coulomb_friction"]
+    peaked = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.02, 0.1]}, 0.1, True, "")}
+    assert name_static_free_stribeck(decision, peaked).verdict == "arm_stribeck"

@@ -18,13 +18,31 @@ from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
 from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gap
 from furuta_drake.diagnosis.report import effect_curve, input_record, write_report
-from furuta_drake.diagnosis.select import THRESHOLD_NOTE, best_single, decide, nominal_at_floor, rank
+from furuta_drake.diagnosis.select import (
+    THRESHOLD_NOTE, Decision, best_single, decide, nominal_at_floor, rank,
+)
 from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import FrictionParameters
 
 HOLDOUT_FRACTION = 0.3
 # Variants of one law (each holds an arm Coulomb level): a pair of two of them explains nothing new.
 SAME_LAW = ({"arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"},)
+
+
+STATIC_EXCESS = 0.1  # a Stribeck fit whose static level is within 10 % of its Coulomb level has no Stribeck part
+
+
+def name_static_free_stribeck(decision: Decision, fits: dict) -> Decision:
+    """An accepted ``arm_stribeck`` whose fitted static level does not exceed its Coulomb level by
+    ``STATIC_EXCESS`` is Coulomb friction by the vocabulary's own definition (static friction *above* the
+    Coulomb level): the verdict says so (the ranking keeps the fit under its candidate's name)."""
+    if decision.accepted is None or "arm_stribeck" not in decision.effects:
+        return decision
+    coulomb, static, _ = fits[decision.accepted].effects["arm_stribeck"]
+    if static > (1.0 + STATIC_EXCESS) * coulomb:
+        return decision
+    effects = ["arm_coulomb_friction" if name == "arm_stribeck" else name for name in decision.effects]
+    return dataclasses.replace(decision, verdict=effects[0], effects=effects)
 
 
 def pair_groups(order: list[str], best: str) -> list[tuple[str, str]]:
@@ -95,7 +113,8 @@ def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, 
     fits.update(pair_fits)
     heldout.update({name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
                     for name, fit in pair_fits.items()})
-    decision = decide(nominal_heldout.per_window, {name: g.per_window for name, g in heldout.items()})
+    decision = name_static_free_stribeck(
+        decide(nominal_heldout.per_window, {name: g.per_window for name, g in heldout.items()}), fits)
 
     accepted = apply_effects(nominal, fits[decision.accepted].effects) if decision.accepted else nominal
     # The headline held-out figures come from Drake diagrams of the project's systems.
