@@ -24,6 +24,7 @@ from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
 from furuta_drake.diagnosis.surrogate import Model, dahl_path, predict_windows, sensor_variance
+from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, linearized_upright
 
 MAX_HORIZON_S = 0.25
@@ -115,6 +116,11 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
     for log in logs:
         horizon = max(5, int(round(horizon_s / log.sample_period)))
         smooth = max(5, int(round(SMOOTHING_S / log.sample_period)) | 1)
+        if log.time.size <= horizon + 2 * smooth:
+            raise LogError(f"{log.name}: {log.time.size} samples ({log.time.size * log.sample_period:.3g} s) are too "
+                           f"short for one gap window of this rig: {horizon} samples ({horizon_s * 1e3:.0f} ms) "
+                           f"plus {SMOOTHING_S * 1e3:.0f} ms of smoothing on each side; without --heldout only the "
+                           f"first 70 % of each log trains and the rest is held out, so give longer logs")
         angles = np.vstack([log.theta, log.phi])
         position = savgol_filter(angles, smooth, 3, axis=1)
         velocity = savgol_filter(angles, smooth, 3, deriv=1, delta=log.sample_period, axis=1)
