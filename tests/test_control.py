@@ -148,13 +148,19 @@ def test_lqr_balances_the_friction_free_lund_pendulum_from_a_tenth_of_a_radian(l
     assert np.all(np.abs(x) < 1e-2)
 
 
-def controller_update(controller, estimate, friction=None, reference=None):
+def fixed_inputs_context(controller, estimate, friction=None, reference=None):
+    """A context of ``controller`` with its estimate (and compensation, reference) inputs fixed."""
     context = controller.CreateDefaultContext()
     controller.GetInputPort("state_estimate").FixValue(context, estimate)
     if friction is not None:
         controller.GetInputPort("friction_compensation_Nm").FixValue(context, [friction])
     if reference is not None:
         controller.GetInputPort("state_reference").FixValue(context, reference)
+    return context
+
+
+def controller_update(controller, estimate, friction=None, reference=None):
+    context = fixed_inputs_context(controller, estimate, friction, reference)
     values = controller.EvalUniquePeriodicDiscreteUpdate(context)
     return values.get_vector(0).GetAtIndex(0), values.get_vector(1).GetAtIndex(0)
 
@@ -225,12 +231,7 @@ def test_weights_that_leave_the_arm_unregulated_are_rejected(lund_plant):
 
 def diagram_update(controller, estimate, friction=None, reference=None):
     """(arm_torque_Nm, lqr_torque_Nm) of an LqrControllerDiagram after its sample at t = 0."""
-    context = controller.CreateDefaultContext()
-    controller.GetInputPort("state_estimate").FixValue(context, estimate)
-    if friction is not None:
-        controller.GetInputPort("friction_compensation_Nm").FixValue(context, [friction])
-    if reference is not None:
-        controller.GetInputPort("state_reference").FixValue(context, reference)
+    context = fixed_inputs_context(controller, estimate, friction, reference)
     Simulator(controller, context).AdvanceTo(5e-4)
     return tuple(controller.GetOutputPort(name).Eval(context)[0] for name in ("arm_torque_Nm", "lqr_torque_Nm"))
 
