@@ -14,7 +14,7 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import DiscreteTimeApproximation
 from pydrake.systems.controllers import DiscreteTimeLinearQuadraticRegulator, LinearQuadraticRegulator
-from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import (
     Demultiplexer, Linearize, LinearSystem, MatrixGain, Multiplexer, Saturation, ZeroOrderHold,
 )
@@ -140,52 +140,17 @@ def check_stabilizing(A: np.ndarray, B: np.ndarray, K, discrete: bool, period: f
                               f"eigenvalue {worst:.4g} has a non-negative real part")
 
 
-class LqrController(LeafSystem):
-    """u = sat(u_LQ - F_hat), u_LQ = -K (x_hat - x_ref) (paper Sec. IV-A, IV-C), sampled and held at ``period``.
+class LqrController(Diagram):
+    """u = sat(u_LQ - F_hat), u_LQ = -K (x_hat - x_ref) (paper Sec. IV-A, IV-C), sampled and held at ``period``,
+    from Drake's C++ blocks (a Python update at every sample would cost more than the rest of the loop):
+    ``Multiplexer`` [x_hat; F_hat; x_ref] -> ``MatrixGain`` [[-K, -1, K], [-K, 0, K]] -> ``Saturation``
+    (+-``torque_limit`` on the command, none on u_LQ) -> ``ZeroOrderHold`` at ``period`` -> ``Demultiplexer``.
 
-    Inputs: ``state_estimate`` (x_hat, paper order), ``friction_compensation_Nm`` (F_hat, the estimated friction
-    torque on the arm, in the paper's convention tau = u + F; read only when ``friction_compensation``, zero
-    when unconnected), ``state_reference`` (x_ref, zero when unconnected). Outputs, both discrete state held
-    from t_k to t_k+1: ``arm_torque_Nm`` (the command, saturated at +-``torque_limit``) and ``lqr_torque_Nm``
-    (u_LQ before compensation and saturation). :class:`LqrControllerDiagram` is the same law from C++ blocks.
+    Inputs: ``state_estimate`` (x_hat, paper order); with ``friction_compensation``, ``friction_compensation_Nm``
+    (F_hat, the estimated friction torque on the arm in the paper's convention tau = u + F); with ``reference``,
+    ``state_reference`` (x_ref). Outputs, held from t_k to t_k+1: ``arm_torque_Nm`` (the command, saturated at
+    +-``torque_limit``) and ``lqr_torque_Nm`` (u_LQ before compensation and saturation). No direct feedthrough.
     """
-
-    def __init__(self, K, period: float, torque_limit: float, friction_compensation: bool = False):
-        super().__init__()
-        K = _checked_gain(K, period, torque_limit)
-        self._negative_gain = -K.ravel()
-        self._limit = float(torque_limit)
-        self._compensate = bool(friction_compensation)
-        self._estimate_port = self.DeclareVectorInputPort("state_estimate", 4)
-        self._friction_port = self.DeclareVectorInputPort("friction_compensation_Nm", 1)
-        self._reference_port = self.DeclareVectorInputPort("state_reference", 4)
-        self._command = self.DeclareDiscreteState(1)
-        self._lqr_torque = self.DeclareDiscreteState(1)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareStateOutputPort("arm_torque_Nm", self._command)
-        self.DeclareStateOutputPort("lqr_torque_Nm", self._lqr_torque)
-
-    def _update(self, context, discrete_state):
-        error = self._estimate_port.Eval(context)
-        if self._reference_port.HasValue(context):
-            error = error - self._reference_port.Eval(context)
-        u_lq = float(self._negative_gain @ error)
-        u = u_lq
-        if self._compensate and self._friction_port.HasValue(context):
-            u -= self._friction_port.Eval(context)[0]
-        u = min(max(u, -self._limit), self._limit)
-        discrete_state.get_mutable_vector(self._command).SetAtIndex(0, u)
-        discrete_state.get_mutable_vector(self._lqr_torque).SetAtIndex(0, u_lq)
-
-
-class LqrControllerDiagram(Diagram):
-    """:class:`LqrController`'s law from Drake's C++ blocks, for closed loops (a Python update at every sample
-    costs more than the rest of the controller): ``Multiplexer`` [x_hat; F_hat; x_ref] -> ``MatrixGain``
-    [[-K, -1, K], [-K, 0, K]] -> ``Saturation`` (+-``torque_limit`` on the command, none on u_LQ) ->
-    ``ZeroOrderHold`` at ``period`` -> ``Demultiplexer``. The hold samples the law at t_k and holds it, like the
-    LeafSystem's discrete update, so both give the same outputs; the ports are the LeafSystem's, but only those
-    in use exist: ``friction_compensation_Nm`` with ``friction_compensation``, ``state_reference`` with
-    ``reference`` (a C++ block has no unconnected-means-zero input)."""
 
     def __init__(self, K, period: float, torque_limit: float, friction_compensation: bool = False,
                  reference: bool = False):
@@ -232,5 +197,5 @@ def _checked_gain(K, period: float, torque_limit: float) -> np.ndarray:
 
 __all__ = [
     "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "closed_loop_eigenvalues",
-    "check_stabilizing", "LqrController", "LqrControllerDiagram",
+    "check_stabilizing", "LqrController",
 ]

@@ -26,7 +26,7 @@ from pydrake.systems.primitives import (
 from furuta_drake.actuator import add_actuator, add_arm_disturbance
 from furuta_drake.adaptation import KSigmaAdapter, KSigmaDahlObserver
 from furuta_drake.config import SimulationConfig
-from furuta_drake.control import LqrControllerDiagram, check_stabilizing, design_lqr, upright_linearization
+from furuta_drake.control import LqrController, check_stabilizing, design_lqr, upright_linearization
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.friction import JointFriction
@@ -132,7 +132,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
             lqr_gain = design_lqr(plant, config.controller.lqr)
         reference = arm_reference_trajectory(config.excitation, config.duration)
         if make_controller is None:
-            controller = builder.AddNamedSystem("lqr", LqrControllerDiagram(
+            controller = builder.AddNamedSystem("lqr", LqrController(
                 lqr_gain, config.controller.lqr.period, config.controller.lqr.torque_limit,
                 friction_compensation=config.controller.friction_compensation, reference=reference is not None))
         else:

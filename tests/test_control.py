@@ -10,7 +10,7 @@ from pydrake.systems.primitives import Linearize, MatrixGain
 from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
 
 from furuta_drake.control import (
-    LqrController, LqrControllerDiagram, LqrParameters, check_stabilizing, closed_loop_eigenvalues, design_lqr,
+    LqrController, LqrParameters, check_stabilizing, closed_loop_eigenvalues, design_lqr,
     upright_linearization,
 )
 from furuta_drake.errors import ConfigError
@@ -148,41 +148,6 @@ def test_lqr_balances_the_friction_free_lund_pendulum_from_a_tenth_of_a_radian(l
     assert np.all(np.abs(x) < 1e-2)
 
 
-def fixed_inputs_context(controller, estimate, friction=None, reference=None):
-    """A context of ``controller`` with its estimate (and compensation, reference) inputs fixed."""
-    context = controller.CreateDefaultContext()
-    controller.GetInputPort("state_estimate").FixValue(context, estimate)
-    if friction is not None:
-        controller.GetInputPort("friction_compensation_Nm").FixValue(context, [friction])
-    if reference is not None:
-        controller.GetInputPort("state_reference").FixValue(context, reference)
-    return context
-
-
-def controller_update(controller, estimate, friction=None, reference=None):
-    context = fixed_inputs_context(controller, estimate, friction, reference)
-    values = controller.EvalUniquePeriodicDiscreteUpdate(context)
-    return values.get_vector(0).GetAtIndex(0), values.get_vector(1).GetAtIndex(0)
-
-
-def test_control_law_with_reference_friction_compensation_and_saturation():
-    K = np.array([[-2.0, -0.5, -0.4, -0.2]])
-    x = np.array([0.01, 0.1, 0.0, 0.2])
-    u_lq = 0.02 + 0.05 + 0.04  # -K x
-    plain = LqrController(K, 1e-3, 0.2)
-    assert controller_update(plain, x) == pytest.approx((u_lq, u_lq))
-    # The estimate is ignored without friction compensation.
-    assert controller_update(plain, x, friction=0.03) == pytest.approx((u_lq, u_lq))
-    compensating = LqrController(K, 1e-3, 0.2, friction_compensation=True)
-    assert controller_update(compensating, x) == pytest.approx((u_lq, u_lq))  # unconnected: F_hat = 0
-    # Paper Sec. IV-C: u = u_LQ - F_hat; F_hat = -0.012 N m (friction resisting a positive arm velocity).
-    assert controller_update(compensating, x, friction=-0.012) == pytest.approx((u_lq + 0.012, u_lq))
-    reference = np.array([0.0, 0.1, 0.0, 0.0])  # at the arm reference: only theta and phi_dot act
-    assert controller_update(plain, x, reference=reference) == pytest.approx((0.06, 0.06))
-    assert controller_update(plain, 10 * x) == pytest.approx((0.2, 10 * u_lq))
-    assert controller_update(plain, -10 * x) == pytest.approx((-0.2, -10 * u_lq))
-
-
 def test_command_is_held_between_samples_and_has_no_feedthrough():
     controller = LqrController([[-2.0, 0, 0, 0]], 1e-3, 0.2)
     context = controller.CreateDefaultContext()
@@ -229,23 +194,33 @@ def test_weights_that_leave_the_arm_unregulated_are_rejected(lund_plant):
             design_lqr(lund_plant, LqrParameters(state_weights=[10.0, 0.0, 0.1, 0.0], discrete=discrete))
 
 
-def diagram_update(controller, estimate, friction=None, reference=None):
-    """(arm_torque_Nm, lqr_torque_Nm) of an LqrControllerDiagram after its sample at t = 0."""
-    context = fixed_inputs_context(controller, estimate, friction, reference)
+def controller_update(controller, estimate, friction=None, reference=None):
+    """(arm_torque_Nm, lqr_torque_Nm) of an LqrController after its sample at t = 0."""
+    context = controller.CreateDefaultContext()
+    controller.GetInputPort("state_estimate").FixValue(context, estimate)
+    if friction is not None:
+        controller.GetInputPort("friction_compensation_Nm").FixValue(context, [friction])
+    if reference is not None:
+        controller.GetInputPort("state_reference").FixValue(context, reference)
     Simulator(controller, context).AdvanceTo(5e-4)
     return tuple(controller.GetOutputPort(name).Eval(context)[0] for name in ("arm_torque_Nm", "lqr_torque_Nm"))
 
 
-def test_lqr_controller_diagram_is_the_same_law_from_cpp_blocks():
+def test_control_law_with_reference_friction_compensation_and_saturation():
     K = np.array([[-2.0, -0.5, -0.4, -0.2]])
     x = np.array([0.01, 0.1, 0.0, 0.2])
     u_lq = 0.02 + 0.05 + 0.04  # -K x
-    plain = LqrControllerDiagram(K, 1e-3, 0.2)
+    plain = LqrController(K, 1e-3, 0.2)
     assert [plain.get_input_port(i).get_name() for i in range(plain.num_input_ports())] == ["state_estimate"]
-    assert diagram_update(plain, x) == pytest.approx((u_lq, u_lq))
-    assert diagram_update(plain, 10 * x) == pytest.approx((0.2, 10 * u_lq))
-    assert diagram_update(plain, -10 * x) == pytest.approx((-0.2, -10 * u_lq))
-    compensating = LqrControllerDiagram(K, 1e-3, 0.2, friction_compensation=True, reference=True)
+    assert controller_update(plain, x) == pytest.approx((u_lq, u_lq))
+    assert controller_update(plain, 10 * x) == pytest.approx((0.2, 10 * u_lq))
+    assert controller_update(plain, -10 * x) == pytest.approx((-0.2, -10 * u_lq))
+    # Paper Sec. IV-C: u = u_LQ - F_hat; F_hat = -0.012 N m (friction resisting a positive arm velocity).
+    compensating = LqrController(K, 1e-3, 0.2, friction_compensation=True)
+    assert controller_update(compensating, x, friction=-0.012) == pytest.approx((u_lq + 0.012, u_lq))
+    tracking = LqrController(K, 1e-3, 0.2, reference=True)
     reference = np.array([0.0, 0.1, 0.0, 0.0])  # at the arm reference: only theta and phi_dot act
-    assert diagram_update(compensating, x, friction=-0.012, reference=reference) == pytest.approx((0.072, 0.06))
+    assert controller_update(tracking, x, reference=reference) == pytest.approx((0.06, 0.06))
+    both = LqrController(K, 1e-3, 0.2, friction_compensation=True, reference=True)
+    assert controller_update(both, x, friction=-0.012, reference=reference) == pytest.approx((0.072, 0.06))
     assert not compensating.HasAnyDirectFeedthrough()
