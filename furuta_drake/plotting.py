@@ -63,6 +63,19 @@ def plot_friction_estimates(result, path: str | Path | None = None, title: str =
     return _save(fig, path)
 
 
+def plot_control_signals(results: dict, path: str | Path | None = None):
+    """Fig. 4: the torque command of each run ({title: result}) side by side."""
+    fig, axes = plt.subplots(1, len(results), figsize=(5.5 * len(results), 3.5), sharey=True, squeeze=False)
+    for ax, (title, result) in zip(axes[0], results.items()):
+        ax.plot(result.time, result.torque, "k", lw=0.6)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("time [s]")
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("torque command [N m]")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def plot_fig5(results: dict, calibrated: tuple[float, float], path: str | Path | None = None):
     """Fig. 5: F_hat, eps_hat_F and F_hat + eps_hat_F for each Dahl parameter set ({title: result}), with the
     calibrated steady levels (pos, neg) [N m] and the true friction."""

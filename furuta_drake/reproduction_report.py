@@ -19,8 +19,8 @@ from furuta_drake import reproduce
 from furuta_drake.config import dump_config
 from furuta_drake.errors import ConfigError
 from furuta_drake.outputs import atomic_output_dir, versions
-from furuta_drake.plotting import (plot_fig5, plot_friction_estimates, plot_k_sigma, plot_observer_sweep,
-                                   plot_velocity_estimates)
+from furuta_drake.plotting import (plot_control_signals, plot_fig5, plot_friction_estimates, plot_k_sigma,
+                                   plot_observer_sweep, plot_velocity_estimates)
 from furuta_drake.results import config_yaml_with_provenance, write_json, write_log_csv, write_table_csv
 from furuta_drake.yamlio import dump_yaml_dataclass
 
@@ -156,23 +156,7 @@ def _write_tables(staging: Path, runs: reproduce.TableRuns, figures: dict) -> No
     run = runs.vfe_run
     reference = reproduce.velocity_references(run, runs.config)["butterworth"]
     plot_velocity_estimates(run, reference, staging / "fig3.png")
-    _plot_control_signals(runs, staging / "fig4.png")
-
-
-def _plot_control_signals(runs: reproduce.TableRuns, path: Path) -> None:
-    """Fig. 4: the torque command with LQR on HG (left) and on VFE (right)."""
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.5), sharey=True)
-    for ax, (title, run) in zip(axes, (("LQR on HG", runs.hg_run), ("LQR on VFE", runs.vfe_run))):
-        ax.plot(run.time, run.torque, "k", lw=0.6)
-        ax.set_title(title, fontsize=10)
-        ax.set_xlabel("time [s]")
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("torque command [N m]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    plot_control_signals({"LQR on HG": runs.hg_run, "LQR on VFE": runs.vfe_run}, staging / "fig4.png")
 
 
 def _write_run(logs: Path, name: str, result, config) -> None:
