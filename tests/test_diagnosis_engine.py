@@ -166,11 +166,45 @@ def test_pairs_join_the_best_candidate_with_every_effect_outside_its_law():
 def test_dahl_bristle_follows_the_path_alone(level, presliding, travel, pieces):
     """Dahl (Eq. 7) from z = 0 over a monotone travel D: z = z_max (1 - exp(-D / z_max)), z_max = Fc / sigma0,
     however the travel is cut into samples (the law is rate independent)."""
-    from furuta_drake.diagnosis.surrogate import dahl_path
+    from furuta_drake.diagnosis.surrogate import bristle_path
     from furuta_drake.friction import JointFrictionParameters
     p = JointFrictionParameters.dahl(level, level, level / presliding)
     path = np.concatenate([[0.0], np.sort(np.random.default_rng(pieces).uniform(0, travel, pieces)), [travel]])
-    assert dahl_path(path, p)[-1] == pytest.approx(presliding * (1 - np.exp(-travel / presliding)), rel=1e-9)
+    assert bristle_path(path, p, 1e-3)[-1] == pytest.approx(presliding * (1 - np.exp(-travel / presliding)),
+                                                            rel=1e-9)
+
+
+@settings(max_examples=25, deadline=None)
+@given(speed=st.floats(1e-3, 2.0), ratio=st.floats(1.0, 4.0), travel=st.floats(1e-4, 0.05))
+def test_lugre_bristle_saturates_at_the_stribeck_level_of_its_speed(speed, ratio, travel):
+    """LuGre at a constant speed v is Dahl with the level g(v) = Fc + (Fs - Fc) exp(-(v / vs)^2): from z = 0
+    over a travel D, z = z_max (1 - exp(-D / z_max)) with z_max = g(v) / sigma0."""
+    from furuta_drake.diagnosis.surrogate import bristle_path
+    from furuta_drake.friction import JointFrictionParameters
+    coulomb, sigma0, vs, period = 0.01, 4.0, 0.1, 1e-3
+    p = JointFrictionParameters(model="lugre", coulomb_pos=coulomb, coulomb_neg=coulomb, static_pos=ratio * coulomb,
+                                static_neg=ratio * coulomb, stribeck_velocity=vs, sigma0=sigma0)
+    path = np.arange(0.0, travel + speed * period, speed * period)
+    z_max = (coulomb + (ratio - 1.0) * coulomb * np.exp(-(speed / vs) ** 2)) / sigma0
+    assert bristle_path(path, p, period)[-1] == pytest.approx(z_max * (1 - np.exp(-path[-1] / z_max)), rel=1e-6)
+
+
+def test_hidden_lugre_stribeck_friction_is_the_stribeck_candidate_at_its_true_levels():
+    """The suite's Stribeck friction is LuGre (presliding, breakaway at 3x the Coulomb level, vs = 0.1 rad/s).
+    The candidate at the true levels and presliding puts the surrogate at the sensor floor, and the Drake replay
+    of the same model agrees."""
+    rig = RIGS["lund"]()
+    truth = with_effect(SimulationConfig.from_rig(rig), "arm_stribeck", 2).friction.arm
+    logs = [hanging_log(6, "arm_stribeck")]
+    windows = make_windows(logs, rig)
+    params = [truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity, truth.coulomb_pos / truth.sigma0]
+    model = apply_effects(Model.from_rig(rig).replace(arm_friction=dataclasses.replace(
+        Model.from_rig(rig).arm_friction, viscous=truth.viscous)), {"arm_stribeck": params})
+    nominal = evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev).gap
+    surrogate = evaluate_gap(model, windows, rig.counts_per_rev)
+    assert nominal > 1.0 and surrogate.gap < 0.3  # counts
+    drake = replay_gap(model, rig, windows, surrogate.initial_states)
+    assert abs(drake.gap - surrogate.gap) < 0.1
 
 
 def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
@@ -178,7 +212,30 @@ def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
     from furuta_drake.diagnosis.pipeline import name_static_free_stribeck
     from furuta_drake.diagnosis.select import Decision
     decision = Decision("arm_stribeck", ["arm_stribeck"], "arm_stribeck")
-    flat = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.0095, 0.1]}, 0.1, True, "")}
+    flat = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.0095, 0.1, 1e-3]}, 0.1, True, "")}
     assert name_static_free_stribeck(decision, flat).effects == ["arm_coulomb_friction"]
-    peaked = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.02, 0.1]}, 0.1, True, "")}
+    peaked = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.02, 0.1, 1e-3]}, 0.1, True, "")}
     assert name_static_free_stribeck(decision, peaked).verdict == "arm_stribeck"
+
+
+@settings(max_examples=30, deadline=None)
+@given(duration=st.floats(0.5, 60.0), period=st.sampled_from([1e-3, 2e-3, 4e-3]))
+def test_the_automatic_holdout_partitions_every_log_and_spreads_over_it(duration, period):
+    """Without --heldout no sample is lost or used twice, about 30 % is held out, and on a log of three or more
+    1 s blocks the held-out part is not just its tail (a swing-up log's tail is only balancing)."""
+    from furuta_drake.diagnosis.pipeline import MIN_BLOCK_S, split_heldout
+    n = int(duration / period)
+    time = np.arange(n) * period
+    log = RunLog(name="run.csv", path="", time=time, theta=0 * time, phi=0 * time, input_kind="torque",
+                 input=0 * time, sample_period=period)
+    train, heldout, note = split_heldout([log])
+    parts = sorted(train + heldout, key=lambda part: part.time[0])
+    np.testing.assert_array_equal(np.concatenate([part.time for part in parts]), time)
+    share = sum(part.time.size for part in heldout) / n
+    if duration >= 3 * MIN_BLOCK_S:
+        assert 0.2 <= share <= 0.4
+        assert any(part.time[-1] < time[-1] for part in heldout)  # a held-out block inside the run
+        assert all(part.time.size * period >= MIN_BLOCK_S - period for part in parts)
+    else:
+        assert heldout[0].time[-1] == time[-1] and share == pytest.approx(0.3, abs=2.0 / n)
+    assert "held out" in note

@@ -2,10 +2,10 @@
 surrogate model and a simulate config.
 
 Every parameter is in SI units and is the effect's own level (not an increment over the rig file), as the
-report's ranking lists it. The Coulomb and asymmetry candidates are Dahl friction (Eq. 7): real arm friction
-has presliding (a bristle spring of a few mrad before gross sliding) that a static law misses at every
-velocity reversal, so its presliding displacement is fitted with the levels (a static-like law is its small
-end). Scales come from the rig: torques from m g l and the logged commands, damping
+report's ranking lists it. The Coulomb and asymmetry candidates are Dahl friction (Eq. 7) and the Stribeck
+candidate is LuGre friction (Dahl's bristle saturating at the Stribeck curve g(v)): real arm friction has
+presliding (a bristle spring of a few mrad before gross sliding) that a static law misses at every velocity
+reversal, so its presliding displacement is fitted with the levels (a static-like law is its small end). Scales come from the rig: torques from m g l and the logged commands, damping
 from the lumped inertias, times from the sample period.
 """
 
@@ -42,12 +42,6 @@ class Candidate:
     fit: bool = True  # False: estimated from the data directly (sensor effects)
 
 
-def _static(coulomb_pos, coulomb_neg, viscous=0.0, static=None, stribeck_velocity=0.05):
-    return JointFrictionParameters(model="static", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg,
-                                   static_pos=static, static_neg=static, stribeck_velocity=stribeck_velocity,
-                                   viscous=viscous, regularization_velocity=REGULARIZATION_VELOCITY)
-
-
 PRESLIDING = (1e-4, 0.05)  # bounds of the presliding displacement Fc / sigma0 of the Dahl arm friction [rad]
 PRESLIDING_STARTS = (1e-3, 1e-2)  # [rad]
 
@@ -58,6 +52,16 @@ def _dahl_arm(model: Model, coulomb_pos: float, coulomb_neg: float, presliding: 
     sigma0 = max(0.5 * (coulomb_pos + coulomb_neg), 1e-9) / presliding
     return model.replace(arm_friction=JointFrictionParameters(
         model="dahl", coulomb_pos=max(coulomb_pos, 1e-12), coulomb_neg=max(coulomb_neg, 1e-12), sigma0=sigma0,
+        viscous=model.arm_friction.viscous))
+
+
+def _lugre_arm(model: Model, coulomb: float, static: float, stribeck_velocity: float, presliding: float) -> Model:
+    """The arm's friction replaced by LuGre's without bristle damping: the Stribeck curve g(v) from the
+    Coulomb to the static level, sigma0 = Coulomb level / presliding displacement, the rig's viscous term."""
+    coulomb = max(coulomb, 1e-12)
+    return model.replace(arm_friction=JointFrictionParameters(
+        model="lugre", coulomb_pos=coulomb, coulomb_neg=coulomb, static_pos=static, static_neg=static,
+        stribeck_velocity=stribeck_velocity, sigma0=coulomb / presliding, sigma1=0.0,
         viscous=model.arm_friction.viscous))
 
 
@@ -74,11 +78,11 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
               lambda s: ([0.0], [50.0 * s.arm_inertia]), lambda s: [[0.1 * s.arm_inertia], [1.0 * s.arm_inertia],
                                                                   [5.0 * s.arm_inertia]],
               lambda m, p: _arm(m, viscous=p[0])),
-    Candidate("arm_stribeck", ("coulomb", "static", "stribeck_velocity"),
-              lambda s: ([0.0, 0.0, 0.01], [0.5 * s.torque, 1.0 * s.torque, 1.0]),
-              lambda s: [[0.01 * s.torque, 0.03 * s.torque, 0.1], [0.03 * s.torque, 0.08 * s.torque, 0.1]],
-              lambda m, p: _arm(m, coulomb_pos=p[0], coulomb_neg=p[0], static_pos=max(p[1], p[0]),
-                                static_neg=max(p[1], p[0]), stribeck_velocity=p[2])),
+    Candidate("arm_stribeck", ("coulomb", "static", "stribeck_velocity", "presliding"),
+              lambda s: ([0.0, 0.0, 0.01, PRESLIDING[0]], [0.5 * s.torque, 1.0 * s.torque, 1.0, PRESLIDING[1]]),
+              lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1, z] for level in (0.01, 0.04, 0.1)
+                         for z in PRESLIDING_STARTS],
+              lambda m, p: _lugre_arm(m, p[0], max(p[1], p[0]), p[2], p[3])),
     Candidate("friction_asymmetry", ("coulomb_pos", "coulomb_neg", "presliding"),
               lambda s: ([0.0, 0.0, PRESLIDING[0]], [0.5 * s.torque, 0.5 * s.torque, PRESLIDING[1]]),
               lambda s: [[pos * s.torque, neg * s.torque, z] for pos, neg in ((0.01, 0.01), (0.03, 0.06), (0.06, 0.03))

@@ -88,7 +88,7 @@ def _joint(names: tuple[str, ...], scales: Scales, fitted: dict[str, list[float]
     starts = [[]]
     for name in names:
         own = CANDIDATES[name].starts(scales)
-        options = [fitted[name]] + own if name in fitted else own
+        options = [fitted[name]] if name in fitted else own
         starts = [s + list(t) for s in starts for t in options]
     return np.array(lows), np.array(highs), sizes, starts
 
@@ -104,8 +104,8 @@ def _split(names, sizes, x) -> dict[str, list[float]]:
 def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: list[RunLog],
                 nominal_counts: int, fitted: dict[str, list[float]] | None = None) -> FitResult:
     """Fit the candidates ``names`` jointly (one name: a single candidate) on ``windows``. ``fitted``: single
-    fits of some members; the starts then combine each such member's fit (or its own starts) with every
-    other member's own starts (a partner that alone fitted to nothing still starts from its candidate starts)."""
+    fits of some members; the starts then combine each such member's fit with every other member's own
+    starts (a partner that alone fitted to nothing still starts from its candidate starts)."""
     scales = scales_of(logs, model)
     fixed = {}
     for name in names:

@@ -23,7 +23,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
-from furuta_drake.diagnosis.surrogate import Model, dahl_path, predict_windows, sensor_variance
+from furuta_drake.diagnosis.surrogate import Model, bristle_path, predict_windows, sensor_variance
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, linearized_upright
 
@@ -119,8 +119,8 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
         if log.time.size <= horizon + 2 * smooth:
             raise LogError(f"{log.name}: {log.time.size} samples ({log.time.size * log.sample_period:.3g} s) are too "
                            f"short for one gap window of this rig: {horizon} samples ({horizon_s * 1e3:.0f} ms) "
-                           f"plus {SMOOTHING_S * 1e3:.0f} ms of smoothing on each side; without --heldout only the "
-                           f"first 70 % of each log trains and the rest is held out, so give longer logs")
+                           f"plus {SMOOTHING_S * 1e3:.0f} ms of smoothing on each side; without --heldout part of "
+                           f"each log is held out and the rest trains, so give longer logs")
         angles = np.vstack([log.theta, log.phi])
         position = savgol_filter(angles, smooth, 3, axis=1)
         velocity = savgol_filter(angles, smooth, 3, deriv=1, delta=log.sample_period, axis=1)
@@ -135,11 +135,13 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
 
 
 def initial_bristles(model: Model, windows: Windows) -> list[np.ndarray | None]:
-    """Per log, the arm's Dahl bristle state [rad] at each window start, read from the smoothed arm path (the
-    Dahl law is rate independent, so z depends on the path of phi alone); None per log without a Dahl arm."""
-    if model.arm_friction.model != "dahl":
+    """Per log, the arm's bristle state [rad] at each window start, read from the smoothed arm path (the Dahl
+    law is rate independent, so z depends on the path of phi alone; LuGre's also on its speed); None per log
+    without a Dahl or LuGre arm."""
+    if not model.arm_friction.has_bristles:
         return [None] * len(windows.logs)
-    return [dahl_path(path, model.arm_friction)[starts] for path, starts in zip(windows.arm_paths, windows.starts)]
+    return [bristle_path(path, model.arm_friction, log.sample_period)[starts]
+            for log, path, starts in zip(windows.logs, windows.arm_paths, windows.starts)]
 
 
 def _batch_bristles(bristles: list[np.ndarray | None], batch: "Batch") -> np.ndarray | None:
@@ -153,6 +155,7 @@ def substeps_for(period: float) -> int:
 
 
 GAUSS_NEWTON_STEPS = 2
+LM_DAMPING = 1e-3  # initial Levenberg-Marquardt damping, relative to the normal matrix' diagonal
 # Finite-difference steps of the initial-state sensitivities [rad, rad, rad/s, rad/s].
 _PERTURBATION = np.array([1e-4, 1e-4, 1e-3, 1e-3])
 
@@ -165,48 +168,80 @@ def residuals(model: Model, windows: Windows, nominal_counts: int) -> list[np.nd
     return projected_residuals(model, windows, nominal_counts)[0]
 
 
+def bristle_bound(p) -> float:
+    """The largest |z| of a bristle model [rad]: its highest saturation level over sigma0."""
+    return max(p.coulomb_pos, p.coulomb_neg, *p.static_levels) / p.sigma0
+
+
+def _perturbation(model: Model, n: int) -> np.ndarray:
+    """Finite-difference steps of the n initial-state entries (a bristle's: 5 % of its range)."""
+    if n == 4:
+        return _PERTURBATION
+    return np.append(_PERTURBATION, 0.05 * bristle_bound(model.arm_friction))
+
+
+def _predict(model: Model, x: np.ndarray, batch: "Batch", starts: np.ndarray, substeps: int) -> np.ndarray:
+    """:func:`predict_windows` from initial states (4, W) or, with the arm's bristle state as a 5th row, (5, W)."""
+    return predict_windows(model, x[:4], batch.command, starts, batch.horizon, batch.period, substeps,
+                           x[4] if x.shape[0] > 4 else None)
+
+
+def _linearised(model: Model, x: np.ndarray, batch: "Batch", substeps: int, delta: np.ndarray, count: float):
+    """Residuals (h, 2, W) [counts] from the initial states x (n, W) and their sensitivities (h, 2, W, n) [counts
+    per unit of state], by forward differences of step ``delta``: one surrogate call of width (n + 1) W."""
+    n, W = x.shape
+    points = np.concatenate([x] + [x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
+    predicted = _predict(model, points, batch, np.tile(batch.starts, n + 1), substeps)
+    base = predicted[:, :, :W]
+    J = np.stack([(predicted[:, :, (i + 1) * W:(i + 2) * W] - base) / delta[i] / count for i in range(n)], axis=-1)
+    return (batch.measured - base) / count, J
+
+
 def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
-    """:func:`residuals`, per log the refined initial states (4, W), and per log the residuals' sensitivities
-    to the initial states (h, 2, W, 4) [counts per unit of state] of the last Gauss-Newton step."""
+    """:func:`residuals`, per log the refined initial states (4, W), or (5, W) with the arm's bristle state for a
+    Dahl or LuGre arm (near a stick the bristle is a hidden state like the velocities: its value read from the
+    arm path is only the start), and per log the residuals' sensitivities to them (h, 2, W, 4 or 5) [counts per
+    unit of state] at the refined states.
+
+    Each window takes ``GAUSS_NEWTON_STEPS`` Levenberg-Marquardt steps with its own damping: a step is kept only
+    where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
+    overshoot), and the window's damping shrinks after a kept step and grows after a refused one. Each trial is
+    simulated with its own sensitivities, so a kept step needs no further call."""
     count = 2 * np.pi / nominal_counts
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
     bristles = initial_bristles(model, windows)
     for batch in windows.batches():
         substeps = substeps_for(batch.period)
         z0 = _batch_bristles(bristles, batch)
-        W, x, measured = batch.starts.size, batch.initial_states, batch.measured
-        tiled = np.tile(batch.starts, 5)
-        best_r, best_x = None, None
+        x = batch.initial_states if z0 is None else np.vstack([batch.initial_states, z0])
+        n, W = x.shape
+        delta = _perturbation(model, n)
+        prior = np.zeros(n)
+        if n > 4:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
+            bound = bristle_bound(model.arm_friction)  # over its whole range weighs one count^2)
+            prior[4] = 1.0 / bound**2
+        r, J = _linearised(model, x, batch, substeps, delta, count)
+        cost = np.nansum(r**2, axis=(0, 1))
+        damping = np.full(W, LM_DAMPING)
         for _ in range(GAUSS_NEWTON_STEPS):
-            perturbed = np.concatenate([x] + [x + _PERTURBATION[i] * np.eye(4)[:, [i]] for i in range(4)], axis=1)
-            predicted = predict_windows(model, perturbed, batch.command, tiled, batch.horizon, batch.period,
-                                        substeps, None if z0 is None else np.tile(z0, 5))
-            base = predicted[:, :, :W]
-            r = (measured - base) / count  # (h, 2, W)
-            best_r, best_x = _keep_better(best_r, best_x, r, x)
-            J = np.stack([(predicted[:, :, (i + 1) * W:(i + 2) * W] - base) / _PERTURBATION[i] / count
-                          for i in range(4)], axis=-1)  # (h, 2, W, 4)
-            Jw = J.transpose(2, 0, 1, 3).reshape(W, -1, 4)
-            rw = r.transpose(2, 0, 1).reshape(W, -1)
-            normal = np.einsum("wki,wkj->wij", Jw, Jw) + 1e-9 * np.eye(4)
-            x = x + np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, rw)[..., None])[..., 0].T
-        # Re-simulate from the refined states: near friction stick a linearised residual would flatter.
-        final = (measured - predict_windows(model, x, batch.command, batch.starts, batch.horizon, batch.period,
-                                            substeps, z0)) / count
-        final, x = _keep_better(best_r, best_x, final, x)
+            Jw = J.transpose(2, 0, 1, 3).reshape(W, -1, n)
+            normal = np.einsum("wki,wkj->wij", Jw, Jw)
+            diagonal = np.einsum("wii->wi", normal)
+            normal = normal + (damping[:, None] * diagonal + prior + 1e-9)[:, :, None] * np.eye(n)
+            gradient = np.einsum("wki,wk->wi", Jw, np.nan_to_num(r.transpose(2, 0, 1).reshape(W, -1)))
+            trial = x + np.linalg.solve(normal, gradient[..., None])[..., 0].T
+            if n > 4:
+                trial[4] = np.clip(trial[4], -bound, bound)
+            r_trial, J_trial = _linearised(model, trial, batch, substeps, delta, count)
+            cost_trial = np.nansum(r_trial**2, axis=(0, 1))
+            better = cost_trial < cost
+            x, r, J = np.where(better, trial, x), np.where(better, r_trial, r), np.where(better[:, None], J_trial, J)
+            cost = np.where(better, cost_trial, cost)
+            damping = np.where(better, damping / 3.0, damping * 4.0)
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
-            out[i], states[i], jacobians[i] = final[:, :, part], x[:, part], J[:, :, part]
+            out[i], states[i], jacobians[i] = r[:, :, part], x[:, part], J[:, :, part]
     return out, states, jacobians
-
-
-def _keep_better(best_r, best_x, r, x):
-    """Per window, the residuals and states with the smaller sum of squares: a Gauss-Newton step across a
-    friction stick or a swing's turning point can overshoot, and a window keeps its better states."""
-    if best_r is None:
-        return r, x
-    better = np.nansum(r**2, axis=(0, 1)) < np.nansum(best_r**2, axis=(0, 1))
-    return np.where(better, r, best_r), np.where(better, x, best_x)
 
 
 def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
@@ -224,15 +259,13 @@ def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.nda
 
 def fixed_state_residuals(model: Model, windows: Windows, states: list[np.ndarray], nominal_counts: int
                           ) -> list[np.ndarray]:
-    """Per log: measured minus predicted angles [counts] from given initial states (no refinement)."""
+    """Per log: measured minus predicted angles [counts] from given initial states (those of
+    :func:`projected_residuals`, no refinement)."""
     count = 2 * np.pi / nominal_counts
     out = [None] * len(windows.logs)
-    bristles = initial_bristles(model, windows)
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
-        predicted = predict_windows(model, x, batch.command, batch.starts, batch.horizon, batch.period,
-                                    substeps_for(batch.period), _batch_bristles(bristles, batch))
-        r = (batch.measured - predicted) / count
+        r = (batch.measured - _predict(model, x, batch, batch.starts, substeps_for(batch.period))) / count
         for j, i in enumerate(batch.members):
             out[i] = r[:, :, batch.bounds[j]:batch.bounds[j + 1]]
     return out
@@ -245,7 +278,7 @@ class GapResult:
     per_window: np.ndarray  # each window's excess mean squared residual [counts^2]
     sensor_variance: float  # [counts^2]
     residuals: list[np.ndarray]
-    initial_states: list[np.ndarray]  # per log (4, W), refined for this model
+    initial_states: list[np.ndarray]  # per log (4, W), refined for this model (5, W: with the arm's bristle)
 
 
 def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: list[np.ndarray]) -> GapResult:

@@ -25,6 +25,9 @@ from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import FrictionParameters
 
 HOLDOUT_FRACTION = 0.3
+HOLDOUT_BLOCKS = 10
+MIN_BLOCK_S = 1.0  # [s]: three or more gap windows per block
+MIN_BLOCKS = 3
 # Variants of one law (each holds an arm Coulomb level): a pair of two of them explains nothing new.
 SAME_LAW = ({"arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"},)
 
@@ -38,7 +41,7 @@ def name_static_free_stribeck(decision: Decision, fits: dict) -> Decision:
     Coulomb level): the verdict says so (the ranking keeps the fit under its candidate's name)."""
     if decision.accepted is None or "arm_stribeck" not in decision.effects:
         return decision
-    coulomb, static, _ = fits[decision.accepted].effects["arm_stribeck"]
+    coulomb, static = fits[decision.accepted].effects["arm_stribeck"][:2]
     if static > (1.0 + STATIC_EXCESS) * coulomb:
         return decision
     effects = ["arm_coulomb_friction" if name == "arm_stribeck" else name for name in decision.effects]
@@ -54,16 +57,35 @@ def pair_groups(order: list[str], best: str) -> list[tuple[str, str]]:
     return [(best, partner) for partner in partners]
 
 
+def _held_out_blocks(blocks: int) -> set[int]:
+    """Which of ``blocks`` equal blocks are held out: HOLDOUT_FRACTION of them, spread evenly (1, 4, 8 of 10)."""
+    held = max(1, round(HOLDOUT_FRACTION * blocks))
+    return {int(round((i + 0.5) * blocks / held - 0.5)) for i in range(held)}
+
+
 def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
-    """Without --heldout: the last 30 % of every log is held out, the first 70 % trains."""
+    """Without --heldout: every log is cut into up to HOLDOUT_BLOCKS equal blocks of at least MIN_BLOCK_S and
+    HOLDOUT_FRACTION of the blocks, spread over the run, are held out, so train and held-out data both see every
+    phase of it (the tail of a swing-up log is only balancing). A log too short for MIN_BLOCKS blocks holds
+    out its last HOLDOUT_FRACTION."""
     train, heldout = [], []
     for log in logs:
-        cut = int(log.time.size * (1.0 - HOLDOUT_FRACTION))
-        for part, sl in ((train, slice(None, cut)), (heldout, slice(cut, None))):
-            part.append(dataclasses.replace(log, time=log.time[sl], theta=log.theta[sl], phi=log.phi[sl],
-                                            input=log.input[sl]))
-    return train, heldout, (f"no --heldout logs: the last {HOLDOUT_FRACTION:.0%} of every train log was held out "
-                            f"and never used for fitting")
+        blocks = min(HOLDOUT_BLOCKS, int(log.time.size * log.sample_period / MIN_BLOCK_S))
+        if blocks < MIN_BLOCKS:
+            edges, held = [0, int(log.time.size * (1.0 - HOLDOUT_FRACTION)), log.time.size], {1}
+        else:
+            edges, held = np.linspace(0, log.time.size, blocks + 1).astype(int).tolist(), _held_out_blocks(blocks)
+        for k, (first, last) in enumerate(zip(edges[:-1], edges[1:])):
+            part = heldout if k in held else train
+            sl = slice(first, last)
+            part.append(dataclasses.replace(
+                log, name=f"{log.name} [{log.time[first]:.2f}, {log.time[last - 1]:.2f}] s", time=log.time[sl],
+                theta=log.theta[sl], phi=log.phi[sl], input=log.input[sl]))
+    return train, heldout, (
+        f"no --heldout logs: each train log was cut into up to {HOLDOUT_BLOCKS} equal blocks of at least "
+        f"{MIN_BLOCK_S:g} s and {HOLDOUT_FRACTION:.0%} of them, spread over the run, were held out and never used "
+        f"for fitting (a log shorter than {MIN_BLOCKS} blocks held out its last {HOLDOUT_FRACTION:.0%}): "
+        + ", ".join(log.name for log in heldout))
 
 
 def fitted_config(rig, model: Model) -> SimulationConfig:

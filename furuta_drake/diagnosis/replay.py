@@ -19,7 +19,7 @@ from pydrake.systems.primitives import Adder, AffineSystem, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.actuator import ActuatorParameters, add_actuator
-from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, initial_bristles
+from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
 from furuta_drake.friction import FrictionParameters, JointFriction
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
@@ -115,18 +115,18 @@ class WindowReplayer:
 
 
 def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray]) -> GapResult:
-    """The gap of ``model`` on ``windows`` from Drake replays started at ``initial_states`` (per log, 4 x W)."""
+    """The gap of ``model`` on ``windows`` from Drake replays started at ``initial_states`` (per log, 4 x W, or
+    5 x W with the arm's bristle state)."""
     count = 2 * np.pi / rig.counts_per_rev
     out = []
-    bristles = initial_bristles(model, windows)
-    for log, horizon, starts, x0, measured, z0 in zip(windows.logs, windows.horizons, windows.starts,
-                                                      initial_states, windows.measured, bristles):
+    for log, horizon, starts, x0, measured in zip(windows.logs, windows.horizons, windows.starts, initial_states,
+                                                  windows.measured):
         replayer = WindowReplayer(model, rig, log.time, log.torque_command)
         r = np.empty_like(measured)
         for w, start in enumerate(starts):
             times = log.time[start:start + horizon]
-            predicted = replayer.replay(log.time[start], x0[:, w], log.torque_command[start], times,
-                                        None if z0 is None else float(z0[w]))
+            predicted = replayer.replay(log.time[start], x0[:4, w], log.torque_command[start], times,
+                                        float(x0[4, w]) if x0.shape[0] > 4 else None)
             r[:, :, w] = (measured[:, :, w] - predicted) / count
         out.append(r)
     return gap_from_residuals(out, sensor_variance(model, rig.counts_per_rev), initial_states)

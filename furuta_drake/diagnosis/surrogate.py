@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from furuta_drake.friction import (
-    JointFrictionParameters, bristle_friction_torque, dahl_exact_step, static_friction_torque,
+    JointFrictionParameters, bristle_friction_torque, dahl_exact_step, static_friction_torque, stribeck_curve,
 )
 from furuta_drake.rig import RigParameters
 
@@ -121,23 +121,30 @@ def _delayed_command(command, starts, t, dt, period, delay):
     return (1.0 - late) * current + late * following
 
 
-def dahl_displacement_step(z, displacement, p: JointFrictionParameters):
-    """The Dahl bristle state (Eq. 7) after the joint moved by ``displacement`` [rad] in one direction: the law
-    is rate independent, so z follows the path alone (exact for a monotone move)."""
-    level = np.where(displacement > 0, p.coulomb_pos, p.coulomb_neg)
-    return dahl_exact_step(z, displacement, 1.0, p.sigma0, np.maximum(level, 1e-12))
+def _bristle_levels(displacement, velocity, p: JointFrictionParameters):
+    """The level the bristle saturates at: Fc of the direction (Dahl, Eq. 7) or g(v) (LuGre) [N m]."""
+    if p.model == "dahl":
+        return np.maximum(np.where(displacement > 0, p.coulomb_pos, p.coulomb_neg), 1e-12)
+    return np.maximum(stribeck_curve(velocity, p), 1e-12)
 
 
-def dahl_path(path: np.ndarray, p: JointFrictionParameters) -> np.ndarray:
-    """The arm's Dahl bristle state [rad] at every sample of a measured (smoothed) arm angle path, from
-    z = 0 at the first sample."""
+def bristle_step(z, displacement, velocity, p: JointFrictionParameters):
+    """The arm's bristle state after the joint moved by ``displacement`` [rad] at ``velocity`` [rad/s] in one
+    direction. Dahl (Eq. 7) is rate independent, so z follows the path alone (exact for a monotone move); LuGre
+    relaxes towards g(v) / sigma0 with the Stribeck level g of the step's velocity held."""
+    return dahl_exact_step(z, displacement, 1.0, p.sigma0, _bristle_levels(displacement, velocity, p))
+
+
+def bristle_path(path: np.ndarray, p: JointFrictionParameters, period: float) -> np.ndarray:
+    """The arm's bristle state [rad] at every sample of a measured (smoothed) arm angle path sampled every
+    ``period`` [s], from z = 0 at the first sample (:func:`bristle_step` per sample, a scalar loop)."""
+    step = np.diff(path, prepend=path[0])
+    levels = _bristle_levels(step, step / period, p).tolist()
     z = np.empty(path.size)
     zi, s0 = 0.0, p.sigma0
-    pos, neg = max(p.coulomb_pos, 1e-12), max(p.coulomb_neg, 1e-12)
-    step = np.diff(path, prepend=path[0]).tolist()
-    for i, d in enumerate(step):
+    for i, (d, level) in enumerate(zip(step.tolist(), levels)):
         if d != 0.0:
-            zi = dahl_exact_step(zi, d, 1.0, s0, pos if d > 0 else neg)
+            zi = dahl_exact_step(zi, d, 1.0, s0, level)
         z[i] = zi
     return z
 
@@ -147,8 +154,8 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
     """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
 
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period);
-    ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's Dahl bristle state at each start
-    (a Dahl arm only; its torque is held over each substep and z follows the substep's displacement).
+    ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
+    (a Dahl or LuGre arm only; its torque is held over each substep and z follows the substep's displacement).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle).
     """
     dt = period / substeps
@@ -164,14 +171,14 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
             held[i] = lag_state
     torque = applied_torque(model, held)
     arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
-    dahl = model.arm_friction.model == "dahl"
+    bristles = model.arm_friction.has_bristles
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     out = np.empty((horizon, 2, x.shape[1]))
     out[0] = x[:2]
     half = 0.5 * dt
     for i in range(steps):
         tau = torque[i]
-        if dahl:
+        if bristles:
             tau = tau + bristle_friction_torque(z, x[3], model.arm_friction)
             phi_before = x[1]
         k1 = _accelerations(model, x, tau, arm, pendulum)
@@ -179,8 +186,9 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
         k3 = _accelerations(model, x + half * k2, tau, arm, pendulum)
         k4 = _accelerations(model, x + dt * k3, tau, arm, pendulum)
         x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if dahl:
-            z = dahl_displacement_step(z, x[1] - phi_before, model.arm_friction)
+        if bristles:
+            moved = x[1] - phi_before
+            z = bristle_step(z, moved, moved / dt, model.arm_friction)
         if (i + 1) % substeps == 0:
             out[(i + 1) // substeps] = x[:2]
     return out
