@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -40,6 +40,7 @@ class FitResult:
     train_gap: float  # [counts]
     success: bool
     message: str
+    at_bounds: list[str] = field(default_factory=list)  # "effect.param (lower|upper)" fitted at a search bound
 
 
 def scales_of(logs: list[RunLog], model: Model) -> Scales:
@@ -158,7 +159,20 @@ def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: li
     x, success, message = result.x, bool(result.success), result.message
     effects = {**fixed, **_split(fitted_names, sizes, x)}
     gap = evaluate_gap(apply_effects(model, effects), windows, nominal_counts).gap
-    return FitResult("+".join(names), effects, gap, success, str(message))
+    return FitResult("+".join(names), effects, gap, success, str(message),
+                     at_bounds(fitted_names, x, low, high))
+
+
+BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a bound is "at" it
+
+
+def at_bounds(names: tuple[str, ...], x: np.ndarray, low: np.ndarray, high: np.ndarray) -> list[str]:
+    """The fitted parameters that ended at a bound of their search range, as "effect.param (lower|upper)": an
+    accepted effect stretched to its range's edge may stand in for another effect of a similar shape."""
+    labels = [f"{name}.{param}" for name in names for param in CANDIDATES[name].params]
+    tolerance = BOUND_TOLERANCE * (high - low)
+    return ([f"{label} (lower)" for label, v, lo, t in zip(labels, x, low, tolerance) if v - lo <= t]
+            + [f"{label} (upper)" for label, v, hi, t in zip(labels, x, high, tolerance) if hi - v <= t])
 
 
 def _fit_task(args):

@@ -1,10 +1,11 @@
 """The gap metric: k-step-ahead output error over short windows, from states estimated by smoothing.
 
 Each log is cut into consecutive windows of ``horizon`` samples (multiple shooting). A window's initial state is
-first estimated from the measured angles by a centred Savitzky-Golay smoother (angle and derivative), then
-refined for each model by Gauss-Newton steps on the window's residuals (a window keeps the states with its
-smallest re-simulated residual), so every model is judged with its own best initial states, and nothing depends on the rig's controller or integrator. The
-model then predicts the angles over the window from the logged command (held over each sample). Residuals
+first estimated from the measured angles by a centred Savitzky-Golay smoother (angle and derivative), with a
+Dahl or LuGre arm's bristle state integrated along the smoothed arm path, then refined for each model by
+Levenberg-Marquardt steps on the window's residuals (a step is kept only where the re-simulated residual
+falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
+or integrator. The model then predicts the angles over the window from the logged command (held over each sample). Residuals
 are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that the
 upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
 
@@ -33,8 +34,9 @@ SMOOTHING_S = 0.03  # Savitzky-Golay window for the initial states [s]
 
 def gap_metric_definition(horizon_s: float) -> str:
     return (f"k-step output error: RMS of measured minus predicted theta and phi over {horizon_s * 1e3:.0f} ms "
-            f"windows started from Savitzky-Golay-smoothed states, in encoder counts of the rig file, "
-            f"with the model's own sensor variance subtracted")
+            f"windows started from Savitzky-Golay-smoothed states refined per model and window by "
+            f"Levenberg-Marquardt steps (the arm's bristle state too, for Dahl or LuGre friction), in encoder "
+            f"counts of the rig file, with the model's own sensor variance subtracted")
 
 
 def horizon_seconds(rig: RigParameters) -> float:
@@ -162,9 +164,9 @@ _PERTURBATION = np.array([1e-4, 1e-4, 1e-3, 1e-3])
 
 def residuals(model: Model, windows: Windows, nominal_counts: int) -> list[np.ndarray]:
     """Per log: (horizon, 2, W) measured minus predicted angles [counts of the nominal encoder], after
-    ``GAUSS_NEWTON_STEPS`` Gauss-Newton steps on each window's initial state (variable projection: every model is
-    judged with its own best initial states; the sensitivities are batch finite differences, and the residual
-    is re-simulated from the refined states)."""
+    ``GAUSS_NEWTON_STEPS`` Levenberg-Marquardt steps on each window's initial state (variable projection: every
+    model is judged with its own best initial states; the sensitivities are batch finite differences, and the
+    residual is re-simulated from the refined states)."""
     return projected_residuals(model, windows, nominal_counts)[0]
 
 

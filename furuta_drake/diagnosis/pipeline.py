@@ -156,7 +156,7 @@ def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, 
             params.update({prefix + k: v for k, v in describe(name, values, nominal).items()})
         ranking.append({"effect": row["name"], "params": params, "heldout_gap": row["heldout_gap"],
                         "heldout_reduction": row["heldout_reduction"], "evidence": row["evidence"],
-                        "train_gap": fit.train_gap, "evaluated_by": "surrogate"})
+                        "train_gap": fit.train_gap, "at_bounds": fit.at_bounds, "evaluated_by": "surrogate"})
     before = window_residuals(drake_nominal, heldout_windows, rig)
     after = window_residuals(drake_accepted, heldout_windows, rig) if decision.accepted else None
     report = {

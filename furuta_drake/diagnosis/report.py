@@ -178,6 +178,12 @@ def report_markdown(report: dict, figures: dict[str, str], threshold_note: str, 
         params = ", ".join(f"{k} = {_fmt(v)}" for k, v in entry["params"].items())
         lines.append(f"| {i} | `{entry['effect']}` | {params} | {_fmt(entry['heldout_gap'])} | "
                      f"{_percent(entry['heldout_reduction'])} | {_fmt(entry['evidence'])} |")
+    accepted = next((entry for entry in report["ranking"] if entry["effect"] == "+".join(report["effects"])
+                     or sorted(entry["effect"].split("+")) == sorted(report["effects"])), None)
+    if accepted is not None and accepted.get("at_bounds"):
+        lines += ["", f"The accepted fit ended at the edge of its search range: {', '.join(accepted['at_bounds'])}. "
+                  "The effect's law is stretched to its limit there; it may stand in for an unmodelled effect of "
+                  "a similar shape."]
     loc = report["localization"]
     after = loc.get("after")
     lines += ["", "## Where the gap is", ""]

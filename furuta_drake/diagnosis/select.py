@@ -80,8 +80,11 @@ def rank(nominal: np.ndarray, candidates: dict[str, np.ndarray]) -> list[dict]:
     for name, per_window in candidates.items():
         point, low = bootstrap_reduction(nominal, per_window)
         rows.append({"name": name, "heldout_gap": float(_gap(per_window.mean())), "heldout_reduction": point,
-                     "evidence": low})
-    return sorted(rows, key=lambda row: (-row["heldout_reduction"], n_params(row["name"]), row["name"]))
+                     "evidence": low, "excess": float(per_window.mean())})
+    # Ties (two models both at the floor: a reduction of 1) go to the smaller excess residual before the square
+    # root's clip at zero, then to fewer parameters.
+    return sorted(rows, key=lambda row: (-row["heldout_reduction"], row["excess"], n_params(row["name"]),
+                                         row["name"]))
 
 
 def best_single(ranking: list[dict]) -> dict | None:
