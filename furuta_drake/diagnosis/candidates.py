@@ -44,6 +44,10 @@ class Candidate:
 
 PRESLIDING = (1e-4, 0.05)  # bounds of the presliding displacement Fc / sigma0 of the Dahl arm friction [rad]
 PRESLIDING_STARTS = (1e-3, 1e-2)  # [rad]
+# Starts of the arm friction levels [m g l]: the cost is multimodal in the level (a level far too low leaves the
+# arm free to move in the model where it sticks in the data, and the fit stalls), so they span two decades up to
+# the 0.2 m g l of the Lund rig's own friction.
+FRICTION_LEVEL_STARTS = (0.005, 0.02, 0.06, 0.2)
 
 
 def _dahl_arm(model: Model, coulomb_pos: float, coulomb_neg: float, presliding: float) -> Model:
@@ -72,7 +76,7 @@ def _arm(model: Model, **changes) -> Model:
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
     Candidate("arm_coulomb_friction", ("coulomb", "presliding"),
               lambda s: ([0.0, PRESLIDING[0]], [0.5 * s.torque, PRESLIDING[1]]),
-              lambda s: [[level * s.torque, z] for level in (0.005, 0.03, 0.1) for z in PRESLIDING_STARTS],
+              lambda s: [[level * s.torque, z] for level in FRICTION_LEVEL_STARTS for z in PRESLIDING_STARTS],
               lambda m, p: _dahl_arm(m, p[0], p[0], p[1])),
     Candidate("arm_viscous_friction", ("viscous",),
               lambda s: ([0.0], [50.0 * s.arm_inertia]), lambda s: [[0.1 * s.arm_inertia], [1.0 * s.arm_inertia],
@@ -80,13 +84,15 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
               lambda m, p: _arm(m, viscous=p[0])),
     Candidate("arm_stribeck", ("coulomb", "static", "stribeck_velocity", "presliding"),
               lambda s: ([0.0, 0.0, 0.01, PRESLIDING[0]], [0.5 * s.torque, 1.0 * s.torque, 1.0, PRESLIDING[1]]),
-              lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1, z] for level in (0.01, 0.04, 0.1)
+              lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1, z] for level in FRICTION_LEVEL_STARTS
                          for z in PRESLIDING_STARTS],
               lambda m, p: _lugre_arm(m, p[0], max(p[1], p[0]), p[2], p[3])),
     Candidate("friction_asymmetry", ("coulomb_pos", "coulomb_neg", "presliding"),
               lambda s: ([0.0, 0.0, PRESLIDING[0]], [0.5 * s.torque, 0.5 * s.torque, PRESLIDING[1]]),
-              lambda s: [[pos * s.torque, neg * s.torque, z] for pos, neg in ((0.01, 0.01), (0.03, 0.06), (0.06, 0.03))
-                         for z in PRESLIDING_STARTS],
+              lambda s: [[level * s.torque, level * s.torque, z] for level in FRICTION_LEVEL_STARTS
+                         for z in PRESLIDING_STARTS]
+              + [[level * ratio * s.torque, level / ratio * s.torque, PRESLIDING_STARTS[0]]
+                 for level in FRICTION_LEVEL_STARTS for ratio in (0.8, 1.25)],
               lambda m, p: _dahl_arm(m, p[0], p[1], p[2])),
     Candidate("pendulum_friction", ("coulomb", "viscous"),
               lambda s: ([0.0, 0.0], [0.1 * s.torque, 20.0 * s.pendulum_inertia]),

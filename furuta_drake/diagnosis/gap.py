@@ -156,7 +156,7 @@ def substeps_for(period: float) -> int:
     return max(1, int(np.ceil(period / 1e-3 - 1e-9)))
 
 
-GAUSS_NEWTON_STEPS = 2
+GAUSS_NEWTON_STEPS = 3
 LM_DAMPING = 1e-3  # initial Levenberg-Marquardt damping, relative to the normal matrix' diagonal
 # Finite-difference steps of the initial-state sensitivities [rad, rad, rad/s, rad/s].
 _PERTURBATION = np.array([1e-4, 1e-4, 1e-3, 1e-3])
@@ -207,7 +207,8 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
 
     Each window takes ``GAUSS_NEWTON_STEPS`` Levenberg-Marquardt steps with its own damping: a step is kept only
     where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
-    overshoot), and the window's damping shrinks after a kept step and grows after a refused one. Each trial is
+    overshoot), and the window's damping shrinks 3x after a kept step and grows 10x, to at least 1 (about half
+    the Gauss-Newton step), after a refused one. Each trial is
     simulated with its own sensitivities, so a kept step needs no further call."""
     count = 2 * np.pi / nominal_counts
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
@@ -239,7 +240,7 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
             better = cost_trial < cost
             x, r, J = np.where(better, trial, x), np.where(better, r_trial, r), np.where(better[:, None], J_trial, J)
             cost = np.where(better, cost_trial, cost)
-            damping = np.where(better, damping / 3.0, damping * 4.0)
+            damping = np.where(better, damping / 3.0, np.maximum(damping * 10.0, 1.0))
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
             out[i], states[i], jacobians[i] = r[:, :, part], x[:, part], J[:, :, part]

@@ -79,7 +79,7 @@ def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
             part = heldout if k in held else train
             sl = slice(first, last)
             part.append(dataclasses.replace(
-                log, name=f"{log.name} [{log.time[first]:.2f}, {log.time[last - 1]:.2f}] s", time=log.time[sl],
+                log, name=f"{log.name} (t = {log.time[first]:.2f}-{log.time[last - 1]:.2f} s)", time=log.time[sl],
                 theta=log.theta[sl], phi=log.phi[sl], input=log.input[sl]))
     return train, heldout, (
         f"no --heldout logs: each train log was cut into up to {HOLDOUT_BLOCKS} equal blocks of at least "
