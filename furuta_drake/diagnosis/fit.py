@@ -13,8 +13,6 @@ almost none).
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,12 +20,14 @@ from scipy.optimize import least_squares
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, Scales, apply_effects
 from furuta_drake.diagnosis.gap import (
-    Windows, evaluate_gap, fixed_state_residuals, project_out_states, projected_residuals,
+    Windows, evaluate_gap, fixed_state_residuals, project_out_states, projected_residuals, residuals,
 )
 from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.parallel import map_in_processes
 from furuta_drake.diagnosis.surrogate import Model
 
 FIT_WINDOWS = 40  # windows of the train logs used in the least squares (evenly drawn, seeded)
+START_WINDOWS = 16  # of those, the windows that rank the starts of a fit
 MAX_NFEV = 20  # cost evaluations of one least-squares fit (Jacobians not counted)
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise
@@ -124,15 +124,12 @@ def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: li
 
     last = {}
 
-    def flat(r):
-        return np.nan_to_num(np.concatenate([v[1:].ravel() for v in r]), nan=1e6, posinf=1e6, neginf=-1e6)
-
     def model_at(x):
         return apply_effects(base, _split(fitted_names, sizes, x))
 
     def cost(x):
         r, states, state_jacobians = projected_residuals(model_at(x), subset, nominal_counts)
-        last.update(x=np.array(x), states=states, raw=r, state_jacobians=state_jacobians, r=flat(r))
+        last.update(x=np.array(x), states=states, raw=r, state_jacobians=state_jacobians, r=_flat(r))
         return last["r"]
 
     def jacobian(x):
@@ -148,12 +145,15 @@ def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: li
             shifted_r = fixed_state_residuals(model_at(shifted), subset, last["states"], nominal_counts)
             change = [project_out_states(new - old, J)
                       for new, old, J in zip(shifted_r, last["raw"], last["state_jacobians"])]
-            columns.append(flat(change) / step)
+            columns.append(_flat(change) / step)
         return np.column_stack(columns)
 
-    # Several starts where the cost is multimodal: the least squares runs from the one with the lowest cost.
+    # Several starts where the cost is multimodal: the least squares runs from the one with the lowest cost on
+    # a smaller draw of windows (a start only has to land in the right basin).
     candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
-    x0 = min(candidates, key=lambda x: float(np.sum(cost(x) ** 2)))
+    screen = subset.subset(START_WINDOWS, seed=1)
+    x0 = candidates[0] if len(candidates) == 1 else min(candidates, key=lambda x: _squared_gap(
+        model_at(x), screen, nominal_counts))
     result = least_squares(cost, x0, jac=jacobian, bounds=(low, high), x_scale=np.maximum(span, 1e-12) / 10.0,
                            max_nfev=MAX_NFEV, method="trf")
     x, success, message = result.x, bool(result.success), result.message
@@ -175,6 +175,15 @@ def at_bounds(names: tuple[str, ...], x: np.ndarray, low: np.ndarray, high: np.n
             + [f"{label} (upper)" for label, v, hi, t in zip(labels, x, high, tolerance) if hi - v <= t])
 
 
+def _flat(r: list[np.ndarray]) -> np.ndarray:
+    """Per-log residuals as one vector for the least squares; a diverged prediction costs 1e6 counts."""
+    return np.nan_to_num(np.concatenate([v[1:].ravel() for v in r]), nan=1e6, posinf=1e6, neginf=-1e6)
+
+
+def _squared_gap(model: Model, windows: Windows, nominal_counts: int) -> float:
+    return float(np.sum(_flat(residuals(model, windows, nominal_counts)) ** 2))
+
+
 def _fit_task(args):
     return fit_effects(*args)
 
@@ -184,19 +193,6 @@ def fit_all(groups: list[tuple[str, ...]], model: Model, windows: Windows, logs:
             fitted: dict | None = None) -> dict[str, FitResult]:
     """Fit every group of candidates (a 1-tuple for a single effect) in parallel processes; ``fitted``: group
     -> single fits of its members to start from (see :func:`fit_effects`)."""
-    workers = workers or os.cpu_count() or 1
     tasks = [(group, model, windows, logs, nominal_counts, (fitted or {}).get(group)) for group in groups]
-    results = {}
-    if workers == 1:
-        for task in tasks:
-            result = _fit_task(task)
-            results[result.name] = result
-            if progress is not None:
-                progress(result.name)
-        return results
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        for result in pool.map(_fit_task, tasks):
-            results[result.name] = result
-            if progress is not None:
-                progress(result.name)
-    return results
+    report = None if progress is None else (lambda result: progress(result.name))
+    return {result.name: result for result in map_in_processes(_fit_task, tasks, workers, report)}

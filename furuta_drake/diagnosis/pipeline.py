@@ -16,7 +16,7 @@ from furuta_drake.diagnosis.gap import (
 )
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
-from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gap
+from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record, write_report
 from furuta_drake.diagnosis.select import (
     THRESHOLD_NOTE, Decision, best_single, decide, nominal_at_floor, rank,
@@ -140,9 +140,11 @@ def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, 
 
     accepted = apply_effects(nominal, fits[decision.accepted].effects) if decision.accepted else nominal
     # The headline held-out figures come from Drake diagrams of the project's systems.
-    drake_nominal = replay_gap(nominal, rig, heldout_windows, nominal_heldout.initial_states)
-    drake_accepted = (replay_gap(accepted, rig, heldout_windows, heldout[decision.accepted].initial_states)
-                      if decision.accepted else drake_nominal)
+    replays = [(nominal, nominal_heldout.initial_states)]
+    if decision.accepted:
+        replays.append((accepted, heldout[decision.accepted].initial_states))
+    gaps = replay_gaps(replays, rig, heldout_windows, workers)
+    drake_nominal, drake_accepted = gaps[0], gaps[-1]  # the same without an accepted effect
     train_nominal = evaluate_gap(nominal, train_windows, counts).gap
     train_accepted = fits[decision.accepted].train_gap if decision.accepted else train_nominal
     reduction = 1.0 - drake_accepted.gap / drake_nominal.gap if drake_nominal.gap > 0 else 0.0

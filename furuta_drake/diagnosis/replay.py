@@ -21,6 +21,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.actuator import ActuatorParameters, add_actuator
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
+from furuta_drake.diagnosis.parallel import map_in_processes
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
 from furuta_drake.friction import FrictionParameters, JointFriction
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
@@ -118,19 +119,35 @@ class WindowReplayer:
         return state
 
 
-def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray]) -> GapResult:
-    """The gap of ``model`` on ``windows`` from Drake replays started at ``initial_states`` (per log, 4 x W, or
-    5 x W with the arm's bristle state)."""
+def _replay_log(task) -> np.ndarray:
+    """(horizon, 2, W) residuals [counts] of one log's windows replayed in Drake (one diagram per task)."""
+    model, rig, log, horizon, starts, x0, measured = task
     count = 2 * np.pi / rig.counts_per_rev
-    out = []
-    for log, horizon, starts, x0, measured in zip(windows.logs, windows.horizons, windows.starts, initial_states,
-                                                  windows.measured):
-        replayer = WindowReplayer(model, rig, log.time, log.torque_command)
-        r = np.empty_like(measured)
-        for w, start in enumerate(starts):
-            times = log.time[start:start + horizon]
-            predicted = replayer.replay(log.time[start], x0[:4, w], log.torque_command[start], times,
-                                        float(x0[4, w]) if x0.shape[0] > 4 else None)
-            r[:, :, w] = (measured[:, :, w] - predicted) / count
-        out.append(r)
-    return gap_from_residuals(out, sensor_variance(model, rig.counts_per_rev), initial_states)
+    replayer = WindowReplayer(model, rig, log.time, log.torque_command)
+    r = np.empty_like(measured)
+    for w, start in enumerate(starts):
+        times = log.time[start:start + horizon]
+        predicted = replayer.replay(log.time[start], x0[:4, w], log.torque_command[start], times,
+                                    float(x0[4, w]) if x0.shape[0] > 4 else None)
+        r[:, :, w] = (measured[:, :, w] - predicted) / count
+    return r
+
+
+def replay_gaps(models: list[tuple[Model, list[np.ndarray]]], rig: RigParameters, windows: Windows,
+                workers: int | None = None) -> list[GapResult]:
+    """The gap of each (model, initial states per log: 4 x W, or 5 x W with the arm's bristle state) on
+    ``windows`` from Drake replays, one process per model and log."""
+    tasks = [(model, rig, log, horizon, starts, x0[i], measured)
+             for model, x0 in models
+             for i, (log, horizon, starts, measured) in enumerate(zip(windows.logs, windows.horizons, windows.starts,
+                                                                       windows.measured))]
+    residuals = list(map_in_processes(_replay_log, tasks, workers))
+    n = len(windows.logs)
+    return [gap_from_residuals(residuals[k * n:(k + 1) * n], sensor_variance(model, rig.counts_per_rev), x0)
+            for k, (model, x0) in enumerate(models)]
+
+
+def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray],
+               workers: int | None = 1) -> GapResult:
+    """:func:`replay_gaps` of one model."""
+    return replay_gaps([(model, initial_states)], rig, windows, workers)[0]
