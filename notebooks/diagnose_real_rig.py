@@ -104,12 +104,14 @@ print(f"held-out gap {gap['nominal']['heldout']:.2f} -> {gap['with_effects']['he
       f"({gap['heldout_reduction']:.0%} reduction, Drake replay)")
 
 # %%
-accepted = next((row for row in report["ranking"] if row["effect"] == "+".join(report["effects"])), None)
-if accepted is not None and "arm_inertia_scale" in accepted["params"]:
-    scales = {k: accepted["params"][k] for k in ("arm_inertia_scale", "pendulum_inertia_scale",
-                                                 "coupling_scale", "gravity_scale")}
+accepted = next((row for row in report["ranking"]
+                 if sorted(row["effect"].split("+")) == sorted(report["effects"])), None)
+# A pair's parameters are prefixed with their effect's name: "inertia_mismatch.arm_inertia_scale".
+params = {} if accepted is None else {k.split(".")[-1]: v for k, v in accepted["params"].items()}
+if "arm_inertia_scale" in params:
+    scales = {k: params[k] for k in ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale")}
     print("lumped constants relative to the rig file:", {k: round(v, 3) for k, v in scales.items()})
-    print(f"arm inertia a = J_arm + m r^2: {rig.arm_inertia_total:.3g} -> {accepted['params']['arm_inertia_total']:.3g} "
+    print(f"arm inertia a = J_arm + m r^2: {rig.arm_inertia_total:.3g} -> {params['arm_inertia_total']:.3g} "
           "kg m^2 (the nominal arm is a bare rod plus the rotor; the real arm also carries its hub and the "
           "pendulum encoder)")
 
