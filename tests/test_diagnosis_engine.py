@@ -87,6 +87,19 @@ def test_a_hidden_delay_is_fitted_and_the_gap_closes():
     assert fit.train_gap < 0.5 * nominal.gap
 
 
+def test_a_hidden_lag_at_its_true_time_constant_sits_at_the_floor_in_the_surrogate_and_in_drake():
+    """The suite's 12 ms first-order actuator lag (Drake's FirstOrderLowPassFilter in the loop): the surrogate,
+    which applies each substep the filter's mean over it, and the Drake replay agree at the floor (applying the
+    filter's end value instead read 0.05 counts in the surrogate and 0.10 in Drake)."""
+    rig = RIGS["lund"]()
+    windows = make_windows([hanging_log(8, "actuator_lag")], rig)
+    model = apply_effects(Model.from_rig(rig), {"actuator_lag": [0.012]})
+    surrogate = evaluate_gap(model, windows, rig.counts_per_rev)
+    drake = replay_gap(model, rig, windows, surrogate.initial_states)
+    assert evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev).gap > 0.5
+    assert surrogate.gap < 0.05 and drake.gap < 0.05  # counts
+
+
 def test_sensor_effects_are_read_from_the_data(clean_logs):
     rig = RIGS["lund"]()
     assert quantization_estimate(clean_logs, rig.counts_per_rev) == rig.counts_per_rev

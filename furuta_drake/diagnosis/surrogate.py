@@ -163,12 +163,13 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
     steps = (horizon - 1) * substeps
     times = (np.arange(steps) * dt)[:, None]
     held = _delayed_command(command, starts[None, :], times, dt, period, model.delay)  # (steps, W)
-    if model.lag > 0:  # exact first-order filter of the held input over each substep
+    if model.lag > 0:  # exact first-order filter of the held input; a substep takes the filter's mean over it
         decay = np.exp(-dt / model.lag)
+        mean = model.lag / dt * (1.0 - decay)  # the mean of exp(-t / lag) over [0, dt)
         lag_state = command[starts].astype(float)
         for i in range(steps):
-            lag_state = held[i] + (lag_state - held[i]) * decay
-            held[i] = lag_state
+            start, lag_state = lag_state, held[i] + (lag_state - held[i]) * decay
+            held[i] = held[i] + (start - held[i]) * mean
     torque = applied_torque(model, held)
     arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
     bristles = model.arm_friction.has_bristles
