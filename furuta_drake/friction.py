@@ -74,6 +74,12 @@ class JointFrictionParameters:
         return self.model in ("dahl", "lugre")
 
     @property
+    def bristle_bound(self) -> float:
+        """The largest |z| of the bristle state [rad]: its highest saturation level over sigma0. The interval
+        [-bound, bound] is invariant under Eq. 7 (and LuGre's law): at z = bound, dz/dt <= 0 for either sign of v."""
+        return max(self.coulomb_pos, self.coulomb_neg, *self.static_levels) / self.sigma0
+
+    @property
     def static_levels(self) -> tuple[float, float]:
         """Breakaway levels (v > 0, v < 0) [N m]: the Coulomb levels where no Stribeck level is given."""
         return (self.coulomb_pos if self.static_pos is None else self.static_pos,
@@ -156,6 +162,18 @@ def bristle_friction_torque(z, v, p: JointFrictionParameters):
     return -torque
 
 
+def project_bristle(z, bound: float):
+    """z clipped to its invariant interval [-bound, bound] (``bound``: :attr:`JointFrictionParameters.bristle_bound`).
+
+    The exact flow never leaves it, but an explicit integrator's trial stage can: far outside it the bristle
+    rate sigma0 |v| z / Fc and the torque sigma0 z feed each other (the torque accelerates the joint, whose speed
+    scales the rate) and overflow within one rejected trial step. Evaluated on the projected state the law is
+    bounded, so error control sees a large error and shrinks the step instead."""
+    if z > bound:
+        return bound
+    return -bound if z < -bound else z
+
+
 def joint_friction_torque(v, z, p: JointFrictionParameters):
     """Exerted torque of ``p``'s model at velocity v and bristle state z (ignored without bristles) [N m]."""
     if p.model == "static":
@@ -204,7 +222,9 @@ def JointFriction_(T):
         Input ``plant_state`` (connect the plant's state output). Outputs ``generalized_force_Nm`` (plant
         velocity order, for the plant's applied-generalized-force input) and ``friction_torque_Nm`` =
         [F_theta, F_phi] (Eq. 3 order). Continuous state: one bristle z [rad] per joint with a Dahl or LuGre
-        model, pendulum before arm. Scalar-convertible to AutoDiffXd, so ``Linearize`` works through it.
+        model, pendulum before arm; the laws read it through :func:`project_bristle`, so an integrator's trial
+        stage outside the bristle's physical range stays finite. Scalar-convertible to AutoDiffXd, so
+        ``Linearize`` works through it.
         """
 
         def _construct(self, plant, params: FrictionParameters, converter=None):
@@ -223,6 +243,7 @@ def JointFriction_(T):
             for velocity, p in ((layout.theta_velocity, params.pendulum), (layout.phi_velocity, params.arm)):
                 joints.append((nq + velocity, velocity, p, bristles if p.has_bristles else None))
                 bristles += p.has_bristles
+            self._bounds = tuple(p.bristle_bound for _, _, p, k in joints if k is not None)
             self._joints = tuple(joints)
             self._bristle_joints = tuple(j for j in joints if j[3] is not None)
             self._dtype = float if T == float else object
@@ -240,7 +261,7 @@ def JointFriction_(T):
             """[F_theta, F_phi] [N m], from lists (Python floats for T = float: the laws then take math)."""
             x = self._state_port.Eval(context).tolist()
             z = context.get_continuous_state_vector().CopyToVector().tolist() if self._bristle_joints else None
-            return [joint_friction_torque(x[state], None if k is None else z[k], p)
+            return [joint_friction_torque(x[state], None if k is None else project_bristle(z[k], self._bounds[k]), p)
                     for state, _, p, k in self._joints]
 
         def _calc_generalized_force(self, context, output):
@@ -261,7 +282,8 @@ def JointFriction_(T):
             x = self._state_port.Eval(context).tolist()
             z = context.get_continuous_state_vector().CopyToVector().tolist()
             derivatives.get_mutable_vector().SetFromVector(np.array(
-                [bristle_derivative(z[k], x[state], p) for state, _, p, k in self._bristle_joints],
+                [bristle_derivative(project_bristle(z[k], self._bounds[k]), x[state], p)
+                 for state, _, p, k in self._bristle_joints],
                 dtype=self._dtype))
 
     return Impl

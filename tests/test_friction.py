@@ -375,3 +375,39 @@ def test_lugre_friction_never_injects_energy_within_its_velocity_bound(coulomb, 
         assert bristle_dissipation(z, v, p) <= 1e-12 * ((sigma1 + viscous) * v**2 + sigma0 * abs(z * v))
     else:
         assert worst > 0.0
+
+
+@pytest.mark.parametrize("presliding", [1e-4, 3e-5])
+def test_a_stiff_bristle_reversing_under_a_coarse_first_step_stays_in_its_range(presliding):
+    """A Dahl arm whose presliding displacement Fc / sigma0 is a tenth of a milliradian, moving at 2 rad/s with
+    its bristle at the opposite bound: the bristle rate sigma0 |v| / Fc is 2e4 1/s, so an explicit integrator's
+    first trial step of 1 ms is 20 time constants long. The error-controlled RK5 must reject it and go on (the
+    law is evaluated on the bristle's physical range |z| <= Fc / sigma0), and the bristle then saturates at
+    +Fc / sigma0: the exerted torque is -Fc."""
+    from pydrake.systems.analysis import ApplySimulatorConfig, SimulatorConfig
+
+    builder = DiagramBuilder()
+    plant, _ = add_furuta_plant(builder, "qube_servo2", with_scene_graph=False)
+    level = 1.5e-3
+    friction = builder.AddSystem(JointFriction(plant, FrictionParameters(
+        arm=JointFrictionParameters.dahl(level, level, sigma0=level / presliding))))
+    builder.Connect(plant.get_state_output_port(), friction.get_input_port())
+    builder.Connect(friction.GetOutputPort("generalized_force_Nm"), plant.get_applied_generalized_force_input_port())
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    ApplySimulatorConfig(SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3),
+                         simulator)
+    simulator.get_mutable_integrator().request_initial_step_size_target(1e-3)
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    plant.get_actuation_input_port().FixValue(plant_context, [0.0])
+    arm = plant.GetJointByName("arm")
+    arm.set_angular_rate(plant_context, 2.0)
+    friction_context = friction.GetMyMutableContextFromRoot(context)
+    friction_context.get_mutable_continuous_state_vector().SetFromVector([-presliding])
+    simulator.AdvanceTo(0.005)
+    z = friction_context.get_continuous_state_vector().GetAtIndex(0)
+    assert abs(z) == pytest.approx(presliding, rel=1e-2)  # at its bound, to the integrator's accuracy
+    assert arm.get_angular_rate(plant_context) > 1.0  # 1.5 mN m slows the 2.3e-4 kg m^2 arm by 0.03 rad/s
+    torque = friction.GetOutputPort("friction_torque_Nm").Eval(friction_context)[1]
+    assert torque == pytest.approx(-level, rel=1e-3)

@@ -170,16 +170,11 @@ def residuals(model: Model, windows: Windows, nominal_counts: int) -> list[np.nd
     return projected_residuals(model, windows, nominal_counts)[0]
 
 
-def bristle_bound(p) -> float:
-    """The largest |z| of a bristle model [rad]: its highest saturation level over sigma0."""
-    return max(p.coulomb_pos, p.coulomb_neg, *p.static_levels) / p.sigma0
-
-
 def _perturbation(model: Model, n: int) -> np.ndarray:
     """Finite-difference steps of the n initial-state entries (a bristle's: 5 % of its range)."""
     if n == 4:
         return _PERTURBATION
-    return np.append(_PERTURBATION, 0.05 * bristle_bound(model.arm_friction))
+    return np.append(_PERTURBATION, 0.05 * model.arm_friction.bristle_bound)
 
 
 def _predict(model: Model, x: np.ndarray, batch: "Batch", starts: np.ndarray, substeps: int) -> np.ndarray:
@@ -221,7 +216,7 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
         delta = _perturbation(model, n)
         prior = np.zeros(n)
         if n > 4:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
-            bound = bristle_bound(model.arm_friction)  # over its whole range weighs one count^2)
+            bound = model.arm_friction.bristle_bound  # over its whole range weighs one count^2)
             prior[4] = 1.0 / bound**2
         r, J = _linearised(model, x, batch, substeps, delta, count)
         cost = np.nansum(r**2, axis=(0, 1))

@@ -94,7 +94,9 @@ class WindowReplayer:
     def replay(self, start_time: float, x0: np.ndarray, command_at_start: float, times: np.ndarray,
                bristle: float | None = None) -> np.ndarray:
         """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (lag filter at the command, the
-        arm's Dahl bristle at ``bristle``)."""
+        arm's Dahl bristle at ``bristle``). Every window starts with a fresh integrator, so its result does not
+        depend on the step size the previous window ended with."""
+        ApplySimulatorConfig(REPLAY_INTEGRATOR, self.simulator)
         self.context.SetTimeStateAndParametersFrom(self.default_context)
         self.context.SetTime(start_time)
         if self.lag:
