@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder, InputPort, LeafSystem, OutputPort
@@ -29,6 +30,7 @@ class ActuatorParameters:
 
     gain: float = 1.0  # torque gain (1 + torque_gain_error) [-]
     deadzone: float = 0.0  # half-width of the dead zone [N m]
+    deadzone_form: Literal["subtract", "threshold"] = "subtract"  # u - sat(u), or u only where |u| > deadzone
     saturation: float | None = None  # torque limit of the actuator [N m]; None: no limit beyond the controller's
     delay: float = 0.0  # pure input delay [s]
     lag_time_constant: float = 0.0  # first-order lag [s]
@@ -37,6 +39,8 @@ class ActuatorParameters:
         _require_positive(self.gain, f"{where}.gain")
         for name in ("deadzone", "delay", "lag_time_constant"):
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
+        if self.deadzone_form not in ("subtract", "threshold"):
+            raise ConfigError(f"{where}.deadzone_form must be 'subtract' or 'threshold', got {self.deadzone_form!r}")
         if self.saturation is not None:
             _require_positive(self.saturation, f"{where}.saturation")
 
@@ -56,7 +60,8 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
       update depending on the last bit of the two event times; a continuously varying input is delayed by
       n delay_resolution +- delay_resolution / 2.
     - lag: ``FirstOrderLowPassFilter(lag_time_constant)``, tau du/dt = u_in - u, starting from 0.
-    - dead zone: u - sat_d(u) with ``Saturation(-deadzone, deadzone)``, a negated copy and an ``Adder``.
+    - dead zone, form ``subtract``: u - sat_d(u) with ``Saturation(-deadzone, deadzone)``, a negated copy and an
+      ``Adder``; form ``threshold``: a :class:`ThresholdDeadZone`.
     - gain: ``Gain(gain)``; saturation: ``Saturation(-saturation, saturation)``.
     """
     params.validate()
@@ -76,7 +81,9 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
         then("actuator_delay", DiscreteTimeDelay(delay_resolution, delay_steps - 1, 1))
     if params.lag_time_constant > 0:
         then("actuator_lag", FirstOrderLowPassFilter(params.lag_time_constant, 1))
-    if params.deadzone > 0:
+    if params.deadzone > 0 and params.deadzone_form == "threshold":
+        then("actuator_deadzone", ThresholdDeadZone(params.deadzone))
+    elif params.deadzone > 0:
         clipped = builder.AddNamedSystem("actuator_deadzone_clip",
                                          Saturation([-params.deadzone], [params.deadzone]))
         negated = builder.AddNamedSystem("actuator_deadzone_negate", Gain(-1.0, 1))
@@ -91,6 +98,22 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
     if params.saturation is not None:
         then("actuator_saturation", Saturation([-params.saturation], [params.saturation]))
     return entry.get_input_port(), signal
+
+
+class ThresholdDeadZone(LeafSystem):
+    """A dead zone that drops small commands and passes larger ones whole: y = u where |u| > width, else 0.
+    Input ``command_Nm``, output ``torque_Nm`` (direct feedthrough)."""
+
+    def __init__(self, width: float):
+        super().__init__()
+        self._width = float(width)
+        self._input = self.DeclareVectorInputPort("command_Nm", 1)
+        self.DeclareVectorOutputPort("torque_Nm", 1, self._calc, prerequisites_of_calc={
+            self.input_port_ticket(self._input.get_index())})
+
+    def _calc(self, context, output):
+        u = self._input.Eval(context)[0]
+        output.SetAtIndex(0, u if abs(u) > self._width else 0.0)
 
 
 @dataclass
@@ -178,6 +201,6 @@ def add_dc_motor(builder: DiagramBuilder, motor: MotorParameters, voltage_port: 
 
 
 __all__ = [
-    "ActuatorParameters", "add_actuator", "DisturbanceParameters", "CoggingTorque", "add_arm_disturbance",
+    "ActuatorParameters", "add_actuator", "ThresholdDeadZone", "DisturbanceParameters", "CoggingTorque", "add_arm_disturbance",
     "add_dc_motor",
 ]

@@ -1,4 +1,4 @@
-"""The ``furuta-drake`` command line: ``simulate``, ``diagnose`` (and the commands of later issues).
+"""The ``furuta-drake`` command line: ``simulate``, ``diagnose``, ``reproduce``, ``sweep``.
 
 Bad input ends with exit code 2 and one line naming the file, line or key; a run the monitor stopped ends with
 exit code 3 and the time and cause; no traceback for either.
@@ -58,6 +58,10 @@ def _parser() -> argparse.ArgumentParser:
     diag.add_argument("--out", type=Path, required=True, help="output directory")
     diag.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     diag.add_argument("--workers", type=int, help="processes for the candidate fits (default: all cores)")
+    diag.add_argument("--scheduler", help="address of an existing Dask scheduler whose workers run the fits and "
+                                          "replays (same results as local processes)")
+    diag.add_argument("--folds", type=int, help="repeat the decision on K >= 2 splits of the logs into train and "
+                                                "held-out blocks and report its consistency")
     diag.set_defaults(run=_run_diagnose)
 
     rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
@@ -202,22 +206,33 @@ def _run_sweep(args) -> int:
 
 
 def _run_diagnose(args) -> int:
-    from furuta_drake.diagnosis.pipeline import run_diagnosis
+    from tqdm import tqdm
+
+    from furuta_drake.diagnosis.pipeline import diagnose
+    from furuta_drake.diagnosis.report import write_report
     from furuta_drake.outputs import prepare_output_dir
 
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be >= 1, got {args.workers}")
-    prepare_output_dir(args.out, force=args.force, protect=[args.rig, *args.train, *args.heldout])
-    from tqdm import tqdm
-
+    if args.workers is not None and args.scheduler is not None:
+        raise ConfigError("--workers sizes the local processes; with --scheduler the cluster's workers run the fits")
+    if args.folds is not None and args.folds < 2:
+        raise ConfigError(f"--folds must be >= 2, got {args.folds}")
+    protect = [args.rig, *args.train, *args.heldout]
+    prepare_output_dir(args.out, force=args.force, protect=protect)
     with tqdm(desc="fitting candidates", unit="fit", disable=not sys.stderr.isatty()) as bar:
-        report = run_diagnosis(rig_path=args.rig, train_paths=args.train, heldout_paths=args.heldout,
-                               out=args.out, force=args.force, workers=args.workers,
-                               progress=lambda name: bar.update(1))
-    gap = report["gap"]
-    print(f"verdict: {report['verdict']} (effects: {', '.join(report['effects']) or '-'}); held-out gap "
-          f"{gap['nominal']['heldout']:.3g} -> {gap['with_effects']['heldout']:.3g} counts "
-          f"({gap['heldout_reduction']:.0%} reduction); report in {args.out}")
+        diagnosis = diagnose(rig=args.rig, train=args.train, heldout=args.heldout, folds=args.folds,
+                             workers=args.workers, scheduler=args.scheduler, progress=lambda result: bar.update(1))
+    for note in diagnosis.notes:
+        print(note)
+    write_report(args.out, diagnosis, force=args.force, protect=protect)
+    gap = diagnosis.gap
+    failed = [entry.effect for entry in diagnosis.ranking if entry.status != "ok"]
+    print(f"verdict: {diagnosis.verdict} (effects: {', '.join(diagnosis.effects) or '-'}); held-out gap "
+          f"{gap.nominal['heldout']:.3g} -> {gap.with_effects['heldout']:.3g} counts "
+          f"({gap.heldout_reduction:.0%} reduction)"
+          + (f"; {len(failed)} candidate(s) failed, listed in the report" if failed else "")
+          + f"; report in {args.out}")
     return 0
 
 

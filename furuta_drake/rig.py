@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -66,6 +67,8 @@ class RigParameters:
     pendulum_coulomb: float = 0.0  # [N m]
     pendulum_viscous: float = 0.0  # [N m s/rad]
     motor: MotorParameters | None = None
+    # Effects the nominal model already includes: vocabulary names -> parameters (docs/diagnose.md).
+    effects: dict[str, dict[str, Any]] | None = None
 
     def validate(self, where: str = "rig") -> None:
         """Raise :class:`ConfigError` naming the first non-physical value."""
@@ -80,6 +83,13 @@ class RigParameters:
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
         if self.motor is not None:
             self.motor.validate(f"{where}.motor")
+        if self.effects:
+            from furuta_drake.diagnosis.candidates import rig_effects  # the vocabulary lives with the diagnosis
+
+            try:
+                rig_effects(self)
+            except ConfigError as err:
+                raise ConfigError(f"{where}.{err}") from None
 
     # Lumped constants of the Furuta equations of motion (Gaefvert 1998; NOTES.md).
     @property

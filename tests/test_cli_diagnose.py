@@ -4,7 +4,7 @@ import json
 
 from furuta_drake.cli import main
 from furuta_drake.diagnosis.report import SPEC_KEYS
-from furuta_drake.diagnosis.suite import run_configs
+from furuta_drake.diagnosis.suite import VOCABULARY, run_configs
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig
 from furuta_drake.simulate import simulate
@@ -24,7 +24,36 @@ def test_effect_free_logs_give_none_with_every_output_and_identical_reruns(tmp_p
     assert report["verdict"] == "none" and report["effects"] == []
     assert len(report["ranking"]) >= 14
     assert report["gap"]["nominal"]["heldout"] < 0.25  # counts: the exact model sits at the encoder's floor
-    for name in ("report.md", "config.yaml", "fitted_model.yaml", "residuals.png", "residual_spectra.png"):
+    # A none verdict states what these logs could not have missed: a detection limit for every effect.
+    assert report["steps"] == [] and [limit["effect"] for limit in report["detection_limits"]] == list(VOCABULARY)
+    for name in ("report.md", "report.html", "config.yaml", "fitted_model.yaml", "fitted_rig.yaml", "residuals.png",
+                 "residual_spectra.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
     assert main(args + ["--out", str(tmp_path / "b")]) == 0
     assert (tmp_path / "a" / "report.json").read_bytes() == (tmp_path / "b" / "report.json").read_bytes()
+
+
+def test_ctrl_c_leaves_no_output_and_says_so(tmp_path):
+    """Ctrl-C in the middle of the fits (SIGINT to the process group, as a terminal sends it): exit 130, one
+    line saying nothing was written, no traceback from the main process or its workers, and neither the output
+    directory nor a hidden staging directory beside it."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    rig = lund_rig()
+    (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
+    write_log_csv(simulate(run_configs(rig, 21, 4.0)["hanging"]), tmp_path / "train.csv")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "furuta_drake.cli", "diagnose", "--rig", str(tmp_path / "rig.yaml"), "--train",
+         str(tmp_path / "train.csv"), "--out", str(tmp_path / "out"), "--workers", "2"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    time.sleep(6.0)  # imports, loading and the first fits
+    assert process.poll() is None, process.communicate()
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130
+    assert "interrupted; no result was written" in stderr and "Traceback" not in stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rig.yaml", "train.csv"]

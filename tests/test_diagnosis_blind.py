@@ -7,7 +7,8 @@ import json
 
 import pytest
 
-from furuta_drake.diagnosis.pipeline import run_diagnosis
+from furuta_drake.diagnosis.pipeline import diagnose
+from furuta_drake.diagnosis.report import write_report
 from furuta_drake.diagnosis.suite import CaseSpec, verdict_is_right, write_case
 
 CASES = [
@@ -27,10 +28,11 @@ def outcomes(tmp_path_factory):
         answer = write_case(case, root / "cases" / case.name, DURATION)
         folder = root / "cases" / case.name
         assert "answer" not in " ".join(p.name for p in folder.iterdir())  # nothing in the folder gives it away
-        report = run_diagnosis(rig_path=folder / "rig.yaml", train_paths=sorted(folder.glob("train_*.csv")),
-                               heldout_paths=sorted(folder.glob("heldout_*.csv")), out=root / "reports" / case.name,
-                               workers=2, echo=lambda line: None)
-        assert json.loads((root / "reports" / case.name / "report.json").read_text())["verdict"] == report["verdict"]
+        diagnosis = diagnose(rig=folder / "rig.yaml", train=sorted(folder.glob("train_*.csv")),
+                             heldout=sorted(folder.glob("heldout_*.csv")), workers=2)
+        write_report(root / "reports" / case.name, diagnosis)
+        report = json.loads((root / "reports" / case.name / "report.json").read_text())
+        assert report["verdict"] == diagnosis.verdict
         rows.append((answer, report))
     return rows
 

@@ -9,12 +9,13 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.candidates import CANDIDATES, apply_effects
-from furuta_drake.diagnosis.fit import fit_effects, noise_estimate, quantization_estimate
+from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, apply_effects
+from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quantization_estimate
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import model_rig, replay_gap
-from furuta_drake.diagnosis.select import decide
+from furuta_drake.diagnosis.select import MARGIN, Bootstrap, choose, confusable
+from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model, _accelerations
 from furuta_drake.diagnosis.suite import run_configs, with_effect
 from furuta_drake.plant import joint_indices, make_furuta_plant
@@ -82,9 +83,12 @@ def test_a_hidden_delay_is_fitted_and_the_gap_closes():
     train = [hanging_log(3, "input_delay")]
     windows = make_windows(train, rig)
     nominal = evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev)
-    fit = fit_effects(("input_delay",), Model.from_rig(rig), windows, train, rig.counts_per_rev)
-    assert fit.effects["input_delay"][0] == pytest.approx(4.5e-3, abs=0.5e-3)
+    fit = fit_task(FitTask("input_delay", {}, Model.from_rig(rig), windows, None, tuple(train), rig.counts_per_rev,
+                           DiagnosisSettings()))
+    assert fit.effects["input_delay"].values[0] == pytest.approx(4.5e-3, abs=0.5e-3)
     assert fit.train_gap < 0.5 * nominal.gap
+    low, high = np.percentile(fit.samples["input_delay"][:, 0], [2.5, 97.5])
+    assert low < 4.5e-3 < high and high - low < 1e-3  # a 95 % interval around the truth, of a fraction of 1 ms
 
 
 def test_a_hidden_lag_at_its_true_time_constant_sits_at_the_floor_in_the_surrogate_and_in_drake():
@@ -93,7 +97,7 @@ def test_a_hidden_lag_at_its_true_time_constant_sits_at_the_floor_in_the_surroga
     filter's end value instead read 0.05 counts in the surrogate and 0.10 in Drake)."""
     rig = RIGS["lund"]()
     windows = make_windows([hanging_log(8, "actuator_lag")], rig)
-    model = apply_effects(Model.from_rig(rig), {"actuator_lag": [0.012]})
+    model = apply_effects(Model.from_rig(rig), {"actuator_lag": Effect("", (0.012,))})
     surrogate = evaluate_gap(model, windows, rig.counts_per_rev)
     drake = replay_gap(model, rig, windows, surrogate.initial_states)
     assert evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev).gap > 0.5
@@ -103,29 +107,68 @@ def test_a_hidden_lag_at_its_true_time_constant_sits_at_the_floor_in_the_surroga
 def test_sensor_effects_are_read_from_the_data(clean_logs):
     rig = RIGS["lund"]()
     assert quantization_estimate(clean_logs, rig.counts_per_rev) == rig.counts_per_rev
-    assert noise_estimate(clean_logs, rig.counts_per_rev) == 0.0
+    assert noise_estimate(clean_logs, rig.counts_per_rev)[0] == 0.0
     coarse = [hanging_log(4, "encoder_quantization", level=1)]
     assert quantization_estimate(coarse, rig.counts_per_rev) == rig.counts_per_rev / 4
     noisy = [hanging_log(5, "measurement_noise", level=2)]
     sigma = 3.0 * 2 * np.pi / rig.counts_per_rev  # the suite's level-2 noise: 3 counts
-    assert noise_estimate(noisy, rig.counts_per_rev) == pytest.approx(sigma, rel=0.25)
+    estimate, samples = noise_estimate(noisy, rig.counts_per_rev, resamples=200)
+    assert estimate == pytest.approx(sigma, rel=0.25)
+    assert np.percentile(samples, 2.5) < estimate < np.percentile(samples, 97.5)
 
 
-def test_decide_none_at_the_floor_effect_when_supported_unexplained_otherwise():
+def _evidence(previous, candidates, seed=0):
+    bootstrap = Bootstrap(previous.size, 1000, seed)
+    return bootstrap, {name: bootstrap.evidence(previous, per_window) for name, per_window in candidates.items()}
+
+
+def test_the_rule_none_at_the_floor_an_effect_when_supported_nothing_otherwise():
     rng = np.random.default_rng(0)
     floor = rng.normal(0.0, 0.01, 60)
-    assert decide(floor, {"arm_spring": floor * 0.5}).verdict == "none"
+    assert Bootstrap(60, 1000, 0).at_floor(floor)
     nominal = 4.0 + rng.normal(0.0, 0.5, 60)
+    assert not Bootstrap(60, 1000, 0).at_floor(nominal)
     closed = {"input_delay": 0.05 * nominal, "actuator_lag": 0.2 * nominal, "arm_spring": 0.95 * nominal}
-    decision = decide(nominal, closed)
-    assert decision.verdict == "input_delay" and decision.effects == ["input_delay"]
-    assert decide(nominal, {"arm_spring": 0.9 * nominal}).verdict == "unexplained"
+    _, evidence = _evidence(nominal, closed)
+    assert choose(evidence, {name: name for name in closed}) == "input_delay"
+    _, evidence = _evidence(nominal, {"arm_spring": 0.95 * nominal})  # 2.5 % of the gap: not supported
+    assert choose(evidence, {"arm_spring": "arm_spring"}) is None
 
 
-def test_decide_prefers_the_simpler_of_two_equal_explanations():
+def test_the_rule_prefers_the_simpler_of_two_equal_explanations():
     nominal = np.full(40, 9.0) + np.random.default_rng(1).normal(0, 0.2, 40)
-    decision = decide(nominal, {"arm_stribeck": 0.04 * nominal, "arm_coulomb_friction": 0.05 * nominal})
-    assert decision.verdict == "arm_coulomb_friction"
+    _, evidence = _evidence(nominal, {"arm_stribeck": 0.04 * nominal, "arm_coulomb_friction": 0.05 * nominal})
+    assert choose(evidence, {"arm_stribeck": "arm_stribeck", "arm_coulomb_friction": "arm_coulomb_friction"}) \
+        == "arm_coulomb_friction"
+
+
+def test_a_second_effect_is_judged_against_the_model_holding_the_first():
+    """A strong first effect leaves 5 % of the excess; a second effect that removes 60 % of what is left is
+    accepted at the next step (its reduction over the model holding the first, bounded below by the bootstrap,
+    exceeds the margin), although it adds little to the reduction from nominal; one that removes 5 % is not."""
+    rng = np.random.default_rng(3)
+    after_first = 0.05 * (16.0 + rng.normal(0.0, 1.0, 80))
+    second, weak = "arm_coulomb_friction+actuator_lag", "arm_coulomb_friction+arm_spring"
+    candidates = {second: 0.4 * after_first * rng.uniform(0.8, 1.2, 80), weak: 0.95 * after_first}
+    added = {second: "actuator_lag", weak: "arm_spring"}
+    _, evidence = _evidence(after_first, candidates)
+    assert evidence[second].lower_bound > MARGIN
+    assert choose(evidence, added) == second
+    assert choose({weak: evidence[weak]}, added) is None
+
+
+def test_two_laws_that_explain_the_data_alike_are_confusable_and_a_clear_winner_is_not():
+    rng = np.random.default_rng(4)
+    nominal = 9.0 + rng.normal(0.0, 1.0, 60)
+    noise = rng.normal(0.0, 0.05, (2, 60))
+    candidates = {"input_delay": 0.1 * nominal + noise[0], "actuator_lag": 0.1 * nominal + noise[1],
+                  "arm_spring": 0.5 * nominal}
+    added = {name: name for name in candidates}
+    bootstrap, evidence = _evidence(nominal, candidates)
+    chosen = choose(evidence, added)
+    pairs = confusable(chosen, evidence, added, nominal, candidates, bootstrap)
+    assert [sorted(pair["effects"]) for pair in pairs] == [["actuator_lag", "input_delay"]]
+    assert "holds 0" in pairs[0]["why"]
 
 
 def balancing_log(rig_name: str, seed: int, effect: str, level: int, duration: float) -> RunLog:
@@ -149,9 +192,10 @@ def test_the_true_model_of_a_balancing_run_with_stiction_predicts_it(rig_name, e
     windows = make_windows([balancing_log(rig_name, 11, effect, 2, 8.0)], rig)
     nominal = Model.from_rig(rig)
     if effect == "arm_stribeck":
-        params = [truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity, truth.coulomb_pos / truth.sigma0]
+        params = Effect("presliding", (truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity,
+                                       truth.bristle_bound))
     else:
-        params = [truth.coulomb_pos, truth.viscous]
+        params = Effect("", (truth.coulomb_pos, truth.viscous))
     true_gap = evaluate_gap(apply_effects(nominal, {effect: params}), windows, rig.counts_per_rev).gap
     assert true_gap < evaluate_gap(nominal, windows, rig.counts_per_rev).gap / 3.0
 
@@ -162,18 +206,19 @@ def test_two_models_at_the_floor_are_told_apart_by_the_residual_below_it():
     rng = np.random.default_rng(2)
     nominal = 0.25 + rng.normal(0.0, 0.02, 60)
     for better, worse in (("input_delay", "actuator_lag"), ("actuator_lag", "input_delay")):
-        decision = decide(nominal, {better: rng.normal(-0.02, 0.005, 60), worse: rng.normal(-0.002, 0.005, 60)})
-        assert decision.verdict == better
+        _, evidence = _evidence(nominal, {better: rng.normal(-0.02, 0.005, 60), worse: rng.normal(-0.002, 0.005, 60)})
+        assert choose(evidence, {better: better, worse: worse}) == better
 
 
-def test_every_vocabulary_effect_is_a_candidate():
+def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model():
     from furuta_drake.diagnosis.suite import VOCABULARY
     assert set(CANDIDATES) == set(VOCABULARY)
     model = Model.from_rig(RIGS["qube_servo2"]())
     for name, candidate in CANDIDATES.items():
-        low, high = candidate.bounds(_scales(model))
-        changed = apply_effects(model, {name: [0.5 * (lo + hi) for lo, hi in zip(low, high)]})
-        assert changed != model, name
+        for form in candidate.forms:
+            low, high = form.bounds(_scales(model))
+            changed = apply_effects(model, {name: Effect(form.name, [0.5 * (lo + hi) for lo, hi in zip(low, high)])})
+            assert changed != model, (name, form.name)
 
 
 def _scales(model):
@@ -182,10 +227,11 @@ def _scales(model):
 
 
 def test_fitted_model_is_a_simulate_config_that_runs():
-    from furuta_drake.diagnosis.pipeline import fitted_config
+    from furuta_drake.diagnosis.pipeline import nominal_config
     rig = RIGS["lund"]()
-    model = apply_effects(Model.from_rig(rig), {"arm_coulomb_friction": [0.01, 2e-3], "input_delay": [0.003]})
-    config = fitted_config(rig, model)
+    model = apply_effects(Model.from_rig(rig), {"arm_coulomb_friction": Effect("presliding", (0.01, 2e-3)),
+                                                "input_delay": Effect("", (0.003,))})
+    config = nominal_config(rig, model)
     config.validate()
     config = dataclasses.replace(config, duration=0.5)
     result = simulate(config)
@@ -193,22 +239,27 @@ def test_fitted_model_is_a_simulate_config_that_runs():
     assert isinstance(config, SimulationConfig)
 
 
-def test_decide_accepts_a_pair_only_when_it_closes_most_of_what_its_best_member_leaves():
-    rng = np.random.default_rng(2)
-    nominal = 16.0 + rng.normal(0.0, 1.0, 60)
-    masked = {"arm_coulomb_friction": 0.25 * nominal, "input_delay": 0.99 * nominal,
-              "arm_coulomb_friction+input_delay": 0.01 * nominal}
-    assert sorted(decide(nominal, masked).effects) == ["arm_coulomb_friction", "input_delay"]
-    # A second effect that shaves a gap already near the floor is no pair.
-    shaved = {"actuator_lag": 0.0004 * nominal, "actuator_lag+input_delay": 0.0001 * nominal}
-    assert decide(nominal, shaved).effects == ["actuator_lag"]
+def test_the_two_dead_zone_forms_map_commands_as_their_names_say():
+    """subtract: the width is taken off larger commands; threshold: smaller commands are dropped, larger ones
+    pass whole; both in the surrogate and in Drake's actuator chain."""
+    from pydrake.systems.framework import DiagramBuilder
 
-
-def test_pairs_join_the_best_candidate_with_every_effect_outside_its_law():
-    from furuta_drake.diagnosis.pipeline import pair_groups
-    order = ["friction_asymmetry", "arm_coulomb_friction", "arm_stribeck", "arm_viscous_friction", "input_delay"]
-    assert pair_groups(order, "arm_coulomb_friction") == [("arm_coulomb_friction", "arm_viscous_friction"),
-                                                          ("arm_coulomb_friction", "input_delay")]
+    from furuta_drake.actuator import ActuatorParameters, add_actuator
+    from furuta_drake.diagnosis.surrogate import applied_torque
+    commands = np.array([-0.03, -0.01, 0.0, 0.005, 0.02])
+    expected = {"subtract": [-0.02, 0.0, 0.0, 0.0, 0.01], "threshold": [-0.03, 0.0, 0.0, 0.0, 0.02]}
+    for form, values in expected.items():
+        model = apply_effects(Model.from_rig(RIGS["lund"]()), {"actuator_deadzone": Effect(form, (0.01,))})
+        np.testing.assert_allclose(applied_torque(model, commands), values, atol=1e-15)
+        builder = DiagramBuilder()
+        entry, out = add_actuator(builder, ActuatorParameters(deadzone=0.01, deadzone_form=form), 1e-3)
+        builder.ExportInput(entry)
+        builder.ExportOutput(out)
+        diagram = builder.Build()
+        context = diagram.CreateDefaultContext()
+        for command, value in zip(commands, values):
+            diagram.get_input_port().FixValue(context, [command])
+            assert diagram.get_output_port().Eval(context)[0] == pytest.approx(value, abs=1e-15)
 
 
 @settings(max_examples=25, deadline=None)
@@ -248,7 +299,8 @@ def test_hidden_lugre_stribeck_friction_is_the_stribeck_candidate_at_its_true_le
     truth = with_effect(SimulationConfig.from_rig(rig), "arm_stribeck", 2).friction.arm
     logs = [hanging_log(6, "arm_stribeck")]
     windows = make_windows(logs, rig)
-    params = [truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity, truth.coulomb_pos / truth.sigma0]
+    params = Effect("presliding", (truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity,
+                                   truth.bristle_bound))
     model = apply_effects(Model.from_rig(rig).replace(arm_friction=dataclasses.replace(
         Model.from_rig(rig).arm_friction, viscous=truth.viscous)), {"arm_stribeck": params})
     nominal = evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev).gap
@@ -259,14 +311,9 @@ def test_hidden_lugre_stribeck_friction_is_the_stribeck_candidate_at_its_true_le
 
 
 def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
-    from furuta_drake.diagnosis.fit import FitResult
-    from furuta_drake.diagnosis.pipeline import name_static_free_stribeck
-    from furuta_drake.diagnosis.select import Decision
-    decision = Decision("arm_stribeck", ["arm_stribeck"], "arm_stribeck")
-    flat = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.0095, 0.1, 1e-3]}, 0.1, True, "")}
-    assert name_static_free_stribeck(decision, flat).effects == ["arm_coulomb_friction"]
-    peaked = {"arm_stribeck": FitResult("arm_stribeck", {"arm_stribeck": [0.01, 0.02, 0.1, 1e-3]}, 0.1, True, "")}
-    assert name_static_free_stribeck(decision, peaked).verdict == "arm_stribeck"
+    from furuta_drake.diagnosis.pipeline import _vocabulary_name
+    assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.0105, 0.1, 1e-3))) == "arm_coulomb_friction"
+    assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.02, 0.1, 1e-3))) == "arm_stribeck"
 
 
 @settings(max_examples=30, deadline=None)
@@ -298,6 +345,6 @@ def test_parameters_fitted_at_a_bound_of_their_range_are_named():
     from furuta_drake.diagnosis.fit import at_bounds
     low, high = np.array([0.0, 0.0, 0.01, 1e-4]), np.array([0.05, 1.0, 1.0, 0.05])
     x = np.array([0.0, 0.5, 1.0 - 1e-6, 0.01])
-    assert at_bounds(("arm_stribeck",), x, low, high) == ["arm_stribeck.coulomb (lower)",
-                                                         "arm_stribeck.stribeck_velocity (upper)"]
-    assert at_bounds(("arm_stribeck",), np.array([0.01, 0.5, 0.1, 0.01]), low, high) == []
+    assert at_bounds(("arm_stribeck",), ["presliding"], x, low, high) == [
+        "arm_stribeck.coulomb (lower)", "arm_stribeck.stribeck_velocity (upper)"]
+    assert at_bounds(("arm_stribeck",), ["presliding"], np.array([0.01, 0.5, 0.1, 0.01]), low, high) == []

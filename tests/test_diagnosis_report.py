@@ -1,4 +1,5 @@
-"""The diagnosis' output directory: spec keys and types, byte-identical JSON, atomic writes, plots, provenance."""
+"""The diagnosis' output directory: the contract's keys and types, byte-identical JSON, atomic writes, plots,
+provenance, and report.json as the serialised Diagnosis (old reports read too)."""
 
 import copy
 import hashlib
@@ -14,6 +15,7 @@ from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.logs import WindowResiduals
 from furuta_drake.diagnosis.report import (check_report, effect_curve, input_record, report_json, residual_psd,
                                            write_report)
+from furuta_drake.diagnosis.result import Artifacts, Diagnosis
 from furuta_drake.errors import ConfigError
 from furuta_drake.outputs import atomic_output_dir
 from furuta_drake.rig import RigParameters, lund_rig
@@ -63,11 +65,35 @@ def inputs(tmp_path):
     record = input_record(rig_path=rig_path, train=logs[:1], heldout=logs[1:], seeds={"fit": 7},
                           options={"horizon_s": 0.2})
     rig = lund_rig()
-    return dict(report=report, before=before, after=after,
-                curves=[effect_curve("arm_coulomb_friction", {"coulomb": 0.0151}, rig)],
-                fitted_config=rig.replace(arm_coulomb=0.0151), config_record=record,
-                threshold_note="lower 95 % bootstrap bound of the held-out reduction above 5 %",
-                holdout_note="the --heldout logs"), logs + [rig_path]
+    artifacts = Artifacts(before, after, 1.0 / 12.0, [effect_curve("arm_coulomb_friction", {"coulomb": 0.0151}, rig)],
+                          fitted_config=rig.replace(arm_coulomb=0.0151),
+                          fitted_rig=rig.replace(effects={"arm_coulomb_friction": {"coulomb": 0.0151,
+                                                                                   "presliding": 0.002}}),
+                          record=record)
+    diagnosis = Diagnosis.from_json({**report, "rule": "lower 95 % bootstrap bound of the held-out reduction above 5 %",
+                                     "holdout": "the --heldout logs"})
+    diagnosis.artifacts = artifacts
+    return dict(report=report, diagnosis=diagnosis), logs + [rig_path]
+
+
+def test_report_json_round_trips_through_the_diagnosis_and_reads_an_old_report(inputs):
+    """report.json is Diagnosis.to_json; from_json gives the same Diagnosis back; a report written before the
+    later keys (steps, params_ci, detection_limits, ...) reads with those empty and every old key intact."""
+    from pathlib import Path
+    kwargs, _ = inputs
+    text = report_json(kwargs["diagnosis"].to_json())
+    again = report_json(Diagnosis.from_json(json.loads(text)).to_json())
+    assert again == text
+    old = json.loads((Path(__file__).parent / "data" / "report_before_v2.json").read_text())
+    diagnosis = Diagnosis.from_json(old)
+    assert diagnosis.verdict == old["verdict"] and diagnosis.effects == old["effects"]
+    assert diagnosis.steps == [] and diagnosis.detection_limits == [] and diagnosis.consistency is None
+    assert [entry.effect for entry in diagnosis.ranking] == [entry["effect"] for entry in old["ranking"]]
+    assert diagnosis.ranking[0].params == old["ranking"][0]["params"]
+    new = json.loads(report_json(diagnosis.to_json()))
+    for key in ("verdict", "effects", "localization"):
+        assert new[key] == old[key]
+    assert new["gap"]["nominal"] == old["gap"]["nominal"]
 
 
 def test_report_json_has_the_spec_keys_and_types(inputs):
@@ -107,8 +133,8 @@ def test_check_report_names_what_is_wrong(inputs, damage, message):
 
 def test_same_inputs_give_byte_identical_files(inputs, tmp_path):
     kwargs, protect = inputs
-    first = write_report(tmp_path / "a", **kwargs, protect=protect)
-    second = write_report(tmp_path / "b", **copy.deepcopy(kwargs), protect=protect)
+    first = write_report(tmp_path / "a", kwargs["diagnosis"], protect=protect)
+    second = write_report(tmp_path / "b", copy.deepcopy(kwargs["diagnosis"]), protect=protect)
     names = sorted(p.name for p in first.iterdir())
     assert names == sorted(p.name for p in second.iterdir())
     for name in names:
@@ -117,17 +143,17 @@ def test_same_inputs_give_byte_identical_files(inputs, tmp_path):
 
 def test_directory_contents_plots_and_provenance(inputs, tmp_path):
     kwargs, protect = inputs
-    out = write_report(tmp_path / "out", **kwargs, protect=protect)
+    out = write_report(tmp_path / "out", kwargs["diagnosis"], protect=protect)
     assert sorted(p.name for p in out.iterdir()) == [
-        "config.yaml", "effect_arm_coulomb_friction.png", "fitted_model.yaml", "report.json", "report.md",
-        "residual_spectra.png", "residuals.png"]
+        "config.yaml", "effect_arm_coulomb_friction.png", "fitted_model.yaml", "fitted_rig.yaml", "report.html",
+        "report.json", "report.md", "residual_spectra.png", "residuals.png"]
     for png in out.glob("*.png"):
         data = png.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
     markdown = (out / "report.md").read_text()
     for needle in ("`arm_coulomb_friction`", "](residuals.png)", "](residual_spectra.png)",
                    "](effect_arm_coulomb_friction.png)", "lower 95 % bootstrap bound", "rms 0.2 s-ahead",
-                   "| 1 | `arm_coulomb_friction` | coulomb = 0.01512 |", "arm velocity reversal", "84.8 %"):
+                   "| 1 | 1 | `arm_coulomb_friction` | coulomb = 0.01512 N m |", "arm velocity reversal", "84.8 %"):
         assert needle in markdown
     record = yaml.safe_load((out / "config.yaml").read_text())
     for entry in record["train"] + record["heldout"] + [record["rig"]]:
@@ -135,6 +161,10 @@ def test_directory_contents_plots_and_provenance(inputs, tmp_path):
     assert record["versions"]["numpy"] == np.__version__ and record["seeds"] == {"fit": 7}
     fitted = loads_yaml_dataclass((out / "fitted_model.yaml").read_text(), RigParameters)
     assert fitted.arm_coulomb == 0.0151 and fitted == lund_rig().replace(arm_coulomb=0.0151)
+    continued = loads_yaml_dataclass((out / "fitted_rig.yaml").read_text(), RigParameters)
+    assert continued.effects == {"arm_coulomb_friction": {"coulomb": 0.0151, "presliding": 0.002}}
+    html = (out / "report.html").read_text()
+    assert "arm_coulomb_friction" in html and "data:image/png;base64," in html
 
 
 def test_a_writer_failing_midway_leaves_no_directory(inputs, tmp_path, monkeypatch):
@@ -146,7 +176,7 @@ def test_a_writer_failing_midway_leaves_no_directory(inputs, tmp_path, monkeypat
     monkeypatch.setattr(report_module, "plot_spectra", broken)
     before = sorted(p.name for p in tmp_path.iterdir())
     with pytest.raises(RuntimeError, match="disk full"):
-        write_report(tmp_path / "out", **kwargs, protect=protect)
+        write_report(tmp_path / "out", kwargs["diagnosis"], protect=protect)
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # neither out nor a staging directory
 
 
@@ -156,13 +186,13 @@ def test_non_empty_output_needs_force_and_force_replaces_only_when_complete(inpu
     out.mkdir()
     (out / "old.txt").write_text("previous run")
     with pytest.raises(ConfigError, match="not empty; pass --force"):
-        write_report(out, **kwargs, protect=protect)
+        write_report(out, kwargs["diagnosis"], protect=protect)
     monkeypatch.setattr(report_module, "plot_residuals", lambda *a: (_ for _ in ()).throw(RuntimeError("x")))
     with pytest.raises(RuntimeError):
-        write_report(out, **kwargs, force=True, protect=protect)
+        write_report(out, kwargs["diagnosis"], force=True, protect=protect)
     assert sorted(p.name for p in out.iterdir()) == ["old.txt"]  # the failed run left the old results
     monkeypatch.undo()
-    write_report(out, **kwargs, force=True, protect=protect)
+    write_report(out, kwargs["diagnosis"], force=True, protect=protect)
     assert not (out / "old.txt").exists() and (out / "report.json").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["inputs", "out"]
 
@@ -170,7 +200,7 @@ def test_non_empty_output_needs_force_and_force_replaces_only_when_complete(inpu
 def test_force_never_deletes_the_inputs(inputs, tmp_path):
     kwargs, protect = inputs
     with pytest.raises(ConfigError, match="--force would delete"):
-        write_report(tmp_path / "inputs", **kwargs, force=True, protect=protect)
+        write_report(tmp_path / "inputs", kwargs["diagnosis"], force=True, protect=protect)
     assert all(p.exists() for p in protect)
 
 

@@ -1,23 +1,30 @@
-"""The effect vocabulary of the spec as candidates: parameters, bounds, starts, and how each one changes the
-surrogate model and a simulate config.
+"""The effect vocabulary as candidates: the forms each effect comes in, their parameters, bounds and starts, and
+how a fitted effect changes the surrogate model.
 
 Every parameter is in SI units and is the effect's own level (not an increment over the rig file), as the
-report's ranking lists it. The Coulomb and asymmetry candidates are Dahl friction (Eq. 7) and the Stribeck
-candidate is LuGre friction (Dahl's bristle saturating at the Stribeck curve g(v)): real arm friction has
-presliding (a bristle spring of a few mrad before gross sliding) that a static law misses at every velocity
-reversal, so its presliding displacement is fitted with the levels (a static-like law is its small end). Scales come from the rig: torques from m g l and the logged commands, damping
-from the lumped inertias, times from the sample period.
+report's ranking lists it. Real hardware has more than one form of an effect, so a candidate may hold several
+:class:`Form` s; the fit keeps the form that explains the train data best and the report names it:
+
+- arm friction (Coulomb, asymmetric, Stribeck) ``presliding``: Dahl friction (Eq. 7), or LuGre with the Stribeck
+  curve, with a fitted presliding displacement (the bristle spring a real joint shows at every velocity
+  reversal; a static law with stiction is its small end); ``smooth``: the static law with a fitted
+  regularisation velocity, F = -g(v) tanh(v / v_reg) (a joint that never sticks, as simulators often write it);
+- dead zone ``subtract``: u - sat_w(u) (the width is taken off every larger command, Simulink's Dead Zone);
+  ``threshold``: u where |u| > w, else 0 (small commands are dropped, larger ones pass whole).
+
+Scales come from the rig: torques from m g l and the logged commands, damping from the lumped inertias, times
+from the sample period.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
-from furuta_drake.diagnosis.surrogate import REGULARIZATION_VELOCITY, Model
+from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import JointFrictionParameters
 
 
@@ -33,113 +40,263 @@ class Scales:
 
 
 @dataclass(frozen=True)
-class Candidate:
+class Form:
+    """One form of an effect: its parameters, their search bounds and starts, and its change of the model."""
+
     name: str
     params: tuple[str, ...]
     bounds: Callable[[Scales], tuple[list[float], list[float]]]
     starts: Callable[[Scales], list[list[float]]]
     apply: Callable[[Model, np.ndarray], Model]
-    fit: bool = True  # False: estimated from the data directly (sensor effects)
 
 
-PRESLIDING = (1e-4, 0.05)  # bounds of the presliding displacement Fc / sigma0 of the Dahl arm friction [rad]
+@dataclass(frozen=True)
+class Candidate:
+    """An effect of the vocabulary. ``main``: the parameter whose size the detection limit states, with the
+    value the nominal model has (``neutral``); ``fit`` False: estimated from the data directly (sensor
+    effects)."""
+
+    name: str
+    forms: tuple[Form, ...]
+    main: str
+    neutral: float = 0.0
+    fit: bool = True
+
+    def form(self, name: str) -> Form:
+        return next(f for f in self.forms if f.name == name)
+
+    @property
+    def params(self) -> tuple[str, ...]:
+        """The first form's parameters."""
+        return self.forms[0].params
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A fitted (or stated) effect: the form and its parameter values in the form's order (SI)."""
+
+    form: str
+    values: tuple[float, ...] = field(default=())
+
+    def __post_init__(self):
+        object.__setattr__(self, "values", tuple(float(v) for v in self.values))
+
+
+PRESLIDING = (1e-5, 0.05)  # bounds of the presliding displacement Fc / sigma0 of the arm friction [rad]
 PRESLIDING_STARTS = (1e-3, 1e-2)  # [rad]
+REGULARIZATION = (1e-4, 1.0)  # bounds of the smooth form's regularisation velocity [rad/s]
+REGULARIZATION_STARTS = (3e-3, 0.05)  # [rad/s]
 # Starts of the arm friction levels [m g l]: the cost is multimodal in the level (a level far too low leaves the
-# arm free to move in the model where it sticks in the data, and the fit stalls), so they span two decades up to
-# the 0.2 m g l of the Lund rig's own friction.
+# arm free to move in the model where it sticks in the data, and the fit stalls), so they span two decades.
 FRICTION_LEVEL_STARTS = (0.005, 0.02, 0.06, 0.2)
+UNITS = {
+    "coulomb": "N m", "coulomb_pos": "N m", "coulomb_neg": "N m", "static": "N m", "presliding": "rad",
+    "regularization_velocity": "rad/s", "stribeck_velocity": "rad/s", "viscous": "N m s/rad",
+    "counts_per_rev": "counts/rev", "noise_std": "rad", "delay": "s", "gain": "-", "deadzone": "N m",
+    "time_constant": "s", "limit": "N m", "stiffness": "N m/rad", "equilibrium": "rad",
+    "arm_inertia_scale": "-", "pendulum_inertia_scale": "-", "coupling_scale": "-", "gravity_scale": "-",
+    "arm_inertia_total": "kg m^2", "pendulum_inertia_total": "kg m^2", "coupling": "kg m^2",
+    "gravity_torque": "N m",
+}
 
 
-def _dahl_arm(model: Model, coulomb_pos: float, coulomb_neg: float, presliding: float) -> Model:
-    """The arm's friction replaced by Dahl's (Eq. 7): Coulomb levels per direction, bristle stiffness
-    sigma0 = mean level / presliding displacement, the rig file's viscous term kept."""
-    sigma0 = max(0.5 * (coulomb_pos + coulomb_neg), 1e-9) / presliding
+def _bristle_arm(model: Model, coulomb_pos: float, coulomb_neg: float, presliding: float, static: float | None = None,
+                 stribeck_velocity: float = 0.05) -> Model:
+    """The arm's friction replaced by Dahl's (Eq. 7; levels per direction) or, with a ``static`` level, LuGre's
+    without bristle damping: sigma0 = the largest saturation level / ``presliding``, the viscous term kept."""
+    coulomb_pos, coulomb_neg = max(coulomb_pos, 1e-12), max(coulomb_neg, 1e-12)
+    if static is None:
+        return model.replace(arm_friction=JointFrictionParameters(
+            model="dahl", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg,
+            sigma0=max(coulomb_pos, coulomb_neg) / presliding, viscous=model.arm_friction.viscous))
+    static = max(static, coulomb_pos)
     return model.replace(arm_friction=JointFrictionParameters(
-        model="dahl", coulomb_pos=max(coulomb_pos, 1e-12), coulomb_neg=max(coulomb_neg, 1e-12), sigma0=sigma0,
+        model="lugre", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_pos, static_pos=static, static_neg=static,
+        stribeck_velocity=stribeck_velocity, sigma0=static / presliding, sigma1=0.0,
         viscous=model.arm_friction.viscous))
 
 
-def _lugre_arm(model: Model, coulomb: float, static: float, stribeck_velocity: float, presliding: float) -> Model:
-    """The arm's friction replaced by LuGre's without bristle damping: the Stribeck curve g(v) from the
-    Coulomb to the static level, sigma0 = Coulomb level / presliding displacement, the rig's viscous term."""
-    coulomb = max(coulomb, 1e-12)
+def _smooth_arm(model: Model, coulomb_pos: float, coulomb_neg: float, regularization: float,
+                static: float | None = None, stribeck_velocity: float = 0.05) -> Model:
+    """The arm's friction replaced by the static law -(g(v) tanh(v / v_reg) + b v), the viscous term kept."""
     return model.replace(arm_friction=JointFrictionParameters(
-        model="lugre", coulomb_pos=coulomb, coulomb_neg=coulomb, static_pos=static, static_neg=static,
-        stribeck_velocity=stribeck_velocity, sigma0=coulomb / presliding, sigma1=0.0,
-        viscous=model.arm_friction.viscous))
+        model="static", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg,
+        static_pos=None if static is None else max(static, coulomb_pos),
+        static_neg=None if static is None else max(static, coulomb_pos), stribeck_velocity=stribeck_velocity,
+        regularization_velocity=regularization, viscous=model.arm_friction.viscous))
 
 
-def _arm(model: Model, **changes) -> Model:
-    return model.replace(arm_friction=dataclasses.replace(model.arm_friction, **changes))
+def _arm(m: Model, **changes) -> Model:
+    return m.replace(arm_friction=dataclasses.replace(m.arm_friction, **changes))
+
+
+def _friction_forms(params: tuple[str, ...], bounds: Callable, starts: Callable, bristle: Callable,
+                    smooth: Callable) -> tuple[Form, ...]:
+    """The ``presliding`` and ``smooth`` forms of an arm friction candidate: its ``params`` (levels, then any
+    Stribeck parameters) with ``bounds(s)`` and ``starts(s)``, then the presliding displacement or the
+    regularisation velocity, each with its own bounds and starts."""
+    def form(name, last, last_bounds, last_starts, apply):
+        return Form(name, params + (last,),
+                    lambda s: (bounds(s)[0] + [last_bounds[0]], bounds(s)[1] + [last_bounds[1]]),
+                    lambda s: [start + [value] for start in starts(s) for value in last_starts], apply)
+    return (form("presliding", "presliding", PRESLIDING, PRESLIDING_STARTS, bristle),
+            form("smooth", "regularization_velocity", REGULARIZATION, REGULARIZATION_STARTS, smooth))
+
+
+def _deadzone(form: str) -> Form:
+    return Form(form, ("deadzone",), lambda s: ([0.0], [0.5 * s.command]),
+                lambda s: [[0.01 * s.command], [0.05 * s.command], [0.15 * s.command]],
+                lambda m, p: m.replace(deadzone=p[0], deadzone_form=form))
+
+
+def _single(params, bounds, starts, apply) -> tuple[Form, ...]:
+    return (Form("", params, bounds, starts, apply),)
 
 
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
-    Candidate("arm_coulomb_friction", ("coulomb", "presliding"),
-              lambda s: ([0.0, PRESLIDING[0]], [0.5 * s.torque, PRESLIDING[1]]),
-              lambda s: [[level * s.torque, z] for level in FRICTION_LEVEL_STARTS for z in PRESLIDING_STARTS],
-              lambda m, p: _dahl_arm(m, p[0], p[0], p[1])),
-    Candidate("arm_viscous_friction", ("viscous",),
-              lambda s: ([0.0], [50.0 * s.arm_inertia]), lambda s: [[0.1 * s.arm_inertia], [1.0 * s.arm_inertia],
-                                                                  [5.0 * s.arm_inertia]],
-              lambda m, p: _arm(m, viscous=p[0])),
-    Candidate("arm_stribeck", ("coulomb", "static", "stribeck_velocity", "presliding"),
-              lambda s: ([0.0, 0.0, 0.01, PRESLIDING[0]], [0.5 * s.torque, 1.0 * s.torque, 1.0, PRESLIDING[1]]),
-              lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1, z] for level in FRICTION_LEVEL_STARTS
-                         for z in PRESLIDING_STARTS],
-              lambda m, p: _lugre_arm(m, p[0], max(p[1], p[0]), p[2], p[3])),
-    Candidate("friction_asymmetry", ("coulomb_pos", "coulomb_neg", "presliding"),
-              lambda s: ([0.0, 0.0, PRESLIDING[0]], [0.5 * s.torque, 0.5 * s.torque, PRESLIDING[1]]),
-              lambda s: [[level * s.torque, level * s.torque, z] for level in FRICTION_LEVEL_STARTS
-                         for z in PRESLIDING_STARTS]
-              + [[level * ratio * s.torque, level / ratio * s.torque, PRESLIDING_STARTS[0]]
-                 for level in FRICTION_LEVEL_STARTS for ratio in (0.8, 1.25)],
-              lambda m, p: _dahl_arm(m, p[0], p[1], p[2])),
-    Candidate("pendulum_friction", ("coulomb", "viscous"),
-              lambda s: ([0.0, 0.0], [0.1 * s.torque, 20.0 * s.pendulum_inertia]),
-              lambda s: [[0.0005 * s.torque, 0.02 * s.pendulum_inertia], [0.005 * s.torque, 0.2 * s.pendulum_inertia]],
-              lambda m, p: m.replace(pendulum_friction=dataclasses.replace(
-                  m.pendulum_friction, coulomb_pos=p[0], coulomb_neg=p[0], viscous=p[1]))),
-    Candidate("encoder_quantization", ("counts_per_rev",), lambda s: ([4.0], [1e7]), lambda s: [],
-              lambda m, p: m.replace(counts_per_rev=int(round(p[0]))), fit=False),
-    Candidate("measurement_noise", ("noise_std",), lambda s: ([0.0], [1.0]), lambda s: [],
-              lambda m, p: m.replace(noise_std=float(p[0])), fit=False),
-    Candidate("input_delay", ("delay",),
-              lambda s: ([0.0], [20.0 * s.period]), lambda s: [[0.5 * s.period], [2.0 * s.period], [5.0 * s.period]],
-              lambda m, p: m.replace(delay=p[0])),
-    Candidate("torque_gain_error", ("gain",), lambda s: ([0.2], [5.0]), lambda s: [[1.0]],
-              lambda m, p: m.replace(gain=p[0])),
-    Candidate("actuator_deadzone", ("deadzone",),
-              lambda s: ([0.0], [0.5 * s.command]), lambda s: [[0.01 * s.command], [0.05 * s.command], [0.15 * s.command]],
-              lambda m, p: m.replace(deadzone=p[0])),
-    Candidate("actuator_lag", ("time_constant",),
-              lambda s: ([0.0], [0.1]), lambda s: [[0.5 * s.period], [2.0 * s.period], [0.01]],
-              lambda m, p: m.replace(lag=p[0])),
-    Candidate("actuator_saturation", ("limit",),
-              lambda s: ([0.05 * s.command], [1.0 * s.command]), lambda s: [[0.95 * s.command], [0.7 * s.command], [0.4 * s.command]],
-              lambda m, p: m.replace(saturation=p[0])),
-    Candidate("arm_spring", ("stiffness", "equilibrium"),
-              lambda s: ([0.0, -1.0], [5.0 * s.torque, 1.0]), lambda s: [[0.01 * s.torque, 0.0], [0.1 * s.torque, 0.0]],
-              lambda m, p: m.replace(spring_stiffness=p[0], spring_equilibrium=p[1])),
-    Candidate("inertia_mismatch", ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale",
-                                   "gravity_scale"),
-              lambda s: ([0.3] * 4, [3.0] * 4), lambda s: [[1.0] * 4],
-              lambda m, p: m.replace(a=m.a * p[0], b=m.b * p[1], c=m.c * p[2], d=m.d * p[3])),
+    Candidate("arm_coulomb_friction", _friction_forms(
+        ("coulomb",), lambda s: ([0.0], [0.5 * s.torque]),
+        lambda s: [[level * s.torque] for level in FRICTION_LEVEL_STARTS],
+        lambda m, p: _bristle_arm(m, p[0], p[0], p[1]), lambda m, p: _smooth_arm(m, p[0], p[0], p[1])),
+        main="coulomb"),
+    Candidate("arm_viscous_friction", _single(
+        ("viscous",), lambda s: ([0.0], [50.0 * s.arm_inertia]),
+        lambda s: [[0.1 * s.arm_inertia], [1.0 * s.arm_inertia], [5.0 * s.arm_inertia]],
+        lambda m, p: _arm(m, model="static" if m.arm_friction.model == "none" else m.arm_friction.model,
+                          viscous=p[0])), main="viscous"),
+    Candidate("arm_stribeck", _friction_forms(
+        ("coulomb", "static", "stribeck_velocity"), lambda s: ([0.0, 0.0, 0.01], [0.5 * s.torque, s.torque, 1.0]),
+        lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1] for level in FRICTION_LEVEL_STARTS],
+        lambda m, p: _bristle_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2]),
+        lambda m, p: _smooth_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2])),
+        main="static"),
+    Candidate("friction_asymmetry", _friction_forms(
+        ("coulomb_pos", "coulomb_neg"), lambda s: ([0.0, 0.0], [0.5 * s.torque, 0.5 * s.torque]),
+        lambda s: [[level * ratio * s.torque, level / ratio * s.torque] for level in FRICTION_LEVEL_STARTS
+                   for ratio in (1.0, 0.8, 1.25)],
+        lambda m, p: _bristle_arm(m, p[0], p[1], p[2]), lambda m, p: _smooth_arm(m, p[0], p[1], p[2])),
+        main="coulomb_neg"),
+    Candidate("pendulum_friction", _single(
+        ("coulomb", "viscous"), lambda s: ([0.0, 0.0], [0.1 * s.torque, 20.0 * s.pendulum_inertia]),
+        lambda s: [[0.0005 * s.torque, 0.02 * s.pendulum_inertia], [0.005 * s.torque, 0.2 * s.pendulum_inertia]],
+        lambda m, p: m.replace(pendulum_friction=dataclasses.replace(
+            m.pendulum_friction, coulomb_pos=p[0], coulomb_neg=p[0], viscous=p[1]))), main="coulomb"),
+    Candidate("encoder_quantization", _single(
+        ("counts_per_rev",), lambda s: ([4.0], [1e7]), lambda s: [],
+        lambda m, p: m.replace(counts_per_rev=int(round(p[0])))), main="counts_per_rev", fit=False),
+    Candidate("measurement_noise", _single(
+        ("noise_std",), lambda s: ([0.0], [1.0]), lambda s: [], lambda m, p: m.replace(noise_std=float(p[0]))),
+        main="noise_std", fit=False),
+    Candidate("input_delay", _single(
+        ("delay",), lambda s: ([0.0], [20.0 * s.period]),
+        lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 3.5, 6.0, 10.0)], lambda m, p: m.replace(delay=p[0])),
+        main="delay"),
+    Candidate("torque_gain_error", _single(
+        ("gain",), lambda s: ([0.2], [5.0]), lambda s: [[0.7], [1.0], [1.4]], lambda m, p: m.replace(gain=p[0])),
+        main="gain", neutral=1.0),
+    Candidate("actuator_deadzone", (_deadzone("subtract"), _deadzone("threshold")), main="deadzone"),
+    Candidate("actuator_lag", _single(
+        ("time_constant",), lambda s: ([0.0], [0.1]),
+        lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 4.0, 8.0)] + [[0.01], [0.03]],
+        lambda m, p: m.replace(lag=p[0])), main="time_constant"),
+    Candidate("actuator_saturation", _single(
+        ("limit",), lambda s: ([0.05 * s.command], [1.0 * s.command]),
+        lambda s: [[0.95 * s.command], [0.7 * s.command], [0.4 * s.command]],
+        lambda m, p: m.replace(saturation=p[0])), main="limit"),
+    Candidate("arm_spring", _single(
+        ("stiffness", "equilibrium"), lambda s: ([0.0, -1.0], [5.0 * s.torque, 1.0]),
+        lambda s: [[0.01 * s.torque, 0.0], [0.1 * s.torque, 0.0]],
+        lambda m, p: m.replace(spring_stiffness=p[0], spring_equilibrium=p[1])), main="stiffness"),
+    Candidate("inertia_mismatch", _single(  # scales of the rig file's a, b, c, d (Model.rig_constants)
+        ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale"),
+        lambda s: ([0.3] * 4, [3.0] * 4), lambda s: [[1.0] * 4],
+        lambda m, p: m.replace(**{key: base * scale for key, base, scale in zip("abcd", m.rig_constants, p)})),
+        main="arm_inertia_scale", neutral=1.0),
 ]}
+# Variants of one law (each holds the arm's Coulomb level): one model never holds two of them.
+SAME_LAW = (frozenset({"arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"}),)
 
 
-def apply_effects(model: Model, effects: dict[str, np.ndarray]) -> Model:
-    """``model`` with every (effect name -> parameter vector) applied in turn."""
-    for name, params in effects.items():
-        model = CANDIDATES[name].apply(model, np.asarray(params, dtype=float))
+def law_of(name: str) -> frozenset[str]:
+    """The candidates that are variants of ``name``'s law (``name`` alone for most effects)."""
+    return next((law for law in SAME_LAW if name in law), frozenset({name}))
+
+
+def apply_effects(model: Model, effects: dict[str, Effect]) -> Model:
+    """``model`` with every (effect name -> :class:`Effect`) applied in turn."""
+    for name, effect in effects.items():
+        model = CANDIDATES[name].form(effect.form).apply(model, np.asarray(effect.values, dtype=float))
     return model
 
 
-def describe(name: str, params, nominal: Model) -> dict[str, float]:
-    """SI parameters for the report; inertia scales are also given as the lumped constants they produce."""
-    values = {key: float(v) for key, v in zip(CANDIDATES[name].params, params)}
-    if name == "inertia_mismatch":
-        values.update(arm_inertia_total=nominal.a * values["arm_inertia_scale"],
-                      pendulum_inertia_total=nominal.b * values["pendulum_inertia_scale"],
-                      coupling=nominal.c * values["coupling_scale"],
-                      gravity_torque=nominal.d * values["gravity_scale"])
+def describe(name: str, effect: Effect, nominal: Model) -> dict[str, float | str]:
+    """SI parameters for the report (with the form when the effect has several); inertia scales are also given
+    as the lumped constants they produce."""
+    candidate = CANDIDATES[name]
+    values: dict[str, float | str] = {
+        key: float(v) for key, v in zip(candidate.form(effect.form).params, effect.values)}
+    if name == "inertia_mismatch":  # the scales are of the rig file's lumped constants
+        a, b, c, d = nominal.rig_constants
+        values.update(arm_inertia_total=a * values["arm_inertia_scale"],
+                      pendulum_inertia_total=b * values["pendulum_inertia_scale"],
+                      coupling=c * values["coupling_scale"], gravity_torque=d * values["gravity_scale"])
+    if len(candidate.forms) > 1:
+        values["form"] = effect.form
     return values
+
+
+def effect_from_params(name: str, params: dict) -> Effect:
+    """The :class:`Effect` that :func:`describe` reports as ``params`` (the form, then its parameters by name;
+    derived entries are ignored); KeyError naming a missing parameter, ValueError an unknown form."""
+    candidate = CANDIDATES[name]
+    form_name = params.get("form", candidate.forms[0].name)
+    if form_name not in {f.name for f in candidate.forms}:
+        raise ValueError(f"{name}: unknown form {form_name!r} (known: {', '.join(f.name for f in candidate.forms)})")
+    form = candidate.form(form_name)
+    return Effect(form_name, tuple(float(params[key]) for key in form.params))
+
+
+POSITIVE = {"presliding", "regularization_velocity", "stribeck_velocity", "gain", "arm_inertia_scale",
+            "pendulum_inertia_scale", "coupling_scale", "gravity_scale", "counts_per_rev", "limit"}
+SIGNED = {"equilibrium"}
+
+
+def rig_effects(rig) -> dict[str, Effect]:
+    """The effects a rig file's optional ``effects:`` section states (vocabulary names -> parameters by name, with
+    ``form`` for an effect of several forms), checked; ConfigError naming ``effects.<effect>.<param>``."""
+    from furuta_drake.errors import ConfigError
+
+    out = {}
+    for name, params in (rig.effects or {}).items():
+        where = f"effects.{name}"
+        if name not in CANDIDATES:
+            raise ConfigError(f"{where}: unknown effect {name!r} (the vocabulary: {', '.join(CANDIDATES)})")
+        if not isinstance(params, dict):
+            raise ConfigError(f"{where}: expected a mapping of parameter names to values")
+        candidate = CANDIDATES[name]
+        forms = [f.name for f in candidate.forms]
+        form = params.get("form", forms[0])
+        if form not in forms:
+            raise ConfigError(f"{where}.form: {form!r} is not a form of {name} (forms: {', '.join(forms)})")
+        expected = candidate.form(form).params
+        for key, value in params.items():
+            if key == "form":
+                continue
+            if key not in expected:
+                raise ConfigError(f"{where}.{key}: unknown parameter of {name} ({form or 'its'} form: "
+                                  f"{', '.join(expected)})")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+                raise ConfigError(f"{where}.{key} must be a finite number [{UNITS[key]}], got {value!r}")
+            if (key in POSITIVE and value <= 0) or (key not in SIGNED and value < 0):
+                raise ConfigError(f"{where}.{key} must be {'positive' if key in POSITIVE else 'non-negative'} "
+                                  f"[{UNITS[key]}], got {value!r}")
+        missing = [key for key in expected if key not in params]
+        if missing:
+            raise ConfigError(f"{where}: missing parameter {', '.join(missing)} of {name}")
+        out[name] = effect_from_params(name, params)
+    return out
+
+
+def rig_model(rig) -> Model:
+    """The nominal model of a rig file: its bodies, friction and motor, and the effects it states."""
+    return apply_effects(Model.from_rig(rig), rig_effects(rig))

@@ -1,8 +1,15 @@
-"""Fit each candidate on the train windows: bounded least squares of the k-step residuals
-(``scipy.optimize.least_squares`` from the best of several starts where the cost is multimodal), in parallel over
-candidates. The cost re-projects the windows' initial states for every parameter vector (variable projection);
-its Jacobian is Kaufman's approximation (the residuals' change at the projected states, with the part the
-states could absorb projected out), so a column costs one batch prediction.
+"""Fit candidate effects on the train windows and measure them on the held-out windows (stage 3 of the diagnosis).
+
+A fit is bounded least squares of the k-step residuals (``scipy.optimize.least_squares``) from the best of
+several starts where the cost is multimodal, once per form of the new effect; the form with the lower train cost
+is kept. The cost re-projects the windows' initial states for every parameter vector (variable projection); its
+Jacobian is Kaufman's approximation (the residuals' change at the projected states, with the part the states
+could absorb projected out), so a column costs one batch prediction.
+
+Parameter intervals come from a block bootstrap over the train windows, linearised at the fit: each resample of
+windows (a window is a block: its residuals are correlated) takes one Gauss-Newton step from the fit with the
+resampled windows' normal equations, and the 2.5-97.5 % range of the steps, taken relative to the step of all
+windows, is the 95 % interval.
 
 The sensor effects are estimated from the data directly, because no trajectory can fit white noise:
 ``encoder_quantization`` from the grid the angle increments lie on (the largest k such that every increment is
@@ -18,38 +25,60 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, Scales, apply_effects
+from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, Scales, apply_effects
 from furuta_drake.diagnosis.gap import (
-    Windows, evaluate_gap, fixed_state_residuals, project_out_states, projected_residuals, residuals,
+    GapResult, Windows, evaluate_gap, fixed_state_residuals, project_out_states, projected_residuals,
 )
 from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.parallel import map_in_processes
+from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
 
-FIT_WINDOWS = 40  # windows of the train logs used in the least squares (evenly drawn, seeded)
-START_WINDOWS = 16  # of those, the windows that rank the starts of a fit
-MAX_NFEV = 20  # cost evaluations of one least-squares fit (Jacobians not counted)
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise
+BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a bound is "at" it
+INTERVAL = (2.5, 97.5)  # percentiles of the 95 % parameter intervals
 
 
 @dataclass
 class FitResult:
-    name: str  # a candidate, or "a+b" for a pair
-    effects: dict[str, list[float]]  # effect name -> fitted parameters (SI)
+    """A fitted group of effects (one name, or the names of a stepwise model joined by '+')."""
+
+    name: str
+    effects: dict[str, Effect]  # effect name -> fitted form and parameters (SI)
     train_gap: float  # [counts]
-    success: bool
-    message: str
+    heldout: GapResult | None  # the model's gap on the held-out windows (None: not evaluated)
+    samples: dict[str, np.ndarray] = field(default_factory=dict)  # effect -> (resamples, params) bootstrap
     at_bounds: list[str] = field(default_factory=list)  # "effect.param (lower|upper)" fitted at a search bound
+    failure: str = ""  # why the fit or its held-out prediction failed ("" when it did not)
 
 
-def scales_of(logs: list[RunLog], model: Model) -> Scales:
+@dataclass(frozen=True)
+class FitTask:
+    """What one fit needs; ``fixed``: effects the model already holds (fitted again from their values), then
+    ``new``: the effect to add."""
+
+    new: str
+    fixed: dict[str, Effect]
+    model: Model
+    train: Windows
+    heldout: Windows | None
+    logs: tuple[RunLog, ...]
+    nominal_counts: int
+    settings: DiagnosisSettings
+    fixed_samples: dict[str, np.ndarray] = field(default_factory=dict)  # the fixed effects' earlier bootstrap
+
+    @property
+    def name(self) -> str:
+        return "+".join([*self.fixed, self.new])
+
+
+def scales_of(logs, model: Model) -> Scales:
     command = max(float(np.max(np.abs(log.torque_command))) for log in logs)
     return Scales(torque=model.d, command=max(command, 1e-9), arm_inertia=model.a, pendulum_inertia=model.b,
                   period=float(np.median([log.sample_period for log in logs])))
 
 
-def quantization_estimate(logs: list[RunLog], nominal_counts: int) -> float:
+def quantization_estimate(logs, nominal_counts: int) -> float:
     """Counts per revolution the angle increments support: nominal / k for the largest k <= 64 dividing every
     non-zero increment (in nominal counts), or the nominal counts when none does."""
     count = 2 * np.pi / nominal_counts
@@ -63,136 +92,176 @@ def quantization_estimate(logs: list[RunLog], nominal_counts: int) -> float:
     return float(nominal_counts)
 
 
-def noise_estimate(logs: list[RunLog], nominal_counts: int) -> float:
+def noise_estimate(logs, nominal_counts: int, resamples: int = 0, seed: int = 0) -> tuple[float, np.ndarray]:
     """White measurement noise sigma [rad] from the variance of the angles' second differences: white noise
     sigma gives 6 sigma^2, the rounding to the encoder's step (independent once the noise spans a step) 6 step^2 / 12
-    more, which is subtracted (the step from :func:`quantization_estimate`); outliers (the motion's own jerks) beyond 6 robust sigmas are left out. 0 when
-    below ``NOISE_FLOOR_COUNTS`` counts. (A median absolute deviation of these integer counts would be
-    quantised itself: it reads 1.2 counts for a noise of 1.5.)"""
+    more, which is subtracted (the step from :func:`quantization_estimate`); outliers (the motion's own jerks)
+    beyond 6 robust sigmas are left out. 0 when below ``NOISE_FLOOR_COUNTS`` counts. (A median absolute
+    deviation of these integer counts would be quantised itself.) Also ``resamples`` bootstrap values over blocks
+    of 100 second differences."""
     count = 2 * np.pi / nominal_counts
     second = np.concatenate([np.diff(angle, 2) / count for log in logs for angle in (log.theta, log.phi)])
     centre = np.median(second)
     spread = 1.4826 * np.median(np.abs(second - centre)) + 1.0
-    kept = second[np.abs(second - centre) <= 6.0 * spread]
+    kept = second[np.abs(second - centre) <= 6.0 * spread] - centre
     step = nominal_counts / quantization_estimate(logs, nominal_counts)  # [counts]
-    sigma = float(np.sqrt(max(np.mean((kept - centre) ** 2) / 6.0 - step**2 / 12.0, 0.0)))
-    return sigma * count if sigma >= NOISE_FLOOR_COUNTS else 0.0
+
+    def sigma(mean_square):
+        value = np.sqrt(np.maximum(mean_square / 6.0 - step**2 / 12.0, 0.0))
+        return np.where(value >= NOISE_FLOOR_COUNTS, value * count, 0.0)
+
+    blocks = kept[:kept.size // 100 * 100].reshape(-1, 100) if kept.size >= 200 else kept.reshape(1, -1)
+    block_sums = np.sum(blocks**2, axis=1)
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(0, blocks.shape[0], (resamples, blocks.shape[0]))
+    samples = sigma(block_sums[draws].sum(axis=1) / (blocks.shape[0] * blocks.shape[1]))
+    return float(sigma(np.mean(kept**2))), samples
 
 
-def _joint(names: tuple[str, ...], scales: Scales, fitted: dict[str, list[float]]):
-    lows, highs, sizes = [], [], []
+def fit_task(task: FitTask) -> FitResult:
+    """Fit ``task.fixed`` with ``task.new`` added on the train windows (every form of the new effect, the best
+    kept), evaluate the result on the held-out windows, and bootstrap its parameters. A sensor effect changes
+    no prediction, so the fixed effects keep their fit beside it."""
+    counts = task.nominal_counts
+    candidate = CANDIDATES[task.new]
+    if candidate.fit:
+        fits = [_least_squares(task, {task.new: form.name}) for form in candidate.forms]
+        effects, at_bound, samples, _ = min(fits, key=lambda fit: fit[3])
+    else:
+        estimate, new_samples = _sensor_estimate(task.new, task.logs, counts, task.settings)
+        effects = {**task.fixed, task.new: Effect("", (estimate,))}
+        at_bound, samples = [], {**task.fixed_samples, task.new: new_samples[:, None]}
+    model = apply_effects(task.model, effects)
+    train_gap = evaluate_gap(model, task.train, counts).gap
+    heldout = None if task.heldout is None else evaluate_gap(model, task.heldout, counts)
+    if heldout is not None and not np.isfinite(heldout.gap):
+        raise FloatingPointError(f"{task.name}: the fitted model's prediction diverged on held-out windows")
+    names = (*task.fixed, task.new)
+    return FitResult(task.name, {name: effects[name] for name in names}, train_gap, heldout, samples, at_bound)
+
+
+def _sensor_estimate(name: str, logs, counts: int, settings: DiagnosisSettings) -> tuple[float, np.ndarray]:
+    if name == "encoder_quantization":
+        value = quantization_estimate(logs, counts)
+        return value, np.full(settings.interval_resamples, value)
+    return noise_estimate(logs, counts, settings.interval_resamples, settings.seed)
+
+
+def _least_squares(task: FitTask, new_form: dict[str, str]):
+    """Least squares of every fitted parameter of ``task.model`` with ``task.fixed`` (started from their values)
+    and the new effect in the form ``new_form`` (from the best of its starts); returns (effects, at_bounds,
+    bootstrap samples per effect, cost)."""
+    settings, counts = task.settings, task.nominal_counts
+    scales = scales_of(task.logs, task.model)
+    forms = {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items()
+             if CANDIDATES[name].fit}
+    for name, form_name in new_form.items():
+        forms[name] = (form_name, CANDIDATES[name].form(form_name).starts(scales))
+    sensors = {name: effect for name, effect in task.fixed.items() if not CANDIDATES[name].fit}
+    names = tuple(forms)
+    lows, highs, sizes, starts = [], [], [], [[]]
     for name in names:
-        low, high = CANDIDATES[name].bounds(scales)
-        lows += low
-        highs += high
-        sizes.append(len(low))
-    starts = [[]]
-    for name in names:
-        own = CANDIDATES[name].starts(scales)
-        options = [fitted[name]] if name in fitted else own
-        starts = [s + list(t) for s in starts for t in options]
-    return np.array(lows), np.array(highs), sizes, starts
-
-
-def _split(names, sizes, x) -> dict[str, list[float]]:
-    out, i = {}, 0
-    for name, size in zip(names, sizes):
-        out[name] = [float(v) for v in x[i:i + size]]
-        i += size
-    return out
-
-
-def fit_effects(names: tuple[str, ...], model: Model, windows: Windows, logs: list[RunLog],
-                nominal_counts: int, fitted: dict[str, list[float]] | None = None) -> FitResult:
-    """Fit the candidates ``names`` jointly (one name: a single candidate) on ``windows``. ``fitted``: single
-    fits of some members; the starts then combine each such member's fit with every other member's own
-    starts (a partner that alone fitted to nothing still starts from its candidate starts)."""
-    scales = scales_of(logs, model)
-    fixed = {}
-    for name in names:
-        if not CANDIDATES[name].fit:
-            fixed[name] = [quantization_estimate(logs, nominal_counts) if name == "encoder_quantization"
-                           else noise_estimate(logs, nominal_counts)]
-    fitted_names = tuple(n for n in names if CANDIDATES[n].fit)
-    base = apply_effects(model, fixed)
-    subset = windows.subset(FIT_WINDOWS)
-    if not fitted_names:
-        gap = evaluate_gap(base, windows, nominal_counts).gap
-        return FitResult("+".join(names), fixed, gap, True, "estimated from the data")
-    low, high, sizes, starts = _joint(fitted_names, scales, fitted or {})
+        low, high = CANDIDATES[name].form(forms[name][0]).bounds(scales)
+        lows, highs, sizes = lows + low, highs + high, sizes + [len(low)]
+        starts = [s + list(t) for s in starts for t in forms[name][1]]
+    low, high = np.array(lows), np.array(highs)
     span = high - low
+    base = apply_effects(task.model, sensors)
 
-    last = {}
+    def effects_at(x) -> dict[str, Effect]:
+        out, i = {}, 0
+        for name, size in zip(names, sizes):
+            out[name] = Effect(forms[name][0], tuple(x[i:i + size]))
+            i += size
+        return out
 
     def model_at(x):
-        return apply_effects(base, _split(fitted_names, sizes, x))
+        return apply_effects(base, effects_at(x))
+
+    subset = task.train.subset(settings.fit_windows, settings.seed)
+    last = {}
 
     def cost(x):
-        r, states, state_jacobians = projected_residuals(model_at(x), subset, nominal_counts)
-        last.update(x=np.array(x), states=states, raw=r, state_jacobians=state_jacobians, r=_flat(r))
-        return last["r"]
+        last.update(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), subset, counts)))
+        last["x"] = np.array(x)
+        return _flat(last["raw"])
 
     def jacobian(x):
         if "x" not in last or not np.array_equal(last["x"], x):
             cost(x)
-        columns = []
-        for i in range(x.size):
-            step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)
-            if x[i] + step > high[i]:
-                step = -step
-            shifted = x.copy()
-            shifted[i] += step
-            shifted_r = fixed_state_residuals(model_at(shifted), subset, last["states"], nominal_counts)
-            change = [project_out_states(new - old, J)
-                      for new, old, J in zip(shifted_r, last["raw"], last["state_jacobians"])]
-            columns.append(_flat(change) / step)
-        return np.column_stack(columns)
+        return np.column_stack([_flat(column) for column in _columns(model_at, x, subset, last, counts, span,
+                                                                     high)])
 
-    # Several starts where the cost is multimodal: the least squares runs from the one with the lowest cost on
-    # a smaller draw of windows (a start only has to land in the right basin).
     candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
-    screen = subset.subset(START_WINDOWS, seed=1)
-    x0 = candidates[0] if len(candidates) == 1 else min(candidates, key=lambda x: _squared_gap(
-        model_at(x), screen, nominal_counts))
+    screen = subset.subset(settings.start_windows, seed=settings.seed + 1)
+    x0 = candidates[0] if len(candidates) == 1 else min(
+        candidates, key=lambda x: float(np.sum(_flat(projected_residuals(model_at(x), screen, counts)[0]) ** 2)))
     result = least_squares(cost, x0, jac=jacobian, bounds=(low, high), x_scale=np.maximum(span, 1e-12) / 10.0,
-                           max_nfev=MAX_NFEV, method="trf")
-    x, success, message = result.x, bool(result.success), result.message
-    effects = {**fixed, **_split(fitted_names, sizes, x)}
-    gap = evaluate_gap(apply_effects(model, effects), windows, nominal_counts).gap
-    return FitResult("+".join(names), effects, gap, success, str(message),
-                     at_bounds(fitted_names, x, low, high))
+                           max_nfev=settings.max_nfev, method="trf")
+    samples = _bootstrap(model_at, result.x, subset, counts, span, low, high, settings)
+    split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
+    for name, size in zip(names, sizes):
+        split[name] = samples[:, i:i + size]
+        i += size
+    return ({**sensors, **effects_at(result.x)}, at_bounds(names, [forms[n][0] for n in names], result.x, low, high),
+            split, float(2.0 * result.cost))
 
 
-BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a bound is "at" it
+def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:
+    """Per parameter, the per-log residual change (horizon, 2, W) per unit of the parameter, at the initial
+    states of ``last``, with what the states could absorb projected out (Kaufman)."""
+    columns = []
+    for i in range(x.size):
+        step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)
+        if x[i] + step > high[i]:
+            step = -step
+        shifted = x.copy()
+        shifted[i] += step
+        shifted_r = fixed_state_residuals(model_at(shifted), windows, last["states"], counts)
+        columns.append([project_out_states(new - old, J) / step
+                        for new, old, J in zip(shifted_r, last["raw"], last["state_jacobians"])])
+    return columns
 
 
-def at_bounds(names: tuple[str, ...], x: np.ndarray, low: np.ndarray, high: np.ndarray) -> list[str]:
+def _bootstrap(model_at, x, windows: Windows, counts: int, span, low, high, settings: DiagnosisSettings
+               ) -> np.ndarray:
+    """(resamples, params) bootstrap of the fitted parameters over ``windows`` (module docstring)."""
+    last = dict(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), windows, counts)))
+    columns = _columns(model_at, x, windows, last, counts, span, high)
+    normal, gradient = [], []
+    for i, raw in enumerate(last["raw"]):  # per log: the windows' normal equations
+        J = np.stack([np.nan_to_num(column[i][1:]) for column in columns], axis=-1)  # (h - 1, 2, W, n)
+        r = np.nan_to_num(raw[1:], nan=1e6)
+        normal.append(np.einsum("hswi,hswj->wij", J, J))
+        gradient.append(np.einsum("hswi,hsw->wi", J, r))
+    normal, gradient = np.concatenate(normal), np.concatenate(gradient)
+    W = normal.shape[0]
+    rng = np.random.default_rng(settings.seed)
+    weights = np.vstack([np.ones(W), rng.multinomial(W, np.full(W, 1.0 / W), settings.interval_resamples)])
+    H = np.einsum("bw,wij->bij", weights, normal)
+    ridge = 1e-9 * np.maximum(np.einsum("bii->bi", H), 1e-300)
+    steps = -np.linalg.solve(H + ridge[:, :, None] * np.eye(x.size), np.einsum("bw,wi->bi", weights, gradient)[
+        ..., None])[..., 0]
+    return np.clip(x + steps[1:] - steps[0], low, high)
+
+
+def interval(samples: np.ndarray) -> tuple[float, float]:
+    """The 95 % interval of bootstrap ``samples`` of one parameter."""
+    low, high = np.percentile(samples, INTERVAL)
+    return float(low), float(high)
+
+
+def at_bounds(names: tuple[str, ...], forms: list[str], x: np.ndarray, low: np.ndarray, high: np.ndarray
+              ) -> list[str]:
     """The fitted parameters that ended at a bound of their search range, as "effect.param (lower|upper)": an
     accepted effect stretched to its range's edge may stand in for another effect of a similar shape."""
-    labels = [f"{name}.{param}" for name in names for param in CANDIDATES[name].params]
+    labels = [f"{name}.{param}" for name, form in zip(names, forms) for param in CANDIDATES[name].form(form).params]
     tolerance = BOUND_TOLERANCE * (high - low)
     return ([f"{label} (lower)" for label, v, lo, t in zip(labels, x, low, tolerance) if v - lo <= t]
             + [f"{label} (upper)" for label, v, hi, t in zip(labels, x, high, tolerance) if hi - v <= t])
 
 
 def _flat(r: list[np.ndarray]) -> np.ndarray:
-    """Per-log residuals as one vector for the least squares; a diverged prediction costs 1e6 counts."""
+    """Per-log residuals (horizon, 2, W) as one vector for the least squares (the start row 0 left out); a
+    diverged prediction costs 1e6 counts."""
     return np.nan_to_num(np.concatenate([v[1:].ravel() for v in r]), nan=1e6, posinf=1e6, neginf=-1e6)
-
-
-def _squared_gap(model: Model, windows: Windows, nominal_counts: int) -> float:
-    return float(np.sum(_flat(residuals(model, windows, nominal_counts)) ** 2))
-
-
-def _fit_task(args):
-    return fit_effects(*args)
-
-
-def fit_all(groups: list[tuple[str, ...]], model: Model, windows: Windows, logs: list[RunLog],
-            nominal_counts: int, workers: int | None = None, progress=None,
-            fitted: dict | None = None) -> dict[str, FitResult]:
-    """Fit every group of candidates (a 1-tuple for a single effect) in parallel processes; ``fitted``: group
-    -> single fits of its members to start from (see :func:`fit_effects`)."""
-    tasks = [(group, model, windows, logs, nominal_counts, (fitted or {}).get(group)) for group in groups]
-    report = None if progress is None else (lambda result: progress(result.name))
-    return {result.name: result for result in map_in_processes(_fit_task, tasks, workers, report)}

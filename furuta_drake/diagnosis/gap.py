@@ -111,13 +111,18 @@ class Batch:
     bounds: np.ndarray  # member j's windows are [bounds[j], bounds[j + 1])
 
 
+def window_samples(period: float, rig: RigParameters) -> tuple[int, int]:
+    """(samples per window, samples of the smoothing filter) of a log sampled every ``period`` [s]; a log needs
+    more than one window plus a smoothing filter at each end."""
+    return max(5, int(round(horizon_seconds(rig) / period))), max(5, int(round(SMOOTHING_S / period)) | 1)
+
+
 def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
     """Cut every log into consecutive windows of the rig's horizon, with smoothed initial states."""
     horizon_s = horizon_seconds(rig)
     horizons, starts, states, measured, paths = [], [], [], [], []
     for log in logs:
-        horizon = max(5, int(round(horizon_s / log.sample_period)))
-        smooth = max(5, int(round(SMOOTHING_S / log.sample_period)) | 1)
+        horizon, smooth = window_samples(log.sample_period, rig)
         if log.time.size <= horizon + 2 * smooth:
             raise LogError(f"{log.name}: {log.time.size} samples ({log.time.size * log.sample_period:.3g} s) are too "
                            f"short for one gap window of this rig: {horizon} samples ({horizon_s * 1e3:.0f} ms) "

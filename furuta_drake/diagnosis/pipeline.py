@@ -1,60 +1,67 @@
-"""``furuta-drake diagnose``: load -> windows and gap -> fit candidates -> select -> replay in Drake ->
-localise -> report (spec/diagnosis-interface.md)."""
+"""``furuta-drake diagnose`` as one function, :func:`diagnose`: load -> split into train and held-out data ->
+windows -> select effects one step at a time (fit on train, the held-out rule) -> detection limits -> replay in
+Drake -> localise, returning a :class:`~furuta_drake.diagnosis.result.Diagnosis`
+(:func:`~furuta_drake.diagnosis.report.write_report` writes it; ``docs/diagnose.md`` explains every figure).
+"""
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.candidates import CANDIDATES, apply_effects, describe
-from furuta_drake.diagnosis.fit import fit_all
+from furuta_drake.diagnosis.candidates import (
+    CANDIDATES, Effect, apply_effects, describe, law_of, rig_model,
+)
+from furuta_drake.diagnosis.detection import detection_limits
+from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, interval, scales_of
 from furuta_drake.diagnosis.gap import (
-    evaluate_gap, gap_metric_definition, horizon_seconds, make_windows, window_residuals,
+    GapResult, evaluate_gap, gap_metric_definition, horizon_seconds, make_windows, window_residuals, window_samples,
 )
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
+from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gaps
-from furuta_drake.diagnosis.report import effect_curve, input_record, write_report
-from furuta_drake.diagnosis.select import (
-    THRESHOLD_NOTE, Decision, best_single, decide, nominal_at_floor, rank,
+from furuta_drake.diagnosis.report import effect_curve, input_record
+from furuta_drake.diagnosis.result import (
+    Artifacts, Consistency, Diagnosis, GapFigures, RankedCandidate, Step,
 )
+from furuta_drake.diagnosis.select import CLOSES, Bootstrap, Evidence, choose, confusable, threshold_note
+from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import FrictionParameters
+from furuta_drake.rig import RigParameters
 
 HOLDOUT_FRACTION = 0.3
 HOLDOUT_BLOCKS = 10
 MIN_BLOCK_S = 1.0  # [s]: three or more gap windows per block
 MIN_BLOCKS = 3
-# Variants of one law (each holds an arm Coulomb level): a pair of two of them explains nothing new.
-SAME_LAW = ({"arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"},)
-
-
 STATIC_EXCESS = 0.1  # a Stribeck fit whose static level is within 10 % of its Coulomb level has no Stribeck part
+UNCERTAINTY = ("95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
+               "linearised at the fit: one Gauss-Newton step per resample; quantisation is read exactly, noise "
+               "is bootstrapped over blocks of second differences")
 
 
-def name_static_free_stribeck(decision: Decision, fits: dict) -> Decision:
-    """An accepted ``arm_stribeck`` whose fitted static level does not exceed its Coulomb level by
-    ``STATIC_EXCESS`` is Coulomb friction by the vocabulary's own definition (static friction *above* the
-    Coulomb level): the verdict says so (the ranking keeps the fit under its candidate's name)."""
-    if decision.accepted is None or "arm_stribeck" not in decision.effects:
-        return decision
-    coulomb, static = fits[decision.accepted].effects["arm_stribeck"][:2]
-    if static > (1.0 + STATIC_EXCESS) * coulomb:
-        return decision
-    effects = ["arm_coulomb_friction" if name == "arm_stribeck" else name for name in decision.effects]
-    return dataclasses.replace(decision, verdict=effects[0], effects=effects)
+def _cut(log: RunLog, edges: list[int], held: set[int]) -> tuple[list[RunLog], list[RunLog]]:
+    """``log`` cut at sample ``edges`` into blocks: (train blocks, held-out blocks ``held``), each named with its
+    times."""
+    train, heldout = [], []
+    for k, (first, last) in enumerate(zip(edges[:-1], edges[1:])):
+        part = dataclasses.replace(
+            log, name=f"{log.name} (t = {log.time[first]:.2f}-{log.time[last - 1]:.2f} s)",
+            time=log.time[first:last], theta=log.theta[first:last], phi=log.phi[first:last],
+            input=log.input[first:last])
+        (heldout if k in held else train).append(part)
+    return train, heldout
 
 
-def pair_groups(order: list[str], best: str) -> list[tuple[str, str]]:
-    """The pairs tried for a combined verdict: the best single candidate with every other candidate that is not
-    a variant of its own law (a second effect can be masked alone: a delay fits to zero under strong friction);
-    a pair fit starts from the best candidate's single fit."""
-    family = next((law for law in SAME_LAW if best in law), {best})
-    partners = [name for name in order if name not in family]
-    return [(best, partner) for partner in partners]
+def _blocks(log: RunLog) -> int:
+    return min(HOLDOUT_BLOCKS, int(log.time.size * log.sample_period / MIN_BLOCK_S))
 
 
 def _held_out_blocks(blocks: int) -> set[int]:
@@ -70,17 +77,13 @@ def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
     out its last HOLDOUT_FRACTION."""
     train, heldout = [], []
     for log in logs:
-        blocks = min(HOLDOUT_BLOCKS, int(log.time.size * log.sample_period / MIN_BLOCK_S))
+        blocks = _blocks(log)
         if blocks < MIN_BLOCKS:
             edges, held = [0, int(log.time.size * (1.0 - HOLDOUT_FRACTION)), log.time.size], {1}
         else:
             edges, held = np.linspace(0, log.time.size, blocks + 1).astype(int).tolist(), _held_out_blocks(blocks)
-        for k, (first, last) in enumerate(zip(edges[:-1], edges[1:])):
-            part = heldout if k in held else train
-            sl = slice(first, last)
-            part.append(dataclasses.replace(
-                log, name=f"{log.name} (t = {log.time[first]:.2f}-{log.time[last - 1]:.2f} s)", time=log.time[sl],
-                theta=log.theta[sl], phi=log.phi[sl], input=log.input[sl]))
+        parts = _cut(log, edges, held)
+        train, heldout = train + parts[0], heldout + parts[1]
     return train, heldout, (
         f"no --heldout logs: each train log was cut into up to {HOLDOUT_BLOCKS} equal blocks of at least "
         f"{MIN_BLOCK_S:g} s and {HOLDOUT_FRACTION:.0%} of them, spread over the run, were held out and never used "
@@ -88,9 +91,134 @@ def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
         + ", ".join(log.name for log in heldout))
 
 
-def fitted_config(rig, model: Model) -> SimulationConfig:
-    """The corrected Drake model as a simulate config (open loop: users add their controller)."""
-    config = SimulationConfig.from_rig(model_rig(model, rig).replace(motor=rig.motor))
+def fold_split(logs: list[RunLog], folds: int, fold: int, rig: RigParameters) -> tuple[list[RunLog], list[RunLog]]:
+    """Split ``fold`` of ``folds``: every log cut into max(folds, up to HOLDOUT_BLOCKS) equal blocks, the blocks
+    b with b mod folds == fold held out (each fold holds out other blocks, spread over every log); a log too
+    short for ``folds`` blocks of one gap window each trains in every fold."""
+    train, heldout = [], []
+    for log in logs:
+        blocks = max(folds, _blocks(log))
+        if log.time.size // blocks <= sum(window_samples(log.sample_period, rig)) + window_samples(
+                log.sample_period, rig)[1]:
+            train.append(log)
+            continue
+        edges = np.linspace(0, log.time.size, blocks + 1).astype(int).tolist()
+        parts = _cut(log, edges, {b for b in range(blocks) if b % folds == fold})
+        train, heldout = train + parts[0], heldout + parts[1]
+    return train, heldout
+
+
+@dataclass
+class Selection:
+    """The outcome of the step-by-step selection on one split of the logs."""
+
+    nominal: GapResult  # the nominal model on the held-out windows
+    tried: list[tuple[int, FitResult]]  # every model fitted, with its step
+    accepted: list[FitResult] = field(default_factory=list)  # the model after each accepted step
+    over_nominal: dict[str, Evidence] = field(default_factory=dict)
+    over_previous: dict[str, Evidence] = field(default_factory=dict)
+    confusable: list[dict] = field(default_factory=list)
+    at_floor: bool = False  # the nominal model explains the held-out data to within their noise
+
+    @property
+    def final(self) -> FitResult | None:
+        return self.accepted[-1] if self.accepted else None
+
+    @property
+    def verdict(self) -> str:
+        if not self.accepted:
+            return "none" if self.at_floor else "unexplained"
+        if self.over_nominal[self.final.name].reduction < CLOSES:
+            return "unexplained"
+        return self.effects[0]
+
+    @property
+    def effects(self) -> list[str]:
+        """The accepted effects in the order accepted (empty for none and unexplained); a Stribeck fit without
+        static excess is named Coulomb friction (the vocabulary's Stribeck is static friction *above* it)."""
+        if not self.accepted or self.over_nominal[self.final.name].reduction < CLOSES:
+            return []
+        return [_vocabulary_name(name, self.final.effects[name]) for name in self.final.effects]
+
+
+def _vocabulary_name(name: str, effect: Effect) -> str:
+    if name == "arm_stribeck" and effect.values[1] <= (1.0 + STATIC_EXCESS) * effect.values[0]:
+        return "arm_coulomb_friction"
+    return name
+
+
+def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: int, names: list[str],
+                   settings: DiagnosisSettings, run: Callable) -> Selection:
+    """Accept up to ``settings.max_effects`` effects one at a time under the held-out rule
+    (:mod:`furuta_drake.diagnosis.select`): at each step every candidate not yet held (nor a variant of a held
+    effect's law) is fitted together with the held ones and judged against the model holding them."""
+    bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
+    nominal_gap = evaluate_gap(nominal, heldout, counts)
+    selection = Selection(nominal_gap, [], at_floor=bootstrap.at_floor(nominal_gap.per_window))
+    previous = nominal_gap.per_window
+    for step in range(1, settings.max_effects + 1):
+        if step > 1 and bootstrap.at_floor(previous):
+            break
+        held = selection.final.effects if selection.final else {}
+        pool = [name for name in names if not law_of(name) & set(held)]
+        tasks = [FitTask(new=name, fixed=held, model=nominal, train=train, heldout=heldout, logs=tuple(logs),
+                         nominal_counts=counts, settings=settings,
+                         fixed_samples=selection.final.samples if selection.final else {}) for name in pool]
+        results = [_as_fit(task, result) for task, result in zip(tasks, run(fit_task, tasks))]
+        selection.tried += [(step, result) for result in results]
+        fitted = {result.name: result for result in results if not result.failure}
+        for name, result in fitted.items():
+            selection.over_nominal[name] = bootstrap.evidence(nominal_gap.per_window, result.heldout.per_window)
+            selection.over_previous[name] = bootstrap.evidence(previous, result.heldout.per_window)
+        if selection.at_floor:
+            break
+        evidence = {name: selection.over_previous[name] for name in fitted}
+        added = {name: name.split("+")[-1] for name in fitted}
+        chosen = choose(evidence, added)
+        if chosen is None:
+            break
+        per_window = {name: result.heldout.per_window for name, result in fitted.items()}
+        selection.confusable += confusable(chosen, evidence, added, previous, per_window, bootstrap)
+        selection.accepted.append(fitted[chosen])
+        previous = fitted[chosen].heldout.per_window
+    return selection
+
+
+def _as_fit(task: FitTask, result) -> FitResult:
+    """A task's result, a failed one as a FitResult with its reason."""
+    if isinstance(result, Failure):
+        return FitResult(task.name, {}, float("nan"), None, failure=result.reason)
+    return result
+
+
+def choice_text(selection: Selection) -> str:
+    """Why the verdict, in one paragraph."""
+    if not selection.accepted:
+        if selection.at_floor:
+            return "The nominal model explains the held-out data to within their noise: no effect is needed."
+        return "No candidate reduces the nominal model's held-out gap with a lower bound above the margin."
+    parts = []
+    for k, result in enumerate(selection.accepted):
+        added = result.name.split("+")[-1]
+        evidence = selection.over_previous[result.name]
+        against = "the nominal model" if k == 0 else "the model holding " + ", ".join(result.name.split("+")[:-1])
+        parts.append(f"{added} reduces the held-out gap of {against} by {evidence.reduction:.1%} (5 % lower bound "
+                     f"{evidence.lower_bound:.1%})")
+    text = "; ".join(parts) + "."
+    if selection.verdict == "unexplained":
+        text += (f" Together they reduce the nominal gap by {selection.over_nominal[selection.final.name].reduction:.1%}, "
+                 f"less than the {CLOSES:.0%} that explains it: the gap is unexplained.")
+    for pair in selection.confusable:
+        text += (f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "
+                 f"({pair['why']}); {pair['effects'][0]} was accepted for its larger point reduction or fewer "
+                 f"parameters.")
+    return text
+
+
+def nominal_config(rig: RigParameters, model: Model) -> SimulationConfig:
+    """The Drake model of ``model`` (a diagnosis model of ``rig``) as a simulate config, open loop: users add
+    their controller."""
+    config = SimulationConfig.from_rig(model_rig(model, rig).replace(motor=rig.motor, effects=None))
     return dataclasses.replace(
         config,
         friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
@@ -101,88 +229,182 @@ def fitted_config(rig, model: Model) -> SimulationConfig:
                                     noise_std=model.noise_std))
 
 
-def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, workers=None, progress=None,
-                  echo=print, candidates=None) -> dict:
-    """Diagnose the gap between the rig file's nominal model and the logs; write the report to ``out``.
-    ``candidates``: the effects to try (default: the whole vocabulary)."""
-    rig = load_rig(rig_path)
-    logs = load_logs(train_paths, rig, rig_path)
-    heldout_logs = load_logs(heldout_paths, rig, rig_path) if heldout_paths else []
-    note = ignored_columns_note(logs + heldout_logs)
-    if note:
-        echo(note)
+def fitted_rig(rig: RigParameters, effects: dict[str, Effect], nominal: Model) -> RigParameters:
+    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section."""
+    stated = dict(rig.effects or {})
+    for name, effect in effects.items():
+        params = describe(name, effect, nominal)
+        stated[name] = {key: value for key, value in params.items()
+                        if key == "form" or key in CANDIDATES[name].form(effect.form).params}
+    return rig.replace(effects=stated or None)
+
+
+def _params(result: FitResult, nominal: Model) -> tuple[dict, dict]:
+    """The ranking's params and params_ci of a fitted model (prefixed 'effect.' when it holds several)."""
+    params, intervals = {}, {}
+    several = len(result.effects) > 1
+    for name, effect in result.effects.items():
+        prefix = f"{name}." if several else ""
+        params.update({prefix + k: v for k, v in describe(name, effect, nominal).items()})
+        samples = result.samples.get(name)
+        if samples is None or samples.size == 0:
+            continue
+        described = [describe(name, Effect(effect.form, tuple(row)), nominal) for row in samples]
+        for key, value in described[0].items():
+            if key != "form":
+                intervals[prefix + key] = list(interval(np.array([d[key] for d in described])))
+    return params, intervals
+
+
+def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
+    """Every model tried, best first by its held-out reduction over the nominal model; failed ones last."""
+    rows = []
+    for step, result in selection.tried:
+        if result.failure:
+            rows.append(RankedCandidate(result.name, {}, None, None, None, step=step, status="failed",
+                                        reason=result.failure))
+            continue
+        params, intervals = _params(result, nominal)
+        over_nominal, over_previous = selection.over_nominal[result.name], selection.over_previous[result.name]
+        rows.append(RankedCandidate(
+            result.name, params, over_nominal.heldout_gap, over_nominal.reduction, over_nominal.lower_bound,
+            params_ci=intervals, step=step, reduction_over_previous=over_previous.reduction,
+            evidence_over_previous=over_previous.lower_bound, train_gap=result.train_gap,
+            at_bounds=result.at_bounds))
+    ok = [row for row in rows if row.status == "ok"]
+    excess = {result.name: selection.over_nominal[result.name].excess for _, result in selection.tried
+              if not result.failure}
+    ok.sort(key=lambda row: (-row.heldout_reduction, excess[row.effect], row.step, row.effect))
+    return ok + [row for row in rows if row.status != "ok"]
+
+
+def consistency(logs: list[RunLog], rig: RigParameters, nominal: Model, names: list[str],
+                settings: DiagnosisSettings, run: Callable, folds: int) -> Consistency:
+    """The selection repeated on ``folds`` splits of all the logs (:func:`fold_split`): each fold's verdict and
+    effects, the range of each accepted effect's parameters over the folds that accepted it, and a judgement."""
+    verdicts, effects, values = [], [], {}
+    for fold in range(folds):
+        train, heldout = fold_split(logs, folds, fold, rig)
+        selection = select_effects(nominal, train, make_windows(train, rig), make_windows(heldout, rig),
+                                   rig.counts_per_rev, names, settings, run)
+        verdicts.append(selection.verdict)
+        effects.append(selection.effects)
+        if selection.effects:
+            for name, effect in selection.final.effects.items():
+                for key, value in describe(name, effect, nominal).items():
+                    if key != "form":
+                        values.setdefault(f"{name}.{key}", []).append(value)
+    ranges = {key: [float(min(v)), float(max(v))] for key, v in values.items()}
+    return Consistency(folds, verdicts, effects, ranges, judgement(verdicts, effects, ranges, nominal))
+
+
+def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, list[float]], nominal: Model
+              ) -> str:
+    """One line: how often the verdict and each effect came back, and the spread of the main parameters."""
+    folds = len(verdicts)
+    counts = {verdict: verdicts.count(verdict) for verdict in dict.fromkeys(verdicts)}
+    if len(counts) == 1:
+        text = f"same verdict ({verdicts[0]}) on {folds}/{folds} folds"
+    else:
+        text = "verdict " + ", ".join(f"{verdict} on {n}/{folds}" for verdict, n in counts.items()) + " folds"
+    named = {name: sum(name in found for found in effects) for found in effects for name in found}
+    if named and any(n < folds for n in named.values()):
+        text += "; effects " + ", ".join(f"{name} {n}/{folds}" for name, n in named.items())
+    mains = [f"{name} {CANDIDATES[name].main} {low:.4g}-{high:.4g}" for key, (low, high) in ranges.items()
+             for name in [key.split(".")[0]] if key.split(".")[1] == CANDIDATES[name].main]
+    return text + ("; " + ", ".join(mains) if mains else "")
+
+
+def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: list[str] | None = None,
+             settings: DiagnosisSettings = DiagnosisSettings(), folds: int | None = None, workers: int | None = None,
+             scheduler: str | None = None, progress: Callable | None = None, log_format=None) -> Diagnosis:
+    """Diagnose the gap between the rig file's nominal model and the logs.
+
+    Parameters
+    ----------
+    rig : the rig file (``docs/diagnose.md``: bodies, encoder, limits, optional friction, motor and effects).
+    train : logs the candidates are fitted on; heldout : logs every held-out figure uses (default: blocks of
+        ``train`` held out, :func:`split_heldout`).
+    candidates : the effects to try (default: the whole vocabulary).
+    settings : sizes and seeds (:class:`DiagnosisSettings`); folds : with K >= 2, the decision is repeated on K
+        splits of all logs and ``consistency`` reported.
+    workers : processes (default: all cores); scheduler : address of a Dask scheduler that runs the fits instead;
+        progress : called with each finished task; log_format : column mapping and units of the logs.
+    """
+    settings.validate()
+    rig_path = Path(rig)
+    rig_params = load_rig(rig_path)
+    train_logs = load_logs(train, rig_params, rig_path)
+    heldout_logs = load_logs(heldout, rig_params, rig_path) if heldout else []
+    notes = [note for note in [ignored_columns_note(train_logs + heldout_logs)] if note]
     if heldout_logs:
+        fit_logs, test_logs = train_logs, heldout_logs
         holdout_note = "held-out logs: " + ", ".join(log.name for log in heldout_logs)
     else:
-        logs, heldout_logs, holdout_note = split_heldout(logs)
-    train_windows, heldout_windows = make_windows(logs, rig), make_windows(heldout_logs, rig)
-    counts = rig.counts_per_rev
-    nominal = Model.from_rig(rig)
+        fit_logs, test_logs, holdout_note = split_heldout(train_logs)
+    names = list(candidates or CANDIDATES)
+    unknown = [name for name in names if name not in CANDIDATES]
+    if unknown:
+        from furuta_drake.errors import ConfigError
+        raise ConfigError(f"unknown candidate effect {', '.join(unknown)} (the vocabulary: {', '.join(CANDIDATES)})")
+    counts = rig_params.counts_per_rev
+    nominal = rig_model(rig_params)
+    train_windows, heldout_windows = make_windows(fit_logs, rig_params), make_windows(test_logs, rig_params)
+    run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress)
+    selection = select_effects(nominal, fit_logs, train_windows, heldout_windows, counts, names, settings, run)
+    final = selection.final if selection.effects else None
+    accepted_model = apply_effects(nominal, final.effects) if final else nominal
+    bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
 
-    singles = [(name,) for name in (candidates or CANDIDATES)]
-    fits = fit_all(singles, nominal, train_windows, logs, counts, workers=workers, progress=progress)
-    heldout = {name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
-               for name, fit in fits.items()}
-    nominal_heldout = evaluate_gap(nominal, heldout_windows, counts)
-    single = best_single(rank(nominal_heldout.per_window, {name: g.per_window for name, g in heldout.items()}))
-    order = sorted(heldout, key=lambda name: heldout[name].gap)
-    # No pair when the nominal model already sits at the floor: the verdict is none whatever a pair does.
-    pairs = [] if nominal_at_floor(nominal_heldout.per_window) else pair_groups(
-        order, single["name"] if single else order[0])
-    warm = {pair: {pair[0]: fits[pair[0]].effects[pair[0]]} for pair in pairs}
-    pair_fits = fit_all(pairs, nominal, train_windows, logs, counts, workers=workers, progress=progress,
-                        fitted=warm)
-    fits.update(pair_fits)
-    heldout.update({name: evaluate_gap(apply_effects(nominal, fit.effects), heldout_windows, counts)
-                    for name, fit in pair_fits.items()})
-    decision = name_static_free_stribeck(
-        decide(nominal_heldout.per_window, {name: g.per_window for name, g in heldout.items()}), fits)
+    limits = []
+    if settings.detection_limits:
+        limits = detection_limits(accepted_model, list(final.effects) if final else [], heldout_windows,
+                                  scales_of(fit_logs, nominal), counts, bootstrap, settings.seed)
 
-    accepted = apply_effects(nominal, fits[decision.accepted].effects) if decision.accepted else nominal
-    # The headline held-out figures come from Drake diagrams of the project's systems.
-    replays = [(nominal, nominal_heldout.initial_states)]
-    if decision.accepted:
-        replays.append((accepted, heldout[decision.accepted].initial_states))
-    gaps = replay_gaps(replays, rig, heldout_windows, workers)
-    drake_nominal, drake_accepted = gaps[0], gaps[-1]  # the same without an accepted effect
+    # The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
+    # replay fails).
+    replays = [(nominal, selection.nominal.initial_states)]
+    if final:
+        replays.append((accepted_model, final.heldout.initial_states))
+    drake = replay_gaps(replays, rig_params, heldout_windows, workers, scheduler) if settings.replay \
+        else [None] * len(replays)
+    surrogate = [selection.nominal] + ([final.heldout] if final else [])
+    gaps = [d if d is not None else s for d, s in zip(drake, surrogate)]
+    evaluated_by = ("drake replay of the held-out windows" if all(d is not None for d in drake)
+                    else "surrogate (the Drake replay " + ("was not run" if not settings.replay else "failed") + ")")
+    nominal_heldout, accepted_heldout = gaps[0], gaps[-1]
     train_nominal = evaluate_gap(nominal, train_windows, counts).gap
-    train_accepted = fits[decision.accepted].train_gap if decision.accepted else train_nominal
-    reduction = 1.0 - drake_accepted.gap / drake_nominal.gap if drake_nominal.gap > 0 else 0.0
+    reduction = 1.0 - accepted_heldout.gap / nominal_heldout.gap if nominal_heldout.gap > 0 else 0.0
+    before = window_residuals(nominal_heldout, heldout_windows, rig_params)
+    after = window_residuals(accepted_heldout, heldout_windows, rig_params) if final else None
 
-    ranking = []
-    for row in decision.ranking:
-        fit = fits[row["name"]]
-        params = {}
-        for name, values in fit.effects.items():
-            prefix = f"{name}." if "+" in row["name"] else ""
-            params.update({prefix + k: v for k, v in describe(name, values, nominal).items()})
-        ranking.append({"effect": row["name"], "params": params, "heldout_gap": row["heldout_gap"],
-                        "heldout_reduction": row["heldout_reduction"], "evidence": row["evidence"],
-                        "train_gap": fit.train_gap, "at_bounds": fit.at_bounds, "evaluated_by": "surrogate"})
-    before = window_residuals(drake_nominal, heldout_windows, rig)
-    after = window_residuals(drake_accepted, heldout_windows, rig) if decision.accepted else None
-    report = {
-        "verdict": decision.verdict,
-        "effects": decision.effects,
-        "gap": {"metric": gap_metric_definition(horizon_seconds(rig)),
-                "nominal": {"train": train_nominal, "heldout": drake_nominal.gap},
-                "with_effects": {"train": train_accepted, "heldout": drake_accepted.gap},
-                "heldout_reduction": reduction,
-                "per_signal_nominal_heldout": drake_nominal.per_signal,
-                "evaluated_by": "drake replay of the held-out windows"},
-        "ranking": ranking,
-        "localization": localize(before, after, noise_variance=drake_nominal.sensor_variance,
-                                 noise_variance_after=drake_accepted.sensor_variance),
-    }
-    curves = [effect_curve(name, describe(name, values, nominal), rig)
-              for name, values in (fits[decision.accepted].effects.items() if decision.accepted else [])]
-    record = input_record(rig_path=rig_path, train=train_paths, heldout=heldout_paths,
-                          seeds={"bootstrap": 0, "fit_windows": 0},
-                          options={"workers": workers, "holdout": holdout_note,
-                                   "candidates": list(candidates or CANDIDATES)})
-    write_report(out, report, before=before, after=after, curves=curves,
-                 fitted_config=fitted_config(rig, accepted), config_record=record,
-                 threshold_note=THRESHOLD_NOTE, holdout_note=holdout_note,
-                 noise_variance=drake_nominal.sensor_variance, force=force,
-                 protect=[Path(rig_path), *map(Path, train_paths), *map(Path, heldout_paths)])
-    return report
+    consistency_result = None
+    if folds is not None and folds >= 2:
+        consistency_result = consistency(train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds)
+    steps = []
+    for result in selection.accepted if final else []:
+        params, _ = _params(result, nominal)
+        over_nominal, over_previous = selection.over_nominal[result.name], selection.over_previous[result.name]
+        steps.append(Step(result.name.split("+")[-1], params, over_nominal.heldout_gap, over_nominal.reduction,
+                          over_previous.reduction))
+    record = input_record(rig_path=rig_path, train=train, heldout=heldout,
+                          seeds={"bootstrap": settings.seed, "fit_windows": settings.seed},
+                          options={"workers": workers, "scheduler": scheduler, "holdout": holdout_note,
+                                   "candidates": names, "folds": folds, "settings": dataclasses.asdict(settings)})
+    curves = [effect_curve(name, describe(name, effect, nominal), rig_params)
+              for name, effect in (final.effects.items() if final else [])]
+    artifacts = Artifacts(before, after, nominal_heldout.sensor_variance, curves,
+                          fitted_config=nominal_config(rig_params, accepted_model),
+                          fitted_rig=fitted_rig(rig_params, final.effects if final else {}, nominal), record=record)
+    return Diagnosis(
+        verdict=selection.verdict, effects=selection.effects,
+        gap=GapFigures(gap_metric_definition(horizon_seconds(rig_params)),
+                       {"train": train_nominal, "heldout": nominal_heldout.gap},
+                       {"train": final.train_gap if final else train_nominal, "heldout": accepted_heldout.gap},
+                       reduction, nominal_heldout.per_signal, evaluated_by),
+        ranking=ranking(selection, nominal),
+        localization=localize(before, after, noise_variance=nominal_heldout.sensor_variance,
+                              noise_variance_after=accepted_heldout.sensor_variance),
+        steps=steps, uncertainty=UNCERTAINTY, detection_limits=limits, confusable=selection.confusable,
+        consistency=consistency_result, choice=choice_text(selection), holdout=holdout_note,
+        rule=threshold_note(settings.bootstrap, settings.seed), notes=notes, artifacts=artifacts)

@@ -21,7 +21,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.actuator import ActuatorParameters, add_actuator
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
-from furuta_drake.diagnosis.parallel import map_in_processes
+from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
 from furuta_drake.friction import FrictionParameters, JointFriction
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
@@ -43,7 +43,7 @@ def model_rig(model: Model, rig: RigParameters) -> RigParameters:
 
 def model_actuator(model: Model) -> ActuatorParameters:
     """The actuator blocks of the model other than the delay (a time shift of the replayed command)."""
-    return ActuatorParameters(gain=model.gain, deadzone=model.deadzone,
+    return ActuatorParameters(gain=model.gain, deadzone=model.deadzone, deadzone_form=model.deadzone_form,
                               saturation=None if not np.isfinite(model.saturation) else model.saturation,
                               delay=0.0, lag_time_constant=model.lag)
 
@@ -136,20 +136,25 @@ def _replay_log(task) -> np.ndarray:
 
 
 def replay_gaps(models: list[tuple[Model, list[np.ndarray]]], rig: RigParameters, windows: Windows,
-                workers: int | None = None) -> list[GapResult]:
+                workers: int | None = None, scheduler: str | None = None) -> list[GapResult | None]:
     """The gap of each (model, initial states per log: 4 x W, or 5 x W with the arm's bristle state) on
-    ``windows`` from Drake replays, one process per model and log."""
+    ``windows`` from Drake replays, one task per model and log; None for a model whose replay failed (raised, or
+    diverged to a non-finite residual)."""
     tasks = [(model, rig, log, horizon, starts, x0[i], measured)
              for model, x0 in models
              for i, (log, horizon, starts, measured) in enumerate(zip(windows.logs, windows.horizons, windows.starts,
                                                                        windows.measured))]
-    residuals = list(map_in_processes(_replay_log, tasks, workers))
+    residuals = run_tasks(_replay_log, tasks, workers=workers, scheduler=scheduler)
     n = len(windows.logs)
-    return [gap_from_residuals(residuals[k * n:(k + 1) * n], sensor_variance(model, rig.counts_per_rev), x0)
-            for k, (model, x0) in enumerate(models)]
+    out = []
+    for k, (model, x0) in enumerate(models):
+        parts = residuals[k * n:(k + 1) * n]
+        failed = any(isinstance(r, Failure) or not np.all(np.isfinite(r)) for r in parts)
+        out.append(None if failed else gap_from_residuals(parts, sensor_variance(model, rig.counts_per_rev), x0))
+    return out
 
 
 def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray],
-               workers: int | None = 1) -> GapResult:
+               workers: int | None = 1) -> GapResult | None:
     """:func:`replay_gaps` of one model."""
     return replay_gaps([(model, initial_states)], rig, windows, workers)[0]

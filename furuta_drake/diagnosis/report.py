@@ -1,8 +1,9 @@
-"""The diagnosis' output directory (spec "Outputs in DIR"): ``report.json``, ``report.md``, PNG plots,
-``config.yaml`` (exact inputs with their sha256, versions, seeds, options) and ``fitted_model.yaml`` (the fitted
-simulate config, so ``furuta-drake simulate --config fitted_model.yaml`` runs the corrected model).
+"""The diagnosis' output directory: ``report.json``, ``report.md``, ``report.html``, PNG plots, ``config.yaml``
+(exact inputs with their sha256, versions, seeds, options), ``fitted_model.yaml`` (the fitted simulate config, so
+``furuta-drake simulate --config fitted_model.yaml`` runs the corrected model) and ``fitted_rig.yaml`` (the rig
+file with the accepted effects, to continue from); ``docs/diagnose.md`` describes each.
 
-``report.json`` has the spec's keys in the spec's order (extra keys after them), every number a plain float
+``report.json`` has the contract's keys in its order (later keys after them), every number a plain float
 rounded to :data:`SIGNIFICANT_DIGITS` significant digits (non-finite as null), so the same inputs give
 byte-identical files. The directory is written through :func:`furuta_drake.outputs.atomic_output_dir`: it
 appears complete or not at all.
@@ -68,8 +69,9 @@ def check_report(report: dict) -> None:
         _require(entry, f"ranking[{i}]", {"effect": str, "params": dict, "heldout_gap": _NUMBER,
                                          "heldout_reduction": _NUMBER, "evidence": _NUMBER})
         for key, value in entry["params"].items():
-            if not _is_number(value):
-                raise ValueError(f"report.ranking[{i}].params.{key} must be a number, got {value!r}")
+            if not _is_number(value) and not (key.split(".")[-1] == "form" and isinstance(value, str)):
+                raise ValueError(f"report.ranking[{i}].params.{key} must be a number (or a form's name), "
+                                 f"got {value!r}")
     loc = report["localization"]
     _require(loc, "localization", {"signals": dict, "windows": list, "regimes": list, "frequency_bands": list})
     _require(loc["signals"], "localization.signals", {"theta": _NUMBER, "phi": _NUMBER})
@@ -102,91 +104,136 @@ def input_record(*, rig_path: str | Path, train: Sequence[str | Path], heldout: 
             "seeds": dict(seeds or {}), "options": dict(options or {})}
 
 
-def write_report(out_dir: str | Path, report: dict, *, before: list[WindowResiduals],
-                 after: list[WindowResiduals] | None = None, curves: list[EffectCurve] = (),
-                 fitted_config=None, config_record: dict, threshold_note: str, holdout_note: str = "",
-                 noise_variance: float = 1.0 / 12.0, force: bool = False, protect: Sequence[str | Path] = ()
+def write_report(out_dir: str | Path, diagnosis, *, force: bool = False, protect: Sequence[str | Path] = ()
                  ) -> Path:
-    """Write the whole output directory atomically (see :func:`write_report_files`); return its path.
-
-    ``protect`` lists paths (the input logs and rig) that ``force`` must never delete."""
+    """Write the whole output directory of ``diagnosis`` (a :class:`~furuta_drake.diagnosis.result.Diagnosis`
+    with its artifacts) atomically (see :func:`write_report_files`); return its path. ``protect`` lists paths
+    (the input logs and rig) that ``force`` must never delete."""
     with atomic_output_dir(out_dir, force=force, protect=protect) as staging:
-        write_report_files(staging, report, before=before, after=after, curves=curves,
-                           fitted_config=fitted_config, config_record=config_record, threshold_note=threshold_note,
-                           holdout_note=holdout_note, noise_variance=noise_variance)
+        write_report_files(staging, diagnosis)
     return Path(out_dir)
 
 
-def write_report_files(directory: Path, report: dict, *, before: list[WindowResiduals],
-                       after: list[WindowResiduals] | None, curves: list[EffectCurve], fitted_config,
-                       config_record: dict, threshold_note: str, holdout_note: str = "",
-                       noise_variance: float = 1.0 / 12.0) -> list[str]:
-    """Write report.json, the plots, report.md, config.yaml and fitted_model.yaml into an existing directory.
+def write_report_files(directory: Path, diagnosis) -> list[str]:
+    """Write report.json, the plots, report.md, report.html, config.yaml, fitted_model.yaml and fitted_rig.yaml
+    into an existing directory; return the written file names."""
+    from furuta_drake.diagnosis.html import report_html
 
-    ``before``/``after``: the held-out residual windows of the nominal model and of the model with the accepted
-    effects; ``curves``: the fitted-effect plots (:func:`effect_curve`); ``fitted_config``: a dataclass written
-    with :func:`~furuta_drake.yamlio.dump_yaml_dataclass` (None: no fitted model); ``threshold_note`` says how
-    the acceptance threshold was chosen, ``holdout_note`` how the held-out data were chosen. Returns the
-    written file names.
-    """
     directory = Path(directory)
-    text = report_json(report)
-    written = ["report.json"]
+    artifacts = diagnosis.artifacts
+    text = report_json(diagnosis.to_json())
+    report = json.loads(text)
     (directory / "report.json").write_text(text)
     figures = {"residuals.png": "Prediction residuals over time (worst windows shaded)",
                "residual_spectra.png": "Residual power spectral density, before and after the effects"}
-    plot_residuals(before, after, report["localization"]["windows"], directory / "residuals.png")
-    plot_spectra(before, after, noise_variance, directory / "residual_spectra.png")
-    for curve in curves:
+    plot_residuals(artifacts.before, artifacts.after, report["localization"]["windows"], directory / "residuals.png")
+    plot_spectra(artifacts.before, artifacts.after, artifacts.noise_variance, directory / "residual_spectra.png")
+    for curve in artifacts.curves:
         name = f"effect_{curve.effect}.png"
         plot_effect_curve(curve, directory / name)
         figures[name] = curve.title
-    written += list(figures)
-    (directory / "config.yaml").write_text(yaml.safe_dump(to_plain(config_record), sort_keys=False,
+    (directory / "config.yaml").write_text(yaml.safe_dump(to_plain(artifacts.record), sort_keys=False,
                                                           default_flow_style=False))
-    written.append("config.yaml")
-    if fitted_config is not None:
-        (directory / "fitted_model.yaml").write_text(dump_yaml_dataclass(fitted_config))
-        written.append("fitted_model.yaml")
-    markdown = report_markdown(json.loads(text), figures, threshold_note, holdout_note,
-                               fitted_model="fitted_model.yaml" if fitted_config is not None else None)
-    (directory / "report.md").write_text(markdown)
-    written.append("report.md")
-    return written
+    (directory / "fitted_model.yaml").write_text(dump_yaml_dataclass(artifacts.fitted_config))
+    (directory / "fitted_rig.yaml").write_text(dump_yaml_dataclass(artifacts.fitted_rig))
+    (directory / "report.md").write_text(report_markdown(report, figures))
+    (directory / "report.html").write_text(report_html(report, directory, figures))
+    return ["report.json", *figures, "config.yaml", "fitted_model.yaml", "fitted_rig.yaml", "report.md",
+            "report.html"]
 
 
-def report_markdown(report: dict, figures: dict[str, str], threshold_note: str, holdout_note: str = "",
-                    fitted_model: str | None = None) -> str:
+def _with_interval(key: str, value, intervals: dict) -> str:
+    """``key = value [low, high] unit`` (the interval and unit where known)."""
+    from furuta_drake.diagnosis.candidates import UNITS
+
+    unit = UNITS.get(key.split(".")[-1], "")
+    if isinstance(value, str):
+        return f"{key} = {value}"
+    text = f"{key} = {_fmt(value)}"
+    if key in intervals:
+        low, high = intervals[key]
+        text += f" [{_fmt(low)}, {_fmt(high)}]"
+    return text + (f" {unit}" if unit and unit != "-" else "")
+
+
+def report_markdown(report: dict, figures: dict[str, str]) -> str:
     """report.md: the same content as report.json for a person, with the figures linked relatively."""
     gap = report["gap"]
     effects = ", ".join(f"`{e}`" for e in report["effects"]) or "none"
     lines = ["# Sim-to-real gap diagnosis", "",
-             f"**Verdict: `{report['verdict']}`**. Accepted effects: {effects}.", "",
-             "## Gap", "", f"Metric: {gap['metric']}", "",
-             "| model | train | held-out |", "|---|---:|---:|",
-             f"| nominal (rig file) | {_fmt(gap['nominal']['train'])} | {_fmt(gap['nominal']['heldout'])} |",
-             f"| with the accepted effects | {_fmt(gap['with_effects']['train'])} | "
-             f"{_fmt(gap['with_effects']['heldout'])} |", "",
-             f"Held-out reduction: {_percent(gap['heldout_reduction'])} (1 - gap with effects / nominal gap, on "
-             f"held-out logs).", "", f"How the threshold was chosen: {threshold_note}", ""]
-    if holdout_note:
-        lines += [f"Held-out data: {holdout_note}", ""]
+             f"**Verdict: `{report['verdict']}`**. Accepted effects: {effects}.", ""]
+    if report.get("choice"):
+        lines += [report["choice"], ""]
+    for pair in report.get("confusable", []):
+        lines += [f"**Confusable:** `{pair['effects'][0]}` and `{pair['effects'][1]}`: {pair['why']}.", ""]
+    lines += ["## Gap", "", f"Metric: {gap['metric']}", "",
+              "| model | train | held-out |", "|---|---:|---:|",
+              f"| nominal (rig file) | {_fmt(gap['nominal']['train'])} | {_fmt(gap['nominal']['heldout'])} |",
+              f"| with the accepted effects | {_fmt(gap['with_effects']['train'])} | "
+              f"{_fmt(gap['with_effects']['heldout'])} |", "",
+              f"Held-out reduction: {_percent(gap['heldout_reduction'])} (1 - gap with effects / nominal gap, on "
+              f"held-out logs; {gap.get('evaluated_by', '')}).", ""]
+    if report.get("steps"):
+        lines += ["## Steps", "", "| step | effect accepted | held-out gap [counts] | reduction over nominal | "
+                  "reduction over the previous step |", "|---:|---|---:|---:|---:|"]
+        lines += [f"| {i} | `{step['effect']}` | {_fmt(step['heldout_gap'])} | {_percent(step['heldout_reduction'])} "
+                  f"| {_percent(step['reduction_over_previous'])} |" for i, step in enumerate(report["steps"], 1)]
+        lines.append("")
+    lines += [f"How effects are accepted: {report.get('rule', '')}", ""]
+    if report.get("holdout"):
+        lines += [f"Held-out data: {report['holdout']}", ""]
+    if report.get("uncertainty"):
+        lines += [f"Parameter intervals: {report['uncertainty']}.", ""]
     lines += ["## Ranking of the candidates", "",
-              "| # | effect | fitted parameters (SI) | held-out gap | held-out reduction | evidence |",
-              "|---:|---|---|---:|---:|---:|"]
-    for i, entry in enumerate(report["ranking"], 1):
-        params = ", ".join(f"{k} = {_fmt(v)}" for k, v in entry["params"].items())
-        lines.append(f"| {i} | `{entry['effect']}` | {params} | {_fmt(entry['heldout_gap'])} | "
-                     f"{_percent(entry['heldout_reduction'])} | {_fmt(entry['evidence'])} |")
-    accepted = next((entry for entry in report["ranking"] if entry["effect"] == "+".join(report["effects"])
-                     or sorted(entry["effect"].split("+")) == sorted(report["effects"])), None)
+              "| # | step | effect | fitted parameters: value [95 % interval] unit | held-out gap | "
+              "held-out reduction | evidence |", "|---:|---:|---|---|---:|---:|---:|"]
+    ranked = [entry for entry in report["ranking"] if entry.get("status", "ok") == "ok"]
+    for i, entry in enumerate(ranked, 1):
+        params = ", ".join(_with_interval(k, v, entry.get("params_ci", {})) for k, v in entry["params"].items())
+        lines.append(f"| {i} | {entry.get('step', 1)} | `{entry['effect']}` | {params} | "
+                     f"{_fmt(entry['heldout_gap'])} | {_percent(entry['heldout_reduction'])} | "
+                     f"{_fmt(entry['evidence'])} |")
+    failed = [entry for entry in report["ranking"] if entry.get("status", "ok") != "ok"]
+    if failed:
+        lines += ["", "Failed candidates (left out of the decision):", ""]
+        lines += [f"- `{entry['effect']}` (step {entry.get('step', 1)}): {entry.get('reason', '')}" for entry in failed]
+    accepted = next((entry for entry in ranked if entry["effect"].split("+") == [
+        step["effect"] for step in report.get("steps", [])]), None)
     if accepted is not None and accepted.get("at_bounds"):
         lines += ["", f"The accepted fit ended at the edge of its search range: {', '.join(accepted['at_bounds'])}. "
                   "The effect's law is stretched to its limit there; it may stand in for an unmodelled effect of "
                   "a similar shape."]
-    loc = report["localization"]
+    if report.get("detection_limits"):
+        lines += ["", "## Detection limits", "",
+                  ("No effect larger than these would have gone unseen in these logs" if report["verdict"] == "none"
+                   else "Effects not accepted would have been detected at these sizes") + " (injected into the "
+                  "model's own prediction of the held-out windows, judged by the same rule):", "",
+                  "| effect | parameter | smallest detected | note |", "|---|---|---:|---|"]
+        lines += [f"| `{limit['effect']}` | {limit['param']} | "
+                  f"{_fmt(limit['value'])}{' ' + limit['unit'] if limit['value'] is not None else ''} | "
+                  f"{_cell(limit.get('note', ''))} |" for limit in report["detection_limits"]]
+    if report.get("consistency"):
+        consistency = report["consistency"]
+        lines += ["", "## Consistency across splits of the logs", "", consistency["judgement"] + ".", "",
+                  "| fold | verdict | effects |", "|---:|---|---|"]
+        lines += [f"| {i} | `{verdict}` | {', '.join(found) or '-'} |" for i, (verdict, found) in enumerate(
+            zip(consistency["verdicts"], consistency.get("effects") or [[]] * consistency["folds"]), 1)]
+    lines += _localization_markdown(report["localization"])
+    lines += ["", "## Figures", ""]
+    for name, caption in figures.items():
+        lines += [f"![{caption}]({name})", "", f"*{caption}.*", ""]
+    lines += ["## Files", "", "- `report.json`: this report for programs; `report.html`: this report in one file.",
+              "- `config.yaml`: the exact inputs (paths and sha256), versions, seeds and options.",
+              "- `fitted_model.yaml`: the fitted model as a simulate config "
+              "(`furuta-drake simulate --config fitted_model.yaml`).",
+              "- `fitted_rig.yaml`: the rig file with the accepted effects in its `effects:` section (a further "
+              "diagnosis continues from it: `furuta-drake diagnose --rig fitted_rig.yaml ...`)."]
+    return "\n".join(lines) + "\n"
+
+
+def _localization_markdown(loc: dict) -> list[str]:
     after = loc.get("after")
-    lines += ["", "## Where the gap is", ""]
+    lines = ["", "## Where the gap is", ""]
     if "basis" in loc:
         lines += [f"Shares of the {loc['basis']}.", ""]
     header = "| signal | share (nominal) |" + (" share (with effects) |" if after else "")
@@ -218,15 +265,7 @@ def report_markdown(report: dict, figures: dict[str, str], threshold_note: str, 
         if after:
             row += f" {_percent(after_bands.get((b['low_hz'], b['high_hz']), {}).get('share_of_gap'))} |"
         lines.append(row)
-    lines += ["", "## Figures", ""]
-    for name, caption in figures.items():
-        lines += [f"![{caption}]({name})", "", f"*{caption}.*", ""]
-    lines += ["## Files", "", "- `report.json`: this report for programs (spec keys).",
-              "- `config.yaml`: the exact inputs (paths and sha256), versions, seeds and options."]
-    if fitted_model:
-        lines.append(f"- `{fitted_model}`: the fitted model as a simulate config "
-                     f"(`furuta-drake simulate --config {fitted_model}`).")
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def plot_residuals(before: list[WindowResiduals], after: list[WindowResiduals] | None, worst: list[dict],

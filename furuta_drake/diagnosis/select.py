@@ -1,123 +1,132 @@
-"""The decision: which effect (or pair) the held-out data support, ``none``, or ``unexplained``.
+"""The held-out rule that accepts an effect (stage 4 of the diagnosis), one step at a time.
 
 Significance comes from the data: each held-out window contributes its own excess squared residual, so the
-held-out gap reduction of a candidate is bootstrapped over windows (paired: the same resampled windows for
-the nominal and the candidate). The threshold rule, written into every report:
+reduction of the held-out gap that a model brings over the previous one is bootstrapped over windows (paired:
+the same resampled windows for both). At every step (the first against the nominal model, each further one
+against the model that already holds the earlier effects):
 
-- ``none`` when the nominal held-out gap is at the floor: below ``FLOOR_COUNTS`` or below twice its own
-  bootstrap standard error (the nominal model already explains the data to within their noise);
-- a candidate is *supported* when the 5 % lower bound of its reduction exceeds ``MARGIN``; the verdict is the
-  supported candidate with the largest reduction, replaced by one with fewer parameters when that one is
-  within ``PARSIMONY`` of it (Coulomb before Stribeck or asymmetry when the data cannot tell them apart);
-- a pair is accepted instead when it removes at least ``PAIR_GAIN`` of the gap its best member leaves, with the
-  5 % bound of that extra reduction above ``MARGIN``, and adds at least ``PAIR_MIN_GAIN`` to the reduction
-  from nominal (a pair cannot win by shaving a gap already at the floor);
-- ``unexplained`` when the nominal gap is above the floor and no candidate or pair is supported with a
-  point reduction of at least ``CLOSES``.
+- the previous model is *at the floor* when its held-out gap is below ``FLOOR_COUNTS`` or below twice its own
+  bootstrap standard error: it already explains the data to within their noise, and nothing more is accepted
+  (verdict ``none`` at the first step);
+- a candidate is *supported* when the 5 % lower bound of its reduction over the previous model exceeds
+  ``MARGIN``; the accepted one is the supported candidate with the largest reduction, replaced by one with fewer
+  parameters when that one is within ``PARSIMONY`` of it (Coulomb before Stribeck or asymmetry when the data
+  cannot tell them apart);
+- two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
+  difference of their reductions holds 0: the data explain them equally well, and the report says so;
+- the verdict is ``unexplained`` when the nominal model is above the floor and the accepted effects together
+  reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import CANDIDATES
+from furuta_drake.diagnosis.candidates import CANDIDATES, law_of
 
 FLOOR_COUNTS = 0.25
 MARGIN = 0.2
 PARSIMONY = 0.03
-PAIR_GAIN = 0.4
-PAIR_MIN_GAIN = 0.05
 CLOSES = 0.5
-BOOTSTRAP = 1000
-THRESHOLD_NOTE = (
-    f"Held-out reductions are bootstrapped over held-out windows ({BOOTSTRAP} paired resamples, seed 0). "
-    f"The nominal model is at the floor (verdict none) when its held-out gap is below {FLOOR_COUNTS} counts or "
-    f"twice its bootstrap standard error. A candidate is supported when the 5 % lower bound of its reduction "
-    f"exceeds {MARGIN:.0%}; among supported candidates a simpler one within {PARSIMONY:.0%} of the best wins; a "
-    f"pair must remove {PAIR_GAIN:.0%} of the gap its best member leaves, with a lower bound above {MARGIN:.0%}, and add {PAIR_MIN_GAIN:.0%} to the reduction; "
-    f"a best reduction under {CLOSES:.0%} leaves the "
-    f"gap unexplained.")
+CONFUSABLE_LEVEL = 0.9  # two-sided level of the interval of a difference of reductions
 
 
-def _gap(per_window: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.maximum(per_window, 0.0))
+def threshold_note(bootstrap: int, seed: int) -> str:
+    """The acceptance rule in one paragraph, written into every report."""
+    return (f"Held-out reductions are bootstrapped over held-out windows ({bootstrap} paired resamples, seed "
+            f"{seed}). Effects are accepted one at a time, at most three: a model is at the floor (nothing more is "
+            f"accepted; verdict none at the first step) when its held-out gap is below {FLOOR_COUNTS} counts or "
+            f"twice its bootstrap standard error; a candidate is supported when the 5 % lower bound of its reduction "
+            f"over the model holding the earlier effects exceeds {MARGIN:.0%}; among supported candidates a simpler "
+            f"one within {PARSIMONY:.0%} of the best is accepted; two supported candidates of different laws whose "
+            f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
+            f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
+            f"unexplained.")
 
 
-def bootstrap_reduction(nominal: np.ndarray, candidate: np.ndarray, seed: int = 0) -> tuple[float, float]:
-    """Point reduction 1 - gap/gap_nominal and its 5 % bootstrap lower bound (paired over windows)."""
-    point = 1.0 - _gap(candidate.mean()) / max(_gap(nominal.mean()), 1e-12)
-    rng = np.random.default_rng(seed)
-    index = rng.integers(0, nominal.size, (BOOTSTRAP, nominal.size))
-    boot = 1.0 - _gap(candidate[index].mean(axis=1)) / np.maximum(_gap(nominal[index].mean(axis=1)), 1e-12)
-    return float(point), float(np.quantile(boot, 0.05))
+def gap_of(per_window_excess) -> np.ndarray:
+    """The gap [counts] from a mean excess squared residual [counts^2] (clipped at 0)."""
+    return np.sqrt(np.maximum(per_window_excess, 0.0))
 
 
-def nominal_at_floor(nominal: np.ndarray, seed: int = 0) -> bool:
-    gap = float(_gap(nominal.mean()))
-    rng = np.random.default_rng(seed)
-    index = rng.integers(0, nominal.size, (BOOTSTRAP, nominal.size))
-    spread = float(np.std(_gap(nominal[index].mean(axis=1))))
-    return gap < FLOOR_COUNTS or gap < 2.0 * spread
+@dataclass(frozen=True)
+class Evidence:
+    """One model's held-out figures against a reference model: point reduction and its 5 % lower bound."""
+
+    heldout_gap: float  # [counts]
+    reduction: float  # 1 - gap / gap(reference)
+    lower_bound: float  # 5 % bootstrap lower bound of the reduction
+    excess: float  # mean excess squared residual [counts^2], ties below the floor
 
 
-@dataclass
-class Decision:
-    verdict: str
-    effects: list[str]
-    accepted: str | None  # the ranking name of the accepted candidate or pair
-    ranking: list[dict] = field(default_factory=list)
+class Bootstrap:
+    """Paired resamples of the held-out windows, drawn once (seeded) and shared by every comparison."""
+
+    def __init__(self, windows: int, resamples: int, seed: int):
+        self.index = np.random.default_rng(seed).integers(0, windows, (resamples, windows))
+
+    def reductions(self, reference: np.ndarray, candidate: np.ndarray) -> np.ndarray:
+        """Bootstrap values of 1 - gap(candidate) / gap(reference)."""
+        return 1.0 - gap_of(candidate[self.index].mean(axis=1)) / np.maximum(
+            gap_of(reference[self.index].mean(axis=1)), 1e-12)
+
+    def evidence(self, reference: np.ndarray, candidate: np.ndarray) -> Evidence:
+        point = 1.0 - gap_of(candidate.mean()) / max(float(gap_of(reference.mean())), 1e-12)
+        return Evidence(float(gap_of(candidate.mean())), float(point),
+                        float(np.quantile(self.reductions(reference, candidate), 0.05)), float(candidate.mean()))
+
+    def at_floor(self, per_window: np.ndarray) -> bool:
+        """The model of ``per_window`` explains the data to within their noise (module docstring)."""
+        gap = float(gap_of(per_window.mean()))
+        spread = float(np.std(gap_of(per_window[self.index].mean(axis=1))))
+        return gap < FLOOR_COUNTS or gap < 2.0 * spread
+
+    def difference_interval(self, reference: np.ndarray, first: np.ndarray, second: np.ndarray
+                            ) -> tuple[float, float]:
+        """The ``CONFUSABLE_LEVEL`` interval of reduction(first) - reduction(second), both over ``reference``."""
+        difference = self.reductions(reference, first) - self.reductions(reference, second)
+        tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
+        return float(np.quantile(difference, tail)), float(np.quantile(difference, 1.0 - tail))
 
 
 def n_params(name: str) -> int:
+    """Fitted parameters of a candidate ('a+b' counts both), in its first form."""
     return sum(len(CANDIDATES[part].params) for part in name.split("+"))
 
 
-def rank(nominal: np.ndarray, candidates: dict[str, np.ndarray]) -> list[dict]:
-    """Every candidate's held-out gap, reduction and evidence (lower bound), best first."""
-    rows = []
-    for name, per_window in candidates.items():
-        point, low = bootstrap_reduction(nominal, per_window)
-        rows.append({"name": name, "heldout_gap": float(_gap(per_window.mean())), "heldout_reduction": point,
-                     "evidence": low, "excess": float(per_window.mean())})
-    # Ties (two models both at the floor: a reduction of 1) go to the smaller excess residual before the square
-    # root's clip at zero, then to fewer parameters.
-    return sorted(rows, key=lambda row: (-row["heldout_reduction"], row["excess"], n_params(row["name"]),
-                                         row["name"]))
+def order(evidence: dict[str, Evidence]) -> list[str]:
+    """Candidates best first: the larger reduction, then (two models at the floor both reduce by 1) the smaller
+    excess residual before the square root's clip, then fewer parameters, then the name."""
+    return sorted(evidence, key=lambda name: (-evidence[name].reduction, evidence[name].excess, n_params(name),
+                                              name))
 
 
-def best_single(ranking: list[dict]) -> dict | None:
-    supported = [row for row in ranking if "+" not in row["name"] and row["evidence"] > MARGIN]
+def choose(evidence: dict[str, Evidence], new: dict[str, str]) -> str | None:
+    """The accepted candidate among ``evidence`` (over the previous model), or None when none is supported.
+    ``new``: each candidate's added effect, whose parameters the parsimony rule counts."""
+    supported = [name for name in order(evidence) if evidence[name].lower_bound > MARGIN]
     if not supported:
         return None
     best = supported[0]
-    simpler = [row for row in supported if n_params(row["name"]) < n_params(best["name"])
-               and row["heldout_reduction"] >= best["heldout_reduction"] - PARSIMONY]
-    return min(simpler, key=lambda row: (n_params(row["name"]), -row["heldout_reduction"])) if simpler else best
+    simpler = [name for name in supported if n_params(new[name]) < n_params(new[best])
+               and evidence[name].reduction >= evidence[best].reduction - PARSIMONY]
+    return min(simpler, key=lambda name: (n_params(new[name]), -evidence[name].reduction)) if simpler else best
 
 
-def decide(nominal: np.ndarray, candidates: dict[str, np.ndarray]) -> Decision:
-    """The verdict from per-window held-out excess residuals of the nominal model and every candidate (single
-    names and 'a+b' pairs)."""
-    ranking = rank(nominal, candidates)
-    if nominal_at_floor(nominal):
-        return Decision("none", [], None, ranking)
-    single = best_single(ranking)
-    chosen = single
-    if single is not None:
-        for row in ranking:
-            if "+" not in row["name"] or single["name"] not in row["name"].split("+"):
-                continue
-            extra, extra_low = bootstrap_reduction(candidates[single["name"]], candidates[row["name"]])
-            gained = row["heldout_reduction"] - single["heldout_reduction"]
-            if extra >= PAIR_GAIN and extra_low > MARGIN and gained >= PAIR_MIN_GAIN:
-                chosen = row
-                break
-    if chosen is None or chosen["heldout_reduction"] < CLOSES:
-        return Decision("unexplained", [], None, ranking)
-    effects = chosen["name"].split("+")
-    if len(effects) > 1:  # the verdict names the stronger member
-        strength = {row["name"]: row["heldout_reduction"] for row in ranking}
-        effects.sort(key=lambda name: -strength.get(name, 0.0))
-    return Decision(effects[0], effects, chosen["name"], ranking)
+def confusable(chosen: str, evidence: dict[str, Evidence], new: dict[str, str], previous: np.ndarray,
+               per_window: dict[str, np.ndarray], bootstrap: Bootstrap) -> list[dict]:
+    """The supported candidates of other laws that explain the held-out data as well as ``chosen``, each as
+    ``{"effects": [chosen's effect, other's effect], "why": ...}``."""
+    out = []
+    for name in order(evidence):
+        if name == chosen or evidence[name].lower_bound <= MARGIN or new[name] in law_of(new[chosen]):
+            continue
+        low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
+        if low <= 0.0 <= high:
+            out.append({"effects": [new[chosen], new[name]], "why": (
+                f"held-out reductions {evidence[chosen].reduction:.1%} ({new[chosen]}) and "
+                f"{evidence[name].reduction:.1%} ({new[name]}): the {CONFUSABLE_LEVEL:.0%} bootstrap interval of "
+                f"their difference, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0")})
+    return out

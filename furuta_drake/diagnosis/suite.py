@@ -67,8 +67,10 @@ def verdict_is_right(answer: dict, report: dict) -> bool:
     return report["verdict"] == expected
 
 
-def with_effect(config: SimulationConfig, effect: str, level: int) -> SimulationConfig:
-    """``config`` with the true-world realisation of ``effect`` at magnitude ``level`` (1 or 2)."""
+def with_effect(config: SimulationConfig, effect: str, level: float) -> SimulationConfig:
+    """``config`` with the true-world realisation of ``effect`` at magnitude ``level``: the suite's 1 (moderate)
+    and 2 (strong), or any level in (0, 3] (the property checks draw them; the gain error is a loss up to level
+    1 and a gain above it)."""
     rig = config.rig
     k = float(level)
     mgl = rig.gravity_torque
@@ -99,7 +101,8 @@ def with_effect(config: SimulationConfig, effect: str, level: int) -> Simulation
         friction = dataclasses.replace(friction, pendulum=JointFrictionParameters(
             model="static", coulomb_pos=level_Nm, coulomb_neg=level_Nm, viscous=damping))
     elif effect == "encoder_quantization":
-        encoder = dataclasses.replace(config.encoder, counts_per_rev=config.encoder.counts_per_rev // (4 * level))
+        encoder = dataclasses.replace(config.encoder,
+                                      counts_per_rev=config.encoder.counts_per_rev // max(2, round(4 * level)))
         return dataclasses.replace(config, encoder=encoder)
     elif effect == "measurement_noise":
         noise = 1.5 * k * rig.encoder_resolution
@@ -108,7 +111,7 @@ def with_effect(config: SimulationConfig, effect: str, level: int) -> Simulation
         delay = (1.5 + 1.5 * k) * period  # 3 and 4.5 control periods
         return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, delay=delay))
     elif effect == "torque_gain_error":
-        gain = {1: 0.8, 2: 1.35}[level]
+        gain = 1.0 - 0.2 * k if k <= 1.0 else 1.0 + 0.35 * (k - 1.0)
         return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, gain=gain))
     elif effect == "actuator_deadzone":
         return dataclasses.replace(config, actuator=dataclasses.replace(
@@ -117,7 +120,7 @@ def with_effect(config: SimulationConfig, effect: str, level: int) -> Simulation
         return dataclasses.replace(config, actuator=dataclasses.replace(
             config.actuator, lag_time_constant=0.006 * k))
     elif effect == "actuator_saturation":
-        limit = config.controller.lqr.torque_limit * (0.5 if level == 1 else 0.3)
+        limit = config.controller.lqr.torque_limit * max(0.7 - 0.2 * k, 0.1)
         return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, saturation=limit))
     elif effect == "arm_spring":
         stiffness = 0.25 * k * mgl  # N m/rad: a cable that pulls back with a quarter of m g l per radian
@@ -152,8 +155,20 @@ def run_configs(rig: RigParameters, seed: int, duration: float) -> dict[str, Sim
     return {"balance": balance, "hanging": hanging}
 
 
-def default_cases(rigs=("lund", "qube_servo2"), seeds=(1,), levels=(1, 2)) -> list[CaseSpec]:
-    """Every vocabulary effect at each level on each rig and seed, plus none, a pair and cogging."""
+# Effects that act together on one rig (every one must be named): friction beside an actuator effect, and three.
+SEVERAL_EFFECTS = (
+    ("arm_coulomb_friction", "input_delay"), ("arm_coulomb_friction", "actuator_lag"),
+    ("arm_viscous_friction", "input_delay"), ("inertia_mismatch", "input_delay"),
+    ("arm_coulomb_friction", "actuator_deadzone"), ("arm_coulomb_friction", "arm_spring"),
+    ("arm_coulomb_friction", "input_delay", "inertia_mismatch"),
+    ("arm_viscous_friction", "actuator_lag", "inertia_mismatch"),
+    ("arm_coulomb_friction", "actuator_lag", "arm_spring"),
+)
+
+
+def default_cases(rigs=("lund", "qube_servo2"), seeds=(1,), levels=(1, 2), several: bool = True) -> list[CaseSpec]:
+    """Every vocabulary effect at each level on each rig and seed, plus none, cogging and (``several``) the
+    combinations of :data:`SEVERAL_EFFECTS` at the strong level."""
     cases = []
     for rig in rigs:
         for seed in seeds:
@@ -162,8 +177,9 @@ def default_cases(rigs=("lund", "qube_servo2"), seeds=(1,), levels=(1, 2)) -> li
             for effect in VOCABULARY:
                 for level in levels:
                     cases.append(CaseSpec(rig, (effect,), level, seed))
-            cases.append(CaseSpec(rig, ("arm_coulomb_friction", "input_delay"), 2, seed))
             cases.append(CaseSpec(rig, (OUTSIDE_VOCABULARY,), 2, seed))
+            if several:
+                cases += [CaseSpec(rig, effects, 2, seed) for effects in SEVERAL_EFFECTS]
     return cases
 
 
@@ -184,8 +200,7 @@ def write_case(case: CaseSpec, directory: Path, duration: float = 8.0) -> dict:
             path = directory / f"{split}_{run}.csv"
             write_log_csv(result, path)
             files.setdefault(split, []).append(path.name)
-    truth = {effect: _truth_params(with_effect(SimulationConfig.from_rig(rig), effect, case.level), effect)
-             for effect in case.effects}
+    truth = {effect: true_params(rig, effect, case.level) for effect in case.effects}
     return {"case": case.name, "rig": case.rig, "effects": list(case.effects), "level": case.level,
             "seed": case.seed, "expected_verdict": case.expected_verdict, "files": files, "truth": truth}
 
@@ -203,14 +218,34 @@ def write_suite(out: Path, cases: list[CaseSpec], duration: float = 8.0, progres
     return path
 
 
-def _truth_params(config: SimulationConfig, effect: str) -> dict:
-    """The hidden effect's true parameters, for the answers file (plain SI values)."""
-    from furuta_drake.yamlio import to_plain
-
-    section = {
-        "encoder_quantization": "encoder", "measurement_noise": "encoder", "input_delay": "actuator",
-        "torque_gain_error": "actuator", "actuator_deadzone": "actuator", "actuator_lag": "actuator",
-        "actuator_saturation": "actuator", "arm_spring": "disturbance", OUTSIDE_VOCABULARY: "disturbance",
-        "inertia_mismatch": "rig", "pendulum_friction": "friction",
-    }.get(effect, "friction")
-    return to_plain(getattr(config, section))
+def true_params(rig: RigParameters, effect: str, level: int) -> dict[str, float]:
+    """The hidden effect's parameters in the vocabulary's names and units (as a report's ranking lists them),
+    read from its true-world realisation; cogging, outside the vocabulary, as its amplitude and periods."""
+    base = SimulationConfig.from_rig(rig)
+    config = with_effect(base, effect, level)
+    arm, pendulum, actuator = config.friction.arm, config.friction.pendulum, config.actuator
+    if effect in ("arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"):
+        params = {"arm_coulomb_friction": {"coulomb": arm.coulomb_pos},
+                  "arm_stribeck": {"coulomb": arm.coulomb_pos, "static": arm.static_levels[0],
+                                   "stribeck_velocity": arm.stribeck_velocity},
+                  "friction_asymmetry": {"coulomb_pos": arm.coulomb_pos, "coulomb_neg": arm.coulomb_neg}}[effect]
+        return {**params, "presliding": arm.bristle_bound}
+    if effect == "inertia_mismatch":
+        true_rig, constants = config.rig, ("arm_inertia_total", "pendulum_inertia_total", "coupling", "gravity_torque")
+        names = ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale")
+        return {name: getattr(true_rig, c) / getattr(rig, c) for name, c in zip(names, constants)}
+    return {
+        "arm_viscous_friction": lambda: {"viscous": arm.viscous},
+        "pendulum_friction": lambda: {"coulomb": pendulum.coulomb_pos, "viscous": pendulum.viscous},
+        "encoder_quantization": lambda: {"counts_per_rev": float(config.encoder.counts_per_rev)},
+        "measurement_noise": lambda: {"noise_std": config.encoder.noise_std},
+        "input_delay": lambda: {"delay": actuator.delay},
+        "torque_gain_error": lambda: {"gain": actuator.gain},
+        "actuator_deadzone": lambda: {"deadzone": actuator.deadzone},
+        "actuator_lag": lambda: {"time_constant": actuator.lag_time_constant},
+        "actuator_saturation": lambda: {"limit": actuator.saturation},
+        "arm_spring": lambda: {"stiffness": config.disturbance.arm_spring_stiffness,
+                               "equilibrium": config.disturbance.arm_spring_equilibrium},
+        OUTSIDE_VOCABULARY: lambda: {"cogging_amplitude": config.disturbance.cogging_amplitude,
+                                     "cogging_periods": float(config.disturbance.cogging_periods)},
+    }[effect]()

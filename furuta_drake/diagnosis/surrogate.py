@@ -41,6 +41,7 @@ class Model:
     back_emf_damping: float = 0.0  # kt ke / R [N m s/rad]
     gain: float = 1.0
     deadzone: float = 0.0  # [N m]
+    deadzone_form: str = "subtract"  # "subtract": u - sat(u); "threshold": u where |u| > deadzone, else 0
     saturation: float = np.inf  # [N m]
     delay: float = 0.0  # [s]
     lag: float = 0.0  # [s]
@@ -48,6 +49,7 @@ class Model:
     spring_equilibrium: float = 0.0  # [rad]
     counts_per_rev: int = 4096
     noise_std: float = 0.0  # [rad]
+    rig_constants: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # the rig file's (a, b, c, d)
 
     @classmethod
     def from_rig(cls, rig: RigParameters) -> "Model":
@@ -55,7 +57,8 @@ class Model:
             return JointFrictionParameters(model="static", coulomb_pos=coulomb, coulomb_neg=coulomb,
                                            viscous=viscous, regularization_velocity=REGULARIZATION_VELOCITY)
 
-        return cls(a=rig.arm_inertia_total, b=rig.pendulum_inertia_total, c=rig.coupling, d=rig.gravity_torque,
+        constants = (rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque)
+        return cls(*constants, rig_constants=constants,
                    arm_friction=joint(rig.arm_coulomb, rig.arm_viscous),
                    pendulum_friction=joint(rig.pendulum_coulomb, rig.pendulum_viscous),
                    back_emf_damping=0.0 if rig.motor is None else rig.motor.back_emf_damping,
@@ -74,8 +77,12 @@ def sensor_variance(model: Model, nominal_counts: int) -> float:
 
 
 def applied_torque(model: Model, command: np.ndarray) -> np.ndarray:
-    """The actuator's static map after delay and lag: dead zone (u - sat(u)), gain, saturation."""
-    u = command - np.clip(command, -model.deadzone, model.deadzone) if model.deadzone > 0 else command
+    """The actuator's static map after delay and lag: dead zone (u - sat(u), or u where |u| exceeds it), gain,
+    saturation."""
+    u = command
+    if model.deadzone > 0:
+        u = (command - np.clip(command, -model.deadzone, model.deadzone) if model.deadzone_form == "subtract"
+             else np.where(np.abs(command) > model.deadzone, command, 0.0))
     u = model.gain * u if model.gain != 1.0 else u
     return np.clip(u, -model.saturation, model.saturation) if np.isfinite(model.saturation) else u
 

@@ -1,0 +1,215 @@
+"""Detection limits: for every effect not accepted, the smallest size of its main parameter that these logs would
+have detected under the acceptance rule (stage 6 of the diagnosis).
+
+The effect is injected into the accepted model's own prediction of the very same held-out windows: the
+synthetic data are the measured angles plus the change the effect at size s makes to the model's prediction from
+the model's refined initial states, with the part the initial states can absorb projected out (the residuals are
+re-projected for every model, so a state-like change is no evidence). The model is then judged on the synthetic
+data against the model holding the injected effect at its true size, which explains them exactly, with the
+acceptance rule's bootstrap (:mod:`furuta_drake.diagnosis.select`): detected when the model is not at the floor
+on them and the lower bound of the reduction exceeds the margin (and, for a first effect, the reduction reaches
+the level that closes a gap). The smallest detected size is found by bisection on a log scale. A real fit must
+also find the parameters, so a real detection needs somewhat more than this limit.
+
+Sensor effects are injected into the data: white noise (also to be read by the noise estimate, which ignores
+less than half a count), and a coarser encoder by re-quantising the measured angles.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from furuta_drake.diagnosis.candidates import CANDIDATES, PRESLIDING_STARTS, UNITS, Effect, Scales, apply_effects
+from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS
+from furuta_drake.diagnosis.gap import Windows, fixed_state_residuals, project_out_states, projected_residuals
+from furuta_drake.diagnosis.result import DetectionLimit
+from furuta_drake.diagnosis.select import CLOSES, MARGIN, Bootstrap
+from furuta_drake.diagnosis.surrogate import Model, sensor_variance
+
+BISECTIONS = 14  # halvings of the log-scale bracket: the limit to within about 1 % of its bracket's ratio
+
+
+@dataclass(frozen=True)
+class Injection:
+    """How an effect is injected at a size s > 0: its :class:`Effect` and the reported main parameter's value."""
+
+    param: str
+    bracket: Callable[[Scales, Model], tuple[float, float]]  # (smallest, largest) size tried
+    effect: Callable[[float, Scales, Model], Effect]
+    value: Callable[[float, Scales, Model], float]
+    note: str = ""
+
+
+def _same(s, scales, model):
+    return s
+
+
+def _arm_level(model: Model) -> float:
+    """The model's arm Coulomb level [N m] (the larger of the two directions; 0 without arm friction)."""
+    p = model.arm_friction
+    return max(p.coulomb_pos, p.coulomb_neg) if p.model != "none" else 0.0
+
+
+INJECTIONS: dict[str, Injection] = {
+    "arm_coulomb_friction": Injection(
+        "coulomb", lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
+        lambda s, sc, m: Effect("presliding", (_arm_level(m) + s, PRESLIDING_STARTS[0])), _same,
+        f"added to the model's Coulomb level, presliding {PRESLIDING_STARTS[0] * 1e3:g} mrad"),
+    "arm_viscous_friction": Injection(
+        "viscous", lambda sc, m: (1e-4 * sc.arm_inertia, 50.0 * sc.arm_inertia),
+        lambda s, sc, m: Effect("", (m.arm_friction.viscous + s,)), _same, "added to the model's"),
+    "arm_stribeck": Injection(
+        "static", lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
+        lambda s, sc, m: Effect("presliding", (_arm_level(m), _arm_level(m) + s, 0.1, PRESLIDING_STARTS[0])), _same,
+        "static level above the model's Coulomb level, Stribeck velocity 0.1 rad/s"),
+    "friction_asymmetry": Injection(
+        "coulomb_neg", lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
+        lambda s, sc, m: Effect("presliding", (_arm_level(m) + 1e-6 * sc.torque, _arm_level(m) + s,
+                                               PRESLIDING_STARTS[0])), _same,
+        "added to the model's Coulomb level in the negative direction only"),
+    "pendulum_friction": Injection(
+        "coulomb", lambda sc, m: (1e-6 * sc.torque, 0.1 * sc.torque),
+        lambda s, sc, m: Effect("", (m.pendulum_friction.coulomb_pos + s, m.pendulum_friction.viscous)), _same,
+        "added to the model's Coulomb level"),
+    "input_delay": Injection(
+        "delay", lambda sc, m: (0.01 * sc.period, 20.0 * sc.period), lambda s, sc, m: Effect("", (m.delay + s,)),
+        _same, "added to the model's"),
+    "torque_gain_error": Injection(
+        "gain", lambda sc, m: (1e-3, 1.0), lambda s, sc, m: Effect("", (1.0 + s,)), lambda s, sc, m: 1.0 + s,
+        "a gain above 1 (a gain below 1 is detected at about the same distance from 1)"),
+    "actuator_deadzone": Injection(
+        "deadzone", lambda sc, m: (1e-4 * sc.command, 0.5 * sc.command),
+        lambda s, sc, m: Effect("subtract", (m.deadzone + s,)), _same, "the subtract form"),
+    "actuator_lag": Injection(
+        "time_constant", lambda sc, m: (0.01 * sc.period, 0.1), lambda s, sc, m: Effect("", (m.lag + s,)), _same,
+        "added to the model's"),
+    "actuator_saturation": Injection(
+        "limit", lambda sc, m: (1e-3, 0.95), lambda s, sc, m: Effect("", ((1.0 - s) * sc.command,)),
+        lambda s, sc, m: (1.0 - s) * sc.command, "the largest limit detected, below the largest command"),
+    "arm_spring": Injection(
+        "stiffness", lambda sc, m: (1e-5 * sc.torque, 5.0 * sc.torque),
+        lambda s, sc, m: Effect("", (m.spring_stiffness + s, m.spring_equilibrium)), _same, "added to the model's"),
+    "inertia_mismatch": Injection(
+        "arm_inertia_scale", lambda sc, m: (1e-3, 1.0), lambda s, sc, m: Effect("", (1.0 + s, 1.0, 1.0, 1.0)),
+        lambda s, sc, m: 1.0 + s, "the arm's inertia alone, scaled up"),
+}
+
+
+@dataclass
+class _Judge:
+    """The accepted model's residuals and state sensitivities on the held-out windows, and the rule."""
+
+    model: Model
+    windows: Windows
+    counts: int
+    bootstrap: Bootstrap
+    first: bool  # no effect accepted yet: a detection must also close the gap
+
+    def __post_init__(self):
+        self.raw, self.states, self.jacobians = projected_residuals(self.model, self.windows, self.counts)
+        self.variance = sensor_variance(self.model, self.counts)
+        self.truth = _excess(self.raw, self.variance)
+
+    def detected(self, residuals: list[np.ndarray], variance_of_truth: float | None = None) -> bool:
+        """Whether synthetic residuals of the model are detected against the truth (the model's own residuals,
+        or with ``variance_of_truth`` the same residuals judged with that sensor variance)."""
+        synthetic = _excess(residuals, self.variance)
+        truth = self.truth if variance_of_truth is None else _excess(residuals, variance_of_truth)
+        if self.bootstrap.at_floor(synthetic):
+            return False
+        evidence = self.bootstrap.evidence(synthetic, truth)
+        return evidence.lower_bound > MARGIN and (not self.first or evidence.reduction >= CLOSES)
+
+    def injected(self, effect_model: Model) -> list[np.ndarray]:
+        count = 2 * np.pi / self.counts
+        predicted = fixed_state_residuals(effect_model, self.windows, self.states, self.counts)
+        return [raw + project_out_states(np.nan_to_num(p - raw, nan=1e6 / count), J)
+                for raw, p, J in zip(self.raw, predicted, self.jacobians)]
+
+
+def _excess(residuals: list[np.ndarray], variance: float) -> np.ndarray:
+    return np.concatenate([(r[1:] ** 2).mean(axis=(0, 1)) for r in residuals]) - variance
+
+
+def detection_limits(model: Model, accepted: list[str], windows: Windows, scales: Scales, counts: int,
+                     bootstrap: Bootstrap, seed: int = 0) -> list[DetectionLimit]:
+    """The detection limit of every vocabulary effect that is neither accepted nor a variant of an accepted
+    effect's law, on the held-out ``windows`` of ``model`` (the model holding the accepted effects)."""
+    from furuta_drake.diagnosis.candidates import law_of
+
+    judge = _Judge(model, windows, counts, bootstrap, first=not accepted)
+    taken = set().union(*(law_of(name) for name in accepted)) if accepted else set()
+    out = []
+    for name in CANDIDATES:
+        if name in taken:
+            continue
+        if name == "measurement_noise":
+            out.append(_noise_limit(judge, seed))
+        elif name == "encoder_quantization":
+            out.append(_quantization_limit(judge))
+        else:
+            out.append(_injected_limit(name, judge, scales))
+    return out
+
+
+def _bisect(detected: Callable[[float], bool], low: float, high: float) -> float | None:
+    """The smallest size in [low, high] that is detected (log-scale bisection), None when ``high`` is not."""
+    if not detected(high):
+        return None
+    if detected(low):
+        return low
+    for _ in range(BISECTIONS):
+        middle = float(np.sqrt(low * high))
+        low, high = (low, middle) if detected(middle) else (middle, high)
+    return high
+
+
+def _injected_limit(name: str, judge: _Judge, scales: Scales) -> DetectionLimit:
+    injection = INJECTIONS[name]
+
+    def detected(size: float) -> bool:
+        effect_model = apply_effects(judge.model, {name: injection.effect(size, scales, judge.model)})
+        return judge.detected(judge.injected(effect_model))
+
+    low, high = injection.bracket(scales, judge.model)
+    size = _bisect(detected, low, high)
+    if size is None:
+        return DetectionLimit(name, injection.param, None, UNITS[injection.param],
+                              f"not detected even at {injection.value(high, scales, judge.model):.3g} "
+                              f"{UNITS[injection.param]}, the end of its search range")
+    return DetectionLimit(name, injection.param, injection.value(size, scales, judge.model), UNITS[injection.param],
+                          injection.note)
+
+
+def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:
+    """White noise of std s [counts] added to the measured angles; the candidate explaining it has the model's
+    sensor variance plus s^2. The noise estimate reads nothing below ``NOISE_FLOOR_COUNTS``."""
+    count = 2 * np.pi / judge.counts
+    rng = np.random.default_rng(seed)
+    unit_noise = [rng.standard_normal(r.shape) for r in judge.raw]
+
+    def detected(size: float) -> bool:
+        residuals = [r + size * n for r, n in zip(judge.raw, unit_noise)]
+        return judge.detected(residuals, judge.variance + size**2)
+
+    size = _bisect(detected, NOISE_FLOOR_COUNTS, 20.0)
+    return DetectionLimit("measurement_noise", "noise_std", None if size is None else size * count, "rad",
+                          "white noise on both angles" if size is not None else "not detected up to 20 counts")
+
+
+def _quantization_limit(judge: _Judge) -> DetectionLimit:
+    """The measured angles re-quantised to a k times coarser encoder; the largest counts_per_rev detected."""
+    count = 2 * np.pi / judge.counts
+    for k in range(2, 65):
+        residuals = []
+        for log_windows, raw in zip(judge.windows.measured, judge.raw):
+            coarse = np.round(log_windows / (k * count)) * k * count
+            residuals.append(raw + (coarse - log_windows) / count)
+        if judge.detected(residuals, judge.variance + (k**2 - 1) / 12.0):
+            return DetectionLimit("encoder_quantization", "counts_per_rev", judge.counts / k, "counts/rev",
+                                  f"an encoder {k} times coarser than the rig file's")
+    return DetectionLimit("encoder_quantization", "counts_per_rev", None, "counts/rev",
+                          "not detected up to 64 times coarser")
