@@ -177,11 +177,40 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
         chosen = choose(evidence, added)
         if chosen is None:
             break
+        fitted[chosen] = _refit_forms(fitted[chosen], tasks[pool.index(added[chosen])], run)
+        selection.tried = [(s, fitted[chosen] if r.name == chosen else r) for s, r in selection.tried]
+        for reference, store in ((nominal_gap.per_window, selection.over_nominal), (previous, selection.over_previous)):
+            store[chosen] = bootstrap.evidence(reference, fitted[chosen].heldout.per_window)
+        evidence[chosen] = selection.over_previous[chosen]
         per_window = {name: result.heldout.per_window for name, result in fitted.items()}
         selection.confusable += confusable(chosen, evidence, added, previous, per_window, bootstrap)
         selection.accepted.append(fitted[chosen])
         previous = fitted[chosen].heldout.per_window
     return selection
+
+
+def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
+    """``result`` (an accepted model with earlier effects) fitted again with every other form of its earlier
+    effects that have several (their form was chosen before the new effect was there to share the residual);
+    the form with the lowest train gap is kept."""
+    tasks, scales = [], scales_of(task.logs, task.model)
+    for name, effect in task.fixed.items():
+        for form in CANDIDATES[name].forms:
+            if form.name != effect.form:
+                tasks.append(dataclasses.replace(task, fixed={**task.fixed, name: _in_form(name, effect, form,
+                                                                                             scales)}))
+    if not tasks:
+        return result
+    fits = [fit for fit in (_as_fit(t, r) for t, r in zip(tasks, run(fit_task, tasks))) if not fit.failure]
+    return min([result] + fits, key=lambda fit: fit.train_gap)
+
+
+def _in_form(name: str, effect: Effect, form, scales) -> Effect:
+    """``effect`` in another ``form`` of its candidate: the parameters both forms have keep their values, the
+    others take the form's first start."""
+    old = dict(zip(CANDIDATES[name].form(effect.form).params, effect.values))
+    return Effect(form.name, tuple(old.get(param, start) for param, start in zip(form.params,
+                                                                              form.starts(scales)[0])))
 
 
 def _as_fit(task: FitTask, result) -> FitResult:
