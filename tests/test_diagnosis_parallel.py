@@ -29,3 +29,33 @@ def test_a_task_whose_worker_dies_fails_alone():
     assert results[:2] == [2, 4] and results[3:] == [8, 10]
     assert isinstance(results[2], Failure) and "worker process died" in results[2].reason
     assert sorted(map(str, done)) == sorted(map(str, results))  # every task reported once
+
+
+def test_a_dask_cluster_gives_the_same_diagnosis_as_one_process(tmp_path):
+    """diagnose --scheduler: the fits and replays run on an existing Dask cluster's workers, and the report is
+    the one a single process writes (every task is a pure function of its inputs)."""
+    import json
+
+    from distributed import LocalCluster
+
+    from furuta_drake.diagnosis.pipeline import diagnose
+    from furuta_drake.diagnosis.report import report_json
+    from furuta_drake.diagnosis.settings import FAST
+    from furuta_drake.diagnosis.suite import run_configs, with_effect
+    from furuta_drake.results import write_log_csv
+    from furuta_drake.rig import qube_servo2_rig
+    from furuta_drake.simulate import simulate
+    from furuta_drake.yamlio import dump_yaml_dataclass
+
+    rig = qube_servo2_rig()
+    (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
+    logs = []
+    for seed in (3, 4):
+        logs.append(tmp_path / f"run_{seed}.csv")
+        write_log_csv(simulate(with_effect(run_configs(rig, seed, 2.0)["hanging"], "input_delay", 2)), logs[-1])
+    kwargs = dict(rig=tmp_path / "rig.yaml", train=logs[:1], heldout=logs[1:], settings=FAST)
+    alone = json.loads(report_json(diagnose(**kwargs, workers=1).to_json()))
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
+        on_dask = json.loads(report_json(diagnose(**kwargs, scheduler=cluster.scheduler_address).to_json()))
+    assert on_dask == alone
+    assert alone["verdict"] == "input_delay"
