@@ -12,8 +12,8 @@
 
 # %% [markdown]
 # # Diagnosing a real QUBE-Servo 2 against its nominal model
-# Six recordings of a real Quanser QUBE-Servo 2 (SimuRLacra, TU Darmstadt, BSD-3; see `shared/data/
-# qube-servo2-real/README.md`): voltage-driven swing-ups that end balancing, and an open-loop chirp with the
+# Six recordings of a real Quanser QUBE-Servo 2 (SimuRLacra, TU Darmstadt, BSD-3; see the repository's
+# `data/qube-servo2-real/README.md`): voltage-driven swing-ups that end balancing, and an open-loop chirp with the
 # pendulum hanging, at 250 Hz. The nominal model is Quanser's public parameter set (`rig.yaml`). The
 # diagnosis fits every effect of the vocabulary on two train logs and judges it on two other, held-out logs:
 # what the gap is, where it sits, which effect explains it, and how far it shrinks.
@@ -26,13 +26,11 @@ import tempfile
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import furuta_drake
+from furuta_drake.data import QUBE_REAL_DIR as DATA, QUBE_REAL_RIG as RIG
 from furuta_drake.diagnosis.logs import load_logs, load_rig
 from furuta_drake.diagnosis.pipeline import run_diagnosis
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
-DATA = Path(furuta_drake.__file__).resolve().parents[1].parent / "shared" / "data" / "qube-servo2-real"
-RIG = DATA / "rig.yaml"
 TRAIN = [DATA / "swingup_250Hz_10s_a.csv", DATA / "chirp_10to0Hz_pos1p5V_250Hz_10s.csv"]
 HELDOUT = [DATA / "swingup_250Hz_7s_negdir.csv", DATA / "swingup_250Hz_5s_0414.csv"]
 # The small run tries the strongest candidates of the full run and a few that compete with them.

@@ -14,7 +14,7 @@ from furuta_drake.rig import MotorParameters, RigParameters
 from furuta_drake.yamlio import (dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass, locate,
                                  locate_in_file)
 
-SHARED_RIG = QUBE_DATA / "rig.yaml"
+QUBE_RIG = QUBE_DATA / "rig.yaml"
 
 
 def test_misspelt_key_names_file_line_and_key(tmp_path):
@@ -55,8 +55,8 @@ def test_empty_file_and_directory_are_refused(tmp_path):
         load_yaml_dataclass(tmp_path, RigParameters)
 
 
-def test_the_shared_qube_rig_file_loads():
-    rig = load_yaml_dataclass(SHARED_RIG, RigParameters)
+def test_the_shipped_qube_rig_file_loads():
+    rig = load_yaml_dataclass(QUBE_RIG, RigParameters)
     assert rig.theta_direction == -1
     assert rig.motor == MotorParameters(8.4, 0.042, 0.042)
     assert rig.counts_per_rev == 2048

@@ -1,7 +1,7 @@
 """Regenerate the log and rig files of this corpus: ``python tests/bad_inputs/generate.py`` (from the repo root).
 
 Synthetic logs are a smooth 1 kHz torque run; the sign, unit and wrap cases are cut from the real QUBE-Servo 2
-recordings in ``shared/data/qube-servo2-real`` (BSD-3-Clause, see README.md). The hand-written YAML files
+recordings in the repository's ``data/qube-servo2-real`` (BSD-3-Clause, see README.md). The hand-written YAML files
 (``config_*.yaml``, ``sweep_*.yaml``) and ``manifest.yaml`` are not generated.
 """
 
@@ -12,13 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
+from furuta_drake.data import QUBE_REAL_DIR as QUBE_DATA
+
 HERE = Path(__file__).resolve().parent
-QUBE_DATA = HERE.parent.parent.parent / "shared" / "data" / "qube-servo2-real"
 QUBE_RIG_TEXT = (QUBE_DATA / "rig.yaml").read_text()
 THETA_MINUS = "theta_direction: -1         # these logs count theta opposite to the paper's convention (checked on the data)"
 
 LUND_RIG = """\
-# The Lund pendulum of the paper (furuta_drake.rig.lund_rig), in the format of spec/diagnosis-interface.md.
+# The Lund pendulum of the paper (furuta_drake.rig.lund_rig) as a furuta-drake rig file.
 arm_inertia: 1.274e-3
 arm_length: 0.25
 pendulum_mass: 0.033172
