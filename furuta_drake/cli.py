@@ -39,7 +39,7 @@ def _parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="simulate a Furuta rig in closed loop and write its log")
     sim.add_argument("--config", type=Path, help="simulate config YAML (default: the Lund rig balancing)")
-    sim.add_argument("--rig", help="shipped rig name (lund, qube_servo2) or a rig YAML in the spec's format; "
+    sim.add_argument("--rig", help="shipped rig name (lund, qube_servo2) or a rig YAML (docs/diagnose.md); "
                                    "ignored with --config")
     sim.add_argument("--duration", type=float, help="override the config's duration [s]")
     sim.add_argument("--seed", type=int, help="override the config's seed")
@@ -52,13 +52,23 @@ def _parser() -> argparse.ArgumentParser:
     sim.set_defaults(run=_run_simulate)
 
     diag = sub.add_parser("diagnose", help="diagnose the sim-to-real gap of a rig from its logs")
-    diag.add_argument("--rig", type=Path, required=True, help="rig YAML (spec/diagnosis-interface.md)")
+    diag.add_argument("--rig", type=Path, required=True,
+                      help="rig YAML (docs/diagnose.md; `furuta-drake rig --template` writes one to start from)")
     diag.add_argument("--train", type=Path, nargs="+", required=True, help="logs the candidates are fitted on")
     diag.add_argument("--heldout", type=Path, nargs="*", default=[], help="logs every held-out figure uses")
     diag.add_argument("--out", type=Path, required=True, help="output directory")
     diag.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     diag.add_argument("--workers", type=int, help="processes for the candidate fits (default: all cores)")
     diag.set_defaults(run=_run_diagnose)
+
+    rig = sub.add_parser("rig", help="write an annotated rig file to start from, or check one")
+    rig_action = rig.add_mutually_exclusive_group(required=True)
+    rig_action.add_argument("--template", choices=["lund", "qube_servo2"],
+                            help="print the shipped rig's file with every key explained (redirect it to a file)")
+    rig_action.add_argument("--check", type=Path, metavar="FILE",
+                            help="print the constants FILE implies: lumped constants, the paper's alpha1, alpha2, "
+                                 "beta3-beta5, the upright poles and the hanging natural frequency")
+    rig.set_defaults(run=_run_rig)
 
     rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
     rep.add_argument("--only", nargs="+", metavar="EXPERIMENT",
@@ -198,6 +208,19 @@ def _run_sweep(args) -> int:
     diverged = sum(row["diverged"] for row in rows)
     print(f"swept {len(rows)} points ({diverged} diverged) in {time.perf_counter() - start:.1f} s; "
           f"wrote {args.out}")
+    return 0
+
+
+def _run_rig(args) -> int:
+    from furuta_drake.rig import RIGS
+    from furuta_drake.rig_file import format_rig_check, rig_template
+
+    if args.template is not None:
+        print(rig_template(RIGS[args.template](), f"the shipped {args.template} rig"), end="")
+    else:
+        from furuta_drake.diagnosis.logs import load_rig
+
+        print(format_rig_check(load_rig(args.check), str(args.check)), end="")
     return 0
 
 

@@ -118,6 +118,7 @@ def rigs() -> None:
         "rig_zero_sample_period.yaml": ("sample_period: 0.001", "sample_period: 0"),
         "rig_zero_counts.yaml": ("counts_per_rev: 4096", "counts_per_rev: 0"),
         "rig_wrong_type.yaml": ("arm_length: 0.25", "arm_length: 25 cm"),
+        "rig_missing_arm_inertia.yaml": ("arm_inertia: 1.274e-3\n", ""),
     }
     for name, (old, new) in edits.items():
         assert old in LUND_RIG, old
