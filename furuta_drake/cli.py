@@ -59,6 +59,12 @@ def _parser() -> argparse.ArgumentParser:
     diag.add_argument("--out", type=Path, required=True, help="output directory")
     diag.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     diag.add_argument("--workers", type=int, help="processes for the candidate fits (default: all cores)")
+    diag.add_argument("--columns", metavar="NAME=COLUMN,...",
+                      help="the logs' own column names, e.g. time=t,theta=alpha,phi=theta,voltage=vm (names: time, "
+                           "theta, phi, torque, voltage; a name not mapped is read as itself)")
+    diag.add_argument("--angle-unit", help="unit of both logged angles: rad (default), deg or counts (the rig's "
+                                           "counts_per_rev)")
+    diag.add_argument("--topic", help="MCAP channel holding the run (default: the file's only channel)")
     diag.set_defaults(run=_run_diagnose)
 
     rig = sub.add_parser("rig", help="write an annotated rig file to start from, or check one")
@@ -225,18 +231,20 @@ def _run_rig(args) -> int:
 
 
 def _run_diagnose(args) -> int:
+    from furuta_drake.diagnosis.log_format import LogFormat
     from furuta_drake.diagnosis.pipeline import run_diagnosis
     from furuta_drake.outputs import prepare_output_dir
 
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be >= 1, got {args.workers}")
+    log_format = LogFormat.parse(args.columns, args.angle_unit, args.topic)
     prepare_output_dir(args.out, force=args.force, protect=[args.rig, *args.train, *args.heldout])
     from tqdm import tqdm
 
     with tqdm(desc="fitting candidates", unit="fit", disable=not sys.stderr.isatty()) as bar:
         report = run_diagnosis(rig_path=args.rig, train_paths=args.train, heldout_paths=args.heldout,
                                out=args.out, force=args.force, workers=args.workers,
-                               progress=lambda name: bar.update(1))
+                               progress=lambda name: bar.update(1), log_format=log_format)
     gap = report["gap"]
     print(f"verdict: {report['verdict']} (effects: {', '.join(report['effects']) or '-'}); held-out gap "
           f"{gap['nominal']['heldout']:.3g} -> {gap['with_effects']['heldout']:.3g} counts "

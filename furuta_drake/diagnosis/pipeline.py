@@ -15,6 +15,7 @@ from furuta_drake.diagnosis.gap import (
     evaluate_gap, gap_metric_definition, horizon_seconds, make_windows, window_residuals,
 )
 from furuta_drake.diagnosis.localize import localize
+from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
 from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record, write_report
@@ -102,12 +103,13 @@ def fitted_config(rig, model: Model) -> SimulationConfig:
 
 
 def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, workers=None, progress=None,
-                  echo=print, candidates=None) -> dict:
+                  echo=print, candidates=None, log_format: LogFormat = LogFormat()) -> dict:
     """Diagnose the gap between the rig file's nominal model and the logs; write the report to ``out``.
-    ``candidates``: the effects to try (default: the whole vocabulary)."""
+    ``candidates``: the effects to try (default: the whole vocabulary); ``log_format``: the logs' column names,
+    angle unit and MCAP topic."""
     rig = load_rig(rig_path)
-    logs = load_logs(train_paths, rig, rig_path)
-    heldout_logs = load_logs(heldout_paths, rig, rig_path) if heldout_paths else []
+    logs = load_logs(train_paths, rig, rig_path, log_format)
+    heldout_logs = load_logs(heldout_paths, rig, rig_path, log_format) if heldout_paths else []
     note = ignored_columns_note(logs + heldout_logs)
     if note:
         echo(note)
@@ -179,7 +181,7 @@ def run_diagnosis(*, rig_path, train_paths, heldout_paths=(), out, force=False, 
     record = input_record(rig_path=rig_path, train=train_paths, heldout=heldout_paths,
                           seeds={"bootstrap": 0, "fit_windows": 0},
                           options={"workers": workers, "holdout": holdout_note,
-                                   "candidates": list(candidates or CANDIDATES)})
+                                   "candidates": list(candidates or CANDIDATES), "log_format": log_format.record()})
     write_report(out, report, before=before, after=after, curves=curves,
                  fitted_config=fitted_config(rig, accepted), config_record=record,
                  threshold_note=THRESHOLD_NOTE, holdout_note=holdout_note,
