@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from furuta_drake.data import QUBE_REAL_DIR as QUBE_DATA
+from furuta_drake.diagnosis.log_writers import write_log
 
 HERE = Path(__file__).resolve().parent
 QUBE_RIG_TEXT = (QUBE_DATA / "rig.yaml").read_text()
@@ -104,6 +105,17 @@ def qube_logs() -> None:
     write_qube("log_phi_reversed.csv", dict(swingup, phi=-swingup["phi"]), kick)
 
 
+def other_formats() -> None:
+    """Parquet and MCAP copies of the synthetic torque log, one with a column missing, and files that are not
+    Parquet or MCAP at all."""
+    columns = {name: np.array([float(row[j]) for row in synthetic_rows()])
+               for j, name in enumerate(["time", "theta", "phi", "torque"])}
+    write_log(HERE / "good_torque.mcap", columns, topic="/furuta/log")
+    write_log(HERE / "log_missing_theta.parquet", {k: v for k, v in columns.items() if k != "theta"})
+    (HERE / "log_not_parquet.parquet").write_text("time,theta,phi,torque\n0,0,0,0\n")
+    (HERE / "log_not_mcap.mcap").write_bytes(b"\x89MCAP0\r\n" + b"not an MCAP file, cut after its magic\n")
+
+
 def rigs() -> None:
     assert THETA_MINUS in QUBE_RIG_TEXT
     (HERE / "rig_lund.yaml").write_text(LUND_RIG)
@@ -129,4 +141,5 @@ def rigs() -> None:
 if __name__ == "__main__":
     synthetic_logs()
     qube_logs()
+    other_formats()
     rigs()
