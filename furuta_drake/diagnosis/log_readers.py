@@ -14,7 +14,6 @@ message's ``log_time`` (nanoseconds, converted to seconds).
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -142,7 +141,8 @@ class McapColumns:
         try:
             with open(path, "rb") as stream:
                 reader = make_reader(stream)
-                channels = list(reader.get_summary().channels.values()) if reader.get_summary() else []
+                summary = reader.get_summary()
+                channels = list(summary.channels.values()) if summary is not None else []
                 if not channels:
                     channels = {channel.id: channel for _, channel, _ in reader.iter_messages()}.values()
                 channel = self._channel(list(channels), topic)
