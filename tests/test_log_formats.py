@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from conftest import QUBE_DATA
 from furuta_drake.diagnosis.log_format import LogFormat
@@ -147,6 +148,17 @@ def test_mcap_channel_choice_and_encoding(tmp_path, rig):
         load_log(path, rig, QUBE_RIG, LogFormat(topic="/qbe"))
     with pytest.raises(LogError, match=r"topic '/qube': messages are 'cdr'-encoded; furuta-drake reads JSON"):
         load_log(path, rig, QUBE_RIG, LogFormat(topic="/qube"))
+
+
+@settings(max_examples=25, deadline=None)
+@given(suffix=st.sampled_from([".parquet", ".mcap"]), magic=st.sampled_from([b"", b"PAR1", b"\x89MCAP0\r\n"]),
+       data=st.binary(max_size=300))
+def test_random_bytes_under_a_parquet_or_mcap_name_raise_log_error(tmp_path_factory, rig, suffix, magic, data):
+    path = tmp_path_factory.mktemp("log") / f"run{suffix}"
+    path.write_bytes(magic + data + magic)
+    with pytest.raises(LogError) as err:
+        load_log(path, rig, QUBE_RIG)
+    assert str(err.value).startswith(str(path)) and "\n" not in str(err.value)
 
 
 def test_a_bad_value_is_located_by_row_or_message(tmp_path, rig):

@@ -101,17 +101,17 @@ class ParquetColumns:
         self.path = path
         self.header_where = str(path)
         try:
-            self.file = pq.ParquetFile(path)
+            self.names = tuple(pq.read_schema(path).names)
         except (pyarrow.ArrowException, OSError) as err:
             raise LogError(f"{path}: not a Parquet file ({_first_line(err)})") from None
-        self.names = tuple(self.file.schema_arrow.names)
 
     def read(self, columns: dict[str, str]) -> tuple[np.ndarray, Where]:
         import pyarrow
         import pyarrow.compute as pc
+        import pyarrow.parquet as pq
 
         try:
-            table = self.file.read(columns=list(columns))
+            table = pq.read_table(self.path, columns=list(columns))
         except (pyarrow.ArrowException, OSError) as err:
             raise LogError(f"{self.path}: cannot read the columns ({_first_line(err)})") from None
         if table.num_rows == 0:
