@@ -79,3 +79,17 @@ def test_the_audit_hook_records_a_read_beside_the_repository_only(tmp_path):
     recorded = conftest.OUTSIDE_READS[before:]
     del conftest.OUTSIDE_READS[before:]  # the probe is this test's own doing, not a read to report
     assert recorded == [str(probe)]
+
+
+DOCUMENTS = sorted({REPO / "README.md"} | {p for folder in ("docs", "data", "tests", "notebooks", "benchmarks",
+                                                           "furuta_drake") for p in (REPO / folder).rglob("*.md")})
+
+
+def test_no_document_points_outside_the_repository():
+    """README, docs/, the data's and the corpus' READMEs name only files of the repository: no parent path and
+    none of the project's private notes (the specification, the paper notes, the shared folder)."""
+    outside = re.compile(r"\.\./|\bshared/|\bspec/|NOTES\.md")
+    assert REPO / "docs" / "paper.md" in DOCUMENTS and REPO / "data" / "qube-servo2-real" / "README.md" in DOCUMENTS
+    found = [f"{path.relative_to(REPO)}:{number}: {line.strip()}" for path in DOCUMENTS
+             for number, line in enumerate(path.read_text().splitlines(), 1) if outside.search(line)]
+    assert found == [], "\n".join(found)
