@@ -39,8 +39,9 @@ CANDIDATES = (("inertia_mismatch", "torque_gain_error", "actuator_lag", "arm_vis
 
 # %% [markdown]
 # ## The logs
-# Voltage in, encoder angles out (2048 counts per turn). `theta` is in the spec's convention once the rig
-# file's `theta_direction: -1` is applied; swing-ups start hanging at |theta| = pi and end balancing at 0.
+# Voltage in, encoder angles out (2048 counts per turn). `theta` is in furuta-drake's convention
+# (`docs/paper.md`) once the rig file's `theta_direction: -1` is applied; swing-ups start hanging at
+# |theta| = pi and end balancing at 0.
 
 # %%
 rig = load_rig(RIG)

@@ -1,4 +1,4 @@
-"""The MultibodyPlant models against the Lund rig's numbers (paper/NOTES.md) and public QUBE-Servo 2 data."""
+"""The MultibodyPlant models against the Lund rig's numbers (docs/paper.md) and public QUBE-Servo 2 data."""
 
 import numpy as np
 import pytest
@@ -84,7 +84,7 @@ def test_hanging_pendulum_frequency_of_the_qube_matches_a_compound_pendulum():
 
 
 def test_positive_arm_torque_swings_hanging_pendulum_towards_positive_theta():
-    """spec/diagnosis-interface.md: hanging, accelerating the arm towards +phi swings the pendulum to +theta."""
+    """The sign convention of the logs: hanging, accelerating the arm towards +phi swings the pendulum to +theta."""
     from pydrake.systems.analysis import Simulator
     plant = make_furuta_plant("qube_servo2")
     context = plant.CreateDefaultContext()
