@@ -61,10 +61,12 @@ def _parser() -> argparse.ArgumentParser:
     diag.add_argument("--workers", type=int, help="processes for the candidate fits (default: all cores)")
     diag.add_argument("--columns", metavar="NAME=COLUMN,...",
                       help="the logs' own column names, e.g. time=t,theta=alpha,phi=theta,voltage=vm (names: time, "
-                           "theta, phi, torque, voltage; a name not mapped is read as itself)")
+                           "theta, phi, torque, voltage; a name not mapped is read as itself; in an MCAP log an "
+                           "unmapped time is each message's log time)")
     diag.add_argument("--angle-unit", help="unit of both logged angles: rad (default), deg or counts (the rig's "
                                            "counts_per_rev)")
-    diag.add_argument("--topic", help="MCAP channel holding the run (default: the file's only channel)")
+    diag.add_argument("--topic", help="MCAP channel holding the run, JSON messages whose fields are the columns "
+                                      "(default: the file's only channel); logs are CSV, Parquet or MCAP by extension")
     diag.set_defaults(run=_run_diagnose)
 
     rig = sub.add_parser("rig", help="write an annotated rig file to start from, or check one")
