@@ -19,7 +19,7 @@ Dahl is passive: with the bristle energy sigma0 z^2 / 2, d/dt (E + sigma0 z^2 / 
 - b v^2 <= 0. For LuGre the same storage is non-increasing whenever |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2
 (a sufficient condition; Barabanov and Ortega 2000, the paper's [5], give the necessary and sufficient one).
 
-The bristle state is stiff (rate sigma0 |v| / Fc up to 1e4 1/s, NOTES.md): :func:`dahl_exact_step` is its
+The bristle state is stiff (rate sigma0 |v| / Fc up to 1e4 1/s, ``docs/paper.md``): :func:`dahl_exact_step` is its
 exact step at frozen velocity, stable at any step size, for discrete-time users (the friction observers).
 """
 

@@ -16,7 +16,7 @@ from furuta_drake.control import (
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import add_furuta_plant, make_furuta_plant, plant_to_paper_permutation
 
-# NOTES.md: linearization of the Lund rig at the upright, x = [theta, phi, theta_dot, phi_dot].
+# docs/paper.md: linearization of the Lund rig at the upright, x = [theta, phi, theta_dot, phi_dot].
 ALPHA1, ALPHA2, BETA4, BETA5 = 47.949, -35.640, -365.07, 570.10
 
 

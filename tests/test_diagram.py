@@ -1,5 +1,5 @@
 """Integration tests of build_furuta_diagram and simulate: the paper's diagrams balance, the log is the
-spec's, runs are reproducible, a diverging run is stopped and reported."""
+diagnosis' log format, runs are reproducible, a diverging run is stopped and reported."""
 
 import dataclasses
 

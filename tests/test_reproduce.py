@@ -1,5 +1,5 @@
 """The paper's experiments on the simulated Lund rig (issue 6), on runs shorter than the paper's where the
-targets allow: the numbers asserted are the paper's (NOTES.md) and the simulated rig's true friction."""
+targets allow: the numbers asserted are the paper's (Tables I-II, Figs. 5-7) and the simulated rig's true friction."""
 
 from __future__ import annotations
 

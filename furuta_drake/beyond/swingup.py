@@ -117,14 +117,13 @@ def _row(metric: str, paper, extension, unit: str, note: str) -> dict:
 def _diagnose(result, config) -> str:
     """Run the diagnosis (``furuta-drake diagnose --rig rig.yaml --train swingup.csv``) on the swing-up log against
     the frictionless nominal rig and say what it selected, against the rig's true friction."""
-    from furuta_drake.diagnosis.pipeline import run_diagnosis
+    from furuta_drake.diagnosis.pipeline import diagnose
 
     with tempfile.TemporaryDirectory() as directory:
         directory = Path(directory)
         write_log_csv(result, directory / "swingup.csv")
         (directory / "rig.yaml").write_text(dump_yaml_dataclass(config.rig))
-        report = run_diagnosis(rig_path=directory / "rig.yaml", train_paths=[directory / "swingup.csv"],
-                               out=directory / "diagnosis", echo=lambda *_: None)
+        report = diagnose(rig=directory / "rig.yaml", train=[directory / "swingup.csv"]).to_json()
     arm = config.friction.arm
     ranks = {entry["effect"]: i + 1 for i, entry in enumerate(report["ranking"])}
     return (f"The diagnosis of the swing-up log against the frictionless nominal rig says {report['verdict']} "

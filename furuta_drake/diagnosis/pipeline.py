@@ -24,6 +24,8 @@ from furuta_drake.diagnosis.gap import (
     GapResult, evaluate_gap, gap_metric_definition, horizon_seconds, make_windows, window_residuals, window_samples,
 )
 from furuta_drake.diagnosis.localize import localize
+from furuta_drake.diagnosis.log_format import LogFormat
+from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gaps
@@ -346,7 +348,8 @@ def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, l
 
 def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: list[str] | None = None,
              settings: DiagnosisSettings = DiagnosisSettings(), folds: int | None = None, workers: int | None = None,
-             scheduler: str | None = None, progress: Callable | None = None, log_format=None) -> Diagnosis:
+             scheduler: str | None = None, progress: Callable | None = None,
+             log_format: LogFormat = LogFormat()) -> Diagnosis:
     """Diagnose the gap between the rig file's nominal model and the logs.
 
     Parameters
@@ -363,8 +366,8 @@ def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: li
     settings.validate()
     rig_path = Path(rig)
     rig_params = load_rig(rig_path)
-    train_logs = load_logs(train, rig_params, rig_path)
-    heldout_logs = load_logs(heldout, rig_params, rig_path) if heldout else []
+    train_logs = load_logs(train, rig_params, rig_path, log_format)
+    heldout_logs = load_logs(heldout, rig_params, rig_path, log_format) if heldout else []
     notes = [note for note in [ignored_columns_note(train_logs + heldout_logs)] if note]
     if heldout_logs:
         fit_logs, test_logs = train_logs, heldout_logs
@@ -419,7 +422,8 @@ def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: li
     record = input_record(rig_path=rig_path, train=train, heldout=heldout,
                           seeds={"bootstrap": settings.seed, "fit_windows": settings.seed},
                           options={"workers": workers, "scheduler": scheduler, "holdout": holdout_note,
-                                   "candidates": names, "folds": folds, "settings": dataclasses.asdict(settings)})
+                                   "candidates": names, "folds": folds, "settings": dataclasses.asdict(settings),
+                                   "log_format": log_format.record()})
     curves = [effect_curve(name, describe(name, effect, nominal), rig_params)
               for name, effect in (final.effects.items() if final else [])]
     artifacts = Artifacts(before, after, nominal_heldout.sensor_variance, curves,
