@@ -17,7 +17,7 @@ from typing import Literal
 
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.adaptation import KSigmaAdaptationParameters
-from furuta_drake.control import LqrParameters
+from furuta_drake.controllers.lqr import LqrParameters
 from furuta_drake.encoder import EncoderParameters
 from furuta_drake.errors import ConfigError
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters

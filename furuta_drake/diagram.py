@@ -26,7 +26,7 @@ from pydrake.systems.primitives import (
 from furuta_drake.actuator import add_actuator, add_arm_disturbance
 from furuta_drake.adaptation import KSigmaAdapter, KSigmaDahlObserver
 from furuta_drake.config import SimulationConfig
-from furuta_drake.control import LqrController, check_stabilizing, design_lqr, upright_linearization
+from furuta_drake.controllers.lqr import LqrController, check_stabilizing, design_lqr, upright_linearization
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.friction import JointFriction
@@ -55,7 +55,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
 
     With ``meshcat`` (a ``pydrake.geometry.Meshcat``) a ``MeshcatVisualizer`` draws the plant.
     ``make_controller(builder, lqr_gain, measured)`` replaces the LqrController of ``controller.mode = 'lqr'``
-    (e.g. :mod:`furuta_drake.swingup`): it adds a system with the LqrController's ports (``arm_torque_Nm`` out,
+    (e.g. :mod:`furuta_drake.controllers.swingup`): it adds a system with the LqrController's ports (``arm_torque_Nm`` out,
     ``state_estimate`` in, fed the ``velocity_source`` estimate unless it connected it itself, and
     ``friction_compensation_Nm`` when compensating) and returns (system, {name: estimate port of an observer it
     added}); its other outputs are logged into ``signals`` and the estimates into ``estimates``.

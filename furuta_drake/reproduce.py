@@ -42,8 +42,8 @@ ADAPTATION_ENABLE_TIME = 7.8  # [s], Sec. V-D
 UNDERESTIMATED_COULOMB = 0.009  # [N m], the start of Figs. 6-7
 ADAPTATION_GAMMA = 15000.0  # [1/((N m)^2 s)]: the paper gives none; K_sigma settles within ~15 s of enabling
 TRANSIENT = 1.0  # [s] dropped from every statistic (start-up from theta0)
-HG_EPS = (0.002, 0.003, 0.004, 0.005, 0.007, 0.01, 0.014, 0.02)  # [s] error poles at -1/eps
-VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0, 3.0)  # times the default eigenvalues of G, -20 ... -35 rad/s
+SWEEP_HG_EPS = (0.002, 0.003, 0.004, 0.005, 0.007, 0.01, 0.014, 0.02)  # [s] error poles at -1/eps
+SWEEP_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0, 3.0)  # times the default eigenvalues of G, -20 ... -35 rad/s
 
 
 def paper_rig_config(seed: int = 0, duration: float = 20.0) -> SimulationConfig:
@@ -162,16 +162,16 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
 
 
 def observer_sweep(pilot: SimulationResult, config: SimulationConfig) -> list[dict]:
-    """Replay the HG observer for every eps in ``HG_EPS`` and the VFE observer (with its Dahl observer) for
-    every scale of its eigenvalues in ``VFE_SCALES`` on the pilot run's measurements, and give each one's mean
+    """Replay the HG observer for every eps in ``SWEEP_HG_EPS`` and the VFE observer (with its Dahl observer) for
+    every scale of its eigenvalues in ``SWEEP_VFE_SCALES`` on the pilot run's measurements, and give each one's mean
     squared velocity errors against both references (rows marked ``best`` have the lowest arm error vs the
     true velocity, per observer)."""
     keep = _after_transient(pilot)
     references = velocity_references(pilot, config)
     candidates = [("hg", "eps", eps, {"hg": dataclasses.replace(config.observers.hg, eps_theta=eps, eps_phi=eps)})
-                  for eps in HG_EPS]
+                  for eps in SWEEP_HG_EPS]
     candidates += [("vfe", "eigenvalue_scale", scale, {"vfe": (_scaled_vfe(config, scale), config.observers.dahl)})
-                   for scale in VFE_SCALES]
+                   for scale in SWEEP_VFE_SCALES]
     rows = []
     for observer, parameter, value, kwargs in candidates:
         estimate = replay_observers(pilot, config, **kwargs)[observer][keep, 2:]

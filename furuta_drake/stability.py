@@ -42,10 +42,10 @@ import numpy as np
 from pydrake.solvers import ClarabelSolver, MathematicalProgram
 from pydrake.systems.analysis import DiscreteTimeApproximation
 from pydrake.systems.framework import DiagramBuilder, OutputPortSelection
-from pydrake.systems.primitives import Linearize, LinearSystem
+from pydrake.systems.primitives import Linearize
 
 from furuta_drake.config import SimulationConfig
-from furuta_drake.control import design_lqr, upright_linearization
+from furuta_drake.controllers.lqr import design_lqr, upright_linearization, zero_order_hold
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.friction import FrictionParameters, JointFriction, JointFrictionParameters
 from furuta_drake.observers.hg import continuous_high_gain_observer
@@ -185,7 +185,7 @@ def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool 
         z_rate -= injection_sign * (dahl.sigma0 / dahl.rho) * (y[1] + dahl.rho2 * v_hat)
     A0, A1 = np.zeros((n, n)), np.zeros((n, n))
     if discrete:
-        Phi, Gamma = _zoh(plant.A, plant.B, period)
+        Phi, Gamma = zero_order_hold(plant.A, plant.B, period)
         observer_d = DiscreteTimeApproximation(obs, period)
         Ad, Bd = observer_d.A(), observer_d.B()
         A0[s["plant"], s["plant"]] = Phi
@@ -215,12 +215,6 @@ def _lqr_gain(config: SimulationConfig) -> np.ndarray:
         return np.asarray(config.controller.gain, dtype=float).reshape(1, 4)
     from furuta_drake.plant import make_furuta_plant
     return design_lqr(make_furuta_plant(config.rig), config.controller.lqr)
-
-
-def _zoh(A: np.ndarray, B: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
-    system = DiscreteTimeApproximation(LinearSystem(A, B, np.zeros((0, A.shape[0])), np.zeros((0, B.shape[1]))),
-                                       period)
-    return system.A(), system.B()
 
 
 def stable_intervals(loop: LinearLoop, k_min: float = 0.05, k_max: float = 6.0, points: int = 240,

@@ -1,4 +1,4 @@
-"""The two-parameter (Fc+/-, sigma0) adaptation of the Dahl observer (issue 10): sensitivities against finite
+"""The two-parameter (Fc+/-, sigma0) adaptation of the Dahl observer: sensitivities against finite
 differences, the excitation check in steady sliding, and the study against the one-gain law of Eq. 18."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from furuta_drake.beyond import parameter_adaptation
+from furuta_drake.studies import parameter_adaptation_study
 from furuta_drake.observers.adaptive_dahl import (
     S_FC_POS, S_SIGMA0, Z, AdaptiveDahlObserver, DahlAdaptationParameters,
 )
@@ -82,16 +82,16 @@ def test_matched_model_does_not_drift():
 
 
 def test_two_parameter_law_recovers_fc_and_sigma0_where_one_gain_cannot():
-    study = parameter_adaptation.study(seed=2, small=True)
+    study = parameter_adaptation_study.study(seed=2, small=True)
     for row in study.rows:
         error = abs(row["extension"] / row["true"] - 1.0)
         if row["metric"].startswith("Fc"):
-            assert error < 0.10, row  # issue 10: Fc within 10 %
+            assert error < 0.10, row  # Fc within 10 %
         else:
             assert error < 0.30, row  # sigma0 within 30 %
     # Eq. 18 scales Fc and sigma0 together: from (0.75 Fc, 0.5 sigma0) its K_sigma sigma0 ends near
     # 0.5 / 0.75 = 0.67 of the truth, from (1.3 Fc, 2 sigma0) near 2 / 1.3 = 1.54 or worse: > 30 % off either way.
-    for start in parameter_adaptation.STARTS:
+    for start in parameter_adaptation_study.STARTS:
         worst = max(abs(row["paper"] / row["true"] - 1.0) for row in study.rows
                     if row["metric"].startswith("sigma0") and start in row["metric"])
         assert worst > 0.30

@@ -85,7 +85,7 @@ def test_beyond_writes_its_table_plots_and_logs(tmp_path, monkeypatch):
     # One short study through the real command (each study's figures are asserted in its own tests).
     from furuta_drake import reproduction_report
 
-    monkeypatch.setattr(reproduction_report, "BEYOND_STUDIES", ("lugre_observer",))
+    monkeypatch.setattr(reproduction_report, "BEYOND_STUDIES", ("lugre_observer_study",))
     out = tmp_path / "beyond"
     assert main(["reproduce", "--only", "beyond", "--quick", "--out", str(out)]) == 0
     text = (out / "beyond.md").read_text()

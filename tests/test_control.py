@@ -9,8 +9,8 @@ from pydrake.systems.framework import DiagramBuilder, InputPortSelection, Output
 from pydrake.systems.primitives import Linearize, MatrixGain
 from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
 
-from furuta_drake.control import (
-    LqrController, LqrParameters, check_stabilizing, closed_loop_eigenvalues, design_lqr,
+from furuta_drake.controllers.lqr import (
+    LqrController, LqrParameters, check_stabilizing, state_feedback_eigenvalues, design_lqr,
     upright_linearization,
 )
 from furuta_drake.errors import ConfigError
@@ -111,7 +111,7 @@ def test_sampled_closed_loop_transition_has_the_designed_discrete_eigenvalues(lu
     A, B = upright_linearization(lund_plant)
     Ad, Bd = scipy_zoh(A, B, params.period)
     np.testing.assert_allclose(transition, Ad - Bd @ K, rtol=1e-5, atol=1e-8)
-    designed = np.sort_complex(closed_loop_eigenvalues(A, B, K, True, params.period))
+    designed = np.sort_complex(state_feedback_eigenvalues(A, B, K, True, params.period))
     np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(transition)), designed, atol=1e-6)
     assert np.all(np.abs(designed) < 1)
 
@@ -131,12 +131,12 @@ def test_continuous_closed_loop_eigenvalues_are_those_of_the_linearized_drake_lo
     diagram.get_input_port(0).FixValue(context, np.zeros(2))
     loop = Linearize(diagram, context, input_port_index=InputPortSelection.kNoInput,
                      output_port_index=OutputPortSelection.kNoOutput)
-    eigenvalues = closed_loop_eigenvalues(A, B, K, discrete=False, period=1e-3)
+    eigenvalues = state_feedback_eigenvalues(A, B, K, discrete=False, period=1e-3)
     np.testing.assert_allclose(np.sort_complex(eigenvalues), np.sort_complex(np.linalg.eigvals(loop.A())),
                                rtol=1e-6)
     assert np.all(eigenvalues.real < 0)
     # The discrete eigenvalues of the same gain sampled fast tend to exp(lambda T).
-    fine = closed_loop_eigenvalues(A, B, K, discrete=True, period=1e-5)
+    fine = state_feedback_eigenvalues(A, B, K, discrete=True, period=1e-5)
     np.testing.assert_allclose(np.sort_complex(np.log(fine) / 1e-5), np.sort_complex(eigenvalues), rtol=1e-2)
 
 

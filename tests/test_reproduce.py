@@ -47,7 +47,7 @@ def test_table1_similar_control_accuracy(table_runs):
 def test_fairness_sweep_finds_an_interior_optimum(table_runs):
     # A high-gain observer trades encoder-noise amplification (small eps) against lag (large eps), so its
     # best eps lies strictly inside a grid spanning 2-20 ms; likewise for the VFE poles.
-    for observer, grid in (("hg", reproduce.HG_EPS), ("vfe", reproduce.VFE_SCALES)):
+    for observer, grid in (("hg", reproduce.SWEEP_HG_EPS), ("vfe", reproduce.SWEEP_VFE_SCALES)):
         rows = [row for row in table_runs.sweep if row["observer"] == observer]
         assert [row["value"] for row in rows] == list(grid)
         best = [row for row in rows if row["best"]]

@@ -8,11 +8,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.control import LqrParameters, design_lqr
+from furuta_drake.controllers.lqr import LqrParameters, design_lqr
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import lund_rig, qube_servo2_rig
-from furuta_drake.swingup import (BALANCE, SWING, EnergySwingUpController, SwingUpParameters, catch_time,
+from furuta_drake.controllers.swingup import (BALANCE, SWING, EnergySwingUpController, SwingUpParameters, catch_time,
                                   pendulum_energy, simulate_swingup, wrap_angle)
 
 RIG = lund_rig()
@@ -118,7 +118,7 @@ def test_qube_swing_up_respects_its_smaller_limit():
 
 
 def test_study_small_returns_rows():
-    from furuta_drake.beyond.swingup import study
+    from furuta_drake.studies.swingup_study import study
 
     outcome = study(small=True)
     metrics = [row["metric"] for row in outcome.rows]

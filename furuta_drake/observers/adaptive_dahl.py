@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import BasicVector
 
-from furuta_drake.control import zero_order_hold
+from furuta_drake.controllers.lqr import zero_order_hold
 from furuta_drake.errors import ConfigError
 from furuta_drake.friction import dahl_exact_step
 from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters, held_input_gain, injection

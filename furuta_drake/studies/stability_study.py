@@ -1,29 +1,26 @@
-"""Stability evidence for the nested observers with adaptation (Sec. VI-VII's open point): the 1 kHz loop
-linearized at the upright in the presliding regime (:mod:`furuta_drake.stability`), swept over frozen K_sigma,
-the true bristle stiffness sigma0 and the observer gains, for the paper's HG-based loop and the nested VFE +
-Dahl loop, with Eq. 9's injection K_z as printed and reversed; and the basin of the full nonlinear loops
-(HG with Dahl compensation, K_sigma = 1; VFE + Dahl with K_sigma adaptation from t = 0) against a quadratic
-Lyapunov estimate of the true-state loop."""
+"""Study: stability of the nested observers with adaptation (Sec. VI-VII's open point). The 1 kHz loop
+linearized at the upright in the presliding regime (:func:`furuta_drake.stability.linear_loop`) is swept over
+frozen K_sigma, the true bristle stiffness sigma0 and the observer gains, for the paper's HG-based loop and the
+nested VFE + Dahl loop, with Eq. 9's injection K_z as printed and reversed; the basins of the full nonlinear loops
+(HG with Dahl compensation, K_sigma = 1; VFE + Dahl with K_sigma adaptation from t = 0) are set against a
+quadratic Lyapunov estimate of the true-state loop."""
 
 from __future__ import annotations
 
 import dataclasses
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from furuta_drake import reproduce, stability  # noqa: E402
-from furuta_drake.beyond import BeyondStudy  # noqa: E402
+from furuta_drake import reproduce, stability
+from furuta_drake.studies import Study
 
 LOOPS = (("HG + Dahl (paper)", "hg", 1), ("VFE + Dahl, K_z as printed", "vfe", 1),
          ("VFE + Dahl, K_z reversed", "vfe", -1))
 K_GRID = np.geomspace(0.25, 4.0, 61)
 SIGMA0_FACTORS = np.geomspace(0.25, 4.0, 25)  # true sigma0 / the observer's
-VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0)
-HG_EPS = (0.002, 0.005, 0.01, 0.02)  # [s]
+GAINS_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0)  # the VFE eigenvalues of the observer-gain map, times the default
+GAINS_HG_EPS = (0.002, 0.005, 0.01, 0.02)  # [s] the HG eps of the observer-gain map
 
 
 def _with_true_sigma0(config, factor: float):
@@ -46,7 +43,7 @@ def _adaptive_config(config):
                                                                      adaptation_enabled=True, run=[]))
 
 
-def study(seed: int = 0, small: bool = False) -> BeyondStudy:
+def study(seed: int = 0, small: bool = False) -> Study:
     """Linearized stability maps, stable frozen-K_sigma ranges, common Lyapunov intervals and basins."""
     base = reproduce.paper_rig_config(seed=seed)
     hg_config = dataclasses.replace(reproduce.with_velocity_source(base, "hg"),
@@ -68,13 +65,15 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
             for label, observer, sign in LOOPS}
     at_one = np.argmin(np.abs(K_GRID - 1.0))
     stable_factors = factors[maps[reversed_label][:, at_one] < 0]
+    scales = GAINS_VFE_SCALES[::2] if small else GAINS_VFE_SCALES
     gains = {f"VFE eigenvalues x{s}": _rates(stability.linear_loop(
         dataclasses.replace(base, observers=dataclasses.replace(base.observers, vfe=dataclasses.replace(
             base.observers.vfe, eigenvalues=[s * e for e in base.observers.vfe.eigenvalues]))),
-        "vfe", True, injection_sign=-1)) for s in (VFE_SCALES[::2] if small else VFE_SCALES)}
+        "vfe", True, injection_sign=-1)) for s in scales}
     gains.update({f"HG eps {eps * 1e3:g} ms": _rates(stability.linear_loop(
         dataclasses.replace(base, observers=dataclasses.replace(base.observers, hg=dataclasses.replace(
-            base.observers.hg, eps_theta=eps, eps_phi=eps))), "hg", True)) for eps in (HG_EPS[::2] if small else HG_EPS)})
+            base.observers.hg, eps_theta=eps, eps_phi=eps))), "hg", True))
+        for eps in (GAINS_HG_EPS[::2] if small else GAINS_HG_EPS)})
 
     region = stability.lyapunov_region(base, directions=200 if small else 1500, seed=seed)
     thetas = np.linspace(-0.3, 0.3, 5) if small else np.linspace(-0.36, 0.36, 13)
@@ -147,7 +146,7 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
     figures = {"stability_decay_maps": _plot_maps(maps, factors),
                "stability_observer_gains": _plot_gains(gains),
                "stability_basin": _plot_basins(basins, thetas, theta_dots, region)}
-    return BeyondStudy(title="Stability of the nested observers with adaptation", rows=rows, summary=summary,
+    return Study(title="Stability of the nested observers with adaptation", rows=rows, summary=summary,
                        figures=figures)
 
 

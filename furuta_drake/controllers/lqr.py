@@ -110,7 +110,7 @@ def _require_detectable(A: np.ndarray, Q: np.ndarray, discrete: bool, where: str
                               f"{eigenvalue:.4g} out of the cost: no stabilising LQ gain (weight phi and theta)")
 
 
-def closed_loop_eigenvalues(A: np.ndarray, B: np.ndarray, K: np.ndarray, discrete: bool,
+def state_feedback_eigenvalues(A: np.ndarray, B: np.ndarray, K: np.ndarray, discrete: bool,
                             period: float) -> np.ndarray:
     """Eigenvalues of A - B K (continuous, rad/s) or of Ad - Bd K (discrete, zero-order hold at ``period``)."""
     K = np.asarray(K, dtype=float).reshape(1, -1)
@@ -127,7 +127,7 @@ def check_stabilizing(A: np.ndarray, B: np.ndarray, K, discrete: bool, period: f
     if K.size != A.shape[0] or not np.all(np.isfinite(K)):
         raise ConfigError(f"{where} must be {A.shape[0]} finite numbers [theta, phi, theta_dot, phi_dot], "
                           f"got {K.ravel().tolist()}")
-    eigenvalues = closed_loop_eigenvalues(A, B, K, discrete, period)
+    eigenvalues = state_feedback_eigenvalues(A, B, K, discrete, period)
     if discrete:
         worst = eigenvalues[np.argmax(np.abs(eigenvalues))]
         if abs(worst) >= 1.0:
@@ -196,6 +196,6 @@ def _checked_gain(K, period: float, torque_limit: float) -> np.ndarray:
 
 
 __all__ = [
-    "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "closed_loop_eigenvalues",
+    "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "state_feedback_eigenvalues",
     "check_stabilizing", "LqrController",
 ]

@@ -1,4 +1,4 @@
-"""Adapting sigma0 and Fc, not one gain (Sec. VII): the two-parameter adaptation of
+"""Study: adapting sigma0 and Fc, not one gain (Sec. VII): the two-parameter adaptation of
 :mod:`furuta_drake.observers.adaptive_dahl` against the paper's one-gain K_sigma law (Eq. 18), both started
 from an underestimated (Fc x 0.75, sigma0 x 0.5) and an overestimated (Fc x 1.3, sigma0 x 2) Dahl set on the
 paper's rig, adaptation from t = 7.8 s, LQR on VFE without compensation (as Figs. 6-7).
@@ -14,7 +14,7 @@ from __future__ import annotations
 import dataclasses
 
 from furuta_drake import reproduce
-from furuta_drake.beyond import BeyondStudy
+from furuta_drake.studies import Study
 from furuta_drake.observers.adaptive_dahl import DahlAdaptationParameters
 from furuta_drake.plotting import plot_parameter_adaptation
 from furuta_drake.simulate import simulate
@@ -23,7 +23,7 @@ STARTS = {"underestimated": (0.75, 0.5), "overestimated": (1.3, 2.0)}  # (Fc fac
 TRUE = {"Fc+": reproduce.ARM_COULOMB_POS, "Fc-": reproduce.ARM_COULOMB_NEG, "sigma0": reproduce.ARM_SIGMA0}
 
 
-def study(seed: int = 0, small: bool = False) -> BeyondStudy:
+def study(seed: int = 0, small: bool = False) -> Study:
     """Final Fc+, Fc-, sigma0 of both laws from both starts, against the rig's true values."""
     base = reproduce.paper_rig_config(seed=seed, duration=30.0 if small else 40.0)
     rows, trajectories, logs = [], {}, {}
@@ -55,7 +55,7 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
                f"{_worst(rows, 'Fc', 'paper'):.0%} off on Fc and its implied stiffness K_sigma sigma0 up to "
                f"{_worst(rows, 'sigma0', 'paper'):.0%} off: one gain cannot change the start's sigma0 / Fc ratio, and "
                f"with a wrong presliding stiffness it trades the level against the transient.")
-    return BeyondStudy(title="Adapting sigma0 and Fc, not one gain", rows=rows, summary=summary,
+    return Study(title="Adapting sigma0 and Fc, not one gain", rows=rows, summary=summary,
                        figures={"parameter_adaptation": plot_parameter_adaptation(trajectories, TRUE,
                                                                                   reproduce.ADAPTATION_ENABLE_TIME)},
                        logs=logs)

@@ -1,5 +1,5 @@
-"""Beyond the paper (issue 10): the LuGre observer, the friction observer on the pendulum joint, and their
-studies against the paper's arm-only Dahl observer."""
+"""The LuGre observer and the friction observer on the pendulum joint, and their studies against the paper's
+arm-only Dahl observer."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.beyond import lugre_observer, pendulum_observer
+from furuta_drake.studies import lugre_observer_study, pendulum_observer_study
 from furuta_drake.errors import ConfigError
 from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters
 from furuta_drake.observers.vfe import VfeObserver
@@ -73,7 +73,7 @@ def _figure(study, metric):
 
 
 def test_pendulum_friction_observer_study():
-    study = pendulum_observer.study(seed=1, small=True)
+    study = pendulum_observer_study.study(seed=1, small=True)
     row = _figure(study, "theta_dot_mse (both joints)")
     # The arm-only VFE lumps the pendulum's 3 mN m friction into eps_hat_F with the VFE's lag; observing it
     # removes most of that error.
@@ -84,7 +84,7 @@ def test_pendulum_friction_observer_study():
 
 
 def test_lugre_observer_study():
-    study = lugre_observer.study(seed=1, small=True)
+    study = lugre_observer_study.study(seed=1, small=True)
     friction = _figure(study, "F_hat_rms_error")
     # The Dahl observer cannot represent the Stribeck breakaway (Fs = 1.67 Fc): its F_hat error is the missing
     # Fs - Fc bump; the LuGre observer has the structure.
