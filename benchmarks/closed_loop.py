@@ -56,7 +56,9 @@ from scipy.linalg import expm
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagram import build_furuta_diagram
+from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.observers.vfe import VfeObserver, continuous_vfe_observer
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
@@ -73,10 +75,12 @@ def configurations(duration: float) -> dict[str, SimulationConfig]:
     base = dataclasses.replace(SimulationConfig.from_rig("lund"), duration=duration)
 
     def variant(source: str, compensation: bool = False, adaptation: bool = False) -> SimulationConfig:
+        law = DahlAdaptation(k_sigma=KSigmaAdaptationParameters()) if adaptation else None
         return dataclasses.replace(
             base, controller=dataclasses.replace(base.controller, velocity_source=source,
                                                  friction_compensation=compensation),
-            observers=dataclasses.replace(base.observers, adaptation_enabled=adaptation))
+            observers=dataclasses.replace(base.observers, dahl=dataclasses.replace(base.observers.dahl,
+                                                                                   adaptation=law)))
 
     return {"true LQR": variant("true"), "HG": variant("hg"), "VFE+Dahl": variant("vfe", True),
             "VFE+Dahl+K": variant("vfe", True, True)}
@@ -184,8 +188,9 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     else:
         continuous = continuous_vfe_observer(A, B_F, config.observers.vfe)
     Ad, Bd = held_input_discretisation(continuous.A(), continuous.B(), h)
-    dahl, adaptation = config.observers.dahl, config.observers.adaptation
-    adapt = config.observers.adaptation_enabled
+    dahl = config.observers.dahl
+    adapt = dahl.adaptation is not None
+    adaptation = dahl.adaptation.k_sigma if adapt else None
     sigma0 = dahl.sigma0
 
     def dynamics(t, x, u):
@@ -206,7 +211,7 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     x = np.asarray(config.initial_state, dtype=float)
     y = quantise(x)  # the encoder's initialization sample
     observer = np.zeros(Ad.shape[0])
-    z, k_sigma, u = 0.0, [adaptation.initial, adaptation.initial], 0.0
+    z, k_sigma, u = 0.0, [adaptation.initial, adaptation.initial] if adapt else [1.0, 1.0], 0.0
     for k in range(steps):
         t = k * h
         states[k] = x

@@ -16,12 +16,10 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
-from furuta_drake.adaptation import KSigmaAdaptationParameters
 from furuta_drake.controllers.lqr import LqrParameters
 from furuta_drake.encoder import EncoderParameters
 from furuta_drake.errors import ConfigError
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
-from furuta_drake.observers.adaptive_dahl import DahlAdaptationParameters
 from furuta_drake.observers.dahl import DahlObserverParameters
 from furuta_drake.observers.hg import HighGainParameters
 from furuta_drake.observers.vfe import VfeParameters
@@ -62,28 +60,25 @@ class ControllerConfig:
 
 @dataclass
 class ObserverConfig:
-    """The observers of Sec. III and the K_sigma adaptation of Sec. V. ``run`` lists observers that run side
-    by side on the same measurements for comparison (the paper's Table II experiment); the one the controller
-    uses always runs."""
+    """The observers of Sec. III; the arm's Dahl observer adapts (Sec. V, VII) as its ``dahl.adaptation``
+    section says. ``run`` lists observers that run side by side on the same measurements for comparison (the
+    paper's Table II experiment); the one the controller uses always runs."""
 
     hg: HighGainParameters = field(default_factory=HighGainParameters)
     dahl: DahlObserverParameters = field(default_factory=DahlObserverParameters)
     vfe: VfeParameters = field(default_factory=VfeParameters)
-    adaptation: KSigmaAdaptationParameters = field(default_factory=KSigmaAdaptationParameters)
-    adaptation_enabled: bool = False
     run: list[Literal["hg", "vfe"]] = field(default_factory=list)
     pendulum_friction: DahlObserverParameters | None = None  # a friction observer on the pendulum, feeding VFE
-    dahl_adaptation: DahlAdaptationParameters | None = None  # adapt the arm observer's Fc+/-, sigma0 (Sec. VII)
 
     def validate(self, where: str = "observers") -> None:
         self.hg.validate(f"{where}.hg")
         self.dahl.validate(f"{where}.dahl")
         if self.pendulum_friction is not None:
             self.pendulum_friction.validate(f"{where}.pendulum_friction")
-        if self.dahl_adaptation is not None:
-            self.dahl_adaptation.validate(f"{where}.dahl_adaptation")
+            if self.pendulum_friction.adaptation is not None:
+                raise ConfigError(f"{where}.pendulum_friction.adaptation must be null: nothing compensates the "
+                                  f"pendulum's friction, so its observer does not adapt")
         self.vfe.validate(f"{where}.vfe")
-        self.adaptation.validate(f"{where}.adaptation")
 
 
 @dataclass

@@ -13,6 +13,7 @@ Every block is a Drake system; the loggers record every signal a result file nee
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,13 +25,11 @@ from pydrake.systems.primitives import (
 )
 
 from furuta_drake.actuator import add_actuator, add_arm_disturbance
-from furuta_drake.adaptation import KSigmaAdapter, KSigmaDahlObserver
 from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import LqrController, check_stabilizing, design_lqr, upright_linearization
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.friction import JointFriction
-from furuta_drake.observers.adaptive_dahl import AdaptiveDahlObserver
 from furuta_drake.observers.dahl import DahlFrictionObserver
 from furuta_drake.observers.hg import HighGainObserver
 from furuta_drake.observers.vfe import VfeObserver, friction_error_response
@@ -162,36 +161,22 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
         if controller is not None and config.controller.friction_compensation \
                 and config.controller.velocity_source == "hg":
             # Sec. IV-A: u = u_LQ - F_hat with F_hat from the Dahl observer (Eq. 8) on the HG arm velocity.
-            hg_dahl, _ = add_dahl_observer(builder, config.observers.dahl, hg.GetOutputPort("state_estimate"),
-                                           measured, "hg")
+            # Adaptation reads the VFE's eps_hat_F: on the HG estimate the Dahl observer runs without it.
+            hg_dahl, _ = add_dahl_observer(builder, dataclasses.replace(config.observers.dahl, adaptation=None),
+                                           hg.GetOutputPort("state_estimate"), measured, "hg")
             builder.Connect(hg_dahl.GetOutputPort("friction_estimate_Nm"),
                             controller.GetInputPort("friction_compensation_Nm"))
     if "vfe" in needed:
-        # Eq. 18 runs inside the Dahl observer (one Python update per sample instead of two and an output),
-        # unless that observer adapts its own parameters (Sec. VII): then a KSigmaAdapter drives its K_sigma.
-        merged = config.observers.adaptation_enabled and config.observers.dahl_adaptation is None
-        vfe, dahl, arm_velocity = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe,
-                                                    config.observers.dahl, measured, command,
-                                                    config.observers.pendulum_friction,
-                                                    config.observers.dahl_adaptation,
-                                                    k_sigma=config.observers.adaptation if merged else None)
-        if config.observers.dahl_adaptation is not None:
+        vfe, dahl, _ = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe, config.observers.dahl,
+                                         measured, command, config.observers.pendulum_friction)
+        adaptation = config.observers.dahl.adaptation
+        if adaptation is not None and adaptation.parameters is not None:
             log("dahl_parameters", dahl.GetOutputPort("dahl_parameters"))
         estimates["vfe"] = vfe.GetOutputPort("state_estimate")
         log("friction_estimate", dahl.GetOutputPort("friction_estimate_Nm"))
         log("friction_error_estimate", vfe.GetOutputPort("friction_error_estimate_Nm"))
-        if merged:
+        if adaptation is not None and adaptation.k_sigma is not None:
             log("K_sigma", dahl.GetOutputPort("K_sigma_branches"))
-        elif config.observers.adaptation_enabled:
-            adapter = builder.AddNamedSystem("k_sigma_adapter", KSigmaAdapter(
-                config.observers.adaptation, sigma0=config.observers.dahl.sigma0))
-            builder.Connect(arm_velocity.get_output_port(),
-                            adapter.GetInputPort("arm_velocity_estimate_rad_per_s"))
-            builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
-                            adapter.GetInputPort("friction_error_estimate_Nm"))
-            builder.Connect(dahl.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
-            builder.Connect(adapter.GetOutputPort("K_sigma"), dahl.GetInputPort("K_sigma"))
-            log("K_sigma", adapter.GetOutputPort("K_sigma_branches"))
         if controller is not None and config.controller.friction_compensation \
                 and config.controller.velocity_source == "vfe":
             builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"),
@@ -241,20 +226,20 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
 
 
 def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, measured: OutputPort,
-                      command: OutputPort, pendulum_params=None, adaptation=None, k_sigma=None):
+                      command: OutputPort, pendulum_params=None):
     """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
-    (Eq. 8, 16), which reads the VFE's arm velocity estimate; with ``pendulum_params`` a second friction
-    observer on the pendulum joint feeds F_hat_theta too, and with ``adaptation`` (DahlAdaptationParameters)
-    the arm observer adapts Fc+/- and sigma0 from eps_hat_F (Sec. VII); with ``k_sigma``
-    (KSigmaAdaptationParameters) it is a KSigmaDahlObserver adapting K_sigma (Eq. 18). Returns (vfe, dahl,
-    arm_velocity)."""
+    (Eq. 8, 16), which reads the VFE's arm velocity estimate and, when ``dahl_params.adaptation`` is given, its
+    eps_hat_F (Eq. 18, or the Fc and sigma0 law of Sec. VII); with ``pendulum_params`` a second friction
+    observer on the pendulum joint feeds F_hat_theta too. Returns (vfe, dahl, arm_velocity)."""
     vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params,
                                                              pendulum_friction_input=pendulum_params is not None))
     estimate = vfe.GetOutputPort("state_estimate")
-    error_response = None if adaptation is None else friction_error_response(*model, vfe.gains)
-    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe", adaptation=adaptation,
-                                           error_response=error_response, k_sigma=k_sigma)
-    if adaptation is not None or k_sigma is not None:
+    adaptation = dahl_params.adaptation
+    error_response = friction_error_response(*model, vfe.gains) if adaptation is not None \
+        and adaptation.parameters is not None else None
+    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe",
+                                           error_response=error_response)
+    if adaptation is not None:
         builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
                         dahl.GetInputPort("friction_error_estimate_Nm"))
     builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
@@ -289,20 +274,15 @@ def _sum_into(builder: DiagramBuilder, ports: list[OutputPort], destination, nam
 
 
 def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
-                      joint: str = "arm", adaptation=None, error_response=None, k_sigma=None):
+                      joint: str = "arm", error_response=None):
     """The Dahl (or LuGre) friction observer (Eq. 8, 16) of ``joint`` on that joint's velocity in an observer's
-    ``state_estimate`` (paper order). Returns (observer, velocity selector), named ``{prefix}_dahl_observer`` and
-    ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer`` and
-    ``{prefix}_pendulum_velocity`` for the pendulum; with ``adaptation`` the arm's is an AdaptiveDahlObserver
-    (``error_response``: its VFE's ``friction_error_response``), with ``k_sigma`` a KSigmaDahlObserver."""
+    ``state_estimate`` (paper order), adapting as ``params.adaptation`` says (``error_response``: its VFE's
+    ``friction_error_response``, for the Fc and sigma0 law). Returns (observer, velocity selector), named
+    ``{prefix}_dahl_observer`` and ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer``
+    and ``{prefix}_pendulum_velocity`` for the pendulum."""
     label = prefix if joint == "arm" else f"{prefix}_pendulum"
-    if adaptation is not None:
-        observer = AdaptiveDahlObserver(params, adaptation, error_response)
-    elif k_sigma is not None:
-        observer = KSigmaDahlObserver(params, k_sigma)
-    else:
-        observer = DahlFrictionObserver(params, joint)
-    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", observer)
+    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", DahlFrictionObserver(
+        params, joint=joint, error_response=error_response))
     row = np.array([[0.0, 0.0, 0.0, 1.0]]) if joint == "arm" else np.array([[0.0, 0.0, 1.0, 0.0]])
     velocity = builder.AddNamedSystem(f"{prefix}_{joint}_velocity", MatrixGain(row))
     builder.Connect(state_estimate, velocity.get_input_port())

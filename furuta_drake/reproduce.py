@@ -25,7 +25,9 @@ from furuta_drake.config import ExcitationConfig, SimulationConfig
 from furuta_drake.diagram import add_vfe_with_dahl
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
+from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import SimulationResult, simulate
 
@@ -267,15 +269,14 @@ def adaptation_config(config: SimulationConfig, duration: float = 40.0) -> Simul
     """Figs. 6-7: an underestimated Dahl observer (Fc_hat = 0.009 N m both ways, K_sigma = 1), LQR on VFE
     without compensation (Sec. V-C: the arm must move to excite the adaptation), K_sigma adaptation enabled
     at t = 7.8 s."""
+    adaptation = DahlAdaptation(k_sigma=KSigmaAdaptationParameters(enable_time=ADAPTATION_ENABLE_TIME,
+                                                                   gamma=ADAPTATION_GAMMA))
     dahl = dataclasses.replace(config.observers.dahl, coulomb_pos=UNDERESTIMATED_COULOMB,
-                               coulomb_neg=UNDERESTIMATED_COULOMB)
-    adaptation = dataclasses.replace(config.observers.adaptation, enable_time=ADAPTATION_ENABLE_TIME,
-                                     gamma=ADAPTATION_GAMMA)
+                               coulomb_neg=UNDERESTIMATED_COULOMB, adaptation=adaptation)
     return dataclasses.replace(
         config, duration=duration,
         controller=dataclasses.replace(config.controller, velocity_source="vfe", friction_compensation=False),
-        observers=dataclasses.replace(config.observers, dahl=dahl, adaptation=adaptation, adaptation_enabled=True,
-                                      run=["vfe"]))
+        observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]))
 
 
 def adaptation_experiment(config: SimulationConfig, duration: float = 40.0, progress=None) -> dict:

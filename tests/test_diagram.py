@@ -9,6 +9,8 @@ import pytest
 from furuta_drake.config import SimulationConfig, dump_config, load_config
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
+from furuta_drake.observers.dahl import DahlAdaptation
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.simulate import simulate
 
 
@@ -50,10 +52,10 @@ def test_each_paper_diagram_balances_for_five_seconds(source):
 def test_adaptive_diagram_runs_and_logs_k_sigma():
     """Diagram (iii): VFE + Dahl + K_sigma adapter; K_sigma starts at 1 and stays finite and positive."""
     config = lund(friction=coulomb_arm(0.015), duration=3.0)
-    observers = dataclasses.replace(config.observers, adaptation_enabled=True,
-                                    adaptation=dataclasses.replace(config.observers.adaptation, enable_time=1.0))
-    config = dataclasses.replace(config, observers=observers, controller=dataclasses.replace(
-        config.controller, velocity_source="vfe"))
+    dahl = dataclasses.replace(config.observers.dahl, adaptation=DahlAdaptation(
+        k_sigma=KSigmaAdaptationParameters(enable_time=1.0)))
+    config = dataclasses.replace(config, observers=dataclasses.replace(config.observers, dahl=dahl),
+                                 controller=dataclasses.replace(config.controller, velocity_source="vfe"))
     result = simulate(config)
     k_sigma = result.signals["K_sigma"]
     np.testing.assert_allclose(k_sigma[0], [1.0, 1.0])

@@ -21,7 +21,7 @@ LUGRE = dict(coulomb_pos=0.012, coulomb_neg=0.018, static_pos=0.02, static_neg=0
 
 
 def settle(params: DahlObserverParameters, velocity: float, joint: str = "arm", steps: int = 20000):
-    system = DahlFrictionObserver(params, joint)
+    system = DahlFrictionObserver(params, joint=joint)
     context = system.CreateDefaultContext()
     system.GetInputPort(f"{joint}_velocity_estimate_rad_per_s").FixValue(context, [velocity])
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
@@ -46,12 +46,12 @@ def test_lugre_observer_settles_on_the_stribeck_curve(speed, positive):
 
 def test_pendulum_observer_has_pendulum_ports_and_no_injection():
     params = DahlObserverParameters(coulomb_pos=0.003, coulomb_neg=0.003, sigma0=2.0, rho=None)
-    system = DahlFrictionObserver(params, "pendulum")
+    system = DahlFrictionObserver(params, joint="pendulum")
     assert system.HasInputPort("pendulum_velocity_estimate_rad_per_s") and not system.HasInputPort("arm_reference_rad")
     # A pendulum displaced from the upright does not change the estimate without injection: pure Dahl model.
     assert settle(params, 1.0, "pendulum") == pytest.approx(-0.003, rel=1e-9)
     with pytest.raises(ConfigError, match="joint"):
-        DahlFrictionObserver(params, "wrist")
+        DahlFrictionObserver(params, joint="wrist")
     with pytest.raises(ConfigError, match="rho"):
         DahlObserverParameters(rho=-1.0).validate()
 

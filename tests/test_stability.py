@@ -15,6 +15,7 @@ from furuta_drake.observers.hg import high_gain_error_matrix
 from furuta_drake.observers.vfe import vfe_error_matrix, vfe_gains
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import simulate
+from furuta_drake.studies.stability_study import adaptive_loop_config
 from furuta_drake.stability import (
     _lqr_gain, catches, common_lyapunov, interval_containing, linear_loop, lyapunov_region, presliding_plant,
     stable_intervals,
@@ -114,10 +115,7 @@ def test_the_common_lyapunov_function_decreases_for_every_k_sigma_of_its_interva
 
 
 def _adaptive(config):
-    adaptation = dataclasses.replace(config.observers.adaptation, enable_time=0.0, gamma=reproduce.ADAPTATION_GAMMA)
-    return dataclasses.replace(config, duration=1.0, excitation=ExcitationConfig(),
-                               observers=dataclasses.replace(config.observers, adaptation=adaptation,
-                                                             adaptation_enabled=True, run=[]))
+    return dataclasses.replace(adaptive_loop_config(config), duration=1.0, excitation=ExcitationConfig())
 
 
 @pytest.mark.parametrize("theta0", [-0.05, 0.05])

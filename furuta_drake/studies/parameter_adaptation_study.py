@@ -1,5 +1,5 @@
 """Study: adapting sigma0 and Fc, not one gain (Sec. VII): the two-parameter adaptation of
-:mod:`furuta_drake.observers.adaptive_dahl` against the paper's one-gain K_sigma law (Eq. 18), both started
+:mod:`furuta_drake.observers.parameter_adaptation` against the paper's one-gain K_sigma law (Eq. 18), both started
 from an underestimated (Fc x 0.75, sigma0 x 0.5) and an overestimated (Fc x 1.3, sigma0 x 2) Dahl set on the
 paper's rig, adaptation from t = 7.8 s, LQR on VFE without compensation (as Figs. 6-7).
 
@@ -15,7 +15,8 @@ import dataclasses
 
 from furuta_drake import reproduce
 from furuta_drake.studies import Study
-from furuta_drake.observers.adaptive_dahl import DahlAdaptationParameters
+from furuta_drake.observers.dahl import DahlAdaptation
+from furuta_drake.observers.parameter_adaptation import ParameterAdaptationParameters
 from furuta_drake.plotting import plot_parameter_adaptation
 from furuta_drake.simulate import simulate
 
@@ -34,9 +35,10 @@ def study(seed: int = 0, small: bool = False) -> Study:
         start_config = dataclasses.replace(base, observers=dataclasses.replace(base.observers, dahl=dahl))
         one_gain = simulate(reproduce.adaptation_config(start_config, base.duration))
         two_config = reproduce.adaptation_config(start_config, base.duration)
+        two_law = DahlAdaptation(parameters=ParameterAdaptationParameters(
+            enable_time=reproduce.ADAPTATION_ENABLE_TIME))
         two_config = dataclasses.replace(two_config, observers=dataclasses.replace(
-            two_config.observers, adaptation_enabled=False, dahl=dataclasses.replace(dahl, rho=None),
-            dahl_adaptation=DahlAdaptationParameters(enable_time=reproduce.ADAPTATION_ENABLE_TIME)))
+            two_config.observers, dahl=dataclasses.replace(dahl, rho=None, adaptation=two_law)))
         two = simulate(two_config)
         k_plus, k_minus = one_gain.signals["K_sigma"][:, 0], one_gain.signals["K_sigma"][:, 1]
         # What the one-gain law implies for each parameter: F_hat = K_sigma sigma0 z_hat with the start's Dahl set.

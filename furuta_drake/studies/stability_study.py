@@ -13,6 +13,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from furuta_drake import reproduce, stability
+from furuta_drake.observers.dahl import DahlAdaptation
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.studies import Study
 
 LOOPS = (("HG + Dahl (paper)", "hg", 1), ("VFE + Dahl, K_z as printed", "vfe", 1),
@@ -36,11 +38,11 @@ def _stable_range_text(intervals) -> str:
     return ", ".join(f"[{a:.2f}, {b:.2f}]" for a, b in intervals) or "none"
 
 
-def _adaptive_config(config):
+def adaptive_loop_config(config):
     """The nested loop with Eq. 18 running from t = 0 (the reproduction's gain)."""
-    adaptation = dataclasses.replace(config.observers.adaptation, enable_time=0.0, gamma=reproduce.ADAPTATION_GAMMA)
-    return dataclasses.replace(config, observers=dataclasses.replace(config.observers, adaptation=adaptation,
-                                                                     adaptation_enabled=True, run=[]))
+    adaptation = DahlAdaptation(k_sigma=KSigmaAdaptationParameters(enable_time=0.0, gamma=reproduce.ADAPTATION_GAMMA))
+    dahl = dataclasses.replace(config.observers.dahl, adaptation=adaptation)
+    return dataclasses.replace(config, observers=dataclasses.replace(config.observers, dahl=dahl, run=[]))
 
 
 def study(seed: int = 0, small: bool = False) -> Study:
@@ -79,7 +81,7 @@ def study(seed: int = 0, small: bool = False) -> Study:
     thetas = np.linspace(-0.3, 0.3, 5) if small else np.linspace(-0.36, 0.36, 13)
     theta_dots = np.array([-0.25, 0.0, 0.25]) if small else np.array([-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0])
     duration = 1.5 if small else 2.0
-    basin_loops = {"HG + Dahl, K_sigma = 1 (paper)": hg_config, "VFE + Dahl + K_sigma adaptation": _adaptive_config(base)}
+    basin_loops = {"HG + Dahl, K_sigma = 1 (paper)": hg_config, "VFE + Dahl + K_sigma adaptation": adaptive_loop_config(base)}
     if small:
         basin_loops = dict(list(basin_loops.items())[1:])
     basins = {label: stability.basin_map(config, thetas, theta_dots, duration, workers=1 if small else 2)

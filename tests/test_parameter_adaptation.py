@@ -3,18 +3,17 @@ differences, the excitation check in steady sliding, and the study against the o
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from furuta_drake.studies import parameter_adaptation_study
-from furuta_drake.observers.adaptive_dahl import (
-    S_FC_POS, S_SIGMA0, Z, AdaptiveDahlObserver, DahlAdaptationParameters,
-)
-from furuta_drake.observers.dahl import DahlObserverParameters
+from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver, DahlObserverParameters
+from furuta_drake.observers.parameter_adaptation import S_FC_POS, S_SIGMA0, Z, ParameterAdaptationParameters
 from furuta_drake.observers.vfe import VfeParameters, friction_error_response, vfe_gains
 from furuta_drake.rig import linearized_upright, lund_rig
+from furuta_drake.studies import parameter_adaptation_study
 
 A, B_F = linearized_upright(lund_rig())
 RESPONSE = friction_error_response(A, B_F, vfe_gains(A, B_F, VfeParameters().eigenvalues))
@@ -22,7 +21,8 @@ RESPONSE = friction_error_response(A, B_F, vfe_gains(A, B_F, VfeParameters().eig
 
 def run(params, adaptation, velocities, error=0.0):
     """Advance the observer through ``velocities`` (one per period) with a fixed eps_hat_F; return the state."""
-    system = AdaptiveDahlObserver(params, adaptation, RESPONSE)
+    params = dataclasses.replace(params, adaptation=DahlAdaptation(parameters=adaptation))
+    system = DahlFrictionObserver(params, error_response=RESPONSE)
     context = system.CreateDefaultContext()
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
     system.GetInputPort("friction_error_estimate_Nm").FixValue(context, [0.0, error])
@@ -41,7 +41,7 @@ def reversal(n=300):
 
 def test_sensitivities_match_finite_differences():
     """s_c = dz/dFc+ and s_s = dz/dsigma0 along a reversal, against central differences of z (no adaptation)."""
-    frozen = DahlAdaptationParameters(enable_time=1e9)
+    frozen = ParameterAdaptationParameters(enable_time=1e9)
     base = DahlObserverParameters(rho=None)
     _, context = run(base, frozen, reversal())
     state = context.get_discrete_state_vector().value()
@@ -58,7 +58,7 @@ def test_steady_sliding_excites_the_level_not_the_stiffness():
     excitation check freezes sigma0 and Fc- while Fc+ follows e = F_hat - F = -eps_hat_F (here F is 0.003 N m
     stronger than F_hat, so Fc+ must grow)."""
     params = DahlObserverParameters(rho=None)
-    adaptation = DahlAdaptationParameters(enable_time=0.0)
+    adaptation = ParameterAdaptationParameters(enable_time=0.0)
     n = 500  # 0.5 s: with eps_hat_F held fixed (no loop to answer), Fc+ would grow without bound
     system, context = run(params, adaptation, np.full(n, 0.5), error=-0.003)
     fc_pos, fc_neg, sigma0 = system.GetOutputPort("dahl_parameters").Eval(context)
@@ -76,7 +76,7 @@ def test_matched_model_does_not_drift():
     """eps_hat_F = 0 (the model explains the friction): nothing adapts, however rich the motion."""
     params = DahlObserverParameters(rho=None)
     velocities = 0.5 * np.sin(np.linspace(0, 6 * math.pi, 3000))
-    system, context = run(params, DahlAdaptationParameters(enable_time=0.0), velocities, error=0.0)
+    system, context = run(params, ParameterAdaptationParameters(enable_time=0.0), velocities, error=0.0)
     np.testing.assert_allclose(system.GetOutputPort("dahl_parameters").Eval(context),
                                [params.coulomb_pos, params.coulomb_neg, params.sigma0], rtol=1e-14)
 
