@@ -90,7 +90,7 @@ def configurations(duration: float) -> dict[str, SimulationConfig]:
 
 def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring)."""
-    rig, period = config.rig, config.encoder.sample_period
+    rig, period = config.rig, config.control_period
     builder = DiagramBuilder()
     plant, _ = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=False)
     to_paper = builder.AddSystem(MatrixGain(plant_to_paper_permutation(plant)))
@@ -123,10 +123,10 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
         builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
         estimate = mux.get_output_port()
     elif source == "hg":
-        observer = builder.AddSystem(HighGainObserver(model, config.observers.hg))
+        observer = builder.AddSystem(HighGainObserver(model, config.observers.hg, period=period))
         estimate = observer.GetOutputPort("state_estimate")
     else:
-        observer = builder.AddSystem(VfeObserver(model, config.observers.vfe))
+        observer = builder.AddSystem(VfeObserver(model, config.observers.vfe, period=period))
         no_friction = builder.AddSystem(ConstantVectorSource([0.0]))
         builder.Connect(no_friction.get_output_port(), observer.GetInputPort("friction_estimate_Nm"))
         estimate = observer.GetOutputPort("state_estimate")
@@ -175,7 +175,7 @@ def held_input_discretisation(A: np.ndarray, B: np.ndarray, h: float) -> tuple[n
 def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """CPU time, true states [theta, phi, theta_dot, phi_dot] and encoder angles at each sample of the peer
     (see the module docstring). Row k is the sample at t_k = k h, like ``SimulationResult.state``/``measured``."""
-    rig, h = config.rig, config.encoder.sample_period
+    rig, h = config.rig, config.control_period
     a, b, c, d = rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque
     count = config.encoder.resolution
     limit = config.controller.lqr.torque_limit
@@ -255,7 +255,7 @@ def agreement(config: SimulationConfig, result: SimulationResult, states: np.nda
     the run's duration if none differs)."""
     differs = np.flatnonzero(np.any(result.measured != measured, axis=1))
     first = differs[0] if differs.size else len(states)
-    return float(np.max(np.abs(result.state[:first] - states[:first]))), first * config.encoder.sample_period
+    return float(np.max(np.abs(result.state[:first] - states[:first]))), first * config.control_period
 
 
 def with_fine_encoder(config: SimulationConfig) -> SimulationConfig:

@@ -6,6 +6,10 @@ Two kinds of blocks meet here. ``rig`` is the *nominal* model: the LQR and the o
 on the joints, actuator imperfections, a cable spring or cogging, and the encoder that measures the angles.
 A fitted diagnosis writes exactly these sections, so ``furuta-drake simulate --config fitted_model.yaml``
 runs the corrected model.
+
+One clock drives every sampled block: the control period, ``rig.sample_period``. The encoder, the LQR and the
+observers are given it when the diagram is built; their sections may state it (``encoder.sample_period``,
+``controller.lqr.period``, ``observers.hg.period``, ...), and a stated period that differs is an error.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ from typing import Literal
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.controllers.lqr import LqrParameters
 from furuta_drake.encoder import EncoderParameters
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.observers.dahl import DahlObserverParameters
 from furuta_drake.observers.hg import HighGainParameters
@@ -192,12 +196,25 @@ class SimulationConfig:
             raise ConfigError(f"{prefix}duration must be a positive number of seconds, got {self.duration!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise ConfigError(f"{prefix}seed must be an integer in [0, 2^32), got {self.seed!r}")
+        stated = {"encoder.sample_period": self.encoder.sample_period,
+                  "controller.lqr.period": self.controller.lqr.period, "observers.hg.period": self.observers.hg.period,
+                  "observers.dahl.period": self.observers.dahl.period, "observers.vfe.period": self.observers.vfe.period}
+        if self.observers.pendulum_friction is not None:
+            stated["observers.pendulum_friction.period"] = self.observers.pendulum_friction.period
+        for key, period in stated.items():
+            require_control_period(period, self.control_period, f"{prefix}{key}",
+                                   f"the control period {prefix}rig.sample_period")
+
+    @property
+    def control_period(self) -> float:
+        """The period [s] of every sampled block (encoder, controller, observers, loggers): the rig's."""
+        return self.rig.sample_period
 
     @classmethod
     def from_rig(cls, rig: RigParameters | str, **sections) -> "SimulationConfig":
         """A config for ``rig`` (a RigParameters or a shipped name: 'lund', 'qube_servo2'): the rig file's
-        nominal friction moves into the ``friction`` section, its encoder, sample period and torque limit into
-        ``encoder`` and ``controller``; ``sections`` override whole sections."""
+        nominal friction moves into the ``friction`` section, its encoder (counts and sample period) into
+        ``encoder``, its torque limit into ``controller``; ``sections`` override whole sections."""
         if isinstance(rig, str):
             if rig not in RIGS:
                 raise ConfigError(f"unknown rig {rig!r}; known: {sorted(RIGS)}")
@@ -208,7 +225,7 @@ class SimulationConfig:
         )
         nominal_rig = dataclasses.replace(rig, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
                                           pendulum_viscous=0.0)
-        lqr = dataclasses.replace(LqrParameters(), period=rig.sample_period, torque_limit=rig.torque_limit)
+        lqr = dataclasses.replace(LqrParameters(), torque_limit=rig.torque_limit)
         config = cls(
             rig=nominal_rig,
             friction=friction,

@@ -26,7 +26,7 @@ from pydrake.systems.primitives import (
 
 from furuta_drake.actuator import add_actuator, add_arm_disturbance
 from furuta_drake.config import SimulationConfig
-from furuta_drake.controllers.lqr import LqrController, check_stabilizing, design_lqr, upright_linearization
+from furuta_drake.controllers.lqr import LqrController, lqr_gain
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.friction import JointFriction
@@ -60,7 +60,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
     added}); its other outputs are logged into ``signals`` and the estimates into ``estimates``.
     """
     config.validate()
-    rig, period = config.rig, config.encoder.sample_period
+    rig, period = config.rig, config.control_period
     builder = DiagramBuilder()
     loggers: dict[str, VectorLogSink] = {}
 
@@ -105,7 +105,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
     builder.Connect(actuator_output, plant.get_actuation_input_port())
 
     # --- Sensors ---------------------------------------------------------------------------------------------
-    encoder = builder.AddNamedSystem("encoder", Encoder(config.encoder))
+    encoder = builder.AddNamedSystem("encoder", Encoder(config.encoder, period=period))
     builder.Connect(true_state, encoder.GetInputPort("true_state"))
     measured = encoder.GetOutputPort("measured_angles_rad")
 
@@ -122,17 +122,11 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
     estimates: dict[str, OutputPort] = {}
     controller = None
     if config.controller.mode == "lqr":
-        A, B = upright_linearization(plant)
-        if config.controller.gain is not None:
-            lqr_gain = np.asarray(config.controller.gain, dtype=float).reshape(1, 4)
-            check_stabilizing(A, B, lqr_gain, config.controller.lqr.discrete, config.controller.lqr.period,
-                              "controller.gain")
-        else:
-            lqr_gain = design_lqr(plant, config.controller.lqr)
+        lqr_gain = controller_gain(plant, config)
         reference = arm_reference_trajectory(config.excitation, config.duration)
         if make_controller is None:
             controller = builder.AddNamedSystem("lqr", LqrController(
-                lqr_gain, config.controller.lqr.period, config.controller.lqr.torque_limit,
+                lqr_gain, period=period, torque_limit=config.controller.lqr.torque_limit,
                 friction_compensation=config.controller.friction_compensation, reference=reference is not None))
         else:
             controller, own_estimates = make_controller(builder, lqr_gain, measured)
@@ -154,7 +148,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
         needed.add(config.controller.velocity_source)
     A_model, B_F = linearized_upright(rig)
     if "hg" in needed:
-        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg))
+        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg, period=period))
         builder.Connect(measured, hg.GetInputPort("measured_angles_rad"))
         builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
         estimates["hg"] = hg.GetOutputPort("state_estimate")
@@ -163,12 +157,12 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
             # Sec. IV-A: u = u_LQ - F_hat with F_hat from the Dahl observer (Eq. 8) on the HG arm velocity.
             # Adaptation reads the VFE's eps_hat_F: on the HG estimate the Dahl observer runs without it.
             hg_dahl, _ = add_dahl_observer(builder, dataclasses.replace(config.observers.dahl, adaptation=None),
-                                           hg.GetOutputPort("state_estimate"), measured, "hg")
+                                           hg.GetOutputPort("state_estimate"), measured, "hg", period=period)
             builder.Connect(hg_dahl.GetOutputPort("friction_estimate_Nm"),
                             controller.GetInputPort("friction_compensation_Nm"))
     if "vfe" in needed:
         vfe, dahl, _ = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe, config.observers.dahl,
-                                         measured, command, config.observers.pendulum_friction)
+                                         measured, command, config.observers.pendulum_friction, period=period)
         adaptation = config.observers.dahl.adaptation
         if adaptation is not None and adaptation.parameters is not None:
             log("dahl_parameters", dahl.GetOutputPort("dahl_parameters"))
@@ -226,18 +220,18 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_control
 
 
 def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, measured: OutputPort,
-                      command: OutputPort, pendulum_params=None):
+                      command: OutputPort, pendulum_params=None, *, period: float):
     """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
     (Eq. 8, 16), which reads the VFE's arm velocity estimate and, when ``dahl_params.adaptation`` is given, its
     eps_hat_F (Eq. 18, or the Fc and sigma0 law of Sec. VII); with ``pendulum_params`` a second friction
     observer on the pendulum joint feeds F_hat_theta too. Returns (vfe, dahl, arm_velocity)."""
-    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params,
-                                                             pendulum_friction_input=pendulum_params is not None))
+    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(
+        model, vfe_params, period=period, pendulum_friction_input=pendulum_params is not None))
     estimate = vfe.GetOutputPort("state_estimate")
     adaptation = dahl_params.adaptation
     error_response = friction_error_response(*model, vfe.gains) if adaptation is not None \
         and adaptation.parameters is not None else None
-    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe",
+    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe", period=period,
                                            error_response=error_response)
     if adaptation is not None:
         builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
@@ -246,10 +240,17 @@ def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, m
     builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
     if pendulum_params is not None:
-        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", joint="pendulum")
+        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", period=period,
+                                        joint="pendulum")
         builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
                         vfe.GetInputPort("pendulum_friction_estimate_Nm"))
     return vfe, dahl, arm_velocity
+
+
+def controller_gain(plant: MultibodyPlant, config: SimulationConfig) -> np.ndarray:
+    """The LQR gain K (1x4, paper order) of ``config``: ``controller.gain`` checked to stabilise the upright of
+    ``plant``, or the LQ design of ``controller.lqr``, at the control period."""
+    return lqr_gain(plant, config.controller.lqr, period=config.control_period, gain=config.controller.gain)
 
 
 def _arm_torque_to_generalized_force(plant: MultibodyPlant) -> np.ndarray:
@@ -274,7 +275,7 @@ def _sum_into(builder: DiagramBuilder, ports: list[OutputPort], destination, nam
 
 
 def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
-                      joint: str = "arm", error_response=None):
+                      *, period: float, joint: str = "arm", error_response=None):
     """The Dahl (or LuGre) friction observer (Eq. 8, 16) of ``joint`` on that joint's velocity in an observer's
     ``state_estimate`` (paper order), adapting as ``params.adaptation`` says (``error_response``: its VFE's
     ``friction_error_response``, for the Fc and sigma0 law). Returns (observer, velocity selector), named
@@ -282,7 +283,7 @@ def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPor
     and ``{prefix}_pendulum_velocity`` for the pendulum."""
     label = prefix if joint == "arm" else f"{prefix}_pendulum"
     dahl = builder.AddNamedSystem(f"{label}_dahl_observer", DahlFrictionObserver(
-        params, joint=joint, error_response=error_response))
+        params, period=period, joint=joint, error_response=error_response))
     row = np.array([[0.0, 0.0, 0.0, 1.0]]) if joint == "arm" else np.array([[0.0, 0.0, 1.0, 0.0]])
     velocity = builder.AddNamedSystem(f"{prefix}_{joint}_velocity", MatrixGain(row))
     builder.Connect(state_estimate, velocity.get_input_port())

@@ -125,7 +125,7 @@ def table2(runs: TableRuns) -> list[dict]:
 def velocity_references(result: SimulationResult, config: SimulationConfig) -> dict[str, np.ndarray]:
     """Table II's two references for [theta_dot, phi_dot]: the paper's zero-phase 5 Hz Butterworth of the
     encoder angles' derivative, and the true velocity."""
-    return {"butterworth": butterworth_velocity_reference(result.measured, config.encoder.sample_period),
+    return {"butterworth": butterworth_velocity_reference(result.measured, config.control_period),
             "true": result.state[:, 2:]}
 
 
@@ -137,7 +137,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     the closed loop, the update at t_{k+1} reads the measurement of t_k and the torque applied over
     [t_k, t_{k+1}); after the start-up transient the replayed estimates equal the closed loop's.
     """
-    period = config.encoder.sample_period
+    period = config.control_period
     times = result.time + period / 2  # between two updates: immune to the rounding of the re-timed log
     builder = DiagramBuilder()
     angles = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, result.measured.T)))
@@ -146,14 +146,15 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     A, B_F = linearized_upright(config.rig)
     loggers = {}
     if hg is not None:
-        hg_system = builder.AddSystem(HighGainObserver((A, B_F), hg))
+        hg_system = builder.AddSystem(HighGainObserver((A, B_F), hg, period=period))
         builder.Connect(angles.get_output_port(), hg_system.GetInputPort("measured_angles_rad"))
         builder.Connect(torque.get_output_port(), hg_system.GetInputPort("arm_torque_Nm"))
         loggers["hg"] = LogVectorOutput(hg_system.GetOutputPort("state_estimate"), builder, period)
     if vfe is not None:
         vfe_params, dahl_params = vfe
         vfe_system, _, _ = add_vfe_with_dahl(builder, (A, B_F), vfe_params, dahl_params, angles.get_output_port(),
-                                             torque.get_output_port(), config.observers.pendulum_friction)
+                                             torque.get_output_port(), config.observers.pendulum_friction,
+                                             period=period)
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
     diagram = builder.Build()
     simulator = Simulator(diagram)
@@ -230,7 +231,7 @@ def steady_friction_values(result: SimulationResult, config: SimulationConfig, s
     """Mean F_hat, F_hat + eps_hat_F (arm entry) and the true arm friction [N m] over steady sliding phases
     after ``start_time``, per direction of the true arm velocity ('pos': phi_dot > 0, 'neg': phi_dot < 0)."""
     keep = result.time >= start_time
-    min_samples = int(min_duration / config.encoder.sample_period)
+    min_samples = int(min_duration / config.control_period)
     masks = steady_phases(result.state[:, 3], threshold, min_samples)
     f_hat = result.signals["friction_estimate"][:, 0]
     eps = result.signals["friction_error_estimate"][:, 1]

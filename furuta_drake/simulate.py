@@ -134,7 +134,7 @@ def _tape(built: FurutaDiagram, context, config: SimulationConfig, wall: float) 
     sees the value sampled at t_{k-1} (Drake publishes after the step that ends at t_k and before that instant's
     discrete update); rows are re-timed by one period so that row k is the sample taken at t_k."""
     logs = {name: logger.FindLog(context) for name, logger in built.loggers.items()}
-    period = config.encoder.sample_period
+    period = config.control_period
 
     def data(name):
         return logs[name].data().T[1:]

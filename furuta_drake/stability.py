@@ -45,12 +45,13 @@ from pydrake.systems.framework import DiagramBuilder, OutputPortSelection
 from pydrake.systems.primitives import Linearize
 
 from furuta_drake.config import SimulationConfig
-from furuta_drake.controllers.lqr import design_lqr, upright_linearization, zero_order_hold
+from furuta_drake.controllers.lqr import upright_linearization, zero_order_hold
+from furuta_drake.diagram import controller_gain
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.friction import FrictionParameters, JointFriction, JointFrictionParameters
 from furuta_drake.observers.hg import continuous_high_gain_observer
 from furuta_drake.observers.vfe import continuous_vfe_observer
-from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
+from furuta_drake.plant import add_furuta_plant, make_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
 
 OBSERVERS = ("vfe", "hg")
@@ -152,15 +153,14 @@ def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool 
     config.validate()
     dahl = config.observers.dahl
     A_model, B_F = linearized_upright(config.rig)
-    K = _lqr_gain(config)
+    K = controller_gain(make_furuta_plant(config.rig), config)
     plant = presliding_plant(config)
     npl = plant.A.shape[0]
+    period = config.control_period
     if observer == "vfe":
         obs = continuous_vfe_observer(A_model, B_F, config.observers.vfe)
-        period = config.observers.vfe.period
     else:
         obs = continuous_high_gain_observer(A_model, B_F, config.observers.hg)
-        period = config.observers.hg.period
     nw = obs.A().shape[0]
     s = {"plant": slice(0, npl), "observer": slice(npl, npl + nw), "z_hat": npl + nw}
     n = npl + nw + 1 + (1 if discrete else 0)
@@ -208,13 +208,6 @@ def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool 
     W = np.zeros((plant.conserved.shape[0], n))
     W[:, s["plant"]] = plant.conserved
     return LinearLoop(A0, A1, W, s, period if discrete else None)
-
-
-def _lqr_gain(config: SimulationConfig) -> np.ndarray:
-    if config.controller.gain is not None:
-        return np.asarray(config.controller.gain, dtype=float).reshape(1, 4)
-    from furuta_drake.plant import make_furuta_plant
-    return design_lqr(make_furuta_plant(config.rig), config.controller.lqr)
 
 
 def stable_intervals(loop: LinearLoop, k_min: float = 0.05, k_max: float = 6.0, points: int = 240,
@@ -332,13 +325,12 @@ def lyapunov_region(config: SimulationConfig, directions: int = 2000, radii: int
     limit u = sat(-K x) (no friction, no observer). Sampled, not certified: ``directions`` random directions,
     each at ``radii`` levels up to the first increase."""
     from pydrake.math import RealContinuousLyapunovEquation
-    from furuta_drake.plant import make_furuta_plant
 
     plant = make_furuta_plant(config.rig)
     context = plant.CreateDefaultContext()
     P_perm = plant_to_paper_permutation(plant)
     A, B = upright_linearization(plant)
-    K = _lqr_gain(config)
+    K = controller_gain(plant, config)
     lqr = config.controller.lqr
     P = RealContinuousLyapunovEquation(A - B @ K, np.diag(lqr.state_weights) + lqr.input_weight * K.T @ K)
     limit = lqr.torque_limit

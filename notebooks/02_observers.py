@@ -98,7 +98,7 @@ for label, C in (("theta and phi", ANGLES), ("phi only", ANGLES[1:]), ("theta on
 
 # %%
 K = np.asarray(result.lqr_gain).reshape(1, 4)
-controller = state_feedback_eigenvalues(A, B_F[:, 1:], K, discrete=False, period=config.controller.lqr.period)
+controller = state_feedback_eigenvalues(A, B_F[:, 1:], K, discrete=False, period=config.control_period)
 print("LQR eig(A - B K):", np.round(np.sort_complex(controller), 2))
 for kind in ("hg", "vfe"):
     observer, error_eigenvalues = observer_for_analysis(kind, A, B_F, getattr(config.observers, kind))

@@ -26,7 +26,7 @@ def k_sigma_observer(params: KSigmaAdaptationParameters, *, velocity: float, fri
     with a fixed eps_hat_F; returns it, its context, z_ss and a function advancing n periods to the branches."""
     dahl = DahlObserverParameters(coulomb_pos=observer_level, coulomb_neg=observer_level, sigma0=SIGMA0,
                                   adaptation=DahlAdaptation(k_sigma=params))
-    observer = DahlFrictionObserver(dahl)
+    observer = DahlFrictionObserver(dahl, period=PERIOD)
     context = observer.CreateDefaultContext()
     observer.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
     observer.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
@@ -111,10 +111,10 @@ def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
     reference = builder.AddSystem(ConstantVectorSource([0.0, v]))  # no tracking error: K_z = 0
     truth = builder.AddSystem(DahlFrictionObserver(DahlObserverParameters(
         coulomb_pos=0.012, coulomb_neg=0.018, sigma0=SIGMA0,
-        adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_true)))))
+        adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_true))), period=PERIOD))
     observer = builder.AddSystem(DahlFrictionObserver(DahlObserverParameters(
         coulomb_pos=0.012, coulomb_neg=0.018, sigma0=SIGMA0,
-        adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=gamma)))))
+        adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=gamma))), period=PERIOD))
     negate = builder.AddSystem(Gain(-1.0, 1))
     error = builder.AddSystem(Adder(2, 1))
     no_error = builder.AddSystem(ConstantVectorSource([0.0, 0.0]))
@@ -150,7 +150,7 @@ def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
 def test_invalid_parameters_are_rejected_naming_the_field(field, value):
     adaptation = DahlAdaptation(k_sigma=KSigmaAdaptationParameters(**{field: value}))
     with pytest.raises(ConfigError, match=rf"observers\.dahl\.adaptation\.k_sigma\.{field}"):
-        DahlFrictionObserver(DahlObserverParameters(adaptation=adaptation))
+        DahlFrictionObserver(DahlObserverParameters(adaptation=adaptation), period=PERIOD)
 
 
 @pytest.mark.parametrize("adaptation", [
@@ -168,7 +168,7 @@ def test_only_the_arm_observer_adapts_and_the_parameter_law_needs_a_dahl_model()
     with pytest.raises(ConfigError, match=r"observers\.pendulum_friction\.adaptation must be null"):
         ObserverConfig(pendulum_friction=pendulum).validate()
     with pytest.raises(ConfigError, match="only the arm's observer adapts"):
-        DahlFrictionObserver(pendulum, joint="pendulum")
+        DahlFrictionObserver(pendulum, period=PERIOD, joint="pendulum")
     lugre = DahlObserverParameters(sigma1=0.1, adaptation=DahlAdaptation(parameters=ParameterAdaptationParameters()))
     with pytest.raises(ConfigError, match=r"observers\.dahl\.adaptation\.parameters adapts a Dahl model"):
         lugre.validate()

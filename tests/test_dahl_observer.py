@@ -23,7 +23,7 @@ def stepper(params: DahlObserverParameters, *, velocity: float, phi: float = 0.0
     if k_sigma is not None:
         params = dataclasses.replace(params, adaptation=DahlAdaptation(
             k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_sigma)))
-    system = DahlFrictionObserver(params)
+    system = DahlFrictionObserver(params, period=PERIOD)
     context = system.CreateDefaultContext()
     system.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, phi])
@@ -121,4 +121,4 @@ def test_exact_step_is_stable_and_monotone_at_stiff_settings():
 ])
 def test_invalid_parameters_are_rejected_naming_the_field(field, value):
     with pytest.raises(ConfigError, match=rf"observers\.dahl\.{field}"):
-        DahlFrictionObserver(DahlObserverParameters(**{field: value}))
+        DahlFrictionObserver(DahlObserverParameters(**{field: value}), period=PERIOD)

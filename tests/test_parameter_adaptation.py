@@ -16,20 +16,21 @@ from furuta_drake.rig import linearized_upright, lund_rig
 from furuta_drake.studies import parameter_adaptation_study
 
 A, B_F = linearized_upright(lund_rig())
+PERIOD = 1e-3  # [s] the Lund rig's control period
 RESPONSE = friction_error_response(A, B_F, vfe_gains(A, B_F, VfeParameters().eigenvalues))
 
 
 def run(params, adaptation, velocities, error=0.0):
     """Advance the observer through ``velocities`` (one per period) with a fixed eps_hat_F; return the state."""
     params = dataclasses.replace(params, adaptation=DahlAdaptation(parameters=adaptation))
-    system = DahlFrictionObserver(params, error_response=RESPONSE)
+    system = DahlFrictionObserver(params, period=PERIOD, error_response=RESPONSE)
     context = system.CreateDefaultContext()
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
     system.GetInputPort("friction_error_estimate_Nm").FixValue(context, [0.0, error])
     port = system.GetInputPort("arm_velocity_estimate_rad_per_s")
     for k, v in enumerate(velocities):
         port.FixValue(context, [v])
-        context.SetTime(k * params.period)
+        context.SetTime(k * PERIOD)
         context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context).value())
     return system, context
 

@@ -17,12 +17,12 @@ from furuta_drake.controllers.swingup import (BALANCE, SWING, EnergySwingUpContr
 
 RIG = lund_rig()
 PLANT = make_furuta_plant(RIG)
-K = design_lqr(PLANT, LqrParameters())
+K = design_lqr(PLANT, LqrParameters(), period=1e-3)
 
 
 def controller_step(x, params=SwingUpParameters(), mode=SWING, rig=RIG, limit=0.2):
     """One update of the controller at state estimate x (paper order): (torque, mode, energy)."""
-    controller = EnergySwingUpController(rig, K, params, 1e-3, limit)
+    controller = EnergySwingUpController(rig, K, params, period=1e-3, torque_limit=limit)
     context = controller.CreateDefaultContext()
     controller.GetInputPort("state_estimate").FixValue(context, np.asarray(x, dtype=float))
     context.SetDiscreteState(1, [mode])
@@ -95,7 +95,7 @@ def test_hand_over_has_hysteresis():
 
 def test_validate_names_the_field():
     with pytest.raises(ConfigError, match="swingup.energy_gain"):
-        EnergySwingUpController(RIG, K, SwingUpParameters(energy_gain=-1.0), 1e-3, 0.2)
+        EnergySwingUpController(RIG, K, SwingUpParameters(energy_gain=-1.0), period=1e-3, torque_limit=0.2)
     with pytest.raises(ConfigError, match="catch_angle < release_angle"):
         SwingUpParameters(catch_angle=0.9, release_angle=0.8).validate()
     assert wrap_angle(3 * math.pi / 2) == pytest.approx(-math.pi / 2)

@@ -92,7 +92,7 @@ class EnergySwingUpController(LeafSystem):
     1 LQR) and ``pendulum_energy_J`` (E of the estimate at t_k).
     """
 
-    def __init__(self, rig: RigParameters, K, params: SwingUpParameters, period: float, torque_limit: float,
+    def __init__(self, rig: RigParameters, K, params: SwingUpParameters, *, period: float, torque_limit: float,
                  friction_compensation: bool = False):
         super().__init__()
         rig.validate()
@@ -201,13 +201,13 @@ def build_swingup_diagram(config_or_rig: SimulationConfig | RigParameters | str,
 
     def make_controller(builder, lqr_gain, measured):
         controller = builder.AddNamedSystem("swingup", EnergySwingUpController(
-            config.rig, lqr_gain, params, lqr.period, lqr.torque_limit,
+            config.rig, lqr_gain, params, period=config.control_period, torque_limit=lqr.torque_limit,
             friction_compensation=config.controller.friction_compensation))
         if velocity != "kinematic_hg":
             return controller, {}
         observer = builder.AddNamedSystem("kinematic_hg_observer", HighGainObserver(
-            kinematic_model(), HighGainParameters(eps_theta=params.velocity_eps, eps_phi=params.velocity_eps,
-                                                  period=lqr.period)))
+            kinematic_model(), HighGainParameters(eps_theta=params.velocity_eps, eps_phi=params.velocity_eps),
+            period=config.control_period))
         estimate = observer.GetOutputPort("state_estimate")
         builder.Connect(measured, observer.GetInputPort("measured_angles_rad"))
         builder.Connect(controller.GetOutputPort("arm_torque_Nm"), observer.GetInputPort("arm_torque_Nm"))

@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.friction import (JointFrictionParameters, bristle_friction_torque, dahl_exact_step,
                                    held_input_gain, stribeck_curve)
 from furuta_drake.observers.k_sigma import (K_SIGMA_NEG, K_SIGMA_POS, KSigmaAdaptationParameters, adapting_branch,
@@ -97,7 +97,7 @@ class DahlObserverParameters:
     rho: float | None = 100.0  # injection scale [N m s/rad]: K_z = -(sigma0/rho) (...) [eps + rho2 eps_v]; None: off
     rho2: float = 0.1  # velocity-error weight [s]
     injection_sign: int = 1  # sign of K_z (Eq. 9 printed: +1); -1 reverses the injection (see furuta_drake.stability)
-    period: float = 1e-3  # [s]
+    period: float | None = None  # [s] optional: the observer runs at the control period; a stated one must equal it
     static_pos: float | None = None  # LuGre Stribeck breakaway level Fs+ [N m]; None: no Stribeck (Dahl)
     static_neg: float | None = None  # Fs- [N m]
     stribeck_velocity: float = 0.05  # vs [rad/s]
@@ -105,10 +105,12 @@ class DahlObserverParameters:
     adaptation: DahlAdaptation | None = None  # None: K_sigma = 1 and the parameters fixed
 
     def validate(self, where: str = "observers.dahl") -> None:
-        for name in ("coulomb_pos", "coulomb_neg", "sigma0", "period", "stribeck_velocity"):
+        for name in ("coulomb_pos", "coulomb_neg", "sigma0", "stribeck_velocity"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"{where}.{name} must be > 0, got {value!r}")
+        if self.period is not None and not (math.isfinite(self.period) and self.period > 0):
+            raise ConfigError(f"{where}.period must be > 0 (or null: the control period), got {self.period!r}")
         if self.rho is not None and not (math.isfinite(self.rho) and self.rho > 0):
             raise ConfigError(f"{where}.rho must be > 0 (or null: no injection), got {self.rho!r}")
         for name in ("sigma1", "rho2", "sigma2"):
@@ -136,8 +138,8 @@ class DahlObserverParameters:
 
 
 class DahlFrictionObserver(LeafSystem):
-    """Eq. 8-9, 16 of one joint (the arm by default), discrete at ``params.period`` (exact step, see the module
-    docstring), with ``params.adaptation``'s law when one is given (arm only).
+    """Eq. 8-9, 16 of one joint (the arm by default), discrete at the control period ``period`` [s] (exact step,
+    see the module docstring), with ``params.adaptation``'s law when one is given (arm only).
 
     Inputs: ``{joint}_velocity_estimate_rad_per_s`` (v), ``measured_angles_rad`` ([theta, phi]; the joint's
     angle gives eps), ``arm_reference_rad`` (arm only: [phi_ref [rad], v_ref [rad/s]], zero if unconnected) and,
@@ -152,17 +154,20 @@ class DahlFrictionObserver(LeafSystem):
     feeds eps_hat_F (``parameters`` only).
     """
 
-    def __init__(self, params: DahlObserverParameters | None = None, *, joint: str = "arm", error_response=None):
+    def __init__(self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm",
+                 error_response=None):
         LeafSystem.__init__(self)
         params = params or DahlObserverParameters()
         params.validate()
+        where = "observers.dahl" if joint == "arm" else "observers.pendulum_friction"
+        require_control_period(params.period, period, f"{where}.period")
         if joint not in JOINTS:
             raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
         adaptation = params.adaptation
         if adaptation is not None and joint != "arm":
             raise ConfigError(f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the "
                               f"{joint}'s")
-        self.params, self.joint = params, joint
+        self.params, self.joint, self.period = params, joint, period
         self._law = params.friction_law()
         self._angle_index = 1 if joint == "arm" else 0
         self._velocity = self.DeclareVectorInputPort(f"{joint}_velocity_estimate_rad_per_s", 1)
@@ -184,11 +189,11 @@ class DahlFrictionObserver(LeafSystem):
             if error_response is None:
                 raise ConfigError("observers.dahl.adaptation.parameters needs the VFE observer's error response "
                                   "(error_response)")
-            self._parameter_law = ParameterAdaptationLaw(adaptation.parameters, error_response, params.period)
+            self._parameter_law = ParameterAdaptationLaw(adaptation.parameters, error_response, period)
             initial = initial_state(params.coulomb_pos, params.coulomb_neg, params.sigma0)
             update, calc = self._update_parameters, self._calc_adapted
         self.DeclareDiscreteState(initial)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, update)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, update)
         self.DeclareVectorOutputPort("friction_estimate_Nm", 1, calc, prerequisites_of_calc=state)
         self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle, prerequisites_of_calc={xd})
         if adaptation is not None and adaptation.k_sigma is not None:
@@ -253,10 +258,10 @@ class DahlFrictionObserver(LeafSystem):
         v = float(self._velocity.Eval(context)[0])  # a float: math, not numpy scalars, in the step
         z = context.get_discrete_state(0).GetAtIndex(0)
         level = stribeck_curve(v, self._law)
-        z_next = float(dahl_exact_step(z, v, p.period, p.sigma0, level))
+        z_next = float(dahl_exact_step(z, v, self.period, p.sigma0, level))
         if p.rho is not None:
             k_z = injection(p, p.sigma0, v, level, *self.tracking_errors(context, v))
-            z_next += held_input_gain(p.sigma0 * abs(v) / level, p.period) * k_z
+            z_next += held_input_gain(p.sigma0 * abs(v) / level, self.period) * k_z
         discrete_state.get_mutable_vector(0).SetAtIndex(0, z_next)
         return v
 
@@ -269,7 +274,7 @@ class DahlFrictionObserver(LeafSystem):
         state = discrete_state.get_mutable_vector(0)
         index = K_SIGMA_POS + branch
         state.SetAtIndex(index, state.GetAtIndex(index) + k_sigma_step(
-            self.params.adaptation.k_sigma, self.params.period, self.params.sigma0, self._error.Eval(context)[1],
+            self.params.adaptation.k_sigma, self.period, self.params.sigma0, self._error.Eval(context)[1],
             context.get_discrete_state(0).GetAtIndex(0)))
 
     def _update_parameters(self, context, discrete_state):
