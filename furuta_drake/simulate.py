@@ -30,7 +30,8 @@ class SimulationResult:
     ``state`` is the true paper-order state [theta, phi, theta_dot, phi_dot]; ``measured`` the encoder angles;
     ``torque`` the commanded arm torque [N m]; ``true_friction`` the friction torques [F_theta, F_phi] the
     simulation applied; ``estimates`` each observer's state estimate; ``signals`` further logged signals
-    (``friction_estimate``, ``friction_error_estimate``, ``K_sigma``) when their blocks ran.
+    (``friction_estimate``, ``friction_error_estimate``, ``K_sigma``, ``dahl_parameters``, ``swingup_mode``,
+    ``pendulum_energy_J``) when their blocks ran.
     """
 
     time: np.ndarray
@@ -141,10 +142,7 @@ def _tape(built: FurutaDiagram, context, config: SimulationConfig, wall: float) 
 
     time = logs["state"].sample_times()[1:] - period
     estimates = {name[len("estimate_"):]: data(name) for name in logs if name.startswith("estimate_")}
-    signals = {name: data(name) for name in ("friction_estimate", "friction_error_estimate", "K_sigma",
-                                                     "dahl_parameters")
-               if name in logs}
-    signals.update({name[len("signal_"):]: data(name) for name in logs if name.startswith("signal_")})
+    signals = {name[len("signal_"):]: data(name) for name in logs if name.startswith("signal_")}
     return SimulationResult(
         time=time, state=data("state"), measured=data("measured_angles"), torque=data("torque")[:, 0],
         true_friction=data("true_friction"), estimates=estimates, signals=signals, lqr_gain=built.lqr_gain,

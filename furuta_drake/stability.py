@@ -48,10 +48,11 @@ from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import upright_linearization, zero_order_hold
 from furuta_drake.diagram import controller_gain
 from furuta_drake.errors import ConfigError, SimulationDiverged
-from furuta_drake.friction import FrictionParameters, JointFriction, JointFrictionParameters
+from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.observers.hg import continuous_high_gain_observer
 from furuta_drake.observers.vfe import continuous_vfe_observer
-from furuta_drake.plant import add_furuta_plant, make_furuta_plant, plant_to_paper_permutation
+from furuta_drake.plant import make_furuta_plant, plant_to_paper_permutation
+from furuta_drake.world import add_furuta_world
 from furuta_drake.rig import linearized_upright
 
 OBSERVERS = ("vfe", "hg")
@@ -69,24 +70,25 @@ class PreslidingPlant:
 
 
 def presliding_plant(config: SimulationConfig) -> PreslidingPlant:
-    """Drake's ``Linearize`` of the MultibodyPlant with ``config``'s bristle friction (Dahl/LuGre joints; static
-    Coulomb friction has no linearization at rest and is left out) at the upright, permuted to paper order."""
+    """Drake's ``Linearize`` at the upright of ``config``'s world (:func:`furuta_drake.world.add_furuta_world`)
+    with its bristle friction (Dahl/LuGre joints; static Coulomb friction has no linearization at rest and is
+    left out) and the rig's back-EMF, permuted to paper order. The actuator chain, spring and cogging are left
+    out."""
     keep = {joint: p if p.has_bristles else JointFrictionParameters()
             for joint, p in (("arm", config.friction.arm), ("pendulum", config.friction.pendulum))}
     builder = DiagramBuilder()
-    plant, _ = add_furuta_plant(builder, config.rig, time_step=0.0, with_scene_graph=False)
-    friction = builder.AddSystem(JointFriction(plant, FrictionParameters(**keep)))
-    builder.Connect(plant.get_state_output_port(), friction.get_input_port())
-    builder.Connect(friction.GetOutputPort("generalized_force_Nm"), plant.get_applied_generalized_force_input_port())
-    builder.ExportInput(plant.get_actuation_input_port(), "arm_torque_Nm")
+    world = add_furuta_world(builder, rig=config.rig, friction=FrictionParameters(**keep),
+                             control_period=config.control_period)
+    builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     diagram.get_input_port().FixValue(context, [0.0])
     linear = Linearize(diagram, context, output_port_index=OutputPortSelection.kNoOutput)
     # The diagram's continuous state is the plant's then the friction's (the order the systems were added).
-    nx, nb = plant.num_multibody_states(), friction.num_continuous_states()
+    nx = world.plant.num_multibody_states()
+    nb = 0 if world.friction is None else world.friction.num_continuous_states()
     T = np.zeros((nx + nb, nx + nb))
-    T[:4, :nx] = plant_to_paper_permutation(plant)
+    T[:4, :nx] = world.to_paper
     T[4:, nx:] = np.eye(nb)
     A, B = T @ linear.A() @ T.T, T @ linear.B()
     bristle_joints = [index for index, p in ((0, keep["pendulum"]), (1, keep["arm"])) if p.has_bristles]

@@ -8,12 +8,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from furuta_drake.config import ControllerConfig, SimulationConfig, dump_config, swingup_config
 from furuta_drake.controllers.lqr import LqrParameters, design_lqr
+from furuta_drake.controllers.swingup import (BALANCE, SWING, EnergySwingUpController, SwingUpParameters, catch_time,
+                                              pendulum_energy, wrap_angle)
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import lund_rig, qube_servo2_rig
-from furuta_drake.controllers.swingup import (BALANCE, SWING, EnergySwingUpController, SwingUpParameters, catch_time,
-                                  pendulum_energy, simulate_swingup, wrap_angle)
+from furuta_drake.simulate import simulate
+from furuta_drake.yamlio import loads_yaml_dataclass
 
 RIG = lund_rig()
 PLANT = make_furuta_plant(RIG)
@@ -102,7 +105,7 @@ def test_validate_names_the_field():
 
 
 def test_lund_rig_is_swung_up_caught_and_balanced_within_the_torque_limit():
-    result = simulate_swingup("lund", duration=4.0)
+    result = simulate(swingup_config("lund", duration=4.0))
     assert catch_time(result) < 3.0
     last = result.time > result.time[-1] - 1.0
     assert np.max(np.abs(wrap_angle(result.state[last, 0]))) < 0.1
@@ -112,9 +115,22 @@ def test_lund_rig_is_swung_up_caught_and_balanced_within_the_torque_limit():
 
 def test_qube_swing_up_respects_its_smaller_limit():
     qube = qube_servo2_rig()
-    result = simulate_swingup("qube_servo2", duration=2.0)
+    result = simulate(swingup_config("qube_servo2", duration=2.0))
     assert np.max(np.abs(result.torque)) <= qube.torque_limit + 1e-12
     assert np.max(np.abs(result.torque)) == pytest.approx(qube.torque_limit)  # the pumping saturates
+
+
+def test_a_swing_up_config_round_trips_and_reruns_identically():
+    """The swing-up is a simulate config (``controller.mode: swingup``): its YAML gives the same run."""
+    config = swingup_config("lund", duration=1.0)
+    again = loads_yaml_dataclass(dump_config(config), SimulationConfig)
+    assert again == config
+    np.testing.assert_array_equal(simulate(config).state, simulate(again).state)
+
+
+def test_the_kinematic_observer_is_the_swing_ups_alone():
+    with pytest.raises(ConfigError, match="velocity_source 'kinematic_hg' is the swing-up's observer"):
+        ControllerConfig(velocity_source="kinematic_hg").validate()
 
 
 def test_study_small_returns_rows():

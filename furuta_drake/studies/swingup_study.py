@@ -18,7 +18,9 @@ import numpy as np
 from furuta_drake import reproduce
 from furuta_drake.studies import Study
 from furuta_drake.results import write_log_csv
-from furuta_drake.controllers.swingup import BALANCE, catch_time, pendulum_energy, simulate_swingup, wrap_angle
+from furuta_drake.simulate import simulate
+from furuta_drake.config import swingup_config
+from furuta_drake.controllers.swingup import BALANCE, catch_time, pendulum_energy, wrap_angle
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 SETTLE = 1.0  # [s] after the catch before the balance figures are read
@@ -37,8 +39,8 @@ def study(seed: int = 0, small: bool = False) -> Study:
     run, no robustness count and no diagnosis."""
     duration = 3.0 if small else 10.0
     config = swingup_rig_config(seed, duration)
-    ours = simulate_swingup(config, duration=duration)
-    paper = simulate_swingup(config, duration=duration, velocity="hg")
+    ours = simulate(swingup_config(config, duration=duration))
+    paper = simulate(swingup_config(config, duration=duration, velocity_source="hg"))
     t_ours, t_paper = catch_time(ours), catch_time(paper)
     limit = config.controller.lqr.torque_limit
     swing = ours.time < (t_ours if math.isfinite(t_ours) else math.inf)
@@ -63,7 +65,8 @@ def study(seed: int = 0, small: bool = False) -> Study:
                              rms[("kinematic_hg", phase)][index], "rad/s", "the kinematic HG feeds the controller"))
     caught = None
     if not small:
-        caught = sum(math.isfinite(catch_time(simulate_swingup(config, duration=duration, theta0=math.pi + offset)))
+        caught = sum(math.isfinite(catch_time(simulate(swingup_config(config, duration=duration,
+                                                                      theta0=math.pi + offset))))
                      for offset in START_OFFSETS)
         rows.append(_row(f"starts caught within {duration:g} s", None, caught, "of " + str(len(START_OFFSETS)),
                          "theta0 = pi + " + ", ".join(f"{o:g}" for o in START_OFFSETS) + " rad"))
