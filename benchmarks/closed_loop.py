@@ -1,6 +1,6 @@
 """Wall time and real-time factor of a closed loop per diagram configuration, against the C++ floor and a scipy
-peer (issue 8 targets: the full paper diagram >= 10x real time on one core, <= 3x its C++ floor, >= 5x faster
-than the scipy peer).
+peer (targets: the full paper diagram >= 10x real time on one core, <= 3x its C++ floor, >= 5x faster than the
+scipy peer).
 
 Configurations, all on the default Lund config (``SimulationConfig.from_rig("lund")``: 4096-count encoders at
 1 kHz, LQR with the 0.2 N m limit, RK3 at accuracy 1e-4, theta0 = 0.1 rad):
@@ -19,8 +19,9 @@ the wall time also counts their time slices, so the package's best wall time is 
   sampler in place of the quantising encoder, the observer's discrete ``LinearSystem``, the LQR as
   ``MatrixGain`` -> ``Saturation`` -> ``ZeroOrderHold``, the same loggers and integrator); the Dahl observer and
   the adapter have no C++ equivalent, so both VFE configurations share the VFE floor;
-- the scipy peer: the same sampled loop written for this benchmark, the closed-form Furuta equations (lumped
-  constants a, b, c, d of ``RigParameters``) integrated by ``solve_ivp`` (RK45, rtol 1e-8, atol 1e-10; a looser
+- the scipy peer: the same sampled loop written for this benchmark, the package's closed-form Furuta equations
+  (the diagnosis surrogate's, in the lumped constants a, b, c, d; tests pin them to the MultibodyPlant)
+  integrated by ``solve_ivp`` (RK45, rtol 1e-8, atol 1e-10; a looser
   tolerance is not faster: each 1 ms period is one or two RK45 steps and the per-call overhead dominates) over
   each period with the torque held, the discrete blocks updated at each sample from the values held before it
   (Drake's discrete semantics).
@@ -55,6 +56,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from furuta_drake.config import SimulationConfig
+from furuta_drake.diagnosis.surrogate import Model, _accelerations
 from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer
@@ -176,7 +178,6 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     """CPU time, true states [theta, phi, theta_dot, phi_dot] and encoder angles at each sample of the peer
     (see the module docstring). Row k is the sample at t_k = k h, like ``SimulationResult.state``/``measured``."""
     rig, h = config.rig, config.control_period
-    a, b, c, d = rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque
     count = config.encoder.resolution
     limit = config.controller.lqr.torque_limit
     negative_gain = -np.asarray(gain, dtype=float).ravel()
@@ -193,14 +194,10 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     adaptation = dahl.adaptation.k_sigma if adapt else None
     sigma0 = dahl.sigma0
 
+    model = Model.from_rig(rig)  # the package's closed-form equations, frictionless like this loop
+
     def dynamics(t, x, u):
-        theta, _, theta_dot, phi_dot = x
-        s, co = math.sin(theta), math.cos(theta)
-        m12, m22 = c * co, a + b * s * s
-        r1 = d * s + b * s * co * phi_dot * phi_dot
-        r2 = c * s * theta_dot * theta_dot - 2.0 * b * s * co * theta_dot * phi_dot + u
-        det = b * m22 - m12 * m12
-        return [theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (b * r2 - m12 * r1) / det]
+        return _accelerations(model, x, u, arm_friction=False, pendulum_friction=False)
 
     def quantise(x):
         return np.array([count * round(x[0] / count), count * round(x[1] / count)])

@@ -215,7 +215,8 @@ class SimulationConfig:
             raise ConfigError(f"{prefix}seed must be an integer in [0, 2^32), got {self.seed!r}")
         stated = {"encoder.sample_period": self.encoder.sample_period,
                   "controller.lqr.period": self.controller.lqr.period, "observers.hg.period": self.observers.hg.period,
-                  "observers.dahl.period": self.observers.dahl.period, "observers.vfe.period": self.observers.vfe.period}
+                  "observers.dahl.period": self.observers.dahl.period,
+                  "observers.vfe.period": self.observers.vfe.period}
         if self.observers.pendulum_friction is not None:
             stated["observers.pendulum_friction.period"] = self.observers.pendulum_friction.period
         for key, period in stated.items():

@@ -48,9 +48,9 @@ class Encoder(LeafSystem):
     """Sampled, quantised (and optionally noisy) measurement of theta and phi.
 
     Input ``true_state``: the paper's x = [theta, phi, theta_dot, phi_dot]. Output ``measured_angles_rad``:
-    [theta, phi] sampled by a periodic discrete update at the control period ``period`` [s] and held, rounded to the nearest
-    count (error within half a count when noise_std = 0). An initialization event takes a first sample, so the
-    output is a measurement of the initial state from the start, before the periodic sample at t = 0. The
+    [theta, phi] sampled by a periodic discrete update at the control period ``period`` [s] and held, rounded to
+    the nearest count (error within half a count when noise_std = 0). An initialization event takes a first
+    sample, so the output is a measurement of the initial state from the start, before the periodic sample at t = 0. The
     output is the discrete state: the encoder has no direct feedthrough.
 
     Noise is counter-based: the noise of sample k is a pure function of (seed, k), drawn in blocks of

@@ -1,6 +1,6 @@
 """The paper's experiments on the simulated Lund rig: Tables I-II, Fig. 5 and Figs. 6-7.
 
-The simulated rig (``paper_rig_config``) is what NOTES.md says about the real one: arm Dahl friction of
+The simulated rig (``paper_rig_config``) is what ``docs/paper.md`` says about the real one: arm Dahl friction of
 0.012 N m (phi_dot > 0) and 0.018 N m (phi_dot < 0) with sigma0 = 10 N m/rad, pendulum Coulomb friction of
 0.001 N m, 4096-count encoders sampled at 1 kHz, the 0.2 N m torque limit. The paper does not say what kept
 its arm moving; here a seeded multisine torque disturbance (0.2-3 Hz) plays that role, with an RMS chosen so
@@ -13,7 +13,7 @@ notebook and the tests share it.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.systems.analysis import Simulator
@@ -31,18 +31,18 @@ from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import SimulationResult, simulate
 
-# The paper's values (NOTES.md), squared errors in rad^2 and (rad/s)^2.
+# The paper's values (docs/paper.md), squared errors in rad^2 and (rad/s)^2.
 PAPER_TABLE1 = {("phi", "mean"): (3.5e-3, 2.3e-3), ("phi", "std"): (3.4e-3, 2.5e-3),
                 ("theta", "mean"): (4.2e-5, 6.4e-5), ("theta", "std"): (4.7e-5, 7.7e-5)}
 PAPER_TABLE2 = {("phi_dot", "mean"): (31e-3, 9e-3), ("phi_dot", "std"): (48e-3, 13e-3),
                 ("theta_dot", "mean"): (4.1e-3, 1.1e-3), ("theta_dot", "std"): (6.4e-3, 1.6e-3)}
 PAPER_K_SIGMA_RANGE = (1.34, 2.05)
-ARM_COULOMB_POS, ARM_COULOMB_NEG = 0.012, 0.018  # [N m], NOTES.md / Fig. 7
+ARM_COULOMB_POS, ARM_COULOMB_NEG = 0.012, 0.018  # [N m], docs/paper.md / Fig. 7
 ARM_SIGMA0 = 10.0  # [N m/rad]
 PENDULUM_COULOMB = 0.001  # [N m]
 ADAPTATION_ENABLE_TIME = 7.8  # [s], Sec. V-D
 UNDERESTIMATED_COULOMB = 0.009  # [N m], the start of Figs. 6-7
-ADAPTATION_GAMMA = 15000.0  # [1/((N m)^2 s)]: the paper gives none; K_sigma settles within ~15 s of enabling
+ADAPTATION_GAMMA = 15000.0  # [1/((N m)^2 s)]: the paper gives none; K_sigma settles within the 40 s run
 TRANSIENT = 1.0  # [s] dropped from every statistic (start-up from theta0)
 SWEEP_HG_EPS = (0.002, 0.003, 0.004, 0.005, 0.007, 0.01, 0.014, 0.02)  # [s] error poles at -1/eps
 SWEEP_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0, 3.0)  # times the default eigenvalues of G, -20 ... -35 rad/s

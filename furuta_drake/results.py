@@ -1,4 +1,4 @@
-"""Result files of a simulation: the log CSV of ``spec/diagnosis-interface.md``, the summary and the config.
+"""Result files of a simulation: the log CSV of the diagnosis (``docs/diagnose.md``), the summary and the config.
 
 Everything written here is deterministic (fixed float formatting, sorted keys, no wall-clock figures), so
 the same config and seed give byte-identical files.

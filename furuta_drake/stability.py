@@ -1,4 +1,6 @@
-"""Stability evidence for the nested observers with adaptation (the paper leaves it open, Sec. VI-VII).
+"""The nested loop (plant, observer, Dahl observer, LQR) linearized at the upright and affine in a frozen K_sigma,
+and the tools that judge its stability: stable K_sigma intervals, common quadratic Lyapunov functions, a sampled
+region of attraction and basin maps (the paper leaves stability open, Sec. VI-VII).
 
 **Linearization at the upright.** At rest (velocity 0) a Dahl (or LuGre) bristle is in its presliding regime,
 where it is linear: dz/dt = v - sigma0 |v| z / Fc(v) has the derivative v at v = 0 (|v| z is of second order),
@@ -9,8 +11,9 @@ K_z = -(sigma0_hat / rho) (eps_phi + rho2 eps_v) (the sigma1 |v| factor is 1 at 
 (sigma0_hat z_hat + (sigma1 + sigma2) v_hat). With K_sigma frozen, the loop plant (+ presliding friction) +
 observer (VFE, Eq. 11, fed by F_hat; or HG, Eq. 4) + Dahl observer + LQR with compensation u = u_LQ - F_hat is
 a linear system, affine in K_sigma: A(K_sigma) = A0 + K_sigma A1 (:func:`linear_loop`), in continuous time or
-as the 1 kHz sampled loop of the simulation (zero-order hold of the plant, the observers' exact discretisation,
-the Dahl observer's exact step linearized to z_hat + h (v_hat + K_z), the controller's one-period hold).
+as the loop of the simulation sampled at the control period (zero-order hold of the plant, the observers' exact
+discretisation, the Dahl observer's exact step linearized to z_hat + h (v_hat + K_z), the controller's one-period
+hold).
 Coulomb levels do not enter: they only set how far the presliding regime reaches (|F| well below Fc).
 
 **The conserved mode.** z - angle is constant in presliding (z' = joint velocity), whatever the controller:
@@ -28,8 +31,8 @@ its two ends suffice).
 What this does not prove: the sliding regime (|F| at Fc, the |v| z terms) is nonlinear and outside the
 linearization; the Coulomb friction of the pendulum has no linearization (left out: it only dissipates);
 saturation and quantisation are left out. :func:`lyapunov_region` (a sampled quadratic Lyapunov estimate of the
-true-state LQR loop with the torque limit; Drake's ``RegionOfAttraction`` on a cubic fit of the plant did not
-finish in minutes with Clarabel or CSDP) and :func:`basin_map` (the full nonlinear 1 kHz loop simulated from a
+true-state LQR loop with the torque limit, where Drake's ``RegionOfAttraction`` on a cubic fit of the plant is
+beyond Clarabel and CSDP) and :func:`basin_map` (the full nonlinear sampled loop simulated from a
 grid of initial states) cover the large motions.
 """
 
@@ -363,7 +366,7 @@ FALLEN_THETA = 0.5  # [rad] the monitor's bound in basin runs (stops a falling r
 
 
 def catches(config: SimulationConfig) -> bool:
-    """Whether the full nonlinear 1 kHz loop of ``config`` balances from its initial state: the monitor never
+    """Whether the full nonlinear sampled loop of ``config`` balances from its initial state: the monitor never
     stops it (|theta| <= FALLEN_THETA, no runaway) and |theta| stays below CAUGHT_THETA over the last
     CAUGHT_WINDOW."""
     from furuta_drake.simulate import simulate

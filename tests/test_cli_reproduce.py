@@ -1,5 +1,5 @@
-"""``furuta-drake reproduce`` end to end on short runs: the files of issue 6 with their stable formats, and
-byte-identical CSV/JSON for the same seed (issue 9)."""
+"""``furuta-drake reproduce`` end to end on short runs: the tables, figures and logs with their stable formats,
+and byte-identical CSV/JSON for the same seed."""
 
 from __future__ import annotations
 

@@ -67,7 +67,8 @@ def test_vfe_pendulum_friction_enters_through_the_pendulum_column():
     system = continuous_vfe_observer(A, B_F, VfeParameters(), pendulum_friction_input=True)
     np.testing.assert_allclose(system.B()[:4, 4], B_F[:, 0])
     np.testing.assert_allclose(system.B()[:4, 3], B_F[:, 1])
-    assert VfeObserver(lund_rig(), period=PERIOD, pendulum_friction_input=True).HasInputPort("pendulum_friction_estimate_Nm")
+    vfe = VfeObserver(lund_rig(), period=PERIOD, pendulum_friction_input=True)
+    assert vfe.HasInputPort("pendulum_friction_estimate_Nm")
 
 
 def _figure(study, metric):

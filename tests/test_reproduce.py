@@ -1,5 +1,5 @@
-"""The paper's experiments on the simulated Lund rig (issue 6), on runs shorter than the paper's where the
-targets allow: the numbers asserted are the paper's (NOTES.md) and the simulated rig's true friction."""
+"""The paper's experiments on the simulated Lund rig, on runs shorter than the paper's where the targets allow:
+the numbers asserted are the paper's (docs/paper.md) and the simulated rig's true friction."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def _row(rows, signal, statistic, reference=None):
 
 @pytest.mark.parametrize("reference", ["butterworth", "true"])
 def test_table2_vfe_cuts_the_velocity_errors(table_runs, reference):
-    # Paper: 3.4x on the arm, 3.7x on the pendulum; issue 6 asks >= 2.5x and >= 2x against both references.
+    # Paper: 3.4x on the arm, 3.7x on the pendulum; the reproduction asks >= 2.5x and >= 2x against both references.
     rows = reproduce.table2(table_runs)
     arm = _row(rows, "phi_dot", "mean", reference)
     pendulum = _row(rows, "theta_dot", "mean", reference)

@@ -111,8 +111,8 @@ def continuous_vfe_observer(A: np.ndarray, B_F: np.ndarray, params: VfeParameter
 
 class VfeObserver(DiscreteLinearObserver):
     """Eq. 11 sampled at the control period ``period`` [s] (exact zero-order hold of the inputs). ``rig_or_AB``: a
-    RigParameters or (A, B_F). Inputs ``measured_angles_rad`` [theta, phi], ``arm_torque_Nm`` (u) and ``friction_estimate_Nm``
-    (F_hat_phi, the Dahl observer's arm friction), and with ``pendulum_friction_input``
+    RigParameters or (A, B_F). Inputs ``measured_angles_rad`` [theta, phi], ``arm_torque_Nm`` (u) and
+    ``friction_estimate_Nm`` (F_hat_phi, the Dahl observer's arm friction), and with ``pendulum_friction_input``
     ``pendulum_friction_estimate_Nm`` (F_hat_theta, Eq. 10's full F_hat); outputs ``state_estimate`` (x_hat
     [rad, rad/s]) and ``friction_error_estimate_Nm`` (eps_hat_F = [pendulum, arm]). ``gains`` is K_F = [K1; K2]."""
 

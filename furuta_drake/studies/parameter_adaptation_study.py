@@ -6,7 +6,7 @@ paper's rig, adaptation from t = 7.8 s, LQR on VFE without compensation (as Figs
 The one-gain law scales F_hat = K_sigma sigma0 z_hat: its steady level K_sigma Fc can match the true Fc, but
 the presliding stiffness it implies, K_sigma sigma0, keeps the start's sigma0 / Fc ratio. The two-parameter
 observer runs without Eq. 9's injection (rho = None): K_z is a stabilising term, not part of the friction
-model, and with it the identified sigma0 settles about 30 % low (the cost's minimum moves from ~9 to ~7).
+model, and with it the identified sigma0 settles low (the injection moves the cost's minimum).
 """
 
 from __future__ import annotations

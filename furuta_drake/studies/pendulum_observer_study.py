@@ -44,7 +44,8 @@ def study(seed: int = 0, small: bool = False) -> Study:
                          "unit": unit, "note": ""})
     both = figures["both joints"]
     summary = (f"With {WORN_PENDULUM_COULOMB * 1e3:g} mN m pendulum Dahl friction, a pendulum friction observer "
-               f"feeding the VFE cuts the pendulum velocity error {paper['theta_dot_mse'] / both['theta_dot_mse']:.0f}x and "
+               f"feeding the VFE cuts the pendulum velocity error "
+               f"{paper['theta_dot_mse'] / both['theta_dot_mse']:.0f}x and "
                f"the arm's {paper['phi_dot_mse'] / both['phi_dot_mse']:.0f}x, and mean theta^2 "
                f"{paper['theta_sq'] / both['theta_sq']:.2f}x: the pendulum has no actuator of its own, so its friction "
                f"is observed but not cancelled, and the control gains less than the estimate.")
