@@ -24,7 +24,7 @@ def two_runs(tmp_path_factory):
     return outs
 
 
-def test_writes_every_file_of_issue_6(two_runs):
+def test_writes_every_table_figure_log_and_config(two_runs):
     out = two_runs[0]
     for name in ("table1.csv", "table2.csv", "observer_sweep.csv", "adaptation.json", "report.md", "config.yaml",
                  "reproduction.yaml", *(f"fig{i}.png" for i in range(3, 8))):
@@ -36,7 +36,7 @@ def test_writes_every_file_of_issue_6(two_runs):
     assert load_config(out / "config.yaml").encoder.counts_per_rev == 4096
 
 
-def test_table_formats_are_the_issue_s(two_runs):
+def test_tables_have_their_stable_columns_and_the_papers_values(two_runs):
     with open(two_runs[0] / "table1.csv") as file:
         rows = list(csv.DictReader(file))
     assert list(rows[0]) == ["signal", "statistic", "HG", "VFE", "paper_HG", "paper_VFE"]

@@ -23,7 +23,7 @@ def coulomb_arm(level: float) -> FrictionParameters:
 
 
 def test_balancing_with_arm_coulomb_friction_and_quantised_encoders():
-    """Issue 4: from theta0 = 0.1 rad, with 0.015 N m arm Coulomb friction and 4096-count encoders, the LQR
+    """From theta0 = 0.1 rad, with 0.015 N m arm Coulomb friction and 4096-count encoders, the LQR
     keeps |theta| < 0.01 rad after 3 s."""
     result = simulate(lund(friction=coulomb_arm(0.015), duration=5.0, initial_state=[0.1, 0.0, 0.0, 0.0]))
     after = result.time >= 3.0
@@ -39,7 +39,7 @@ THETA_BOUND = {"true": 0.05, "hg": 0.05, "vfe": 0.05, "derivative": 0.2}
 
 @pytest.mark.parametrize("source", ["true", "derivative", "hg", "vfe"])
 def test_each_paper_diagram_balances_for_five_seconds(source):
-    """Issue 5: diagrams (i) HG, (ii) VFE + Dahl, (iv) true velocities, and the discrete derivative."""
+    """Diagrams (i) HG, (ii) VFE + Dahl, (iv) true velocities, and the discrete derivative."""
     config = lund(friction=coulomb_arm(0.012), duration=5.0, initial_state=[0.05, 0.0, 0.0, 0.0])
     config = dataclasses.replace(config, controller=dataclasses.replace(config.controller, velocity_source=source))
     result = simulate(config)
