@@ -38,7 +38,7 @@ def summary(result, config: SimulationConfig) -> dict:
     """Figures of a run: control accuracy (paper Table I statistics), extremes, the LQR gain."""
     theta, phi = result.state[:, 0], result.state[:, 1]
     out = {
-        "duration_s": float(result.time[-1] - result.time[0] + config.encoder.sample_period),
+        "duration_s": float(result.time[-1] - result.time[0] + config.control_period),
         "samples": int(result.time.size),
         "seed": config.seed,
         "theta_abs_max_rad": float(np.max(np.abs(theta))),

@@ -163,7 +163,9 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
     (a Dahl or LuGre arm only; its torque is held over each substep and z follows the substep's displacement).
-    Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle).
+    Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The fixed-step
+    RK4 is written here because scipy's ODE solvers integrate one system at a time: here one step advances
+    every window at once, as numpy arrays over windows.
     """
     dt = period / substeps
     x = np.array(x0, dtype=float)
