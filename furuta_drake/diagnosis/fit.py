@@ -54,8 +54,9 @@ class FitResult:
 
 @dataclass(frozen=True)
 class FitTask:
-    """What one fit needs; ``fixed``: effects the model already holds (fitted again from their values), then
-    ``new``: the effect to add."""
+    """What one fit needs; ``fixed``: effects the model already holds (fitted again from their values, or kept
+    as they are when ``frozen``), then ``new``: the effect to add (from ``start`` when given, in its form, else
+    from every form's own starts)."""
 
     new: str
     fixed: dict[str, Effect]
@@ -66,6 +67,8 @@ class FitTask:
     nominal_counts: int
     settings: DiagnosisSettings
     fixed_samples: dict[str, np.ndarray] = field(default_factory=dict)  # the fixed effects' earlier bootstrap
+    frozen: bool = False
+    start: Effect | None = None
 
     @property
     def name(self) -> str:
@@ -125,7 +128,8 @@ def fit_task(task: FitTask) -> FitResult:
     counts = task.nominal_counts
     candidate = CANDIDATES[task.new]
     if candidate.fit:
-        fits = [_least_squares(task, {task.new: form.name}) for form in candidate.forms]
+        forms = [task.start.form] if task.start is not None else [form.name for form in candidate.forms]
+        fits = [_least_squares(task, {task.new: form}) for form in forms]
         effects, at_bound, samples, _ = min(fits, key=lambda fit: fit[3])
     else:
         estimate, new_samples = _sensor_estimate(task.new, task.logs, counts, task.settings)
@@ -153,11 +157,12 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     bootstrap samples per effect, cost)."""
     settings, counts = task.settings, task.nominal_counts
     scales = scales_of(task.logs, task.model)
-    forms = {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items()
-             if CANDIDATES[name].fit}
+    forms = {} if task.frozen else {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items()
+                                    if CANDIDATES[name].fit}
     for name, form_name in new_form.items():
-        forms[name] = (form_name, CANDIDATES[name].form(form_name).starts(scales))
-    sensors = {name: effect for name, effect in task.fixed.items() if not CANDIDATES[name].fit}
+        forms[name] = (form_name, [list(task.start.values)] if task.start is not None
+                       else CANDIDATES[name].form(form_name).starts(scales))
+    sensors = {name: effect for name, effect in task.fixed.items() if task.frozen or not CANDIDATES[name].fit}
     names = tuple(forms)
     lows, highs, sizes, starts = [], [], [], [[]]
     for name in names:

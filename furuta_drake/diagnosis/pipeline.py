@@ -41,6 +41,7 @@ from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 
+JOINT_REFITS = 3  # at a later step, the candidates fitted again together with the earlier effects
 HOLDOUT_FRACTION = 0.3
 HOLDOUT_BLOCKS = 10
 MIN_BLOCK_S = 1.0  # [s]: three or more gap windows per block
@@ -174,20 +175,22 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
     nominal_gap = evaluate_gap(nominal, heldout, counts)
     selection = Selection(nominal_gap, [], at_floor=bootstrap.at_floor(nominal_gap.per_window))
 
+    def record(result, previous):
+        selection.over_nominal[result.name] = bootstrap.evidence(nominal_gap.per_window, result.heldout.per_window)
+        selection.over_previous[result.name] = bootstrap.evidence(previous, result.heldout.per_window)
+
     def fit(tasks, step, previous):
         results = [_as_fit(task, result) for task, result in zip(tasks, run(fit_task, tasks))]
         for result in results:
             selection.tried.append((step, result))
             if not result.failure:
-                selection.over_nominal[result.name] = bootstrap.evidence(nominal_gap.per_window,
-                                                                         result.heldout.per_window)
-                selection.over_previous[result.name] = bootstrap.evidence(previous, result.heldout.per_window)
+                record(result, previous)
         return results
 
-    def task(new, held):
+    def task(new, held, **options):
         return FitTask(new=new, fixed=held.effects if held else {}, model=nominal, train=train, heldout=heldout,
                        logs=tuple(logs), nominal_counts=counts, settings=settings,
-                       fixed_samples=held.samples if held else {})
+                       fixed_samples=held.samples if held else {}, **options)
 
     for step in range(1, settings.max_effects + 1):
         held = selection.final
@@ -195,9 +198,20 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
         if step > 1 and bootstrap.at_floor(previous):
             break
         pool = [name for name in names if not law_of(name) & set(selection.kept)]
-        fitted = {r.name: r for r in fit([task(name, held) for name in pool], step, previous) if not r.failure}
+        fitted = {r.name: r for r in fit([task(name, held, frozen=step > 1) for name in pool], step, previous)
+                  if not r.failure}
         if selection.at_floor:
             break
+        if step > 1:  # the most promising, fitted again together with the earlier effects
+            best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
+            for joint in fit([task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]])
+                              for name in best], step, previous):
+                screened = fitted[joint.name]
+                kept = joint if not joint.failure and joint.train_gap <= screened.train_gap else screened
+                selection.tried = [(s, r) for s, r in selection.tried if r is not (screened if kept is joint
+                                                                                       else joint)]
+                fitted[joint.name] = kept
+                record(kept, previous)
         evidence = {name: selection.over_previous[name] for name in fitted}
         added = {name: name.split("+")[-1] for name in fitted}
         chosen = choose(evidence, added, margin=ENTRY)

@@ -1,0 +1,217 @@
+"""Real logs with a known effect written into them: does ``diagnose`` name it?
+
+Real logs carry an unknown mix of effects, but a known one can be added to them. The QUBE-Servo 2 logs in
+``data/qube-servo2-real`` are voltage-driven; the model maps a voltage to the arm torque tau = kt (V - ke phi_dot)
+/ R. So:
+
+- a torque-level effect g(state) on the arm (the torque it exerts: viscous -b phi_dot, Coulomb -Fc sign(phi_dot),
+  a spring -k (phi - phi_0), cogging A sin(N phi)) is written as V' = V - (R / kt) g(state), with phi and
+  phi_dot from a Savitzky-Golay fit of the logged angles: a model fed V' needs the extra torque g to give back the
+  logged motion, so the data look like a rig with that effect;
+- an input delay of n samples shifts the logged command n samples earlier (the log's last n rows are dropped);
+- a gain error g divides the command; a dead zone of width w (its subtract form) adds its inverse, V + w sign(V);
+- a first-order lag tau is undone at the samples: V'[k] = (V[k + 1] - e V[k]) / (1 - e), e = exp(-T / tau), so
+  that the lag's output at each sample is the logged command (between samples it is not: approximately a lag);
+- a coarser encoder re-quantises the angles on a k times coarser grid; noise is added to them;
+- an inertia error perturbs the rig file instead of the data.
+
+Each case is diagnosed with the rig file (perturbed for the inertia case) on the same train and held-out logs
+as the untouched baseline, whose own effects stay in the data: an injected effect is named when it is in the
+report's ``effects`` (beside whatever the baseline needs); cogging, outside the vocabulary, is right when the gap
+is ``unexplained`` or no effect beyond the baseline's is named for it. Sizes scale with the rig (fractions of
+m g l and of the sample period), as the validation suite's do, and ``--scale`` multiplies them all.
+
+Run from the repository root: ``python benchmarks/diagnosis_real_injected.py --out /tmp/injected``. Writes
+``OUT/results.json`` (one row per case) and ``OUT/config.json``; prints the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
+from furuta_drake.diagnosis.logs import load_rig
+from furuta_drake.diagnosis.pipeline import diagnose
+from furuta_drake.diagnosis.report import write_report
+from furuta_drake.outputs import versions
+from furuta_drake.rig import RigParameters
+from furuta_drake.yamlio import dump_yaml_dataclass
+
+TRAIN = ("swingup_250Hz_10s_a.csv", "chirp_10to0Hz_pos1p5V_250Hz_10s.csv")
+HELDOUT = ("swingup_250Hz_7s_negdir.csv", "swingup_250Hz_5s_0414.csv")
+SMOOTHING_S = 0.04  # Savitzky-Golay window of the angles and their derivative [s]
+
+
+@dataclass(frozen=True)
+class Injection:
+    """One case: the effect's vocabulary name (or cogging), its size and what it does to a log's columns or to the
+    rig file."""
+
+    name: str
+    size: str
+    data: Callable[[dict, RigParameters], dict] | None = None  # log columns -> log columns
+    rig: Callable[[RigParameters], RigParameters] | None = None
+
+
+def _read(path: Path) -> dict[str, np.ndarray]:
+    table = np.genfromtxt(path, delimiter=",", names=True)
+    return {name: np.asarray(table[name], float) for name in table.dtype.names}
+
+
+def _write(columns: dict[str, np.ndarray], path: Path) -> None:
+    names = list(columns)
+    np.savetxt(path, np.column_stack([columns[n] for n in names]), delimiter=",", header=",".join(names),
+               comments="", fmt="%.9g")
+
+
+def _phi_and_rate(columns: dict, rig: RigParameters) -> tuple[np.ndarray, np.ndarray]:
+    period = float(np.median(np.diff(columns["time"])))
+    window = max(7, int(round(SMOOTHING_S / period)) | 1)
+    return (savgol_filter(columns["phi"], window, 3),
+            savgol_filter(columns["phi"], window, 3, deriv=1, delta=period))
+
+
+def torque_effect(g: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> Callable[[dict, RigParameters], dict]:
+    """V' = V - (R / kt) g(phi, phi_dot): the data of a rig whose arm feels the extra torque g [N m]."""
+    def inject(columns, rig):
+        phi, rate = _phi_and_rate(columns, rig)
+        return {**columns, "voltage": columns["voltage"]
+                - rig.motor.resistance / rig.motor.torque_constant * g(phi, rate)}
+    return inject
+
+
+def delay(samples: int) -> Callable[[dict, RigParameters], dict]:
+    def inject(columns, rig):
+        out = {name: values[:-samples] for name, values in columns.items()}
+        out["voltage"] = columns["voltage"][samples:]
+        return out
+    return inject
+
+
+def lag(time_constant: float) -> Callable[[dict, RigParameters], dict]:
+    def inject(columns, rig):
+        decay = np.exp(-float(np.median(np.diff(columns["time"]))) / time_constant)
+        voltage = columns["voltage"]
+        out = {name: values[:-1] for name, values in columns.items()}
+        out["voltage"] = (voltage[1:] - decay * voltage[:-1]) / (1.0 - decay)
+        return out
+    return inject
+
+
+def requantise(factor: int) -> Callable[[dict, RigParameters], dict]:
+    def inject(columns, rig):
+        step = factor * 2 * np.pi / rig.counts_per_rev
+        return {**columns, **{name: columns[name][0] + np.round((columns[name] - columns[name][0]) / step) * step
+                              for name in ("theta", "phi")}}
+    return inject
+
+
+def noise(counts: float, seed: int = 0) -> Callable[[dict, RigParameters], dict]:
+    def inject(columns, rig):
+        rng = np.random.default_rng(seed + len(columns["time"]))
+        sigma = counts * 2 * np.pi / rig.counts_per_rev
+        return {**columns, **{name: columns[name] + rng.normal(0.0, sigma, columns[name].size)
+                              for name in ("theta", "phi")}}
+    return inject
+
+
+def injections(rig: RigParameters, scale: float) -> list[Injection]:
+    """The cases: sizes scale with m g l, the arm's inertia and the sample period (times ``scale``)."""
+    mgl, arm, period, volts = rig.gravity_torque, rig.arm_inertia_total, rig.sample_period, \
+        rig.motor.resistance / rig.motor.torque_constant
+    s = scale
+    return [
+        Injection("baseline", "-"),
+        Injection("arm_viscous_friction", f"b = {0.8 * s * arm:.3g} N m s/rad",
+                  torque_effect(lambda phi, rate: -0.8 * s * arm * rate)),
+        Injection("arm_coulomb_friction", f"Fc = {0.1 * s * mgl:.3g} N m",
+                  torque_effect(lambda phi, rate: -0.1 * s * mgl * np.tanh(rate / 0.05))),
+        Injection("arm_spring", f"k = {0.25 * s * mgl:.3g} N m/rad, phi0 = 0.1 rad",
+                  torque_effect(lambda phi, rate: -0.25 * s * mgl * (phi - 0.1))),
+        Injection("input_delay", f"{max(1, round(2 * s))} samples = {max(1, round(2 * s)) * period:.3g} s",
+                  delay(max(1, round(2 * s)))),
+        Injection("actuator_lag", f"tau = {3 * s * period:.3g} s", lag(3 * s * period)),
+        Injection("torque_gain_error", f"gain = {1 - 0.2 * s:.3g}",
+                  lambda c, r: {**c, "voltage": c["voltage"] / (1 - 0.2 * s)}),
+        Injection("actuator_deadzone", f"w = {0.3 * s:.3g} V = {0.3 * s / volts:.3g} N m (subtract)",
+                  lambda c, r: {**c, "voltage": c["voltage"] + 0.3 * s * np.sign(c["voltage"])}),
+        Injection("encoder_quantization", f"{rig.counts_per_rev // max(2, round(4 * s))} counts/rev",
+                  requantise(max(2, round(4 * s)))),
+        Injection("measurement_noise", f"{1.5 * s:.3g} counts", noise(1.5 * s)),
+        Injection("inertia_mismatch", "rig file: pendulum mass x 1.25, arm inertia x 0.8",
+                  rig=lambda r: r.replace(pendulum_mass=r.pendulum_mass * (1 + 0.25 * s),
+                                          arm_inertia=r.arm_inertia * (1 - 0.2 * s))),
+        Injection("cogging_torque", f"A = {0.15 * s * mgl:.3g} N m, 12 per turn",
+                  torque_effect(lambda phi, rate: 0.15 * s * mgl * np.sin(12 * phi))),
+    ]
+
+
+def write_case(injection: Injection, rig: RigParameters, folder: Path) -> tuple[Path, list[Path], list[Path]]:
+    folder.mkdir(parents=True, exist_ok=True)
+    case_rig = injection.rig(rig) if injection.rig else rig
+    rig_path = folder / "rig.yaml"
+    rig_path.write_text(dump_yaml_dataclass(case_rig))
+    paths = {}
+    for name in TRAIN + HELDOUT:
+        columns = _read(QUBE_REAL_DIR / name)
+        if injection.data:
+            columns = injection.data(columns, rig)
+        _write(columns, folder / name)
+        paths[name] = folder / name
+    return rig_path, [paths[n] for n in TRAIN], [paths[n] for n in HELDOUT]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--scale", type=float, default=1.0, help="multiplies every injected size")
+    parser.add_argument("--only", nargs="+", help="the cases to run (their effect names)")
+    parser.add_argument("--workers", type=int)
+    args = parser.parse_args(argv)
+    rig = load_rig(QUBE_REAL_RIG)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows, baseline = [], None
+    for injection in injections(rig, args.scale):
+        if args.only and injection.name not in args.only and injection.name != "baseline":
+            continue
+        rig_path, train, heldout = write_case(injection, rig, args.out / "cases" / injection.name)
+        start = time.perf_counter()
+        diagnosis = diagnose(rig=rig_path, train=train, heldout=heldout, workers=args.workers)
+        write_report(args.out / "reports" / injection.name, diagnosis, force=True)
+        if injection.name == "baseline":
+            baseline = diagnosis.effects
+        if injection.name == "cogging_torque":  # right when no vocabulary effect is invented for it
+            named = diagnosis.verdict == "unexplained" or set(diagnosis.effects) <= set(baseline or [])
+        else:
+            named = injection.name == "baseline" or injection.name in diagnosis.effects
+        steps = {step.effect: step.params for step in diagnosis.steps}
+        row = {"case": injection.name, "size": injection.size, "verdict": diagnosis.verdict,
+               "effects": diagnosis.effects, "new_beside_baseline": sorted(set(diagnosis.effects) - set(baseline or [])),
+               "named": named, "heldout_reduction": diagnosis.gap.heldout_reduction,
+               "fitted": steps.get(injection.name), "confusable": diagnosis.confusable,
+               "seconds": time.perf_counter() - start}
+        rows.append(row)
+        print(f"{injection.name:<22} {injection.size:<44} -> {diagnosis.verdict:<22} {','.join(diagnosis.effects):<60} "
+              f"{'named' if named else 'MISSED'} ({row['heldout_reduction']:.0%}, {row['seconds']:.0f} s)", flush=True)
+    scored = [row for row in rows if row["case"] != "baseline"]
+    named = sum(row["named"] for row in scored)
+    print(f"\nbaseline effects: {baseline}; injected effects named: {named}/{len(scored)}")
+    (args.out / "results.json").write_text(json.dumps({"baseline": baseline, "named": named, "cases": len(scored),
+                                                       "rows": rows}, indent=2, default=str) + "\n")
+    (args.out / "config.json").write_text(json.dumps({"argv": sys.argv[1:] if argv is None else argv,
+                                                      "train": TRAIN, "heldout": HELDOUT,
+                                                      "versions": versions()}, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
