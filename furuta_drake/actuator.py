@@ -31,6 +31,7 @@ class ActuatorParameters:
     gain: float = 1.0  # torque gain (1 + torque_gain_error) [-]
     deadzone: float = 0.0  # half-width of the dead zone [N m]
     deadzone_form: Literal["subtract", "threshold"] = "subtract"  # u - sat(u), or u only where |u| > deadzone
+    saturation_form: Literal["hard", "smooth"] = "hard"  # clip(u, -L, L), or L tanh(u / L)
     saturation: float | None = None  # torque limit of the actuator [N m]; None: no limit beyond the controller's
     delay: float = 0.0  # pure input delay [s]
     lag_time_constant: float = 0.0  # first-order lag [s]
@@ -41,6 +42,8 @@ class ActuatorParameters:
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
         if self.deadzone_form not in ("subtract", "threshold"):
             raise ConfigError(f"{where}.deadzone_form must be 'subtract' or 'threshold', got {self.deadzone_form!r}")
+        if self.saturation_form not in ("hard", "smooth"):
+            raise ConfigError(f"{where}.saturation_form must be 'hard' or 'smooth', got {self.saturation_form!r}")
         if self.saturation is not None:
             _require_positive(self.saturation, f"{where}.saturation")
 
@@ -61,8 +64,9 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
       n delay_resolution +- delay_resolution / 2.
     - lag: ``FirstOrderLowPassFilter(lag_time_constant)``, tau du/dt = u_in - u, starting from 0.
     - dead zone, form ``subtract``: u - sat_d(u) with ``Saturation(-deadzone, deadzone)``, a negated copy and an
-      ``Adder``; form ``threshold``: a :class:`ThresholdDeadZone`.
-    - gain: ``Gain(gain)``; saturation: ``Saturation(-saturation, saturation)``.
+      ``Adder``; form ``threshold``: :func:`threshold_deadzone`.
+    - gain: ``Gain(gain)``; saturation, form ``hard``: ``Saturation(-saturation, saturation)``; form ``smooth``:
+      :func:`smooth_saturation`.
     """
     params.validate()
     _require_positive(delay_resolution, "actuator delay_resolution")
@@ -82,7 +86,7 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
     if params.lag_time_constant > 0:
         then("actuator_lag", FirstOrderLowPassFilter(params.lag_time_constant, 1))
     if params.deadzone > 0 and params.deadzone_form == "threshold":
-        then("actuator_deadzone", ThresholdDeadZone(params.deadzone))
+        then("actuator_deadzone", threshold_deadzone(params.deadzone))
     elif params.deadzone > 0:
         clipped = builder.AddNamedSystem("actuator_deadzone_clip",
                                          Saturation([-params.deadzone], [params.deadzone]))
@@ -95,25 +99,37 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
         signal = deadzone.get_output_port()
     if params.gain != 1.0:
         then("actuator_gain", Gain(params.gain, 1))
-    if params.saturation is not None:
+    if params.saturation is not None and params.saturation_form == "smooth":
+        then("actuator_saturation", smooth_saturation(params.saturation))
+    elif params.saturation is not None:
         then("actuator_saturation", Saturation([-params.saturation], [params.saturation]))
     return entry.get_input_port(), signal
 
 
-class ThresholdDeadZone(LeafSystem):
-    """A dead zone that drops small commands and passes larger ones whole: y = u where |u| > width, else 0.
-    Input ``command_Nm``, output ``torque_Nm`` (direct feedthrough)."""
+class ScalarMap(LeafSystem):
+    """y = f(u[index]): a static map of one entry of a vector input, with direct feedthrough. The actuator chain's
+    nonlinear maps (a command in [N m], a torque out) and the arm's position-dependent torques (the true state in,
+    f of phi out) are such maps."""
 
-    def __init__(self, width: float):
+    def __init__(self, function, input_name: str, input_size: int, index: int, output_name: str):
         super().__init__()
-        self._width = float(width)
-        self._input = self.DeclareVectorInputPort("command_Nm", 1)
-        self.DeclareVectorOutputPort("torque_Nm", 1, self._calc, prerequisites_of_calc={
+        self._function, self._index = function, index
+        self._input = self.DeclareVectorInputPort(input_name, input_size)
+        self.DeclareVectorOutputPort(output_name, 1, self._calc, prerequisites_of_calc={
             self.input_port_ticket(self._input.get_index())})
 
     def _calc(self, context, output):
-        u = self._input.Eval(context)[0]
-        output.SetAtIndex(0, u if abs(u) > self._width else 0.0)
+        output.SetAtIndex(0, self._function(self._input.Eval(context)[self._index]))
+
+
+def threshold_deadzone(width: float) -> ScalarMap:
+    """A dead zone that drops small commands and passes larger ones whole: u where |u| > ``width``, else 0."""
+    return ScalarMap(lambda u: u if abs(u) > width else 0.0, "command_Nm", 1, 0, "torque_Nm")
+
+
+def smooth_saturation(limit: float) -> ScalarMap:
+    """A drive that saturates gradually: L tanh(u / L), L = ``limit``."""
+    return ScalarMap(lambda u: limit * math.tanh(u / limit), "command_Nm", 1, 0, "torque_Nm")
 
 
 @dataclass
@@ -122,12 +138,13 @@ class DisturbanceParameters:
 
     arm_spring_stiffness: float = 0.0  # k [N m/rad]
     arm_spring_equilibrium: float = 0.0  # phi0 [rad]
+    arm_spring_cubic_stiffness: float = 0.0  # k3 [N m/rad^3]: the spring's torque is -(k x + k3 x^3), x = phi - phi0
     cogging_amplitude: float = 0.0  # A [N m]
     cogging_periods: int = 0  # N, periods per arm revolution
     cogging_phase: float = 0.0  # psi [rad]
 
     def validate(self, where: str = "disturbance") -> None:
-        for name in ("arm_spring_stiffness", "cogging_amplitude"):
+        for name in ("arm_spring_stiffness", "arm_spring_cubic_stiffness", "cogging_amplitude"):
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
         for name in ("arm_spring_equilibrium", "cogging_phase"):
             value = getattr(self, name)
@@ -140,28 +157,14 @@ class DisturbanceParameters:
             raise ConfigError(f"{where}.cogging_periods must be >= 1 when cogging_amplitude > 0")
 
 
-class CoggingTorque(LeafSystem):
-    """Cogging torque on the arm, A sin(N phi + psi). Input ``true_state`` (paper x), output ``arm_torque_Nm``
-    (a static map of phi: direct feedthrough)."""
-
-    def __init__(self, amplitude: float, periods: int, phase: float):
-        super().__init__()
-        self._amplitude, self._periods, self._phase = float(amplitude), float(periods), float(phase)
-        self._state_port = self.DeclareVectorInputPort("true_state", 4)
-        self.DeclareVectorOutputPort("arm_torque_Nm", 1, self._calc, prerequisites_of_calc={
-            self.input_port_ticket(self._state_port.get_index())})
-
-    def _calc(self, context, output):
-        phi = self._state_port.Eval(context)[1]
-        output.SetAtIndex(0, self._amplitude * math.sin(self._periods * phi + self._phase))
-
-
 def add_arm_disturbance(builder: DiagramBuilder, params: DisturbanceParameters,
                         true_state_port: OutputPort) -> OutputPort | None:
-    """Add the arm's spring -k (phi - phi0) and cogging A sin(N phi + psi) fed by ``true_state_port`` (paper x);
-    return the port of their sum, the torque on the arm [N m], or None when both are zero.
+    """Add the arm's spring -(k x + k3 x^3), x = phi - phi0, and cogging A sin(N phi + psi) fed by
+    ``true_state_port`` (paper x); return the port of their sum, the torque on the arm [N m], or None when all are
+    zero.
 
-    The spring is a stateless C++ ``AffineSystem`` (y = -k phi + k phi0); the cogging a :class:`CoggingTorque`.
+    The spring's linear part is a stateless C++ ``AffineSystem`` (y = -k phi + k phi0); its cubic part and the
+    cogging are :class:`ScalarMap` s of phi.
     """
     params.validate()
     torques = []
@@ -172,14 +175,20 @@ def add_arm_disturbance(builder: DiagramBuilder, params: DisturbanceParameters,
             D=np.array([[0.0, -k, 0.0, 0.0]]), y0=np.array([k * params.arm_spring_equilibrium])))
         builder.Connect(true_state_port, spring.get_input_port())
         torques.append(spring.get_output_port())
+    maps = {}
+    if params.arm_spring_cubic_stiffness > 0:
+        k3, phi0 = params.arm_spring_cubic_stiffness, params.arm_spring_equilibrium
+        maps["arm_spring_cubic"] = lambda phi: -k3 * (phi - phi0) ** 3
     if params.cogging_amplitude > 0:
-        cogging = builder.AddNamedSystem("arm_cogging", CoggingTorque(
-            params.cogging_amplitude, params.cogging_periods, params.cogging_phase))
-        builder.Connect(true_state_port, cogging.get_input_port())
-        torques.append(cogging.get_output_port())
+        amplitude, periods, phase = params.cogging_amplitude, params.cogging_periods, params.cogging_phase
+        maps["arm_cogging"] = lambda phi: amplitude * math.sin(periods * phi + phase)
+    for name, function in maps.items():
+        system = builder.AddNamedSystem(name, ScalarMap(function, "true_state", 4, 1, "arm_torque_Nm"))
+        builder.Connect(true_state_port, system.get_input_port())
+        torques.append(system.get_output_port())
     if len(torques) < 2:
         return torques[0] if torques else None
-    total = builder.AddNamedSystem("arm_disturbance", Adder(2, 1))
+    total = builder.AddNamedSystem("arm_disturbance", Adder(len(torques), 1))
     for i, torque in enumerate(torques):
         builder.Connect(torque, total.get_input_port(i))
     return total.get_output_port()
@@ -201,6 +210,6 @@ def add_dc_motor(builder: DiagramBuilder, motor: MotorParameters, voltage_port: 
 
 
 __all__ = [
-    "ActuatorParameters", "add_actuator", "ThresholdDeadZone", "DisturbanceParameters", "CoggingTorque", "add_arm_disturbance",
-    "add_dc_motor",
+    "ActuatorParameters", "add_actuator", "ScalarMap", "threshold_deadzone", "smooth_saturation",
+    "DisturbanceParameters", "add_arm_disturbance", "add_dc_motor",
 ]

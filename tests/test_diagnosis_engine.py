@@ -239,27 +239,35 @@ def test_fitted_model_is_a_simulate_config_that_runs():
     assert isinstance(config, SimulationConfig)
 
 
-def test_the_two_dead_zone_forms_map_commands_as_their_names_say():
-    """subtract: the width is taken off larger commands; threshold: smaller commands are dropped, larger ones
-    pass whole; both in the surrogate and in Drake's actuator chain."""
+COMMANDS = np.array([-0.03, -0.01, 0.0, 0.005, 0.02])
+
+
+@pytest.mark.parametrize("effect, form, actuator, values", [
+    ("actuator_deadzone", "subtract", dict(deadzone=0.01), [-0.02, 0.0, 0.0, 0.0, 0.01]),
+    ("actuator_deadzone", "threshold", dict(deadzone=0.01, deadzone_form="threshold"), [-0.03, 0.0, 0.0, 0.0, 0.02]),
+    ("actuator_saturation", "hard", dict(saturation=0.01), [-0.01, -0.01, 0.0, 0.005, 0.01]),
+    ("actuator_saturation", "smooth", dict(saturation=0.01, saturation_form="smooth"), 0.01 * np.tanh(COMMANDS / 0.01)),
+])
+def test_the_forms_of_an_actuator_effect_map_commands_as_their_names_say(effect, form, actuator, values):
+    """Dead zone, subtract: the width is taken off larger commands; threshold: smaller commands are dropped,
+    larger ones pass whole. Saturation, hard: a clip; smooth: L tanh(u / L). In the surrogate and in Drake's
+    actuator chain alike."""
     from pydrake.systems.framework import DiagramBuilder
 
     from furuta_drake.actuator import ActuatorParameters, add_actuator
     from furuta_drake.diagnosis.surrogate import applied_torque
-    commands = np.array([-0.03, -0.01, 0.0, 0.005, 0.02])
-    expected = {"subtract": [-0.02, 0.0, 0.0, 0.0, 0.01], "threshold": [-0.03, 0.0, 0.0, 0.0, 0.02]}
-    for form, values in expected.items():
-        model = apply_effects(Model.from_rig(RIGS["lund"]()), {"actuator_deadzone": Effect(form, (0.01,))})
-        np.testing.assert_allclose(applied_torque(model, commands), values, atol=1e-15)
-        builder = DiagramBuilder()
-        entry, out = add_actuator(builder, ActuatorParameters(deadzone=0.01, deadzone_form=form), 1e-3)
-        builder.ExportInput(entry)
-        builder.ExportOutput(out)
-        diagram = builder.Build()
-        context = diagram.CreateDefaultContext()
-        for command, value in zip(commands, values):
-            diagram.get_input_port().FixValue(context, [command])
-            assert diagram.get_output_port().Eval(context)[0] == pytest.approx(value, abs=1e-15)
+    commands = COMMANDS
+    model = apply_effects(Model.from_rig(RIGS["lund"]()), {effect: Effect(form, (0.01,))})
+    np.testing.assert_allclose(applied_torque(model, commands), values, atol=1e-15)
+    builder = DiagramBuilder()
+    entry, out = add_actuator(builder, ActuatorParameters(**actuator), 1e-3)
+    builder.ExportInput(entry)
+    builder.ExportOutput(out)
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    for command, value in zip(commands, values):
+        diagram.get_input_port().FixValue(context, [command])
+        assert diagram.get_output_port().Eval(context)[0] == pytest.approx(value, abs=1e-15)
 
 
 @settings(max_examples=25, deadline=None)
@@ -308,6 +316,33 @@ def test_hidden_lugre_stribeck_friction_is_the_stribeck_candidate_at_its_true_le
     assert nominal > 1.0 and surrogate.gap < 0.3  # counts
     drake = replay_gap(model, rig, windows, surrogate.initial_states)
     assert abs(drake.gap - surrogate.gap) < 0.1
+
+
+def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_in_drake():
+    """The cable form of the arm spring, -(k x + k3 x^3) with x = phi - phi_0: the surrogate's arm acceleration
+    and the Drake world's (MultibodyPlant with the spring) agree at random states."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from furuta_drake.diagnosis.replay import model_disturbance, model_rig
+    from furuta_drake.world import add_furuta_world
+    rig = RIGS["qube_servo2"]().replace(motor=None)
+    model = apply_effects(Model.from_rig(rig), {"arm_spring": Effect("cubic", (0.004, 0.02, 0.1))})
+    builder = DiagramBuilder()
+    world = add_furuta_world(builder, rig=model_rig(model, rig), control_period=rig.sample_period,
+                             disturbance=model_disturbance(model))
+    builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        x = rng.uniform([-3.0, -1.5, -5.0, -5.0], [3.0, 1.5, 5.0, 5.0])
+        context.get_mutable_continuous_state_vector().SetFromVector(world.to_paper.T @ x)
+        diagram.get_input_port().FixValue(context, [0.0])
+        drake = world.to_paper @ diagram.EvalTimeDerivatives(context).CopyToVector()[:4]
+        stretch = x[1] - 0.1
+        assert model.spring_stiffness * stretch + model.spring_cubic * stretch**3 == pytest.approx(
+            0.004 * stretch + 0.02 * stretch**3)
+        np.testing.assert_allclose(_accelerations(model, x, np.array(0.0)), drake, rtol=1e-9, atol=1e-12)
 
 
 def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():

@@ -10,7 +10,9 @@ report's ranking lists it. Real hardware has more than one form of an effect, so
   reversal; a static law with stiction is its small end); ``smooth``: the static law with a fitted
   regularisation velocity, F = -g(v) tanh(v / v_reg) (a joint that never sticks, as simulators often write it);
 - dead zone ``subtract``: u - sat_w(u) (the width is taken off every larger command, Simulink's Dead Zone);
-  ``threshold``: u where |u| > w, else 0 (small commands are dropped, larger ones pass whole).
+  ``threshold``: u where |u| > w, else 0 (small commands are dropped, larger ones pass whole);
+- saturation ``hard``: a clip at the limit; ``smooth``: L tanh(u / L) (a drive that saturates gradually);
+- spring ``linear``: -k (phi - phi_0); ``cubic``: -(k x + k3 x^3), x = phi - phi_0 (a cable that stiffens).
 
 Scales come from the rig: torques from m g l and the logged commands, damping from the lumped inertias, times
 from the sample period.
@@ -93,7 +95,7 @@ UNITS = {
     "coulomb": "N m", "coulomb_pos": "N m", "coulomb_neg": "N m", "static": "N m", "presliding": "rad",
     "regularization_velocity": "rad/s", "stribeck_velocity": "rad/s", "viscous": "N m s/rad",
     "counts_per_rev": "counts/rev", "noise_std": "rad", "delay": "s", "gain": "-", "deadzone": "N m",
-    "time_constant": "s", "limit": "N m", "stiffness": "N m/rad", "equilibrium": "rad",
+    "time_constant": "s", "limit": "N m", "stiffness": "N m/rad", "cubic_stiffness": "N m/rad^3", "equilibrium": "rad",
     "arm_inertia_scale": "-", "pendulum_inertia_scale": "-", "coupling_scale": "-", "gravity_scale": "-",
     "arm_inertia_total": "kg m^2", "pendulum_inertia_total": "kg m^2", "coupling": "kg m^2",
     "gravity_torque": "N m",
@@ -149,6 +151,12 @@ def _deadzone(form: str) -> Form:
                 lambda m, p: m.replace(deadzone=p[0], deadzone_form=form))
 
 
+def _saturation(form: str) -> Form:
+    return Form(form, ("limit",), lambda s: ([0.05 * s.command], [1.0 * s.command]),
+                lambda s: [[0.95 * s.command], [0.7 * s.command], [0.4 * s.command]],
+                lambda m, p: m.replace(saturation=p[0], saturation_form=form))
+
+
 def _single(params, bounds, starts, apply) -> tuple[Form, ...]:
     return (Form("", params, bounds, starts, apply),)
 
@@ -199,14 +207,16 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
         ("time_constant",), lambda s: ([0.0], [0.1]),
         lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 4.0, 8.0)] + [[0.01], [0.03]],
         lambda m, p: m.replace(lag=p[0])), main="time_constant"),
-    Candidate("actuator_saturation", _single(
-        ("limit",), lambda s: ([0.05 * s.command], [1.0 * s.command]),
-        lambda s: [[0.95 * s.command], [0.7 * s.command], [0.4 * s.command]],
-        lambda m, p: m.replace(saturation=p[0])), main="limit"),
-    Candidate("arm_spring", _single(
-        ("stiffness", "equilibrium"), lambda s: ([0.0, -1.0], [5.0 * s.torque, 1.0]),
-        lambda s: [[0.01 * s.torque, 0.0], [0.1 * s.torque, 0.0]],
-        lambda m, p: m.replace(spring_stiffness=p[0], spring_equilibrium=p[1])), main="stiffness"),
+    Candidate("actuator_saturation", (_saturation("hard"), _saturation("smooth")), main="limit"),
+    Candidate("arm_spring", (
+        Form("linear", ("stiffness", "equilibrium"), lambda s: ([0.0, -1.0], [5.0 * s.torque, 1.0]),
+             lambda s: [[0.01 * s.torque, 0.0], [0.1 * s.torque, 0.0]],
+             lambda m, p: m.replace(spring_stiffness=p[0], spring_equilibrium=p[1], spring_cubic=0.0)),
+        Form("cubic", ("stiffness", "cubic_stiffness", "equilibrium"),
+             lambda s: ([0.0, 0.0, -1.0], [5.0 * s.torque, 20.0 * s.torque, 1.0]),
+             lambda s: [[0.01 * s.torque, 0.1 * s.torque, 0.0], [0.1 * s.torque, 1.0 * s.torque, 0.0]],
+             lambda m, p: m.replace(spring_stiffness=p[0], spring_cubic=p[1], spring_equilibrium=p[2]))),
+        main="stiffness"),
     Candidate("inertia_mismatch", _single(  # scales of the rig file's a, b, c, d (Model.rig_constants)
         ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale"),
         lambda s: ([0.3] * 4, [3.0] * 4), lambda s: [[1.0] * 4],

@@ -87,11 +87,12 @@ INJECTIONS: dict[str, Injection] = {
         "time_constant", lambda sc, m: (0.01 * sc.period, 0.1), lambda s, sc, m: Effect("", (m.lag + s,)), _same,
         "added to the model's"),
     "actuator_saturation": Injection(
-        "limit", lambda sc, m: (1e-3, 0.95), lambda s, sc, m: Effect("", ((1.0 - s) * sc.command,)),
+        "limit", lambda sc, m: (1e-3, 0.95), lambda s, sc, m: Effect("hard", ((1.0 - s) * sc.command,)),
         lambda s, sc, m: (1.0 - s) * sc.command, "the largest limit detected, below the largest command"),
     "arm_spring": Injection(
         "stiffness", lambda sc, m: (1e-5 * sc.torque, 5.0 * sc.torque),
-        lambda s, sc, m: Effect("", (m.spring_stiffness + s, m.spring_equilibrium)), _same, "added to the model's"),
+        lambda s, sc, m: Effect("linear", (m.spring_stiffness + s, m.spring_equilibrium)), _same,
+        "a linear spring added to the model's"),
     "inertia_mismatch": Injection(
         "arm_inertia_scale", lambda sc, m: (1e-3, 1.0), lambda s, sc, m: Effect("", (1.0 + s, 1.0, 1.0, 1.0)),
         lambda s, sc, m: 1.0 + s, "the arm's inertia alone, scaled up"),

@@ -28,7 +28,7 @@ from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
-from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gaps
+from furuta_drake.diagnosis.replay import model_actuator, model_disturbance, model_rig, replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import (
     Artifacts, Consistency, Diagnosis, GapFigures, RankedCandidate, Step,
@@ -214,7 +214,8 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
                 record(kept, previous)
         evidence = {name: selection.over_previous[name] for name in fitted}
         added = {name: name.split("+")[-1] for name in fitted}
-        chosen = choose(evidence, added, margin=ENTRY)
+        per_window = {name: result.heldout.per_window for name, result in fitted.items()}
+        chosen = choose(evidence, added, ENTRY, previous, per_window, bootstrap)
         if chosen is None:
             break
         refitted = _refit_forms(fitted[chosen], task(added[chosen], held), run)
@@ -224,7 +225,7 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
             selection.over_nominal[chosen] = bootstrap.evidence(nominal_gap.per_window, refitted.heldout.per_window)
             evidence[chosen] = selection.over_previous[chosen] = bootstrap.evidence(previous,
                                                                                      refitted.heldout.per_window)
-        per_window = {name: result.heldout.per_window for name, result in fitted.items()}
+        per_window[chosen] = fitted[chosen].heldout.per_window
         selection.confusable += confusable(chosen, evidence, added, previous, per_window, bootstrap)
         selection.kept.append(added[chosen])
     _backward(selection, bootstrap, nominal_gap, task, fit)
@@ -323,8 +324,7 @@ def nominal_config(rig: RigParameters, model: Model) -> SimulationConfig:
         config,
         friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
         actuator=dataclasses.replace(model_actuator(model), delay=model.delay),
-        disturbance=dataclasses.replace(config.disturbance, arm_spring_stiffness=model.spring_stiffness,
-                                        arm_spring_equilibrium=model.spring_equilibrium),
+        disturbance=model_disturbance(model),
         encoder=dataclasses.replace(config.encoder, counts_per_rev=model.counts_per_rev,
                                     noise_std=model.noise_std))
 

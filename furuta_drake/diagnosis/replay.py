@@ -41,9 +41,17 @@ def model_rig(model: Model, rig: RigParameters) -> RigParameters:
         pendulum_viscous=0.0, motor=None)
 
 
+def model_disturbance(model: Model) -> DisturbanceParameters:
+    """The model's arm spring as the world's disturbance parameters."""
+    return DisturbanceParameters(arm_spring_stiffness=model.spring_stiffness,
+                                 arm_spring_equilibrium=model.spring_equilibrium,
+                                 arm_spring_cubic_stiffness=model.spring_cubic)
+
+
 def model_actuator(model: Model) -> ActuatorParameters:
     """The actuator blocks of the model other than the delay (a time shift of the replayed command)."""
     return ActuatorParameters(gain=model.gain, deadzone=model.deadzone, deadzone_form=model.deadzone_form,
+                              saturation_form=model.saturation_form,
                               saturation=None if not np.isfinite(model.saturation) else model.saturation,
                               delay=0.0, lag_time_constant=model.lag)
 
@@ -63,8 +71,7 @@ class WindowReplayer:
             builder, rig=model_rig(model, rig), control_period=period,
             friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
             actuator=model_actuator(model), back_emf_damping=model.back_emf_damping,
-            disturbance=DisturbanceParameters(arm_spring_stiffness=model.spring_stiffness,
-                                              arm_spring_equilibrium=model.spring_equilibrium))
+            disturbance=model_disturbance(model))
         self.plant, self.P, self.friction = world.plant, world.to_paper, world.friction
         breaks = np.append(time, time[-1] + period) + model.delay
         source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(

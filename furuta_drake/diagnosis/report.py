@@ -31,6 +31,7 @@ from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.diagnosis.surrogate import Model, applied_torque, spring_torque
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, to_plain
@@ -342,21 +343,22 @@ def effect_curve(effect: str, params: dict[str, float], rig: RigParameters) -> E
         return _friction_curve(effect, params, rig)
     limit = rig.torque_limit
     command = np.linspace(-1.2 * limit, 1.2 * limit, 481)
+    model = Model.from_rig(rig)
     if effect in ("actuator_deadzone", "actuator_saturation", "torque_gain_error"):
-        if effect == "actuator_deadzone":
-            width = params["deadzone"]
-            fitted = np.sign(command) * np.maximum(np.abs(command) - width, 0.0)
-        elif effect == "actuator_saturation":
-            fitted = np.clip(command, -params["limit"], params["limit"])
-        else:
-            fitted = params["gain"] * command
+        fitted = {"actuator_deadzone": lambda: model.replace(deadzone=params["deadzone"],
+                                                             deadzone_form=params.get("form", "subtract")),
+                  "actuator_saturation": lambda: model.replace(saturation=params["limit"],
+                                                               saturation_form=params.get("form", "hard")),
+                  "torque_gain_error": lambda: model.replace(gain=params["gain"])}[effect]()
         return EffectCurve(effect, f"Fitted {effect}: command to applied torque", "command [N m]",
-                           "applied torque [N m]", command, {"nominal": command, "fitted": fitted})
+                           "applied torque [N m]", command, {"nominal": command,
+                                                             "fitted": applied_torque(fitted, command)})
     if effect == "arm_spring":
-        phi = np.linspace(-math.pi / 2, math.pi / 2, 361) + params.get("equilibrium", 0.0)
+        spring = model.replace(spring_stiffness=params["stiffness"], spring_cubic=params.get("cubic_stiffness", 0.0),
+                               spring_equilibrium=params.get("equilibrium", 0.0))
+        phi = np.linspace(-math.pi / 2, math.pi / 2, 361) + spring.spring_equilibrium
         return EffectCurve(effect, "Fitted arm_spring: restoring torque", "phi [rad]", "spring torque [N m]", phi,
-                           {"nominal": 0.0 * phi,
-                            "fitted": -params["stiffness"] * (phi - params.get("equilibrium", 0.0))})
+                           {"nominal": 0.0 * phi, "fitted": spring_torque(spring, phi)})
     if effect in ("actuator_lag", "input_delay"):
         scale = params["time_constant"] if effect == "actuator_lag" else params["delay"]
         time = np.linspace(0.0, max(5 * scale, 10 * rig.sample_period), 501)

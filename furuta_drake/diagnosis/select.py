@@ -11,8 +11,8 @@ place against the model holding all the others:
   ``none`` when the nominal model is);
 - a candidate *enters* when the 5 % lower bound of its reduction over the model holding the earlier effects
   exceeds ``ENTRY``: the candidate with the largest reduction, replaced by one with fewer parameters when that
-  one is within ``PARSIMONY`` of it (Coulomb before Stribeck or asymmetry when the data cannot tell them
-  apart). Entry is lenient because effects mask each other: with three strong effects acting, none alone may
+  one is within ``PARSIMONY`` of it, or when it is a variant of the same law that the best does not beat
+  significantly (Coulomb before Stribeck or asymmetry when the data cannot tell them apart). Entry is lenient because effects mask each other: with three strong effects acting, none alone may
   explain much;
 - an effect is *kept* when the 5 % lower bound of the reduction it brings to the model holding all the other
   kept effects exceeds ``MARGIN``; the weakest one that does not is dropped, and the others judged again;
@@ -30,7 +30,7 @@ import numpy as np
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, law_of
 
-FLOOR_COUNTS = 0.25
+FLOOR_COUNTS = 0.05
 ENTRY = 0.05
 MARGIN = 0.2
 PARSIMONY = 0.03
@@ -110,16 +110,27 @@ def order(evidence: dict[str, Evidence]) -> list[str]:
                                               name))
 
 
-def choose(evidence: dict[str, Evidence], new: dict[str, str], margin: float = MARGIN) -> str | None:
-    """The candidate among ``evidence`` (over the previous model) whose reduction's lower bound exceeds
-    ``margin`` (the best, or a simpler one within ``PARSIMONY`` of it), or None. ``new``: each candidate's added
-    effect, whose parameters the parsimony rule counts."""
+def choose(evidence: dict[str, Evidence], new: dict[str, str], margin: float = MARGIN,
+           previous: np.ndarray | None = None, per_window: dict[str, np.ndarray] | None = None,
+           bootstrap: "Bootstrap | None" = None) -> str | None:
+    """The candidate among ``evidence`` (over the ``previous`` model) whose reduction's lower bound exceeds
+    ``margin``: the best, or a simpler one within ``PARSIMONY`` of it or, when it is a variant of the best one's
+    law, one the best does not beat beyond the ``CONFUSABLE_LEVEL`` interval of their difference (given the
+    per-window excesses and the bootstrap); None when none is. ``new``: each candidate's added effect, whose
+    parameters the parsimony rule counts."""
     supported = [name for name in order(evidence) if evidence[name].lower_bound > margin]
     if not supported:
         return None
     best = supported[0]
-    simpler = [name for name in supported if n_params(new[name]) < n_params(new[best])
-               and evidence[name].reduction >= evidence[best].reduction - PARSIMONY]
+
+    def as_good(name):
+        if evidence[name].reduction >= evidence[best].reduction - PARSIMONY:
+            return True
+        if bootstrap is None or new[name] not in law_of(new[best]):
+            return False
+        return bootstrap.difference_interval(previous, per_window[best], per_window[name])[0] <= 0.0
+
+    simpler = [name for name in supported if n_params(new[name]) < n_params(new[best]) and as_good(name)]
     return min(simpler, key=lambda name: (n_params(new[name]), -evidence[name].reduction)) if simpler else best
 
 

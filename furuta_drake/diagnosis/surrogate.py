@@ -43,10 +43,12 @@ class Model:
     deadzone: float = 0.0  # [N m]
     deadzone_form: str = "subtract"  # "subtract": u - sat(u); "threshold": u where |u| > deadzone, else 0
     saturation: float = np.inf  # [N m]
+    saturation_form: str = "hard"  # "hard": clip(u, -L, L); "smooth": L tanh(u / L)
     delay: float = 0.0  # [s]
     lag: float = 0.0  # [s]
     spring_stiffness: float = 0.0  # [N m/rad]
     spring_equilibrium: float = 0.0  # [rad]
+    spring_cubic: float = 0.0  # [N m/rad^3]: the spring's torque is -(k x + k3 x^3), x = phi - phi_0
     counts_per_rev: int = 4096
     noise_std: float = 0.0  # [rad]
     rig_constants: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # the rig file's (a, b, c, d)
@@ -78,13 +80,23 @@ def sensor_variance(model: Model, nominal_counts: int) -> float:
 
 def applied_torque(model: Model, command: np.ndarray) -> np.ndarray:
     """The actuator's static map after delay and lag: dead zone (u - sat(u), or u where |u| exceeds it), gain,
-    saturation."""
+    saturation (a clip, or L tanh(u / L))."""
     u = command
     if model.deadzone > 0:
         u = (command - np.clip(command, -model.deadzone, model.deadzone) if model.deadzone_form == "subtract"
              else np.where(np.abs(command) > model.deadzone, command, 0.0))
     u = model.gain * u if model.gain != 1.0 else u
-    return np.clip(u, -model.saturation, model.saturation) if np.isfinite(model.saturation) else u
+    if not np.isfinite(model.saturation):
+        return u
+    if model.saturation_form == "smooth":
+        return model.saturation * np.tanh(u / model.saturation)
+    return np.clip(u, -model.saturation, model.saturation)
+
+
+def spring_torque(model: Model, phi):
+    """The arm spring's torque -(k x + k3 x^3), x = phi - phi_0 [N m]."""
+    stretch = phi - model.spring_equilibrium
+    return -(model.spring_stiffness + model.spring_cubic * stretch**2) * stretch
 
 
 def _acts(p: JointFrictionParameters) -> bool:
@@ -103,8 +115,8 @@ def _accelerations(model: Model, x: np.ndarray, tau_arm: np.ndarray, arm_frictio
         tau_phi = tau_phi + static_friction_torque(phi_dot, model.arm_friction)
     if model.back_emf_damping:
         tau_phi = tau_phi - model.back_emf_damping * phi_dot
-    if model.spring_stiffness:
-        tau_phi = tau_phi - model.spring_stiffness * (phi - model.spring_equilibrium)
+    if model.spring_stiffness or model.spring_cubic:
+        tau_phi = tau_phi + spring_torque(model, phi)
     m12, m22 = model.c * c_, model.a + model.b * s * s
     r1 = model.d * s + model.b * sc * phi_dot**2
     if pendulum_friction:
