@@ -1,4 +1,4 @@
-"""Memory and time of ``furuta-drake diagnose`` on a 10-minute 1 kHz log (600k rows, issue 9) against a 1-minute log.
+"""Memory and time of ``furuta-drake diagnose`` on a 10-minute 1 kHz log (600k rows) against a 1-minute log.
 
 The logs are one simulated closed-loop run of the Lund rig (the paper's 0.015 N m Coulomb friction on the arm, a
 multisine torque and a square-wave arm reference keeping the arm moving): the 10-minute log is the whole run,

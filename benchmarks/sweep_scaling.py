@@ -1,4 +1,4 @@
-"""Speedup of a parameter sweep on 2 Dask workers over 1 (issue 8 target: >= 1.8x), and identical results.
+"""Speedup of a parameter sweep on 2 Dask workers over 1 (target: >= 1.8x), and identical results.
 
 Each cluster is started and every worker warmed up (package imported, one short simulation) before the clock
 starts, so the figures are the sweep's own wall time: submitting the points, simulating them, writing the

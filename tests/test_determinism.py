@@ -1,4 +1,4 @@
-"""Determinism of ``furuta-drake simulate`` (issue 9): the same config and seed give byte-identical log.csv
+"""Determinism of ``furuta-drake simulate``: the same config and seed give byte-identical log.csv
 and summary.json, in this process and in a fresh one with another hash seed; another seed gives another run.
 
 The config exercises everything the seed reaches: the multisine excitation (drawn from the seed), encoder

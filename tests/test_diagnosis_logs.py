@@ -205,7 +205,7 @@ def test_rig_file_errors_name_the_key(tmp_path):
 
 
 def test_a_ten_minute_1khz_log_loads_whole(tmp_path):
-    """600k rows (issue 9's large input) load completely; their speed is measured in benchmarks, not here."""
+    """600k rows (a ten-minute log at 1 kHz) load completely; their speed is measured in benchmarks, not here."""
     n = 600_000
     t = np.arange(n) * 1e-3
     path = tmp_path / "long.csv"

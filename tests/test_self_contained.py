@@ -43,10 +43,10 @@ def test_the_scan_covers_every_kind_of_source():
 
 
 @pytest.mark.parametrize("line", [
-    'DATA = Path(furuta_drake.__file__).resolve().parents[1].parent / "shared" / "data"',
+    'DATA = Path(furuta_drake.__file__).resolve().parents[1].parent / "beside" / "data"',
     'QUBE_DATA = HERE.parent.parent.parent / "data"',
-    'rig = load_rig("../shared/data/qube-servo2-real/rig.yaml")',
-    "text = open('/work/shared/paper/NOTES.md').read()",
+    'rig = load_rig("../beside/data/rig.yaml")',
+    "text = open('/work/beside/paper/notes.txt').read()",
     'root = Path(__file__).parents[3]',
 ])
 def test_the_scan_finds_a_path_out_of_the_repository(line):

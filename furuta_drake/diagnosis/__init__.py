@@ -1,2 +1,3 @@
-"""Sim-to-real gap diagnosis (``spec/diagnosis-interface.md``): one module a stage, load -> gap -> candidates ->
-fit -> select -> localize -> report."""
+"""Sim-to-real gap diagnosis (``docs/diagnose.md``), one module a stage: logs (load) -> gap (windows and the
+metric, on the surrogate) -> fit (candidates) -> select (the held-out rule) -> detection (limits) -> replay (Drake)
+-> localize -> report; ``pipeline.diagnose`` runs them and returns a ``result.Diagnosis``."""
