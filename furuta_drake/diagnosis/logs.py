@@ -24,9 +24,7 @@ row, divided by its inertia a + b sin^2(theta), gives phi_ddot = k_u tau / (a + 
 k_u must be positive (phi counts in the direction a positive input accelerates the arm) and near 1 in radians
 (about 57 when the angles are in degrees). A sign check decides only when its coefficient is clear (|t| > 10
 with the sample count discounted by the smoothing window), the degrees check when k_u is 3 standard errors above
-10; otherwise they say nothing. On the real QUBE logs the coupling
-comes out at -1.05 (t = 179) against the rig's -c/b = -0.988, and k_u at 0.47 (the voltage logs carry a 1-2
-sample lag); their quiet balancing segments alone decide nothing.
+10; otherwise they say nothing (quiet balancing segments alone decide nothing).
 """
 
 from __future__ import annotations

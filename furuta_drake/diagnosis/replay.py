@@ -1,12 +1,12 @@
 """Held-out figures from Drake: the windows replayed through a diagram of the project's own systems.
 
-The diagram is the MultibodyPlant of the model's rig, :class:`~furuta_drake.friction.JointFriction` with the
-model's friction, the back-EMF and spring torques, and :func:`~furuta_drake.actuator.add_actuator` (lag, dead
-zone, gain, saturation) fed by the logged command as a zero-order-hold ``TrajectorySource``; a pure input
-delay of an open-loop replay is exactly a time shift of that source. Each window starts from the initial state
-the surrogate refined for this model and is integrated by Drake's error-controlled RK5 at accuracy 1e-6 (RK3 at
-1e-4 adds about 0.02 count^2 of integration error, which a gap near the sensor floor, a square root, turns into
-0.14 counts); the residuals give the same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
+The diagram is the model's Furuta world (:func:`~furuta_drake.world.add_furuta_world`: the MultibodyPlant of
+the model's rig, its friction, spring and back-EMF torques, and its actuator chain) fed by the logged command as a
+zero-order-hold ``TrajectorySource``; a pure input delay of an open-loop replay is exactly a time shift of that
+source. Each window starts from the initial state the surrogate refined for this model, with a fresh integrator
+(Drake's error-controlled RK5 at accuracy 1e-6: a gap near the sensor floor is a square root, so integration error
+that a looser accuracy leaves would show); the residuals give the same gap as
+:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
 """
 
 from __future__ import annotations
