@@ -26,7 +26,7 @@ from furuta_drake.diagnosis.candidates import CANDIDATES, PRESLIDING_STARTS, UNI
 from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS
 from furuta_drake.diagnosis.gap import Windows, fixed_state_residuals, project_out_states, projected_residuals
 from furuta_drake.diagnosis.result import DetectionLimit
-from furuta_drake.diagnosis.select import CLOSES, MARGIN, Bootstrap
+from furuta_drake.diagnosis.select import CLOSES, MARGIN, Bootstrap, at_floor
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
 
 BISECTIONS = 14  # halvings of the log-scale bracket: the limit to within about 1 % of its bracket's ratio
@@ -119,7 +119,7 @@ class _Judge:
         or with ``variance_of_truth`` the same residuals judged with that sensor variance)."""
         synthetic = _excess(residuals, self.variance)
         truth = self.truth if variance_of_truth is None else _excess(residuals, variance_of_truth)
-        if self.bootstrap.at_floor(synthetic):
+        if at_floor(synthetic):
             return False
         evidence = self.bootstrap.evidence(synthetic, truth)
         return evidence.lower_bound > MARGIN and (not self.first or evidence.reduction >= CLOSES)

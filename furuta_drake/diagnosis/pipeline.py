@@ -34,7 +34,7 @@ from furuta_drake.diagnosis.result import (
     Artifacts, Consistency, Diagnosis, GapFigures, RankedCandidate, Step,
 )
 from furuta_drake.diagnosis.select import (
-    CLOSES, ENTRY, MARGIN, Bootstrap, Evidence, choose, confusable, threshold_note,
+    CLOSES, ENTRY, MARGIN, Bootstrap, Evidence, at_floor, choose, confusable, threshold_note,
 )
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
@@ -126,7 +126,7 @@ class Selection:
     over_others: dict[str, Evidence] = field(default_factory=dict)  # kept effect -> final over final without it
     over_step: list[Evidence] = field(default_factory=list)  # each accepted step over the step before
     confusable: list[dict] = field(default_factory=list)
-    at_floor: bool = False  # the nominal model explains the held-out data to within their noise
+    quiet: bool = False  # the nominal model explains the held-out data to within their noise
 
     def model(self, effects) -> FitResult | None:
         """The fitted model holding exactly ``effects`` (in any order), or None."""
@@ -148,7 +148,7 @@ class Selection:
     @property
     def verdict(self) -> str:
         if not self.closes:
-            return "none" if self.at_floor else "unexplained"
+            return "none" if self.quiet else "unexplained"
         return self.effects[0]
 
     @property
@@ -173,7 +173,7 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
     the model holding them; then backward, each kept only while the model without it is worse by the rule."""
     bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
     nominal_gap = evaluate_gap(nominal, heldout, counts)
-    selection = Selection(nominal_gap, [], at_floor=bootstrap.at_floor(nominal_gap.per_window))
+    selection = Selection(nominal_gap, [], quiet=bootstrap.within_noise(nominal_gap.per_window))
 
     def record(result, previous):
         selection.over_nominal[result.name] = bootstrap.evidence(nominal_gap.per_window, result.heldout.per_window)
@@ -195,12 +195,12 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
     for step in range(1, settings.max_effects + 1):
         held = selection.final
         previous = held.heldout.per_window if held else nominal_gap.per_window
-        if step > 1 and bootstrap.at_floor(previous):
+        if step > 1 and at_floor(previous):
             break
         pool = [name for name in names if not law_of(name) & set(selection.kept)]
         fitted = {r.name: r for r in fit([task(name, held, frozen=step > 1) for name in pool], step, previous)
                   if not r.failure}
-        if selection.at_floor:
+        if at_floor(nominal_gap.per_window):
             break
         if step > 1:  # the most promising, fitted again together with the earlier effects
             best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
@@ -296,7 +296,7 @@ def _as_fit(task: FitTask, result) -> FitResult:
 def choice_text(selection: Selection) -> str:
     """Why the verdict, in one paragraph."""
     if not selection.kept:
-        if selection.at_floor:
+        if selection.quiet:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
         return ("No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's "
                 "margin.")

@@ -6,9 +6,10 @@ resampled windows for both). Effects enter one at a time (the first against the 
 one fitted together with the earlier ones and judged against the model holding them), then each must earn its
 place against the model holding all the others:
 
-- a model is *at the floor* when its held-out gap is below ``FLOOR_COUNTS`` or below twice its own bootstrap
-  standard error: it already explains the data to within their noise, and nothing more enters (verdict
-  ``none`` when the nominal model is);
+- a model is *at the floor* when its held-out gap is below ``FLOOR_COUNTS``: nothing more enters; it is
+  *within the noise* when its gap is at the floor or below twice its own bootstrap standard error (with few
+  windows, or a few large ones, a gap can be large and still not significant): the verdict is ``none`` when the
+  nominal model is within the noise and no effect is accepted;
 - a candidate *enters* when the 5 % lower bound of its reduction over the model holding the earlier effects
   exceeds ``ENTRY``: the candidate with the largest reduction, replaced by one with fewer parameters when that
   one is within ``PARSIMONY`` of it, or when it is a variant of the same law that the best does not beat
@@ -18,7 +19,7 @@ place against the model holding all the others:
   kept effects exceeds ``MARGIN``; the weakest one that does not is dropped, and the others judged again;
 - two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
   difference of their reductions holds 0: the data explain them equally well, and the report says so;
-- the verdict is ``unexplained`` when the nominal model is above the floor and the accepted effects together
+- the verdict is ``unexplained`` when the nominal model is not within the noise and the accepted effects together
   reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it).
 """
 
@@ -30,7 +31,7 @@ import numpy as np
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, law_of
 
-FLOOR_COUNTS = 0.05
+FLOOR_COUNTS = 0.03
 ENTRY = 0.05
 MARGIN = 0.2
 PARSIMONY = 0.03
@@ -41,13 +42,13 @@ CONFUSABLE_LEVEL = 0.9  # two-sided level of the interval of a difference of red
 def threshold_note(bootstrap: int, seed: int) -> str:
     """The acceptance rule in one paragraph, written into every report."""
     return (f"Held-out reductions are bootstrapped over held-out windows ({bootstrap} paired resamples, seed "
-            f"{seed}). Effects enter one at a time, at most three: a model is at the floor (nothing more enters; "
-            f"verdict none for the nominal model) when its held-out gap is below {FLOOR_COUNTS} counts or twice its "
-            f"bootstrap standard error; the candidate with the largest reduction over the model holding the earlier "
+            f"{seed}). Effects enter one at a time, at most three: nothing more enters once a model's held-out gap "
+            f"is below {FLOOR_COUNTS} counts; the candidate with the largest reduction over the model holding the earlier "
             f"effects enters when the 5 % lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
             f"{PARSIMONY:.0%} of it is preferred); an effect is kept when the 5 % lower bound of the reduction it "
             f"brings to the model holding all the other kept effects exceeds {MARGIN:.0%}, else the weakest is "
-            f"dropped; two supported candidates of different laws whose "
+            f"dropped; the verdict is none when no effect is kept and the nominal gap is below {FLOOR_COUNTS} counts or "
+            f"twice its bootstrap standard error; two supported candidates of different laws whose "
             f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
             f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
             f"unexplained.")
@@ -84,11 +85,11 @@ class Bootstrap:
         return Evidence(float(gap_of(candidate.mean())), float(point),
                         float(np.quantile(self.reductions(reference, candidate), 0.05)), float(candidate.mean()))
 
-    def at_floor(self, per_window: np.ndarray) -> bool:
-        """The model of ``per_window`` explains the data to within their noise (module docstring)."""
+    def within_noise(self, per_window: np.ndarray) -> bool:
+        """The model of ``per_window`` explains the data to within their noise: its gap is below ``FLOOR_COUNTS``
+        or twice its bootstrap standard error (module docstring)."""
         gap = float(gap_of(per_window.mean()))
-        spread = float(np.std(gap_of(per_window[self.index].mean(axis=1))))
-        return gap < FLOOR_COUNTS or gap < 2.0 * spread
+        return at_floor(per_window) or gap < 2.0 * float(np.std(gap_of(per_window[self.index].mean(axis=1))))
 
     def difference_interval(self, reference: np.ndarray, first: np.ndarray, second: np.ndarray
                             ) -> tuple[float, float]:
@@ -96,6 +97,11 @@ class Bootstrap:
         difference = self.reductions(reference, first) - self.reductions(reference, second)
         tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
         return float(np.quantile(difference, tail)), float(np.quantile(difference, 1.0 - tail))
+
+
+def at_floor(per_window: np.ndarray) -> bool:
+    """The model of ``per_window`` has a gap below ``FLOOR_COUNTS``: nothing is left to explain."""
+    return float(gap_of(per_window.mean())) < FLOOR_COUNTS
 
 
 def n_params(name: str) -> int:
