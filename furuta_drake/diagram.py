@@ -28,10 +28,12 @@ from pydrake.systems.primitives import (
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import LqrController, lqr_gain
+from furuta_drake.controllers.quanser_swingup import QuanserSwingUpController
 from furuta_drake.controllers.swingup import EnergySwingUpController, kinematic_model
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.observers.dahl import DahlFrictionObserver
+from furuta_drake.observers.filtered_derivative import FilteredDerivative
 from furuta_drake.observers.hg import HighGainObserver, HighGainParameters
 from furuta_drake.observers.vfe import VfeObserver, friction_error_response
 from furuta_drake.rig import linearized_upright
@@ -95,8 +97,9 @@ class Command:
 
 
 def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: FurutaWorld) -> Command:
-    """The seeded excitation torque and ``config``'s controller (the LQR of Sec. IV-A or the swing-up with it),
-    summed into ``world``'s arm torque input."""
+    """The seeded excitation torque and ``config``'s controller (the LQR of Sec. IV-A, the swing-up with it, or
+    Quanser's voltage swing-up whose voltage reaches the arm as the torque kt V / R of the rig's motor), summed into
+    ``world``'s arm torque input."""
     period, controller_config = config.control_period, config.controller
     torques = []
     excitation = torque_excitation_trajectory(config.excitation, config.duration, period, config.seed)
@@ -107,7 +110,14 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
         builder.Connect(source.get_output_port(), hold.get_input_port())
         torques.append(hold.get_output_port())
     controller = gain = None
-    if controller_config.mode != "open_loop":
+    if controller_config.mode == "quanser_swingup":
+        controller = builder.AddNamedSystem("quanser_swingup", QuanserSwingUpController(controller_config.quanser_swingup))
+        motor = config.rig.motor
+        volts_to_torque = builder.AddNamedSystem("motor_torque_per_volt", MatrixGain(
+            np.array([[motor.torque_constant / motor.resistance]])))
+        builder.Connect(controller.GetOutputPort("voltage_V"), volts_to_torque.get_input_port())
+        torques.append(volts_to_torque.get_output_port())
+    elif controller_config.mode != "open_loop":
         gain = controller_gain(world.plant, config)
         limit, compensation = controller_config.lqr.torque_limit, controller_config.friction_compensation
         reference = arm_reference_trajectory(config.excitation, config.duration)
@@ -201,6 +211,11 @@ def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_sta
         builder.Connect(true_state, velocities.get_input_port())
         out.estimates["true"] = _angles_and(builder, "angles_and_true_velocities", measured,
                                             velocities.get_output_port())
+    if source == "filtered_derivative":
+        filtered = builder.AddNamedSystem("filtered_derivative", FilteredDerivative(
+            config.observers.filtered_derivative, period=period))
+        builder.Connect(measured, filtered.GetInputPort("measured_angles_rad"))
+        out.estimates["filtered_derivative"] = filtered.GetOutputPort("state_estimate")
     if source == "kinematic_hg":
         # The swing-up's velocities: the high-gain structure on the gravity-free kinematic model.
         eps = controller.swingup.velocity_eps
@@ -277,8 +292,8 @@ def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, m
                 command: Command, observers: Observers) -> dict[str, VectorLogSink]:
     """Loggers at the control ``period`` [s], sampled like the rig's data: ``state`` (the true state, held),
     ``measured_angles``, ``torque`` (the command), ``true_friction`` (held), ``estimate_{source}`` for each
-    observer's estimate and ``signal_{name}`` for the observers' signals and the swing-up's ``swingup_mode`` and
-    ``pendulum_energy_J``."""
+    observer's estimate and ``signal_{name}`` for the observers' signals and the swing-up controllers'
+    ``swingup_mode`` and ``pendulum_energy_J``."""
     loggers = {}
 
     def log(name: str, port: OutputPort) -> None:
@@ -296,7 +311,7 @@ def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, m
         if name != "true":
             log(f"estimate_{name}", port)
     signals = dict(observers.signals)
-    if isinstance(command.controller, EnergySwingUpController):
+    if isinstance(command.controller, (EnergySwingUpController, QuanserSwingUpController)):
         signals.update({name: command.controller.GetOutputPort(name) for name in ("swingup_mode",
                                                                                   "pendulum_energy_J")})
     for name, port in signals.items():
