@@ -22,7 +22,7 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
-    Adder, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
+    Adder, ConstantVectorSource, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
     ZeroOrderHold,
 )
 
@@ -226,11 +226,17 @@ def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_sta
         out.estimates["kinematic_hg"] = kinematic.GetOutputPort("state_estimate")
         linear.append(kinematic)
     if config.observers.start_at_initial_state:
-        for observer in linear:  # the first measurement's state rather than the upright x_hat = 0
-            start = np.zeros(observer.discrete.A().shape[0])
-            start[:4] = config.initial_state
-            observer.discrete.configure_default_state(start)
+        start_at(linear, config.initial_state)
     return out
+
+
+def start_at(observers, state) -> None:
+    """Start the linear ``observers`` (HG, VFE: :class:`~furuta_drake.observers.linear.DiscreteLinearObserver`) at
+    the paper-order ``state`` [rad, rad/s] (their friction-error entries at 0) rather than at x_hat = 0."""
+    for observer in observers:
+        start = np.zeros(observer.discrete.A().shape[0])
+        start[:4] = state
+        observer.discrete.configure_default_state(start)
 
 
 def _angles_and(builder: DiagramBuilder, name: str, measured: OutputPort, velocities: OutputPort) -> OutputPort:
@@ -247,9 +253,29 @@ def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, m
     (Eq. 8, 16), which reads the VFE's arm velocity estimate and, when ``dahl_params.adaptation`` is given, its
     eps_hat_F (Eq. 18, or the Fc and sigma0 law of Sec. VII); with ``pendulum_params`` a second friction
     observer on the pendulum joint feeds F_hat_theta too. ``model`` is (A, B_F) of Eq. 1-2, ``period`` the
-    control period [s]. Returns (vfe, dahl, arm_velocity)."""
+    control period [s]. ``dahl_params`` None: a model without arm friction, F_hat held at 0 (eps_hat_F carries
+    all of it). Returns (vfe, dahl, arm_velocity), the last two None without a Dahl observer."""
     vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(
         model, vfe_params, period=period, pendulum_friction_input=pendulum_params is not None))
+    estimate = vfe.GetOutputPort("state_estimate")
+    builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
+    builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
+    if dahl_params is None:
+        zero = builder.AddNamedSystem("no_friction_model", ConstantVectorSource(np.zeros(1)))
+        builder.Connect(zero.get_output_port(), vfe.GetInputPort("friction_estimate_Nm"))
+        dahl = arm_velocity = None
+    else:
+        dahl, arm_velocity = _add_arm_dahl(builder, vfe, dahl_params, model, measured, period)
+    if pendulum_params is not None:
+        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", period=period,
+                                        joint="pendulum")
+        builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
+                        vfe.GetInputPort("pendulum_friction_estimate_Nm"))
+    return vfe, dahl, arm_velocity
+
+
+def _add_arm_dahl(builder: DiagramBuilder, vfe, dahl_params, model, measured: OutputPort, period: float):
+    """The arm's Dahl observer nested with ``vfe`` (:func:`add_vfe_with_dahl`): (dahl, arm_velocity)."""
     estimate = vfe.GetOutputPort("state_estimate")
     adaptation = dahl_params.adaptation
     error_response = friction_error_response(*model, vfe.gains) if adaptation is not None \
@@ -259,15 +285,8 @@ def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, m
     if adaptation is not None:
         builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
                         dahl.GetInputPort("friction_error_estimate_Nm"))
-    builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
-    builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
-    if pendulum_params is not None:
-        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", period=period,
-                                        joint="pendulum")
-        builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
-                        vfe.GetInputPort("pendulum_friction_estimate_Nm"))
-    return vfe, dahl, arm_velocity
+    return dahl, arm_velocity
 
 
 def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
@@ -321,5 +340,5 @@ def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, m
 
 __all__ = [
     "FurutaDiagram", "build_furuta_diagram", "Command", "add_command", "controller_gain", "Observers",
-    "add_observers", "add_vfe_with_dahl", "add_dahl_observer", "add_loggers",
+    "add_observers", "start_at", "add_vfe_with_dahl", "add_dahl_observer", "add_loggers",
 ]
