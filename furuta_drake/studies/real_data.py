@@ -11,10 +11,10 @@ kept from the observers' tuning and from the diagnosis, which fits on the rest o
 
 Reference velocity (the paper's Table II): the zero-phase Butterworth filter of the encoder angles'
 derivative (:func:`furuta_drake.metrics.butterworth_velocity_reference`) at ``REFERENCE_CUTOFF_HZ``. The paper's
-5 Hz suits its 1 kHz rig and slow balancing motion; here the balancing loop oscillates near 8-10 Hz and the chirp
-starts at 10 Hz, so a 5 Hz reference would erase most of the motion the observers must follow. The cut-off is
-set a little over twice the fastest motion: the double pass keeps such a motion to within a few percent while
-the 2048-count quantisation, differentiated at 250 Hz, is cut to a small fraction of the velocities
+5 Hz suits its 1 kHz rig and slow balancing motion; on the QUBE the balancing loop's limit cycle and the start of
+the chirp lie well above 5 Hz, so a 5 Hz reference would erase much of the motion the observers must follow. The
+cut-off is set a little over twice the fastest of those motions: the double pass keeps it to within a few percent
+while the encoder's quantisation, differentiated at the sample rate, is cut to a small fraction of the velocities
 (``reference_properties`` computes both figures for the report).
 """
 
