@@ -26,7 +26,7 @@ from furuta_drake.config import SimulationConfig, dump_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.diagnosis.report import write_report_files
 from furuta_drake.observers.filtered_derivative import filtered_derivative
-from furuta_drake.reproduce import PAPER_TABLE2
+from furuta_drake.reproduce import PAPER_TABLE2, report_progress
 from furuta_drake.plotting import (plot_controller_fit, plot_limit_cycle_spectra, plot_real_closed_loop,
                                    plot_real_observers)
 from furuta_drake.results import write_json, write_log_csv, write_table_csv
@@ -61,28 +61,22 @@ def run_real_rig(folder: Path, small: bool = False, progress=None) -> RealRigOut
     """Run the studies; the diagnoses' logs are written under ``folder``. ``small``: quick diagnoses, three
     candidates of each observer, three swing-ups and no catch-time spread (tests, notebooks)."""
     runs = load_real_runs()
-    note = (lambda message: progress(message)) if progress is not None else None
     corrected, train, heldout = diagnose_corrected_model(runs, folder / "segments", small)
-    _say(note, f"diagnosis of the nominal model: {corrected.verdict}")
+    report_progress(progress, f"diagnosis of the nominal model: {corrected.verdict}")
     models = {"nominal": nominal_model_config(runs), "fitted": corrected.artifacts.fitted_config}
-    observers = real_observers_study.study(runs, models, small=small, progress=note)
+    observers = real_observers_study.study(runs, models, small=small, progress=progress)
     params = QuanserSwingUpParameters()
     closed = real_closed_loop_study.study(runs, models, params, logs=SMALL_SWINGUPS if small else SWINGUPS,
-                                          spread=not small, progress=note)
+                                          spread=not small, progress=progress)
     balancing, btrain, bheld = real_closed_loop_study.balancing_diagnosis(
         runs, corrected.artifacts.fitted_rig, folder / "segments", small)
-    _say(note, f"diagnosis of the balancing: {balancing.verdict}")
-    closed.add_model(runs, "refitted", balancing.artifacts.fitted_config, params, spread=not small, progress=note)
+    report_progress(progress, f"diagnosis of the balancing: {balancing.verdict}")
+    closed.add_model(runs, "refitted", balancing.artifacts.fitted_config, params, spread=not small, progress=progress)
     motion = max(row["limit_cycle_hz"] for row in closed.rows if row["source"] == "real"
                  and math.isfinite(row["limit_cycle_hz"]))
     reference = reference_properties(runs.rig, runs.logs[TRAIN_SWINGUP].sample_period, motion)
     return RealRigOutcome(runs, corrected, (train, heldout), observers, closed, balancing, (btrain, bheld),
                           reference, small)
-
-
-def _say(progress, message: str) -> None:
-    if progress is not None:
-        progress(message)
 
 
 def write_real_rig(staging: Path, outcome: RealRigOutcome) -> dict:

@@ -10,7 +10,7 @@ import pytest
 
 from furuta_drake import reproduce
 from furuta_drake.config import SimulationConfig, ExcitationConfig, dump_config, quanser_swingup_config
-from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
+from furuta_drake.controllers.quanser_swingup import quanser_command
 from furuta_drake.controllers.swingup import catch_time, wrap_angle
 from furuta_drake.data import QUBE_REAL_RIG
 from furuta_drake.diagnosis.logs import load_rig

@@ -34,6 +34,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import welch
 
+from furuta_drake import reproduce
 from furuta_drake.config import SimulationConfig, quanser_swingup_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.controllers.swingup import catch_time, wrap_angle
@@ -230,8 +231,7 @@ def closed_loop_rows(runs: RealRuns, models: dict[str, SimulationConfig], params
                     catches.append(catch_time(simulate(dataclasses.replace(config, initial_state=start))))
             rows.append({"log": name, "part": runs.part(name), "source": source, **figures,
                          "catch_time_min": float(np.min(catches)), "catch_time_max": float(np.max(catches))})
-            if progress is not None:
-                progress(f"closed loop: {name} on the {model_name} model")
+            reproduce.report_progress(progress, f"closed loop: {name} on the {model_name} model")
     return rows, taped, configs
 
 

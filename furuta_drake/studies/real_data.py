@@ -36,7 +36,7 @@ from furuta_drake.diagnosis.log_writers import write_log
 from furuta_drake.diagnosis.logs import RunLog, load_logs, load_rig
 from furuta_drake.diagnosis.pipeline import diagnose, nominal_config, split_heldout
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
-from furuta_drake.linearization import Equilibrium, equilibrium_angle
+from furuta_drake.linearization import equilibrium_angle
 from furuta_drake.metrics import butterworth_velocity_reference
 from furuta_drake.rig import RigParameters
 from furuta_drake.simulate import SimulationResult

@@ -173,8 +173,7 @@ def study(runs: RealRuns, models: dict[str, SimulationConfig], small: bool = Fal
                     rows.append({"observer": observer.upper(), "model": model_name, "log": segment.log,
                                  "phi_dot_mse": errors["phi_dot_mse_butterworth"],
                                  "theta_dot_mse": errors["theta_dot_mse_butterworth"]})
-            if progress is not None:
-                progress(f"observers: {model_name} model, {equilibrium}")
+            reproduce.report_progress(progress, f"observers: {model_name} model, {equilibrium}")
     return ObserverStudy(rows, sweep, tuned, estimates, parts)
 
 
