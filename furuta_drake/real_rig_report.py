@@ -282,7 +282,7 @@ def _catch_sentence(rows: list[dict]) -> str:
     for source in dict.fromkeys(row["source"] for row in rows):
         mine = [row for row in rows if row["source"] == source and row["part"] != "oscillating"]
         low, high = min(r["catch_time_min"] for r in mine), max(r["catch_time_max"] for r in mine)
-        parts.append(f"{source} {_g(low)}-{_g(high)} s")
+        parts.append(f"{source} {_g(low)} to {_g(high)} s")
     return ("The catch is one swing or another: over the quietly balancing runs (and, simulated, over starts a few "
             "counts apart) it falls at " + ", ".join(parts) + ".")
 
@@ -291,12 +291,12 @@ def _offset_sentence(rows: list[dict], rig) -> str:
     """Where the real loop balances against where the simulations do."""
     real = [row for row in rows if row["source"] == "real"]
     sims = [row for row in rows if row["source"] != "real"]
-    return (f"The real loop balances with theta at {_g(min(r['theta_mean'] for r in real))}-"
+    return (f"The real loop balances with theta at {_g(min(r['theta_mean'] for r in real))} to "
             f"{_g(max(r['theta_mean'] for r in real))} rad (about "
             f"{np.mean([r['theta_mean'] for r in real]) / rig.encoder_resolution:.1f} counts) off the encoder's upright "
-            f"and the arm at {_g(min(r['phi_mean'] for r in real))}-{_g(max(r['phi_mean'] for r in real))} rad; the "
-            f"simulations balance within {_g(max(abs(r['theta_mean']) for r in sims))} rad of it: an offset of the "
-            f"balance point that no model holds.")
+            f"and the arm at {_g(min(r['phi_mean'] for r in real))} to {_g(max(r['phi_mean'] for r in real))} rad; "
+            f"the simulated loops' mean theta stays within {_g(max(abs(r['theta_mean']) for r in sims))} rad of the "
+            f"upright: an offset of the balance point that no model holds.")
 
 
 def open_part_section(outcome: RealRigOutcome) -> list[str]:
