@@ -84,8 +84,10 @@ def _parser() -> argparse.ArgumentParser:
 
     rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
     rep.add_argument("--only", nargs="+", metavar="EXPERIMENT",
-                     help="experiments to run among table1 table2 fig5 fig6 fig7 beyond (default: the paper's, "
-                          "table1 ... fig7; beyond runs the studies of the paper's open problems, a few minutes)")
+                     help="experiments to run among table1 table2 fig5 fig6 fig7 beyond real (default: the paper's, "
+                          "table1 ... fig7; beyond runs the studies of the paper's open problems, a few minutes; real "
+                          "runs the observers and the closed loop on the real QUBE-Servo 2 logs, before and after "
+                          "the diagnosis' correction, a few minutes)")
     rep.add_argument("--seed", type=int, default=0, help="seed of the excitation and encoder noise (default 0)")
     rep.add_argument("--table-duration", type=float, default=20.0,
                      help="length of the runs of Tables I-II and Fig. 5 [s] (default 20, as the paper)")
@@ -188,13 +190,14 @@ def _run_reproduce(args) -> int:
     from furuta_drake.reproduction_report import (BEYOND_STUDIES, PAPER_EXPERIMENTS, ReproductionSettings,
                                                   run_reproduction)
 
-    quick = {"table_duration": 4.0, "adaptation_duration": 12.0, "small_beyond": True} if args.quick else {
+    quick = {"table_duration": 4.0, "adaptation_duration": 12.0, "small_beyond": True,
+             "small_real": True} if args.quick else {
         "table_duration": args.table_duration, "adaptation_duration": args.adaptation_duration}
     settings = ReproductionSettings(only=args.only or list(PAPER_EXPERIMENTS), seed=args.seed, **quick)
     settings.validate()
     only = set(settings.only)
     steps = (4 * bool(only & {"table1", "table2"}) + 2 * ("fig5" in only) + bool(only & {"fig6", "fig7"})
-             + len(BEYOND_STUDIES) * ("beyond" in only))
+             + len(BEYOND_STUDIES) * ("beyond" in only) + 20 * ("real" in only))
     with tqdm(total=steps, desc="reproduce", unit="run", disable=not sys.stderr.isatty()) as bar:
         figures = run_reproduction(settings, args.out, force=args.force,
                                    progress=lambda message: (bar.set_postfix_str(message), bar.update(1)))

@@ -21,17 +21,19 @@ from typing import Literal
 
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.controllers.lqr import LqrParameters
+from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters
 from furuta_drake.controllers.swingup import SwingUpParameters
 from furuta_drake.encoder import EncoderParameters
 from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.observers.dahl import DahlObserverParameters
+from furuta_drake.observers.filtered_derivative import FilteredDerivativeParameters
 from furuta_drake.observers.hg import HighGainParameters
 from furuta_drake.observers.vfe import VfeParameters
 from furuta_drake.rig import RIGS, RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, load_yaml_dataclass
 
-VelocitySource = Literal["true", "derivative", "hg", "vfe", "kinematic_hg"]
+VelocitySource = Literal["true", "derivative", "hg", "vfe", "kinematic_hg", "filtered_derivative"]
 
 
 @dataclass
@@ -39,26 +41,32 @@ class ControllerConfig:
     """Sec. IV-A: LQR state feedback u = -K (x_hat - x_ref), optionally minus the friction estimate (Sec. IV-C).
 
     ``mode = "swingup"`` pumps the pendulum's energy up from hanging and hands over to the same LQR near the top
-    (:mod:`furuta_drake.controllers.swingup`, parameters in ``swingup``); ``mode = "open_loop"`` applies only the
-    excitation torque (hanging identification runs). ``velocity_source`` picks the state estimate the controller
-    uses: the encoder angles with the true velocities (reference diagram (iv)), a discrete derivative of the
-    encoder angles, the HG observer (Eq. 4, diagram (i)), the VFE observer with the Dahl friction observer
-    (Eq. 8-13, diagrams (ii)-(iii)), or (swing-up only) the high-gain observer on the kinematic model.
+    (:mod:`furuta_drake.controllers.swingup`, parameters in ``swingup``); ``mode = "quanser_swingup"`` is Quanser's
+    voltage swing-up and PD balance of the QUBE (:mod:`furuta_drake.controllers.quanser_swingup`, parameters in
+    ``quanser_swingup``; the rig needs a ``motor``: the voltage reaches the arm as kt V / R); ``mode =
+    "open_loop"`` applies only the excitation torque (hanging identification runs). ``velocity_source`` picks the
+    state estimate the controller uses: the encoder angles with the true velocities (reference diagram (iv)), a
+    discrete derivative of the encoder angles, the HG observer (Eq. 4, diagram (i)), the VFE observer with the Dahl
+    friction observer (Eq. 8-13, diagrams (ii)-(iii)), (swing-up only) the high-gain observer on the kinematic
+    model, or the filtered derivative of the encoder angles that Quanser's server computes
+    (:mod:`furuta_drake.observers.filtered_derivative`, parameters in ``observers.filtered_derivative``).
     ``friction_compensation`` subtracts F_hat of the Dahl observer on the velocity source's arm velocity; the
     kinematic model has no friction, so with ``kinematic_hg`` F_hat is the VFE's Dahl observer's (``vfe`` must be
     in ``observers.run``). ``gain`` overrides the LQR design (checked to stabilise the nominal linearization).
     """
 
-    mode: Literal["lqr", "swingup", "open_loop"] = "lqr"
+    mode: Literal["lqr", "swingup", "quanser_swingup", "open_loop"] = "lqr"
     velocity_source: VelocitySource = "true"
     friction_compensation: bool = False
     lqr: LqrParameters = field(default_factory=LqrParameters)
     gain: list[float] | None = None
     swingup: SwingUpParameters = field(default_factory=SwingUpParameters)
+    quanser_swingup: QuanserSwingUpParameters = field(default_factory=QuanserSwingUpParameters)
 
     def validate(self, where: str = "controller") -> None:
         self.lqr.validate(f"{where}.lqr")
         self.swingup.validate(f"{where}.swingup")
+        self.quanser_swingup.validate(f"{where}.quanser_swingup")
         if self.gain is not None:
             if len(self.gain) != 4 or not all(math.isfinite(g) for g in self.gain):
                 raise ConfigError(f"{where}.gain must be 4 finite numbers [theta, phi, theta_dot, phi_dot], "
@@ -69,6 +77,9 @@ class ControllerConfig:
         if self.velocity_source == "kinematic_hg" and self.mode != "swingup":
             raise ConfigError(f"{where}.velocity_source 'kinematic_hg' is the swing-up's observer: set {where}.mode "
                               f"to 'swingup' or choose 'true', 'derivative', 'hg' or 'vfe'")
+        if self.mode == "quanser_swingup" and self.friction_compensation:
+            raise ConfigError(f"{where}.friction_compensation: the quanser_swingup controller compensates no "
+                              f"friction; set it to false")
 
 
 @dataclass
@@ -82,6 +93,7 @@ class ObserverConfig:
     vfe: VfeParameters = field(default_factory=VfeParameters)
     run: list[Literal["hg", "vfe"]] = field(default_factory=list)
     pendulum_friction: DahlObserverParameters | None = None  # a friction observer on the pendulum, feeding VFE
+    filtered_derivative: FilteredDerivativeParameters = field(default_factory=FilteredDerivativeParameters)
     start_at_initial_state: bool = False  # the linear observers start at initial_state (else at x_hat = 0)
 
     def validate(self, where: str = "observers") -> None:
@@ -93,6 +105,7 @@ class ObserverConfig:
                 raise ConfigError(f"{where}.pendulum_friction.adaptation must be null: nothing compensates the "
                                   f"pendulum's friction, so its observer does not adapt")
         self.vfe.validate(f"{where}.vfe")
+        self.filtered_derivative.validate(f"{where}.filtered_derivative")
 
 
 @dataclass
@@ -206,8 +219,11 @@ class SimulationConfig:
                 and "vfe" not in self.observers.run:
             raise ConfigError(f"{prefix}controller.friction_compensation with the kinematic HG takes F_hat from the "
                               f"VFE's Dahl observer: add 'vfe' to {prefix}observers.run")
-        if self.controller.mode == "swingup" and self.excitation.arm_reference_amplitude != 0:
-            raise ConfigError(f"{prefix}controller.mode 'swingup' follows no arm reference: set "
+        if self.controller.mode == "quanser_swingup" and self.rig.motor is None:
+            raise ConfigError(f"{prefix}rig.motor: controller.mode 'quanser_swingup' commands a voltage, which needs "
+                              f"the rig's DC motor (resistance, torque_constant, backemf_constant)")
+        if self.controller.mode in ("swingup", "quanser_swingup") and self.excitation.arm_reference_amplitude != 0:
+            raise ConfigError(f"{prefix}controller.mode '{self.controller.mode}' follows no arm reference: set "
                               f"{prefix}excitation.arm_reference_amplitude to 0")
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise ConfigError(f"{prefix}duration must be a positive number of seconds, got {self.duration!r}")
@@ -216,7 +232,8 @@ class SimulationConfig:
         stated = {"encoder.sample_period": self.encoder.sample_period,
                   "controller.lqr.period": self.controller.lqr.period, "observers.hg.period": self.observers.hg.period,
                   "observers.dahl.period": self.observers.dahl.period,
-                  "observers.vfe.period": self.observers.vfe.period}
+                  "observers.vfe.period": self.observers.vfe.period,
+                  "observers.filtered_derivative.period": self.observers.filtered_derivative.period}
         if self.observers.pendulum_friction is not None:
             stated["observers.pendulum_friction.period"] = self.observers.pendulum_friction.period
         for key, period in stated.items():
@@ -266,6 +283,24 @@ def swingup_config(config_or_rig: SimulationConfig | RigParameters | str, *, dur
     return dataclasses.replace(config, controller=controller, initial_state=[theta0, 0.0, 0.0, 0.0],
                                duration=duration, monitor=dataclasses.replace(config.monitor, theta_bound=None),
                                observers=dataclasses.replace(config.observers, start_at_initial_state=True))
+
+
+def quanser_swingup_config(config_or_rig: SimulationConfig | RigParameters | str, *, initial_state, duration: float,
+                           params: QuanserSwingUpParameters | None = None,
+                           velocity_filter: FilteredDerivativeParameters | None = None) -> SimulationConfig:
+    """``config_or_rig`` (a config, a RigParameters or a shipped rig's name, with a ``motor``) run by Quanser's
+    swing-up and balance controller (``params``, or the config's own) from ``initial_state`` (paper order) for
+    ``duration`` [s], its velocities from the filtered derivative (``velocity_filter``, or the config's own), and
+    no theta bound in the envelope monitor."""
+    config = config_or_rig if isinstance(config_or_rig, SimulationConfig) else SimulationConfig.from_rig(config_or_rig)
+    controller = dataclasses.replace(config.controller, mode="quanser_swingup", velocity_source="filtered_derivative",
+                                     friction_compensation=False,
+                                     quanser_swingup=params or config.controller.quanser_swingup)
+    observers = dataclasses.replace(config.observers, filtered_derivative=velocity_filter
+                                    or config.observers.filtered_derivative)
+    return dataclasses.replace(config, controller=controller, observers=observers,
+                               initial_state=[float(v) for v in initial_state], duration=duration,
+                               monitor=dataclasses.replace(config.monitor, theta_bound=None))
 
 
 def _static_friction(coulomb: float, viscous: float) -> JointFrictionParameters:

@@ -22,16 +22,18 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
-    Adder, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
+    Adder, ConstantVectorSource, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
     ZeroOrderHold,
 )
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import LqrController, lqr_gain
+from furuta_drake.controllers.quanser_swingup import QuanserSwingUpController
 from furuta_drake.controllers.swingup import EnergySwingUpController, kinematic_model
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
 from furuta_drake.observers.dahl import DahlFrictionObserver
+from furuta_drake.observers.filtered_derivative import FilteredDerivative
 from furuta_drake.observers.hg import HighGainObserver, HighGainParameters
 from furuta_drake.observers.vfe import VfeObserver, friction_error_response
 from furuta_drake.rig import linearized_upright
@@ -95,8 +97,9 @@ class Command:
 
 
 def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: FurutaWorld) -> Command:
-    """The seeded excitation torque and ``config``'s controller (the LQR of Sec. IV-A or the swing-up with it),
-    summed into ``world``'s arm torque input."""
+    """The seeded excitation torque and ``config``'s controller (the LQR of Sec. IV-A, the swing-up with it, or
+    Quanser's voltage swing-up whose voltage reaches the arm as the torque kt V / R of the rig's motor), summed into
+    ``world``'s arm torque input."""
     period, controller_config = config.control_period, config.controller
     torques = []
     excitation = torque_excitation_trajectory(config.excitation, config.duration, period, config.seed)
@@ -107,7 +110,14 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
         builder.Connect(source.get_output_port(), hold.get_input_port())
         torques.append(hold.get_output_port())
     controller = gain = None
-    if controller_config.mode != "open_loop":
+    if controller_config.mode == "quanser_swingup":
+        controller = builder.AddNamedSystem("quanser_swingup", QuanserSwingUpController(controller_config.quanser_swingup))
+        motor = config.rig.motor
+        volts_to_torque = builder.AddNamedSystem("motor_torque_per_volt", MatrixGain(
+            np.array([[motor.torque_constant / motor.resistance]])))
+        builder.Connect(controller.GetOutputPort("voltage_V"), volts_to_torque.get_input_port())
+        torques.append(volts_to_torque.get_output_port())
+    elif controller_config.mode != "open_loop":
         gain = controller_gain(world.plant, config)
         limit, compensation = controller_config.lqr.torque_limit, controller_config.friction_compensation
         reference = arm_reference_trajectory(config.excitation, config.duration)
@@ -201,6 +211,11 @@ def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_sta
         builder.Connect(true_state, velocities.get_input_port())
         out.estimates["true"] = _angles_and(builder, "angles_and_true_velocities", measured,
                                             velocities.get_output_port())
+    if source == "filtered_derivative":
+        filtered = builder.AddNamedSystem("filtered_derivative", FilteredDerivative(
+            config.observers.filtered_derivative, period=period))
+        builder.Connect(measured, filtered.GetInputPort("measured_angles_rad"))
+        out.estimates["filtered_derivative"] = filtered.GetOutputPort("state_estimate")
     if source == "kinematic_hg":
         # The swing-up's velocities: the high-gain structure on the gravity-free kinematic model.
         eps = controller.swingup.velocity_eps
@@ -211,11 +226,17 @@ def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_sta
         out.estimates["kinematic_hg"] = kinematic.GetOutputPort("state_estimate")
         linear.append(kinematic)
     if config.observers.start_at_initial_state:
-        for observer in linear:  # the first measurement's state rather than the upright x_hat = 0
-            start = np.zeros(observer.discrete.A().shape[0])
-            start[:4] = config.initial_state
-            observer.discrete.configure_default_state(start)
+        start_at(linear, config.initial_state)
     return out
+
+
+def start_at(observers, state) -> None:
+    """Start the linear ``observers`` (HG, VFE: :class:`~furuta_drake.observers.linear.DiscreteLinearObserver`) at
+    the paper-order ``state`` [rad, rad/s] (their friction-error entries at 0) rather than at x_hat = 0."""
+    for observer in observers:
+        start = np.zeros(observer.discrete.A().shape[0])
+        start[:4] = state
+        observer.discrete.configure_default_state(start)
 
 
 def _angles_and(builder: DiagramBuilder, name: str, measured: OutputPort, velocities: OutputPort) -> OutputPort:
@@ -232,9 +253,29 @@ def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, m
     (Eq. 8, 16), which reads the VFE's arm velocity estimate and, when ``dahl_params.adaptation`` is given, its
     eps_hat_F (Eq. 18, or the Fc and sigma0 law of Sec. VII); with ``pendulum_params`` a second friction
     observer on the pendulum joint feeds F_hat_theta too. ``model`` is (A, B_F) of Eq. 1-2, ``period`` the
-    control period [s]. Returns (vfe, dahl, arm_velocity)."""
+    control period [s]. ``dahl_params`` None: a model without arm friction, F_hat held at 0 (eps_hat_F carries
+    all of it). Returns (vfe, dahl, arm_velocity), the last two None without a Dahl observer."""
     vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(
         model, vfe_params, period=period, pendulum_friction_input=pendulum_params is not None))
+    estimate = vfe.GetOutputPort("state_estimate")
+    builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
+    builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
+    if dahl_params is None:
+        zero = builder.AddNamedSystem("no_friction_model", ConstantVectorSource(np.zeros(1)))
+        builder.Connect(zero.get_output_port(), vfe.GetInputPort("friction_estimate_Nm"))
+        dahl = arm_velocity = None
+    else:
+        dahl, arm_velocity = _add_arm_dahl(builder, vfe, dahl_params, model, measured, period)
+    if pendulum_params is not None:
+        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", period=period,
+                                        joint="pendulum")
+        builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
+                        vfe.GetInputPort("pendulum_friction_estimate_Nm"))
+    return vfe, dahl, arm_velocity
+
+
+def _add_arm_dahl(builder: DiagramBuilder, vfe, dahl_params, model, measured: OutputPort, period: float):
+    """The arm's Dahl observer nested with ``vfe`` (:func:`add_vfe_with_dahl`): (dahl, arm_velocity)."""
     estimate = vfe.GetOutputPort("state_estimate")
     adaptation = dahl_params.adaptation
     error_response = friction_error_response(*model, vfe.gains) if adaptation is not None \
@@ -244,15 +285,8 @@ def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, m
     if adaptation is not None:
         builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
                         dahl.GetInputPort("friction_error_estimate_Nm"))
-    builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
-    builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
-    if pendulum_params is not None:
-        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", period=period,
-                                        joint="pendulum")
-        builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
-                        vfe.GetInputPort("pendulum_friction_estimate_Nm"))
-    return vfe, dahl, arm_velocity
+    return dahl, arm_velocity
 
 
 def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
@@ -277,8 +311,8 @@ def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, m
                 command: Command, observers: Observers) -> dict[str, VectorLogSink]:
     """Loggers at the control ``period`` [s], sampled like the rig's data: ``state`` (the true state, held),
     ``measured_angles``, ``torque`` (the command), ``true_friction`` (held), ``estimate_{source}`` for each
-    observer's estimate and ``signal_{name}`` for the observers' signals and the swing-up's ``swingup_mode`` and
-    ``pendulum_energy_J``."""
+    observer's estimate and ``signal_{name}`` for the observers' signals and the swing-up controllers'
+    ``swingup_mode`` and ``pendulum_energy_J``."""
     loggers = {}
 
     def log(name: str, port: OutputPort) -> None:
@@ -296,7 +330,7 @@ def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, m
         if name != "true":
             log(f"estimate_{name}", port)
     signals = dict(observers.signals)
-    if isinstance(command.controller, EnergySwingUpController):
+    if isinstance(command.controller, (EnergySwingUpController, QuanserSwingUpController)):
         signals.update({name: command.controller.GetOutputPort(name) for name in ("swingup_mode",
                                                                                   "pendulum_energy_J")})
     for name, port in signals.items():
@@ -306,5 +340,5 @@ def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, m
 
 __all__ = [
     "FurutaDiagram", "build_furuta_diagram", "Command", "add_command", "controller_gain", "Observers",
-    "add_observers", "add_vfe_with_dahl", "add_dahl_observer", "add_loggers",
+    "add_observers", "start_at", "add_vfe_with_dahl", "add_dahl_observer", "add_loggers",
 ]

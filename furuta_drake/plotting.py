@@ -153,6 +153,86 @@ def plot_parameter_adaptation(trajectories: dict, true: dict, enable_time: float
     return _save(fig, path)
 
 
+def plot_real_observers(estimates: dict, path: str | Path | None = None):
+    """Velocity estimates of the observers replayed on real runs against the reference velocity: one column per
+    (model, log) of ``estimates`` ({(model, log): {"segment": Segment, "hg": estimate, "vfe": estimate}}), arm
+    velocity above, pendulum velocity below, over the judged samples."""
+    keys = list(estimates)
+    fig, axes = plt.subplots(2, len(keys), figsize=(4.2 * len(keys), 5.5), squeeze=False)
+    for column, key in enumerate(keys):
+        entry = estimates[key]
+        segment = entry["segment"]
+        judged = np.flatnonzero(segment.judged)
+        shown = judged[: min(judged.size, int(round(1.0 / (segment.result.time[1] - segment.result.time[0]))))]
+        t = segment.result.time[shown] + segment.start_time
+        for row, (index, label) in enumerate(((1, STATE_LABELS[3]), (0, STATE_LABELS[2]))):
+            ax = axes[row, column]
+            ax.plot(t, segment.reference[shown, index], "k", lw=1.4, label="zero-phase Butterworth")
+            for name, color in (("hg", "tab:orange"), ("vfe", "tab:blue")):
+                ax.plot(t, entry[name][shown, 2 + index], color=color, lw=0.8, label=name.upper())
+            ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+        axes[0, column].set_title(f"{key[1]}\n{key[0]} model ({segment.equilibrium})", fontsize=8)
+        axes[1, column].set_xlabel("time [s]")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_real_closed_loop(runs: dict, title: str, path: str | Path | None = None):
+    """A real swing-up and its simulations side by side ({source: (tape, voltage [V])}): pendulum and arm
+    angles (encoder) and the voltage over time."""
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    styles = {"real": dict(color="k", lw=1.4)}
+    for source, (result, voltage) in runs.items():
+        style = styles.get(source, dict(lw=0.9))
+        axes[0].plot(result.time, result.measured[:, 0], label=source, **style)
+        axes[1].plot(result.time, result.measured[:, 1], **style)
+        axes[2].plot(result.time, voltage, **{**style, "lw": 0.6})
+    for ax, label in zip(axes, (r"$\theta$ (unwrapped) [rad]", r"$\phi$ [rad]", "voltage [V]")):
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].set_title(title, fontsize=10)
+    axes[0].legend(fontsize=8, ncol=4)
+    axes[2].set_xlabel("time [s]")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_controller_fit(time: np.ndarray, logged: np.ndarray, replayed: dict, title: str,
+                        path: str | Path | None = None):
+    """The logged voltage against the controller's voltage from the logged angles with each velocity source
+    ({label: voltage [V]})."""
+    fig, ax = plt.subplots(figsize=(10, 3.8))
+    ax.plot(time, logged, "k", lw=1.6, label="logged")
+    for label, voltage in replayed.items():
+        ax.plot(time, voltage, lw=0.8, label=label)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("voltage [V]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_limit_cycle_spectra(spectra: dict, path: str | Path | None = None):
+    """Welch spectra of the balancing pendulum angle, one panel per log ({log: {source: (frequency [Hz],
+    power [rad^2/Hz])}})."""
+    fig, axes = plt.subplots(1, len(spectra), figsize=(4.2 * len(spectra), 3.6), squeeze=False, sharey=True)
+    for ax, (log, sources) in zip(axes[0], spectra.items()):
+        for source, (frequency, power) in sources.items():
+            ax.semilogy(frequency, power, **({"color": "k", "lw": 1.6} if source == "real" else {"lw": 0.9}),
+                        label=source)
+        ax.set_title(log, fontsize=8)
+        ax.set_xlabel("frequency [Hz]")
+        ax.grid(alpha=0.3, which="both")
+    axes[0, 0].set_ylabel(r"$\theta$ power [rad$^2$/Hz]")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def _draw_friction(ax, result, calibrated: tuple[float, float] | None):
     t = result.time
     ax.plot(t, result.true_friction[:, 1], color="tab:green", lw=1.0, alpha=0.7, label="true arm friction")

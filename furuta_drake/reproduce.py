@@ -22,7 +22,7 @@ from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.config import ExcitationConfig, SimulationConfig
-from furuta_drake.diagram import add_vfe_with_dahl
+from furuta_drake.diagram import add_vfe_with_dahl, start_at
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
 from furuta_drake.observers.dahl import DahlAdaptation
@@ -129,9 +129,14 @@ def velocity_references(result: SimulationResult, config: SimulationConfig) -> d
             "true": result.state[:, 2:]}
 
 
-def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=None, vfe=None) -> dict:
+def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=None, vfe=None, model=None) -> dict:
     """Run observers offline on a run's logged encoder angles and torque commands (a Drake diagram of
     ``TrajectorySource`` s and the observer systems), returning their state estimates aligned with the run.
+
+    ``hg``: HighGainParameters; ``vfe``: (VfeParameters, DahlObserverParameters or None: no friction model, the
+    VFE's F_hat input held at 0 so that eps_hat_F carries all the friction). ``model``: the observers' (A, B_F)
+    (default: the upright linearisation of ``config.rig``); with ``config.observers.start_at_initial_state`` they
+    start at ``config.initial_state`` (else at x_hat = 0).
 
     Row k of the log (the sample of t_k, see ``simulate._tape``) is fed from t_k + period / 2 on, so that, as in
     the closed loop, the update at t_{k+1} reads the measurement of t_k and the torque applied over
@@ -143,53 +148,76 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     angles = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, result.measured.T)))
     torque = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
         times, result.torque.reshape(1, -1))))
-    A, B_F = linearized_upright(config.rig)
-    loggers = {}
+    A, B_F = model if model is not None else linearized_upright(config.rig)
+    loggers, linear = {}, []
     if hg is not None:
         hg_system = builder.AddSystem(HighGainObserver((A, B_F), hg, period=period))
         builder.Connect(angles.get_output_port(), hg_system.GetInputPort("measured_angles_rad"))
         builder.Connect(torque.get_output_port(), hg_system.GetInputPort("arm_torque_Nm"))
         loggers["hg"] = LogVectorOutput(hg_system.GetOutputPort("state_estimate"), builder, period)
+        linear.append(hg_system)
     if vfe is not None:
         vfe_params, dahl_params = vfe
         vfe_system, _, _ = add_vfe_with_dahl(builder, (A, B_F), vfe_params, dahl_params, angles.get_output_port(),
                                              torque.get_output_port(), config.observers.pendulum_friction,
                                              period=period)
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
+        linear.append(vfe_system)
+    if config.observers.start_at_initial_state:
+        start_at(linear, config.initial_state)
     diagram = builder.Build()
     simulator = Simulator(diagram)
-    simulator.AdvanceTo(result.time[-1] + period)
+    simulator.AdvanceTo(result.time[-1] + 1.5 * period)  # past the last sample's publish, whatever the rounding
     context = simulator.get_context()
     # Logged at t_k + period, the estimate of the state at t_k (see simulate._tape): drop the first sample.
     return {name: logger.FindLog(context).data().T[1:1 + result.time.size] for name, logger in loggers.items()}
 
 
-def observer_sweep(pilot: SimulationResult, config: SimulationConfig) -> list[dict]:
-    """Replay the HG observer for every eps in ``SWEEP_HG_EPS`` and the VFE observer (with its Dahl observer) for
-    every scale of its eigenvalues in ``SWEEP_VFE_SCALES`` on the pilot run's measurements, and give each one's mean
-    squared velocity errors against both references (rows marked ``best`` have the lowest arm error vs the
-    true velocity, per observer)."""
-    keep = _after_transient(pilot)
-    references = velocity_references(pilot, config)
+def sweep_candidates(config: SimulationConfig, dahl) -> list[tuple[str, str, float, dict]]:
+    """The fairness sweep's candidates as (observer, parameter, value, ``replay_observers`` keyword arguments):
+    the HG observer for every eps in ``SWEEP_HG_EPS``, the VFE observer with the Dahl observer ``dahl``
+    (DahlObserverParameters, or None for no friction model) for every scale of its eigenvalues in
+    ``SWEEP_VFE_SCALES``."""
     candidates = [("hg", "eps", eps, {"hg": dataclasses.replace(config.observers.hg, eps_theta=eps, eps_phi=eps)})
                   for eps in SWEEP_HG_EPS]
-    candidates += [("vfe", "eigenvalue_scale", scale, {"vfe": (_scaled_vfe(config, scale), config.observers.dahl)})
+    candidates += [("vfe", "eigenvalue_scale", scale, {"vfe": (_scaled_vfe(config, scale), dahl)})
                    for scale in SWEEP_VFE_SCALES]
-    rows = []
-    for observer, parameter, value, kwargs in candidates:
-        estimate = replay_observers(pilot, config, **kwargs)[observer][keep, 2:]
-        row = {"observer": observer, "parameter": parameter, "value": value}
-        for reference_name, reference in references.items():
-            for index, signal in ((1, "phi_dot"), (0, "theta_dot")):
-                error = estimate[:, index] - reference[keep, index]
-                row[f"{signal}_mse_{reference_name}"] = squared_error_statistics(error)["mean"]
-        rows.append(row)
-    for observer in ("hg", "vfe"):
+    return candidates
+
+
+def velocity_errors(estimate: np.ndarray, references: dict[str, np.ndarray]) -> dict[str, float]:
+    """Mean squared error [(rad/s)^2] of an observer's velocity ``estimate`` (n, 2: [theta_dot, phi_dot]) against
+    each reference (n, 2), keyed ``{signal}_mse_{reference}``."""
+    row = {}
+    for reference_name, reference in references.items():
+        for index, signal in ((1, "phi_dot"), (0, "theta_dot")):
+            row[f"{signal}_mse_{reference_name}"] = squared_error_statistics(estimate[:, index]
+                                                                             - reference[:, index])["mean"]
+    return row
+
+
+def mark_best(rows: list[dict], key: str) -> list[dict]:
+    """Mark, per observer, the row with the lowest ``key`` (``best``: True) and the others False."""
+    for observer in dict.fromkeys(row["observer"] for row in rows):
         mine = [row for row in rows if row["observer"] == observer]
-        best = min(mine, key=lambda row: row["phi_dot_mse_true"])
+        best = min(mine, key=lambda row: row[key])
         for row in mine:
             row["best"] = row is best
     return rows
+
+
+def observer_sweep(pilot: SimulationResult, config: SimulationConfig) -> list[dict]:
+    """Replay every candidate of :func:`sweep_candidates` on the pilot run's measurements and give each one's mean
+    squared velocity errors against both references (rows marked ``best`` have the lowest arm error vs the
+    true velocity, per observer)."""
+    keep = _after_transient(pilot)
+    references = {name: reference[keep] for name, reference in velocity_references(pilot, config).items()}
+    rows = []
+    for observer, parameter, value, kwargs in sweep_candidates(config, config.observers.dahl):
+        estimate = replay_observers(pilot, config, **kwargs)[observer][keep, 2:]
+        rows.append({"observer": observer, "parameter": parameter, "value": value,
+                     **velocity_errors(estimate, references)})
+    return mark_best(rows, "phi_dot_mse_true")
 
 
 def tuned_config(config: SimulationConfig, sweep: list[dict]) -> SimulationConfig:

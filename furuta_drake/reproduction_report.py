@@ -24,8 +24,8 @@ from furuta_drake.plotting import (plot_control_signals, plot_fig5, plot_frictio
 from furuta_drake.results import config_yaml_with_provenance, write_json, write_log_csv, write_table_csv
 from furuta_drake.yamlio import dump_yaml_dataclass
 
-EXPERIMENTS = ("table1", "table2", "fig5", "fig6", "fig7", "beyond")
-PAPER_EXPERIMENTS = EXPERIMENTS[:-1]
+EXPERIMENTS = ("table1", "table2", "fig5", "fig6", "fig7", "beyond", "real")
+PAPER_EXPERIMENTS = EXPERIMENTS[:5]
 BEYOND_STUDIES = ("pendulum_observer_study", "parameter_adaptation_study", "lugre_observer_study", "stability_study",
                   "swingup_study")
 
@@ -39,6 +39,7 @@ class ReproductionSettings:
     table_duration: float = 20.0  # [s] Sec. IV's two 20 s tests; also each run of Fig. 5
     adaptation_duration: float = 40.0  # [s] Figs. 6-7, adaptation enabled at 7.8 s
     small_beyond: bool = False  # the beyond-the-paper studies in their short form
+    small_real: bool = False  # the real-rig studies in their short form
 
     def validate(self) -> None:
         unknown = sorted(set(self.only) - set(EXPERIMENTS))
@@ -108,9 +109,20 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
                     write_log_csv(result, logs / f"beyond_{name}.csv")
             write_table_csv([{"study": study.title, **row} for study in studies for row in study.rows],
                             staging / "beyond.csv")
+        if "real" in only:
+            from furuta_drake import real_rig_report
+
+            outcome = real_rig_report.run_real_rig(staging, small=settings.small_real, progress=progress)
+            figures["real"] = real_rig_report.write_real_rig(staging, outcome)
+            if only == {"real"}:
+                (staging / "config.yaml").write_text(config_yaml_with_provenance(
+                    real_rig_report.nominal_run_config(outcome)))
         (staging / "reproduction.yaml").write_text(_settings_yaml(settings, tuned))
         figures["wall_time_s"] = time.perf_counter() - started
-        (staging / "report.md").write_text(reproduction_markdown(figures, settings))
+        text = reproduction_markdown(figures, settings) if only - {"real"} else ""
+        if "real" in only:
+            text += ("\n" if text else "") + real_rig_report.real_rig_markdown(outcome)
+        (staging / "report.md").write_text(text)
         if "beyond" in only:
             (staging / "beyond.md").write_text(studies_markdown(figures["beyond"], settings))
     return figures

@@ -47,3 +47,24 @@ def test_steady_phases_keep_the_settled_half_of_long_same_sign_phases():
     assert masks[1].sum() == 50 and masks[1][50:100].all()
     assert masks[-1].sum() == 50 and masks[-1][160:210].all()
     assert not masks[1][210:].any()  # the last phase is too short
+
+
+def test_butterworth_reference_at_the_real_rigs_rate_passes_a_balancing_oscillation_with_zero_phase():
+    """The real QUBE's setting (studies.real_data): 2048-count angles at 250 Hz, the 25 Hz reference. An 8 Hz
+    oscillation (the balancing loop's) is below the cut-off: gain sin(w T) / (w T) (the central difference) times
+    1/(1 + (8/25)^4) (the double pass), and no lag."""
+    from furuta_drake.studies.real_data import REFERENCE_CUTOFF_HZ
+
+    T, count = 0.004, 2 * np.pi / 2048
+    t = np.arange(0, 10, T)
+    omega = 2 * np.pi * 8.0
+    quantised = np.round(0.05 * np.sin(omega * t) / count) * count
+    reference = butterworth_velocity_reference(quantised[:, None], T, REFERENCE_CUTOFF_HZ)[:, 0]
+    true_velocity = 0.05 * omega * np.cos(omega * t)
+    inner = slice(250, -250)
+    gain = np.dot(reference[inner], true_velocity[inner]) / np.dot(true_velocity[inner], true_velocity[inner])
+    assert gain == pytest.approx(np.sin(omega * T) / (omega * T) / (1 + (8 / REFERENCE_CUTOFF_HZ) ** 4), abs=2e-3)
+    lag = np.argmax(np.correlate(reference[inner], true_velocity[inner], "full")) - (t[inner].size - 1)
+    assert lag == 0
+    residual = reference[inner] - gain * true_velocity[inner]
+    assert np.sqrt(np.mean(residual**2)) < 0.02 * np.sqrt(np.mean(true_velocity[inner] ** 2))
