@@ -13,7 +13,8 @@ from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, apply_effects
 from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quantization_estimate
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.replay import model_rig, replay_gap
+from furuta_drake.diagnosis.corrected import model_rig
+from furuta_drake.diagnosis.replay import replay_gap
 from furuta_drake.diagnosis.select import MARGIN, Bootstrap, at_floor, choose, confusable
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model, _accelerations
@@ -231,11 +232,11 @@ def _scales(model):
 
 
 def test_fitted_model_is_a_simulate_config_that_runs():
-    from furuta_drake.diagnosis.pipeline import nominal_config
+    from furuta_drake.diagnosis.corrected import model_config
     rig = RIGS["lund"]()
     model = apply_effects(Model.from_rig(rig), {"arm_coulomb_friction": Effect("presliding", (0.01, 2e-3)),
                                                 "input_delay": Effect("", (0.003,))})
-    config = nominal_config(rig, model)
+    config = model_config(rig, model)
     config.validate()
     config = dataclasses.replace(config, duration=0.5)
     result = simulate(config)
@@ -327,7 +328,7 @@ def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_i
     and the Drake world's (MultibodyPlant with the spring) agree at random states."""
     from pydrake.systems.framework import DiagramBuilder
 
-    from furuta_drake.diagnosis.replay import model_disturbance, model_rig
+    from furuta_drake.diagnosis.corrected import model_disturbance, model_rig
     from furuta_drake.world import add_furuta_world
     rig = RIGS["qube_servo2"]().replace(motor=None)
     model = apply_effects(Model.from_rig(rig), {"arm_spring": Effect("cubic", (0.004, 0.02, 0.1))})
@@ -350,7 +351,7 @@ def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_i
 
 
 def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
-    from furuta_drake.diagnosis.pipeline import _vocabulary_name
+    from furuta_drake.diagnosis.stepwise import _vocabulary_name
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.0105, 0.1, 1e-3))) == "arm_coulomb_friction"
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.02, 0.1, 1e-3))) == "arm_stribeck"
 
@@ -361,7 +362,7 @@ def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
 def test_the_automatic_holdout_partitions_every_log_and_spreads_over_it(duration, period):
     """Without --heldout no sample is lost or used twice, about 30 % is held out, and on a log of three or more
     1 s blocks the held-out part is not just its tail (a swing-up log's tail is only balancing)."""
-    from furuta_drake.diagnosis.pipeline import MIN_BLOCK_S, split_heldout
+    from furuta_drake.diagnosis.split import MIN_BLOCK_S, split_heldout
     n = int(duration / period)
     time = np.arange(n) * period
     log = RunLog(name="run.csv", path="", time=time, theta=0 * time, phi=0 * time, input_kind="torque",

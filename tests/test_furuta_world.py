@@ -11,7 +11,7 @@ from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.config import ExcitationConfig
-from furuta_drake.diagnosis.pipeline import nominal_config
+from furuta_drake.diagnosis.corrected import model_config
 from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR, WindowReplayer
 from furuta_drake.diagnosis.surrogate import REGULARIZATION_VELOCITY, Model
 from furuta_drake.diagram import build_furuta_diagram
@@ -37,7 +37,7 @@ def model_with_every_effect() -> Model:
 
 def simulate_world_config(model: Model):
     """The simulate config the diagnosis writes for ``model``, open loop under an excitation torque."""
-    config = nominal_config(RIG, model)
+    config = model_config(RIG, model)
     return dataclasses.replace(config, duration=0.5, excitation=ExcitationConfig(torque_rms=0.3 * MGL),
                                controller=dataclasses.replace(config.controller, mode="open_loop"))
 

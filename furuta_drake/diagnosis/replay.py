@@ -11,15 +11,13 @@ that a looser accuracy leaves would show); the residuals give the same gap as
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
+from furuta_drake.diagnosis.corrected import model_actuator, model_disturbance, model_rig
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
@@ -27,37 +25,7 @@ from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.world import add_furuta_world
 
-
-def model_rig(model: Model, rig: RigParameters) -> RigParameters:
-    """A rigid body with the model's lumped constants a = J_arm + m r^2, b = J_p + m l^2, c = m l r, d = m g l
-    (gravity kept): m l = d / g, r = c g / d, the pendulum mass kept where the inertias allow it."""
-    ml = model.d / rig.gravity
-    r = model.c / ml
-    mass = float(np.clip(rig.pendulum_mass, 1.0001 * ml**2 / model.b, 0.9999 * model.a / r**2))
-    com = ml / mass
-    return dataclasses.replace(
-        rig, arm_length=r, pendulum_mass=mass, pendulum_com=com, pendulum_inertia=model.b - mass * com**2,
-        arm_inertia=model.a - mass * r**2, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
-        pendulum_viscous=0.0, motor=None)
-
-
-def model_disturbance(model: Model) -> DisturbanceParameters:
-    """The model's arm spring as the world's disturbance parameters."""
-    return DisturbanceParameters(arm_spring_stiffness=model.spring_stiffness,
-                                 arm_spring_equilibrium=model.spring_equilibrium,
-                                 arm_spring_cubic_stiffness=model.spring_cubic)
-
-
-def model_actuator(model: Model) -> ActuatorParameters:
-    """The actuator blocks of the model other than the delay (a time shift of the replayed command)."""
-    return ActuatorParameters(gain=model.gain, deadzone=model.deadzone, deadzone_form=model.deadzone_form,
-                              saturation_form=model.saturation_form,
-                              saturation=None if not np.isfinite(model.saturation) else model.saturation,
-                              delay=0.0, lag_time_constant=model.lag)
-
-
 REPLAY_INTEGRATOR = SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3)
-
 
 class WindowReplayer:
     """One Drake diagram for a model and a log; :meth:`replay` integrates one window from a state."""
@@ -115,7 +83,6 @@ class WindowReplayer:
         state[-1] = value
         return state
 
-
 def _replay_log(task) -> np.ndarray:
     """(horizon, 2, W) residuals [counts] of one log's windows replayed in Drake (one diagram per task)."""
     model, rig, log, horizon, starts, x0, measured = task
@@ -128,7 +95,6 @@ def _replay_log(task) -> np.ndarray:
                                     float(x0[4, w]) if x0.shape[0] > 4 else None)
         r[:, :, w] = (measured[:, :, w] - predicted) / count
     return r
-
 
 def replay_gaps(models: list[tuple[Model, list[np.ndarray]]], rig: RigParameters, windows: Windows,
                 workers: int | None = None, scheduler: str | None = None) -> list[GapResult | None]:
@@ -147,7 +113,6 @@ def replay_gaps(models: list[tuple[Model, list[np.ndarray]]], rig: RigParameters
         failed = any(isinstance(r, Failure) or not np.all(np.isfinite(r)) for r in parts)
         out.append(None if failed else gap_from_residuals(parts, sensor_variance(model, rig.counts_per_rev), x0))
     return out
-
 
 def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray],
                workers: int | None = 1) -> GapResult | None:

@@ -34,7 +34,9 @@ from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
 from furuta_drake.diagnosis.candidates import rig_model
 from furuta_drake.diagnosis.log_writers import write_log
 from furuta_drake.diagnosis.logs import RunLog, load_logs, load_rig
-from furuta_drake.diagnosis.pipeline import diagnose, nominal_config, split_heldout
+from furuta_drake.diagnosis.corrected import model_config
+from furuta_drake.diagnosis.pipeline import diagnose
+from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
 from furuta_drake.linearization import equilibrium_angle
 from furuta_drake.metrics import butterworth_velocity_reference
@@ -124,7 +126,7 @@ def hanging_samples(log: RunLog) -> slice:
 
 def chirp_blocks(log: RunLog) -> tuple[np.ndarray, np.ndarray]:
     """(train, held-out) sample masks of ``log``: its hanging segment cut into blocks by
-    :func:`~furuta_drake.diagnosis.pipeline.split_heldout`; the rest of the log (large swings) is in neither."""
+    :func:`~furuta_drake.diagnosis.split.split_heldout`; the rest of the log (large swings) is in neither."""
     segment = hanging_samples(log)
     part = dataclasses.replace(log, time=log.time[segment], theta=log.theta[segment], phi=log.phi[segment],
                                input=log.input[segment])
@@ -163,7 +165,7 @@ def reference_properties(rig: RigParameters, period: float, motion_hz: float,
 
 def nominal_model_config(runs: RealRuns) -> SimulationConfig:
     """The rig file's nominal model as a simulate config (the diagnosis' own conversion, open loop)."""
-    return nominal_config(runs.rig, rig_model(runs.rig))
+    return model_config(runs.rig, rig_model(runs.rig))
 
 
 def write_segment(path: Path, log: RunLog, samples: slice, rig: RigParameters) -> Path:

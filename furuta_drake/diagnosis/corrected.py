@@ -1,0 +1,67 @@
+"""A diagnosis model as the world's parameters: its rigid body, actuator and spring for the Drake world
+(:func:`~furuta_drake.world.add_furuta_world`), the whole model as a simulate config, and a rig file with the
+accepted effects (what ``fitted_model.yaml`` and ``fitted_rig.yaml`` hold)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
+from furuta_drake.config import SimulationConfig
+from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, describe
+from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.friction import FrictionParameters
+from furuta_drake.rig import RigParameters
+
+
+def model_rig(model: Model, rig: RigParameters) -> RigParameters:
+    """A rigid body with the model's lumped constants a = J_arm + m r^2, b = J_p + m l^2, c = m l r, d = m g l
+    (gravity kept): m l = d / g, r = c g / d, the pendulum mass kept where the inertias allow it."""
+    ml = model.d / rig.gravity
+    r = model.c / ml
+    mass = float(np.clip(rig.pendulum_mass, 1.0001 * ml**2 / model.b, 0.9999 * model.a / r**2))
+    com = ml / mass
+    return dataclasses.replace(
+        rig, arm_length=r, pendulum_mass=mass, pendulum_com=com, pendulum_inertia=model.b - mass * com**2,
+        arm_inertia=model.a - mass * r**2, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
+        pendulum_viscous=0.0, motor=None)
+
+
+def model_disturbance(model: Model) -> DisturbanceParameters:
+    """The model's arm spring as the world's disturbance parameters."""
+    return DisturbanceParameters(arm_spring_stiffness=model.spring_stiffness,
+                                 arm_spring_equilibrium=model.spring_equilibrium,
+                                 arm_spring_cubic_stiffness=model.spring_cubic)
+
+
+def model_actuator(model: Model) -> ActuatorParameters:
+    """The actuator blocks of the model other than the delay (a time shift of the replayed command)."""
+    return ActuatorParameters(gain=model.gain, deadzone=model.deadzone, deadzone_form=model.deadzone_form,
+                              saturation_form=model.saturation_form,
+                              saturation=None if not np.isfinite(model.saturation) else model.saturation,
+                              delay=0.0, lag_time_constant=model.lag)
+
+
+def model_config(rig: RigParameters, model: Model) -> SimulationConfig:
+    """The Drake model of ``model`` (a diagnosis model of ``rig``) as a simulate config, open loop: users add
+    their controller."""
+    config = SimulationConfig.from_rig(model_rig(model, rig).replace(motor=rig.motor, effects=None))
+    return dataclasses.replace(
+        config,
+        friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
+        actuator=dataclasses.replace(model_actuator(model), delay=model.delay),
+        disturbance=model_disturbance(model),
+        encoder=dataclasses.replace(config.encoder, counts_per_rev=model.counts_per_rev,
+                                    noise_std=model.noise_std))
+
+
+def fitted_rig(rig: RigParameters, effects: dict[str, Effect], nominal: Model) -> RigParameters:
+    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section."""
+    stated = dict(rig.effects or {})
+    for name, effect in effects.items():
+        params = describe(name, effect, nominal)
+        stated[name] = {key: value for key, value in params.items()
+                        if key == "form" or key in CANDIDATES[name].form(effect.form).params}
+    return rig.replace(effects=stated or None)

@@ -1,0 +1,54 @@
+"""Is the verdict stable across data? ``--folds K`` repeats the selection on K splits of all the logs
+(:func:`~furuta_drake.diagnosis.split.fold_split`) and judges how often the verdict and each effect came back and
+how far the accepted effects' parameters spread."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from furuta_drake.diagnosis.candidates import CANDIDATES, describe
+from furuta_drake.diagnosis.gap import make_windows
+from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.result import Consistency
+from furuta_drake.diagnosis.settings import DiagnosisSettings
+from furuta_drake.diagnosis.split import fold_split
+from furuta_drake.diagnosis.stepwise import select_effects
+from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.rig import RigParameters
+
+
+def consistency(logs: list[RunLog], rig: RigParameters, nominal: Model, names: list[str],
+                settings: DiagnosisSettings, run: Callable, folds: int) -> Consistency:
+    """The selection repeated on ``folds`` splits of all the logs (:func:`fold_split`): each fold's verdict and
+    effects, the range of each accepted effect's parameters over the folds that accepted it, and a judgement."""
+    verdicts, effects, values = [], [], {}
+    for fold in range(folds):
+        train, heldout = fold_split(logs, folds, fold, rig)
+        selection = select_effects(nominal, train, make_windows(train, rig), make_windows(heldout, rig),
+                                   rig.counts_per_rev, names, settings, run)
+        verdicts.append(selection.verdict)
+        effects.append(selection.effects)
+        if selection.effects:
+            for name, effect in selection.final.effects.items():
+                for key, value in describe(name, effect, nominal).items():
+                    if key != "form":
+                        values.setdefault(f"{name}.{key}", []).append(value)
+    ranges = {key: [float(min(v)), float(max(v))] for key, v in values.items()}
+    return Consistency(folds, verdicts, effects, ranges, judgement(verdicts, effects, ranges, nominal))
+
+
+def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, list[float]], nominal: Model
+              ) -> str:
+    """One line: how often the verdict and each effect came back, and the spread of the main parameters."""
+    folds = len(verdicts)
+    counts = {verdict: verdicts.count(verdict) for verdict in dict.fromkeys(verdicts)}
+    if len(counts) == 1:
+        text = f"same verdict ({verdicts[0]}) on {folds}/{folds} folds"
+    else:
+        text = "verdict " + ", ".join(f"{verdict} on {n}/{folds}" for verdict, n in counts.items()) + " folds"
+    named = {name: sum(name in found for found in effects) for found in effects for name in found}
+    if named and any(n < folds for n in named.values()):
+        text += "; effects " + ", ".join(f"{name} {n}/{folds}" for name, n in named.items())
+    mains = [f"{name} {CANDIDATES[name].main} {low:.4g}-{high:.4g}" for key, (low, high) in ranges.items()
+             for name in [key.split(".")[0]] if key.split(".")[1] == CANDIDATES[name].main]
+    return text + ("; " + ", ".join(mains) if mains else "")

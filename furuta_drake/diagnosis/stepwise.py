@@ -1,0 +1,226 @@
+"""The selection of effects (stage 4 of the diagnosis): forward, one effect at a time, each fitted together with
+the earlier ones and entering on the held-out rule's lenient bound; then backward, each kept only while the model
+without it is worse by the rule's margin (:mod:`furuta_drake.diagnosis.select` holds the rule)."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Callable
+
+from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, law_of
+from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
+from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
+from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.parallel import Failure
+from furuta_drake.diagnosis.select import (
+    CLOSES, ENTRY, MARGIN, Bootstrap, Evidence, at_floor, choose, confusable,
+)
+from furuta_drake.diagnosis.settings import DiagnosisSettings
+from furuta_drake.diagnosis.surrogate import Model
+
+JOINT_REFITS = 3  # at a later step, the candidates fitted again together with the earlier effects
+STATIC_EXCESS = 0.1  # a Stribeck fit whose static level is within 10 % of its Coulomb level has no Stribeck part
+
+
+@dataclass
+class Selection:
+    """The outcome of the selection on one split of the logs: the effects kept, in the order they entered, and
+    every model fitted on the way."""
+
+    nominal: GapResult  # the nominal model on the held-out windows
+    tried: list[tuple[int, FitResult]]  # every model fitted, with its step (its number of effects)
+    kept: list[str] = field(default_factory=list)  # the accepted effects, in the order they entered
+    over_nominal: dict[str, Evidence] = field(default_factory=dict)  # model name -> evidence over nominal
+    over_previous: dict[str, Evidence] = field(default_factory=dict)  # ... over the model it was built on
+    over_others: dict[str, Evidence] = field(default_factory=dict)  # kept effect -> final over final without it
+    over_step: list[Evidence] = field(default_factory=list)  # each accepted step over the step before
+    confusable: list[dict] = field(default_factory=list)
+    quiet: bool = False  # the nominal model explains the held-out data to within their noise
+
+    def model(self, effects) -> FitResult | None:
+        """The fitted model holding exactly ``effects`` (in any order), or None."""
+        return next((r for _, r in self.tried if not r.failure and set(r.effects) == set(effects)), None)
+
+    @property
+    def accepted(self) -> list[FitResult]:
+        """The model after each accepted step: holding the first 1, 2, ... kept effects."""
+        return [self.model(self.kept[:k]) for k in range(1, len(self.kept) + 1)]
+
+    @property
+    def final(self) -> FitResult | None:
+        return self.model(self.kept) if self.kept else None
+
+    @property
+    def closes(self) -> bool:
+        return bool(self.kept) and self.over_nominal[self.final.name].reduction >= CLOSES
+
+    @property
+    def verdict(self) -> str:
+        if not self.closes:
+            return "none" if self.quiet else "unexplained"
+        return self.effects[0]
+
+    @property
+    def effects(self) -> list[str]:
+        """The accepted effects in the order accepted (empty for none and unexplained); a Stribeck fit without
+        static excess is named Coulomb friction (the vocabulary's Stribeck is static friction *above* it)."""
+        if not self.closes:
+            return []
+        return [_vocabulary_name(name, self.final.effects[name]) for name in self.kept]
+
+
+def _vocabulary_name(name: str, effect: Effect) -> str:
+    if name == "arm_stribeck" and effect.values[1] <= (1.0 + STATIC_EXCESS) * effect.values[0]:
+        return "arm_coulomb_friction"
+    return name
+
+
+def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: int, names: list[str],
+                   settings: DiagnosisSettings, run: Callable) -> Selection:
+    """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.select`):
+    forward, one at a time, each fitted together with the earlier ones and entering when it reduces the gap of
+    the model holding them; then backward, each kept only while the model without it is worse by the rule."""
+    bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
+    nominal_gap = evaluate_gap(nominal, heldout, counts)
+    selection = Selection(nominal_gap, [], quiet=bootstrap.within_noise(nominal_gap.per_window))
+
+    def record(result, previous):
+        selection.over_nominal[result.name] = bootstrap.evidence(nominal_gap.per_window, result.heldout.per_window)
+        selection.over_previous[result.name] = bootstrap.evidence(previous, result.heldout.per_window)
+
+    def fit(tasks, step, previous):
+        results = [_as_fit(task, result) for task, result in zip(tasks, run(fit_task, tasks))]
+        for result in results:
+            selection.tried.append((step, result))
+            if not result.failure:
+                record(result, previous)
+        return results
+
+    def task(new, held, **options):
+        return FitTask(new=new, fixed=held.effects if held else {}, model=nominal, train=train, heldout=heldout,
+                       logs=tuple(logs), nominal_counts=counts, settings=settings,
+                       fixed_samples=held.samples if held else {}, **options)
+
+    for step in range(1, settings.max_effects + 1):
+        held = selection.final
+        previous = held.heldout.per_window if held else nominal_gap.per_window
+        if step > 1 and at_floor(previous):
+            break
+        pool = [name for name in names if not law_of(name) & set(selection.kept)]
+        fitted = {r.name: r for r in fit([task(name, held, frozen=step > 1) for name in pool], step, previous)
+                  if not r.failure}
+        if at_floor(nominal_gap.per_window):
+            break
+        if step > 1:  # the most promising, fitted again together with the earlier effects
+            best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
+            for joint in fit([task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]])
+                              for name in best], step, previous):
+                screened = fitted[joint.name]
+                kept = joint if not joint.failure and joint.train_gap <= screened.train_gap else screened
+                selection.tried = [(s, r) for s, r in selection.tried if r is not (screened if kept is joint
+                                                                                       else joint)]
+                fitted[joint.name] = kept
+                record(kept, previous)
+        evidence = {name: selection.over_previous[name] for name in fitted}
+        added = {name: name.split("+")[-1] for name in fitted}
+        per_window = {name: result.heldout.per_window for name, result in fitted.items()}
+        chosen = choose(evidence, added, ENTRY, previous, per_window, bootstrap)
+        if chosen is None:
+            break
+        refitted = _refit_forms(fitted[chosen], task(added[chosen], held), run)
+        if refitted is not fitted[chosen]:
+            selection.tried = [(s, refitted if r is fitted[chosen] else r) for s, r in selection.tried]
+            fitted[chosen] = refitted
+            selection.over_nominal[chosen] = bootstrap.evidence(nominal_gap.per_window, refitted.heldout.per_window)
+            evidence[chosen] = selection.over_previous[chosen] = bootstrap.evidence(previous,
+                                                                                     refitted.heldout.per_window)
+        per_window[chosen] = fitted[chosen].heldout.per_window
+        selection.confusable += confusable(chosen, evidence, added, previous, per_window, bootstrap)
+        selection.kept.append(added[chosen])
+    _backward(selection, bootstrap, nominal_gap, task, fit)
+    return selection
+
+
+def _backward(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task: Callable, fit: Callable
+              ) -> None:
+    """Drop, one at a time, the kept effect whose removal costs the least while that cost's lower bound is not
+    above ``MARGIN``: every effect finally kept reduces the held-out gap of the model holding all the others by
+    the rule's margin (an effect that entered beside a stronger one it masked must earn its place)."""
+    while selection.kept:
+        final = selection.final
+        without = {}
+        for name in selection.kept:
+            others = [other for other in selection.kept if other != name]
+            model = selection.model(others) if others else None
+            if others and model is None:
+                held = selection.model(others[:-1]) if len(others) > 1 else None
+                model = next((r for r in fit([task(others[-1], held)], len(others),
+                                                   held.heldout.per_window if held else nominal_gap.per_window)
+                              if not r.failure), None)
+            # (a model without it that failed to fit leaves the effect judged against the nominal model)
+            reference = model.heldout.per_window if model else nominal_gap.per_window
+            without[name] = bootstrap.evidence(reference, final.heldout.per_window)
+        weakest = min(selection.kept, key=lambda name: without[name].lower_bound)
+        if without[weakest].lower_bound > MARGIN:
+            break
+        selection.kept.remove(weakest)
+    selection.over_others = {name: without[name] for name in selection.kept}
+    models = [nominal_gap] + [model.heldout for model in selection.accepted]
+    selection.over_step = [bootstrap.evidence(before.per_window, after.per_window)
+                           for before, after in zip(models[:-1], models[1:])]
+    selection.confusable = [pair for pair in selection.confusable if pair["effects"][0] in selection.kept]
+
+
+def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
+    """``result`` (an accepted model with earlier effects) fitted again with every other form of its earlier
+    effects that have several (their form was chosen before the new effect was there to share the residual);
+    the form with the lowest train gap is kept."""
+    tasks, scales = [], scales_of(task.logs, task.model)
+    for name, effect in task.fixed.items():
+        for form in CANDIDATES[name].forms:
+            if form.name != effect.form:
+                tasks.append(dataclasses.replace(task, fixed={**task.fixed, name: _in_form(name, effect, form,
+                                                                                             scales)}))
+    if not tasks:
+        return result
+    fits = [fit for fit in (_as_fit(t, r) for t, r in zip(tasks, run(fit_task, tasks))) if not fit.failure]
+    return min([result] + fits, key=lambda fit: fit.train_gap)
+
+
+def _in_form(name: str, effect: Effect, form, scales) -> Effect:
+    """``effect`` in another ``form`` of its candidate: the parameters both forms have keep their values, the
+    others take the form's first start."""
+    old = dict(zip(CANDIDATES[name].form(effect.form).params, effect.values))
+    return Effect(form.name, tuple(old.get(param, start) for param, start in zip(form.params,
+                                                                              form.starts(scales)[0])))
+
+
+def _as_fit(task: FitTask, result) -> FitResult:
+    """A task's result, a failed one as a FitResult with its reason."""
+    if isinstance(result, Failure):
+        return FitResult(task.name, {}, float("nan"), None, failure=result.reason)
+    return result
+
+
+def choice_text(selection: Selection) -> str:
+    """Why the verdict, in one paragraph."""
+    if not selection.kept:
+        if selection.quiet:
+            return "The nominal model explains the held-out data to within their noise: no effect is needed."
+        return ("No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's "
+                "margin.")
+    total = selection.over_nominal[selection.final.name]
+    text = (f"The model holding {', '.join(selection.kept)} reduces the nominal held-out gap by {total.reduction:.1%} "
+            f"(5 % lower bound {total.lower_bound:.1%}). ")
+    if len(selection.kept) > 1:
+        text += "Without each of them the held-out gap of the others' model grows: " + "; ".join(
+            f"{name} brings {selection.over_others[name].reduction:.1%} (lower bound "
+            f"{selection.over_others[name].lower_bound:.1%})" for name in selection.kept) + "."
+    if not selection.closes:
+        text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
+    for pair in selection.confusable:
+        text += (f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "
+                 f"({pair['why']}); {pair['effects'][0]} was accepted for its larger point reduction or fewer "
+                 f"parameters.")
+    return text
