@@ -68,8 +68,9 @@ def _parser() -> argparse.ArgumentParser:
     des.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
     des.add_argument("--out", type=Path, required=True, help="output directory")
     des.add_argument("--force", action="store_true", help="replace a non-empty output directory")
-    des.add_argument("--duration", type=float, default=8.0,
-                     help="length of the experiment [s] (default 8); its first half trains, its second is held out")
+    des.add_argument("--duration", type=float,
+                     help="length of the experiment [s]; its first half trains, its second is held out (default: the "
+                          "shortest repeat of an 8 s experiment predicted to settle every pair, up to 64 s)")
     mode = des.add_mutually_exclusive_group()
     mode.add_argument("--hanging", dest="balancing", action="store_false",
                       help="an open-loop command played from rest with the pendulum hanging (default)")

@@ -7,9 +7,10 @@ therefore written as the arm motion it aims at, played through the accepted mode
     u(t)     = a phi_d''(t) + (b_emf + b_v) phi_d'(t)                                    [N m]
 
 with a = J_arm + m r^2 and b_emf + b_v the back-EMF and viscous damping of the model. The frequencies f_k are
-the harmonics of 1 / P, P = duration / ``REPEATS`` (the motion repeats, so the train and held-out halves of the
-log see the same excitation), between 1 / P and ``MAX_FREQUENCY`` (at most ``NYQUIST_FRACTION`` of the Nyquist
-frequency), grouped into ``BANDS`` log-spaced bands. A band's components share its amplitude: ``amplitudes[b]``
+the harmonics of 1 / P, P = min(``PERIOD_S``, duration / 2) (the motion repeats, so the train and held-out halves
+of the log see the same excitation, and a longer experiment is the same motion repeated more often), between
+1 / P and ``MAX_FREQUENCY`` (at most ``NYQUIST_FRACTION`` of the Nyquist frequency), grouped into ``BANDS``
+log-spaced bands. A band's components share its amplitude: ``amplitudes[b]``
 is the band's peak arm angle if its sines were in phase, spread as A_k = amplitudes[b] / n_b. Phases are
 Schroeder's (low crest factor, no random draw). The envelope e rises and falls as a raised cosine over
 ``RAMP_S``, so the arm starts and ends at rest (phi_d, phi_d' = 0). The pendulum's reaction on the arm and
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-REPEATS = 2
+PERIOD_S = 4.0  # [s]
 BANDS = 5
 MAX_FREQUENCY = 25.0  # [Hz]
 NYQUIST_FRACTION = 0.2
@@ -51,7 +52,11 @@ class Family:
     @property
     def fundamental(self) -> float:
         """1 / P [Hz]."""
-        return REPEATS / self.duration
+        return 1.0 / min(PERIOD_S, self.duration / 2.0)
+
+    def base(self) -> "Family":
+        """The same family over two periods: the experiment the search simulates (a longer one repeats it)."""
+        return Family(min(self.duration, 2.0 / self.fundamental), self.period, self.inertia, self.damping)
 
     @property
     def ramp(self) -> float:
@@ -118,7 +123,8 @@ class Family:
         """The design's parameters for design.json: the bands with their amplitude (in ``unit``) and components."""
         frequencies, band, _ = self.components()
         edges = self.band_edges
-        return {"fundamental_hz": self.fundamental, "repeats": REPEATS, "ramp_s": self.ramp, "phases": "Schroeder",
+        return {"fundamental_hz": self.fundamental, "periods": self.duration * self.fundamental, "ramp_s": self.ramp,
+                "phases": "Schroeder",
                 "bands": [{"low_hz": float(edges[b]), "high_hz": float(edges[b + 1]),
                            "components": int(np.sum(band == b)), f"amplitude_{unit}": float(amplitudes[b])}
                           for b in range(BANDS)]}

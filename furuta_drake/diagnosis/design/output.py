@@ -147,8 +147,8 @@ def design_markdown(document: dict) -> str:
               f"{_fmt(next(v for k, v in bounds.items() if k.startswith('command')))} {unit}.", ""]
     if document["excitation"].get("bands"):
         lines += ["## Excitation", "", f"{document['excitation']['family']}; fundamental "
-                  f"{_fmt(document['excitation']['fundamental_hz'])} Hz, repeated "
-                  f"{document['excitation']['repeats']} times, ramps of {_fmt(document['excitation']['ramp_s'])} s, "
+                  f"{_fmt(document['excitation']['fundamental_hz'])} Hz, "
+                  f"{_fmt(document['excitation']['periods'])} periods, ramps of {_fmt(document['excitation']['ramp_s'])} s, "
                   f"{document['excitation']['phases']} phases; seed {document['seed']}.", "",
                   "| band [Hz] | components | amplitude |", "|---|---:|---:|"]
         for band in document["excitation"]["bands"]:

@@ -32,7 +32,9 @@ from furuta_drake.errors import ConfigError, SimulationDiverged
 
 PENDULUM_BOUND = {"hanging": 0.5, "balancing": 0.2}  # [rad] from hanging or from the upright
 DRAKE_RESCALES = 2
-DETECTABLE = 0.5  # a pair below this detection probability is flagged as not settled by the design
+SETTLES = 0.8  # a design settles a pair when the rule tells its hypotheses apart in this share of noise draws
+REPEATS = (2, 3, 4, 6, 8)  # longer experiments tried for the suggested duration (multiples of it)
+AUTO_DURATION = 8.0  # [s] the experiment searched when no duration is given
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,7 @@ class Design:
     options: dict = field(default_factory=dict)
 
 
-def design_experiment(diagnosis: str | Path, *, duration: float = 8.0, balancing: bool = False,
+def design_experiment(diagnosis: str | Path, *, duration: float | None = None, balancing: bool = False,
                       targets: list[str] = (), arm_bound: float = 1.0, settings: DesignSettings = DesignSettings(),
                       progress: Callable[[str], None] | None = None) -> Design:
     """Design the experiment that separates a diagnosis' competing hypotheses.
@@ -110,7 +112,9 @@ def design_experiment(diagnosis: str | Path, *, duration: float = 8.0, balancing
     Parameters
     ----------
     diagnosis : the output directory of ``furuta-drake diagnose``.
-    duration : length of the experiment [s]; its first half trains, its second half is held out.
+    duration : length of the experiment [s]; its first half trains, its second half is held out. None: the
+        shortest repeat of an ``AUTO_DURATION`` experiment predicted to settle every pair, up to ``REPEATS[-1]``
+        times as long.
     balancing : a dither added to the project's LQR balancing the upright, instead of an open-loop command played
         from rest with the pendulum hanging.
     targets : ``effect=value`` texts: separate the accepted model from it plus that effect at that size (the main
@@ -119,7 +123,8 @@ def design_experiment(diagnosis: str | Path, *, duration: float = 8.0, balancing
     settings : sizes and seeds (:class:`DesignSettings`); progress : called with a line per stage.
     """
     settings.validate()
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+    if duration is not None and not (isinstance(duration, (int, float)) and math.isfinite(duration)
+                                     and duration > 0):
         raise ConfigError(f"--duration must be a positive number of seconds, got {duration!r}")
     if not (isinstance(arm_bound, (int, float)) and math.isfinite(arm_bound) and arm_bound > 0):
         raise ConfigError(f"--arm-bound must be a positive angle [rad], got {arm_bound!r}")
@@ -128,7 +133,7 @@ def design_experiment(diagnosis: str | Path, *, duration: float = 8.0, balancing
     rig, period = record.rig, record.rig.sample_period
     horizon, smooth = window_samples(period, rig)
     shortest = 2 * (horizon + 2 * smooth + 1) * period
-    if duration < shortest:
+    if duration is not None and duration < shortest:
         raise ConfigError(f"--duration {duration:g} s is too short: each half of the experiment must hold a gap "
                           f"window of this rig ({shortest:.3g} s in all)")
     hypotheses = read_hypotheses(record.report, rig, record.train, parsed)
@@ -137,59 +142,78 @@ def design_experiment(diagnosis: str | Path, *, duration: float = 8.0, balancing
     say(f"{len(hypotheses.hypotheses)} hypotheses, {len(hypotheses.pairs)} pairs to separate")
     scales = scales_of(record.train, hypotheses.nominal)
     accepted = hypotheses.hypotheses[0].model
-    family = Family(float(duration), period, accepted.a,
+    family = Family(float(duration or AUTO_DURATION), period, accepted.a,
                     accepted.back_emf_damping + accepted.arm_friction.viscous)
     bounds = Bounds(float(arm_bound), PENDULUM_BOUND[mode], rig.torque_limit)
     gain = nominal_lqr_gain(rig) if balancing else None
+    base = family.base()
     if balancing:
-        evaluator = Evaluator(family, hypotheses, rig, scales, bounds,
+        evaluator = Evaluator(base, hypotheses, rig, scales, bounds,
                               lambda model, dithers: surrogate_closed_loop(model, gain, dithers, period,
                                                                            rig.torque_limit, rig.counts_per_rev),
-                              family.torque_dither, None, hanging=False)
+                              base.torque_dither, None, hanging=False)
     else:
-        evaluator = Evaluator(family, hypotheses, rig, scales, bounds,
+        evaluator = Evaluator(base, hypotheses, rig, scales, bounds,
                               lambda model, commands: (surrogate_runs(model, commands, period), commands),
-                              family.feedforward, family.arm_motion, hanging=True)
+                              base.feedforward, base.arm_motion, hanging=True)
     search = optimise(evaluator, hypotheses, settings.generations, settings.population, settings.seed, say)
     torque_per_volt = record.train[0].torque_per_volt if record.input_kind == "voltage" else 1.0
-    common = dict(mode=mode, duration=float(duration), period=period, input_kind=record.input_kind,
-                  torque_per_volt=torque_per_volt, bounds=bounds, hypotheses=hypotheses, record=record,
-                  settings=settings, notes=list(hypotheses.notes),
+    common = dict(mode=mode, period=period, input_kind=record.input_kind, torque_per_volt=torque_per_volt,
+                  bounds=bounds, hypotheses=hypotheses, record=record, settings=settings,
+                  notes=list(hypotheses.notes), search=_search_summary(search),
                   options={"duration": duration, "mode": mode, "targets": list(targets), "arm_bound": arm_bound,
                            "settings": dataclasses.asdict(settings)})
-    summary = _search_summary(search, hypotheses)
     if not search.directions:
         return Design("no_separation", "no experiment separates them: " + _inseparable_text(search, hypotheses),
-                      command=None, excitation={}, pairs=[], runs={}, search=summary, **common)
+                      duration=family.duration, command=None, excitation={}, pairs=[], runs={}, **common)
     if search.best is None:
         return Design("refused", f"no design of the family keeps the arm within {bounds.arm:g} rad, the pendulum "
                       f"within {bounds.pendulum:g} rad of {'the upright' if balancing else 'hanging'} and the "
-                      f"command within {bounds.command:.4g} N m under every hypothesis", command=None,
-                      excitation={}, pairs=[], runs={}, search=summary, **common)
+                      f"command within {bounds.command:.4g} N m under every hypothesis",
+                      duration=family.duration, command=None, excitation={}, pairs=[], runs={}, **common)
     if search.inseparable:
         common["notes"].append("left out, no experiment of the family separates them: "
                                + _inseparable_text(search, hypotheses))
-    best, runs = _checked_in_drake(search.best, family, hypotheses, rig, bounds, balancing, gain, settings, say)
-    unit = "N_m" if balancing else "rad"
+    design = _final(search, family, balancing, gain, common, scales, say)
+    if duration is None and design.status == "design":
+        needed = [pair["suggested_duration_s"] for pair in design.pairs]
+        longer = max((d for d in needed if d is not None), default=family.duration)
+        if longer > family.duration:
+            say(f"repeating the experiment to {longer:g} s")
+            design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales,
+                            say)
+    for pair in design.pairs:
+        if pair["detection_probability"] < SETTLES:
+            longer = pair["suggested_duration_s"]
+            design.notes.append(
+                f"{' vs '.join(pair['hypotheses'])}: predicted detection probability "
+                f"{pair['detection_probability']:.0%}, below {SETTLES:.0%}; " + (
+                    f"the same experiment repeated to {longer:g} s would reach it (--duration {longer:g})"
+                    if longer else f"not reached by repeating it up to {REPEATS[-1]} times"))
+    return design
+
+
+def _final(search: Search, family: Family, balancing: bool, gain, common: dict, scales, say) -> Design:
+    """The search's best design played for ``family.duration``: checked in Drake under every hypothesis (scaled
+    down if a bound is left) and its outcome predicted; ``refused`` when it still leaves a bound."""
+    hypotheses, bounds = common["hypotheses"], common["bounds"]
+    played = (family.torque_dither if balancing else family.feedforward)(search.best.amplitudes)[0]
+    best, runs = _checked_in_drake(dataclasses.replace(search.best, command=played), family, hypotheses,
+                                   common["record"].rig, bounds, balancing, gain, common["settings"], say)
     excitation = {"family": "band-limited multisine " + ("torque dither added to the LQR" if balancing else
                                                           "arm motion played as feedforward torque"),
-                  **family.describe(best.amplitudes, unit)}
+                  **family.describe(best.amplitudes, "N_m" if balancing else "rad")}
     if balancing:
         excitation["lqr_gain"] = [float(v) for v in np.ravel(gain)]
+    common = {**common, "notes": list(common["notes"])}
     if runs is None:
         return Design("refused", "the best design leaves a bound under some hypothesis in Drake even scaled down: "
-                      + _violations(best.peaks, bounds, hypotheses), command=None, excitation=excitation, pairs=[],
-                      runs={}, search=summary, **common)
+                      + _violations(best.peaks, bounds, hypotheses), duration=family.duration, command=None,
+                      excitation=excitation, pairs=[], runs={}, **common)
     say("predicting the diagnosis' outcome")
-    pairs = _predicted_pairs(search, best, runs, hypotheses, record, scales, settings)
-    weak = [p for p in pairs if p["detection_probability"] < DETECTABLE]
-    if weak:
-        common["notes"].append(
-            "not settled with confidence by this design (detection probability below "
-            f"{DETECTABLE:.0%}): " + ", ".join(" vs ".join(p["hypotheses"]) for p in weak)
-            + "; a longer --duration adds held-out windows in proportion")
-    return Design("design", "", command=best.command, excitation=excitation, pairs=pairs,
-                  runs={hypotheses.hypotheses[h].name: run for h, run in runs.items()}, search=summary, **common)
+    pairs = _predicted_pairs(search, runs, hypotheses, common["record"], scales, common["settings"], family.duration)
+    return Design("design", "", duration=family.duration, command=best.command, excitation=excitation, pairs=pairs,
+                  runs={hypotheses.hypotheses[h].name: run for h, run in runs.items()}, **common)
 
 
 def _checked_in_drake(best: Candidate, family: Family, hypotheses: Hypotheses, rig, bounds: Bounds, balancing: bool,
@@ -223,10 +247,12 @@ def _checked_in_drake(best: Candidate, family: Family, hypotheses: Hypotheses, r
     return best, None
 
 
-def _predicted_pairs(search: Search, best: Candidate, runs: dict[int, Run], hypotheses: Hypotheses,
-                     record: DiagnosisRecord, scales, settings: DesignSettings) -> list[dict]:
+def _predicted_pairs(search: Search, runs: dict[int, Run], hypotheses: Hypotheses, record: DiagnosisRecord,
+                     scales, settings: DesignSettings, duration: float) -> list[dict]:
     """Per pair: its hypotheses, why, and per informative direction the exact noncentrality and the predicted
-    outcome of the rule (:mod:`furuta_drake.diagnosis.design.predict`) on the Drake runs."""
+    outcome of the rule (:mod:`furuta_drake.diagnosis.design.predict`) on the Drake runs, with the duration
+    (a multiple of ``duration`` in ``REPEATS``) at which the outcome would be detected in ``SETTLES`` of the draws
+    (None when none is)."""
     from furuta_drake.diagnosis.pipeline import split_heldout
 
     rig, counts = record.rig, record.rig.counts_per_rev
@@ -254,23 +280,31 @@ def _predicted_pairs(search: Search, best: Candidate, runs: dict[int, Run], hypo
                     for key, effects in ((TRUTH, truth.effects), (RIVAL, rival.effects),
                                          ("previous", pair.previous))}
             new = dict(zip((TRUTH, RIVAL), pair.new if direction.truth == pair.first else pair.new[::-1]))
-            outcome = predict_direction(
-                fits[TRUTH], fits[RIVAL], fits["previous"],
-                {TRUTH: old_excess(truth.effects), RIVAL: old_excess(rival.effects),
-                 "previous": old_excess(pair.previous)},
-                new, pair.nested, pair.step == 1, truth.model, counts, settings.draws, settings.bootstrap,
-                settings.seed)
+            arguments = (fits[TRUTH], fits[RIVAL], fits["previous"],
+                         {TRUTH: old_excess(truth.effects), RIVAL: old_excess(rival.effects),
+                          "previous": old_excess(pair.previous)},
+                         new, pair.nested, pair.step == 1, truth.model, counts, settings.draws, settings.bootstrap,
+                         settings.seed)
+            outcome = predict_direction(*arguments)
+            repeats = 1
+            if outcome["detection_probability"] < SETTLES:
+                repeats = next((r for r in REPEATS
+                                if predict_direction(*arguments, replicas=r)["detection_probability"] >= SETTLES),
+                               None)
+            outcome["suggested_duration_s"] = None if repeats is None else duration * repeats
             squared = fits[RIVAL].residuals[1:] ** 2
             entry["directions"].append({"truth": truth.name, "rival": rival.name,
                                         "noncentrality": float(np.sum(squared) / fits[TRUTH].variance),
                                         "rms_difference_counts": float(np.sqrt(np.mean(squared))),
                                         "separable": direction in search.directions, **outcome})
         entry["detection_probability"] = min(d["detection_probability"] for d in entry["directions"])
+        needed = [d["suggested_duration_s"] for d in entry["directions"]]
+        entry["suggested_duration_s"] = None if None in needed else max(needed)
         out.append(entry)
     return out
 
 
-def _search_summary(search: Search, hypotheses: Hypotheses) -> dict:
+def _search_summary(search: Search) -> dict:
     feasible = [c for c in search.candidates if c.feasible]
     return {"designs_evaluated": len(search.candidates), "within_bounds": len(feasible),
             "criterion": "the smallest noncentrality over every pair's informative directions (surrogate, one "

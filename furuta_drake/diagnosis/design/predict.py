@@ -15,7 +15,9 @@ held-out windows (the new log joins them, it does not replace them), and applies
   the two are no longer confusable.
 
 The detection probability is the share of draws detected; the gap difference (rival minus truth [counts]) is
-pooled over draws and bootstrap resamples, on the experiment's held-out half and on all held-out windows.
+pooled over draws and bootstrap resamples, on the experiment's held-out half and on all held-out windows. The
+same prediction for the experiment repeated (its held-out windows repeated with fresh noise) gives the duration
+an experiment needs: the old held-out windows, on which the hypotheses agree, dilute the new ones.
 """
 
 from __future__ import annotations
@@ -45,21 +47,24 @@ def _summary(values: np.ndarray) -> dict:
 
 def predict_direction(truth: Refit, rival: Refit, previous: Refit, old: dict[str, np.ndarray], new: dict[str, str],
                       nested: bool, first_effect: bool, truth_model: Model, counts: int, draws: int,
-                      resamples: int, seed: int) -> dict:
+                      resamples: int, seed: int, replicas: int = 1) -> dict:
     """The predicted outcome of one direction (module docstring).
 
     ``old``: per-window excess [counts^2] of ``truth``, ``rival`` and ``"previous"`` on the diagnosis' held-out
     windows; ``new``: the effect the truth and the rival add at the step (the rule's parsimony counts its
-    parameters); ``first_effect``: the step is the first (a detection must also close the gap).
+    parameters); ``first_effect``: the step is the first (a detection must also close the gap); ``replicas``:
+    the experiment repeated that many times (its held-out windows repeat, each with its own noise).
     """
     rng = np.random.default_rng(seed)
     step = counts / truth_model.counts_per_rev  # the truth's encoder step [counts of the rig file]
     white = truth_model.noise_std / (2 * np.pi / counts)
     shape = truth.residuals.shape
+    models = {TRUTH: truth, RIVAL: rival, "previous": previous}
     detected, experiment, combined, gaps = [], [], [], {TRUTH: [], RIVAL: []}
     for draw in range(draws):
-        noise = rng.uniform(-0.5 * step, 0.5 * step, shape) + white * rng.standard_normal(shape)
-        fresh = {TRUTH: _excess(truth, noise), RIVAL: _excess(rival, noise), "previous": _excess(previous, noise)}
+        noises = [rng.uniform(-0.5 * step, 0.5 * step, shape) + white * rng.standard_normal(shape)
+                  for _ in range(replicas)]
+        fresh = {key: np.concatenate([_excess(refit, noise) for noise in noises]) for key, refit in models.items()}
         for key in gaps:
             gaps[key].append(float(gap_of(fresh[key].mean())))
         pooled = {key: np.concatenate([old[key], fresh[key]]) for key in fresh}
