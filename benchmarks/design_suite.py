@@ -95,8 +95,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"])
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")
-    parser.add_argument("--right-checks", type=int, default=3, help="right, non-confusable cases re-run")
-    parser.add_argument("--duration", type=float, default=8.0, help="length of the designed experiment [s]")
+    parser.add_argument("--right-checks", type=int, default=3,
+                        help="right, non-confusable cases with rivals to separate that are re-run with a design")
+    parser.add_argument("--duration", type=float,
+                        help="length of the designed experiment [s] (default: the design's own choice)")
     parser.add_argument("--workers", type=int, help="processes of each diagnosis (default: all cores)")
     args = parser.parse_args(argv)
     out = args.out
@@ -123,37 +125,14 @@ def main(argv: list[str] | None = None) -> int:
 
     targeted = [c for c in selected if not verdict_is_right(answers[c.name], before[c.name])
                 or before[c.name].get("confusable")]
-    checks = [c for c in selected if c not in targeted][:args.right_checks]
-    rows = []
-    for case in targeted + checks:
-        answer, report = answers[case.name], before[case.name]
-        row = {"case": case.name, "expected": answer["expected_verdict"], "before": _found(answer, report),
-               "right_before": verdict_is_right(answer, report), "confusable_before": bool(report.get("confusable")),
-               "targeted": case in targeted}
-        design_dir = out / "design" / case.name
-        try:
-            if not (design_dir / "design.json").is_file():
-                write_design(design_dir, design_experiment(out / "before" / case.name, duration=args.duration,
-                                                           settings=DesignSettings(seed=args.seed)), force=True)
-            design = json.loads((design_dir / "design.json").read_text())
-            row.update(design=design["status"], predicted_detection=min(
-                (p["detection_probability"] for p in design["pairs"]), default=None),
-                hypotheses=[h["name"] for h in design["hypotheses"]])
-        except FurutaError as err:
-            row.update(design="none", predicted_detection=None, hypotheses=[], reason=str(err))
-        if row["design"] == "design":
-            folder = out / "suite" / case.name
-            logs = out / "after" / case.name / "logs"
-            if not (logs / "experiment_heldout.csv").is_file():
-                play_on_true_rig(case, design_dir / "experiment.csv", logs)
-            after = diagnosed(out / "after" / case.name / "report", folder / "rig.yaml",
-                              sorted(folder.glob("train_*.csv")) + [logs / "experiment_train.csv"],
-                              sorted(folder.glob("heldout_*.csv")) + [logs / "experiment_heldout.csv"], args.workers)
-        else:
-            after = report
-        row.update(after=_found(answer, after), right_after=verdict_is_right(answer, after),
-                   confusable_after=bool(after.get("confusable")))
-        row["settled"] = row["right_after"] and not row["confusable_after"]
+    rows, checks = [], 0
+    for case in targeted + [c for c in selected if c not in targeted]:
+        if case not in targeted and checks >= args.right_checks:
+            break
+        row = redo(case, answers[case.name], before[case.name], out, args, case in targeted)
+        if row is None:  # a right case with nothing to separate: no check
+            continue
+        checks += case not in targeted
         rows.append(row)
         print(f"{case.name:<58} {row['before']:<34} -> {row['design']:<13} "
               f"p={_percent(row['predicted_detection'])} -> {row['after']:<34} "
@@ -166,11 +145,46 @@ def main(argv: list[str] | None = None) -> int:
                                       + "\n")
     (out / "config.json").write_text(json.dumps(
         {"argv": sys.argv[1:] if argv is None else argv, "cases": [c.name for c in selected],
-         "targeted": [c.name for c in targeted], "checks": [c.name for c in checks],
+         "targeted": [c.name for c in targeted], "checks": [r["case"] for r in rows if not r["targeted"]],
          "experiment_duration_s": args.duration, "log_duration_s": 8.0, "seed": args.seed, "workers": args.workers,
          "wall_time_s": time.perf_counter() - start, "python": platform.python_version(), **versions()},
         indent=2) + "\n")
     return 0
+
+
+def redo(case: CaseSpec, answer: dict, report: dict, out: Path, args, targeted: bool) -> dict | None:
+    """Design from the case's diagnosis, play it on the true rig, diagnose again; the row of the table (None for
+    a right case whose diagnosis has nothing to separate)."""
+    row = {"case": case.name, "expected": answer["expected_verdict"], "before": _found(answer, report),
+           "right_before": verdict_is_right(answer, report), "confusable_before": bool(report.get("confusable")),
+           "targeted": targeted}
+    design_dir = out / "design" / case.name
+    try:
+        if not (design_dir / "design.json").is_file():
+            write_design(design_dir, design_experiment(out / "before" / case.name, duration=args.duration,
+                                                       settings=DesignSettings(seed=args.seed)), force=True)
+    except FurutaError as err:
+        if not targeted:
+            return None
+        row.update(design="none", predicted_detection=None, hypotheses=[], reason=str(err))
+    else:
+        design = json.loads((design_dir / "design.json").read_text())
+        row.update(design=design["status"], duration=design["duration_s"], hypotheses=[
+            h["name"] for h in design["hypotheses"]], predicted_detection=min(
+            (p["detection_probability"] for p in design["pairs"]), default=None))
+    after = report
+    if row["design"] == "design":
+        folder = out / "suite" / case.name
+        logs = out / "after" / case.name / "logs"
+        if not (logs / "experiment_heldout.csv").is_file():
+            play_on_true_rig(case, design_dir / "experiment.csv", logs)
+        after = diagnosed(out / "after" / case.name / "report", folder / "rig.yaml",
+                          sorted(folder.glob("train_*.csv")) + [logs / "experiment_train.csv"],
+                          sorted(folder.glob("heldout_*.csv")) + [logs / "experiment_heldout.csv"], args.workers)
+    row.update(after=_found(answer, after), right_after=verdict_is_right(answer, after),
+               confusable_after=bool(after.get("confusable")))
+    row["settled"] = row["right_after"] and not row["confusable_after"]
+    return row
 
 
 def _found(answer: dict, report: dict) -> str:

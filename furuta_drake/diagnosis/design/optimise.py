@@ -117,9 +117,11 @@ class Evaluator:
             commands = levels[:, None] * unit
             runs = {h: self.runner(self.hypotheses.hypotheses[h].model, commands) for h in used}
             peaks = {h: self._peaks(*runs[h]) for h in used}
-            ratio = np.min([np.minimum(SAFETY * self.bounds.arm / peaks[h]["arm"],
-                                       SAFETY * self.bounds.pendulum / peaks[h]["pendulum"]) for h in used], axis=0)
-            ratio = np.where(np.isfinite(ratio), ratio, 0.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.min([np.minimum(SAFETY * self.bounds.arm / peaks[h]["arm"],
+                                           SAFETY * self.bounds.pendulum / peaks[h]["pendulum"]) for h in used],
+                               axis=0)
+            ratio = np.where(np.isnan(ratio), 0.0, ratio)
             command_ok = np.all([peaks[h]["command"] <= self.bounds.command * (1 + 1e-9) for h in used], axis=0)
             if np.all((ratio >= 1.0) & command_ok):
                 break
@@ -133,12 +135,10 @@ class Evaluator:
         return candidates
 
     def _peaks(self, angles: np.ndarray, logged: np.ndarray) -> dict[str, np.ndarray]:
+        """(D,) peak |phi|, pendulum excursion from rest and |command| (NaN for a diverged run)."""
         rest = np.pi if self.hanging else 0.0
-        with np.errstate(invalid="ignore"):
-            return {"arm": np.nanmax(np.abs(angles[:, 1]), axis=0) + np.where(np.isfinite(angles).all(axis=(0, 1)),
-                                                                             0.0, np.inf),
-                    "pendulum": np.max(np.abs(angles[:, 0] - rest), axis=0),
-                    "command": np.max(np.abs(logged), axis=1)}
+        return {"arm": np.max(np.abs(angles[:, 1]), axis=0), "pendulum": np.max(np.abs(angles[:, 0] - rest), axis=0),
+                "command": np.max(np.abs(logged), axis=1)}
 
     def _score(self, candidates: list[Candidate], directions: list[Direction]) -> None:
         if not candidates:

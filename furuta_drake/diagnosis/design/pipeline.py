@@ -237,12 +237,13 @@ def _checked_in_drake(best: Candidate, family: Family, hypotheses: Hypotheses, r
             runs[h] = Run(result.time, angles, result.torque, {
                 "arm": float(np.max(np.abs(angles[:, 1]))), "pendulum": float(np.max(np.abs(angles[:, 0] - rest))),
                 "command": float(np.max(np.abs(result.torque)))})
-        ratio = min(min(bounds.arm / run.peaks["arm"], bounds.pendulum / run.peaks["pendulum"],
+        ratio = min(min(bounds.arm / max(run.peaks["arm"], 1e-300),
+                        bounds.pendulum / max(run.peaks["pendulum"], 1e-300),
                         bounds.command * (1 + 1e-9) / max(run.peaks["command"], 1e-300)) for run in runs.values())
         best = dataclasses.replace(best, peaks={h: run.peaks for h, run in runs.items()})
         if ratio >= 1.0:
             return best, runs
-        scale = SAFETY * ratio if np.isfinite(ratio) else 0.5
+        scale = SAFETY * ratio if ratio > 0 else 0.5  # 0: a run diverged
         best = dataclasses.replace(best, level=best.level * scale, command=best.command * scale)
     return best, None
 
