@@ -29,7 +29,7 @@ from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.errors import ConfigError
 
 NEAR = 0.05  # rivals within this many points of held-out reduction of the accepted model at the same step
-NEXT_STEP_REDUCTION = 0.05  # a next-step candidate that reduces what is left by this much is a rival
+NEXT_STEP_REDUCTION = 0.1  # a next-step candidate that reduces what is left by this much is a rival
 MAX_NEXT_STEP = 3
 
 
@@ -144,7 +144,7 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
             step = next((k for k, name in chosen_at.items() if name == chosen), None)
             entry = _entry(ranked, steps[:step - 1] + [other], step) if step else None
             if entry is not None:
-                add(_replaced(accepted, chosen, entry_effects(entry)[other], other), "rival", step, (chosen, other),
+                add(_rival(accepted, steps, step, entry), "rival", step, (chosen, other),
                     f"confusable at step {step}: {pair['why']}", nested=False)
         for step, chosen in chosen_at.items():
             reference = _entry(ranked, steps[:step], step)
@@ -153,7 +153,7 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
                 if (entry["step"] == step and other != chosen
                         and entry["effect"].split("+")[:-1] == steps[:step - 1]
                         and entry["heldout_reduction"] >= reference["heldout_reduction"] - NEAR):
-                    add(_replaced(accepted, chosen, entry_effects(entry)[other], other), "rival", step,
+                    add(_rival(accepted, steps, step, entry), "rival", step,
                         (chosen, other), f"at step {step}, {other} reduces the nominal held-out gap by "
                         f"{entry['heldout_reduction']:.1%}, within {NEAR:.0%} of {chosen}'s "
                         f"{reference['heldout_reduction']:.1%}", nested=False)
@@ -183,9 +183,10 @@ def _entry(ranked: list[dict], names: list[str], step: int) -> dict | None:
     return next((entry for entry in ranked if entry["step"] == step and entry["effect"].split("+") == names), None)
 
 
-def _replaced(effects: dict[str, Effect], old: str, effect: Effect, new: str) -> dict[str, Effect]:
-    """``effects`` with ``old`` replaced by ``new`` in its place."""
-    return {(new if name == old else name): (effect if name == old else value) for name, value in effects.items()}
+def _rival(accepted: dict[str, Effect], steps: list[str], step: int, entry: dict) -> dict[str, Effect]:
+    """The rival of ``entry`` (a model fitted at ``step``: the earlier accepted effects and another one) as a
+    complete model: its own fit, then the effects accepted after ``step`` at their accepted values."""
+    return {**entry_effects(entry), **{name: accepted[name] for name in steps[step:]}}
 
 
 def _target_effect(name: str, size: float, scales, model: Model) -> tuple[Effect, float]:
