@@ -16,6 +16,7 @@ from furuta_drake.diagnosis.design import pipeline
 from furuta_drake.diagnosis.design.criterion import Parametrised, experiment_windows, linearised_noncentrality
 from furuta_drake.diagnosis.design.family import Family
 from furuta_drake.diagnosis.design.rollout import drake_config, surrogate_runs
+from furuta_drake.diagnosis.logs import load_logs
 from furuta_drake.diagnosis.suite import run_configs
 from furuta_drake.diagnosis.surrogate import sensor_variance
 from furuta_drake.results import write_log_csv
@@ -160,3 +161,25 @@ def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
     assert np.max(np.abs(result.state[:, 0])) > 0.01  # the dither moves the pendulum
     count = 2 * np.pi / rig.counts_per_rev
     assert np.max(np.abs(angles[:result.time.size, :, 0] - result.state[:, :2])) < count
+
+
+def test_a_target_below_the_detection_limit_is_a_hypothesis_and_one_above_it_is_settled(case):
+    """--target actuator_lag=VALUE: below the lag's detection limit it is the accepted model plus that lag (a
+    nested pair); above it the logs would have shown it, so nothing is left to separate."""
+    from furuta_drake.diagnosis.design.hypotheses import parse_target, read_hypotheses
+    from furuta_drake.errors import ConfigError
+
+    rig = lund_rig()
+    logs = load_logs([case / "train.csv"], rig)
+    report = {"ranking": [{"effect": "input_delay", "params": {"delay": DELAY}, "step": 1, "status": "ok",
+                           "heldout_reduction": 0.9, "reduction_over_previous": 0.9}],
+              "steps": [{"effect": "input_delay"}],
+              "detection_limits": [{"effect": "actuator_lag", "param": "time_constant", "value": 0.002}]}
+    found = read_hypotheses(report, rig, logs, [parse_target("actuator_lag=0.001")])
+    assert [h.name for h in found.hypotheses] == ["input_delay", "input_delay+actuator_lag"]
+    assert found.hypotheses[1].effects["actuator_lag"].values == (0.001,)
+    assert found.pairs[0].nested and found.pairs[0].new == ("", "actuator_lag")
+    with pytest.raises(ConfigError, match="already detected"):
+        read_hypotheses(report, rig, logs, [parse_target("actuator_lag=0.005")])
+    with pytest.raises(ConfigError, match="already accepted input_delay"):
+        read_hypotheses(report, rig, logs, [parse_target("input_delay=0.001")])
