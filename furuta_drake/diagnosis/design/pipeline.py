@@ -46,7 +46,7 @@ class DesignSettings:
     generations, population : the cross-entropy search's generations and designs per generation.
     draws : Monte Carlo noise draws of the predicted outcome.
     bootstrap : paired resamples of the held-out windows in each draw (the diagnosis' rule).
-    refit_iterations : Gauss-Newton steps of the final refits.
+    refit_iterations : Gauss-Newton steps of the refits that score the search's best designs and the final one.
     seed : seed of the search's draws and of the noise draws.
     """
 
@@ -156,7 +156,8 @@ def design_experiment(diagnosis: str | Path, *, duration: float | None = None, b
         evaluator = Evaluator(base, hypotheses, rig, scales, bounds,
                               lambda model, commands: (surrogate_runs(model, commands, period), commands),
                               base.feedforward, base.arm_motion, hanging=True)
-    search = optimise(evaluator, hypotheses, settings.generations, settings.population, settings.seed, say)
+    search = optimise(evaluator, hypotheses, settings.generations, settings.population, settings.refit_iterations,
+                      settings.seed, say)
     torque_per_volt = record.train[0].torque_per_volt if record.input_kind == "voltage" else 1.0
     common = dict(mode=mode, period=period, input_kind=record.input_kind, torque_per_volt=torque_per_volt,
                   bounds=bounds, hypotheses=hypotheses, record=record, settings=settings,
@@ -308,9 +309,11 @@ def _predicted_pairs(search: Search, runs: dict[int, Run], hypotheses: Hypothese
 def _search_summary(search: Search) -> dict:
     feasible = [c for c in search.candidates if c.feasible]
     return {"designs_evaluated": len(search.candidates), "within_bounds": len(feasible),
-            "criterion": "the smallest noncentrality over every pair's informative directions (surrogate, one "
-                         "linearised refit of the rival on the train half)",
-            "best_weakest_noncentrality": None if search.best is None else search.best.score(search.directions)}
+            "criterion": "the smallest noncentrality over every pair's informative directions (surrogate: one "
+                         "linearised refit of the rival on the train half ranks a generation, iterated refits score "
+                         "its best designs)",
+            "best_weakest_noncentrality": None if search.best is None else search.best.score(search.directions,
+                                                                                            refined=True)}
 
 
 def _inseparable_text(search: Search, hypotheses: Hypotheses) -> str:
