@@ -1,6 +1,6 @@
 """Wall time and real-time factor of a closed loop per diagram configuration, against the C++ floor and a scipy
-peer (issue 8 targets: the full paper diagram >= 10x real time on one core, <= 3x its C++ floor, >= 5x faster
-than the scipy peer).
+peer (targets: the full paper diagram >= 10x real time on one core, <= 3x its C++ floor, >= 5x faster than the
+scipy peer).
 
 Configurations, all on the default Lund config (``SimulationConfig.from_rig("lund")``: 4096-count encoders at
 1 kHz, LQR with the 0.2 N m limit, RK3 at accuracy 1e-4, theta0 = 0.1 rad):
@@ -19,8 +19,9 @@ the wall time also counts their time slices, so the package's best wall time is 
   sampler in place of the quantising encoder, the observer's discrete ``LinearSystem``, the LQR as
   ``MatrixGain`` -> ``Saturation`` -> ``ZeroOrderHold``, the same loggers and integrator); the Dahl observer and
   the adapter have no C++ equivalent, so both VFE configurations share the VFE floor;
-- the scipy peer: the same sampled loop written for this benchmark, the closed-form Furuta equations (lumped
-  constants a, b, c, d of ``RigParameters``) integrated by ``solve_ivp`` (RK45, rtol 1e-8, atol 1e-10; a looser
+- the scipy peer: the same sampled loop written for this benchmark, the package's closed-form Furuta equations
+  (the diagnosis surrogate's, in the lumped constants a, b, c, d; tests pin them to the MultibodyPlant)
+  integrated by ``solve_ivp`` (RK45, rtol 1e-8, atol 1e-10; a looser
   tolerance is not faster: each 1 ms period is one or two RK45 steps and the per-call overhead dominates) over
   each period with the torque held, the discrete blocks updated at each sample from the values held before it
   (Drake's discrete semantics).
@@ -55,8 +56,11 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from furuta_drake.config import SimulationConfig
+from furuta_drake.diagnosis.surrogate import Model, _accelerations
 from furuta_drake.diagram import build_furuta_diagram
+from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.observers.vfe import VfeObserver, continuous_vfe_observer
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
@@ -73,10 +77,12 @@ def configurations(duration: float) -> dict[str, SimulationConfig]:
     base = dataclasses.replace(SimulationConfig.from_rig("lund"), duration=duration)
 
     def variant(source: str, compensation: bool = False, adaptation: bool = False) -> SimulationConfig:
+        law = DahlAdaptation(k_sigma=KSigmaAdaptationParameters()) if adaptation else None
         return dataclasses.replace(
             base, controller=dataclasses.replace(base.controller, velocity_source=source,
                                                  friction_compensation=compensation),
-            observers=dataclasses.replace(base.observers, adaptation_enabled=adaptation))
+            observers=dataclasses.replace(base.observers, dahl=dataclasses.replace(base.observers.dahl,
+                                                                                   adaptation=law)))
 
     return {"true LQR": variant("true"), "HG": variant("hg"), "VFE+Dahl": variant("vfe", True),
             "VFE+Dahl+K": variant("vfe", True, True)}
@@ -86,7 +92,7 @@ def configurations(duration: float) -> dict[str, SimulationConfig]:
 
 def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring)."""
-    rig, period = config.rig, config.encoder.sample_period
+    rig, period = config.rig, config.control_period
     builder = DiagramBuilder()
     plant, _ = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=False)
     to_paper = builder.AddSystem(MatrixGain(plant_to_paper_permutation(plant)))
@@ -119,10 +125,10 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
         builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
         estimate = mux.get_output_port()
     elif source == "hg":
-        observer = builder.AddSystem(HighGainObserver(model, config.observers.hg))
+        observer = builder.AddSystem(HighGainObserver(model, config.observers.hg, period=period))
         estimate = observer.GetOutputPort("state_estimate")
     else:
-        observer = builder.AddSystem(VfeObserver(model, config.observers.vfe))
+        observer = builder.AddSystem(VfeObserver(model, config.observers.vfe, period=period))
         no_friction = builder.AddSystem(ConstantVectorSource([0.0]))
         builder.Connect(no_friction.get_output_port(), observer.GetInputPort("friction_estimate_Nm"))
         estimate = observer.GetOutputPort("state_estimate")
@@ -171,8 +177,7 @@ def held_input_discretisation(A: np.ndarray, B: np.ndarray, h: float) -> tuple[n
 def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """CPU time, true states [theta, phi, theta_dot, phi_dot] and encoder angles at each sample of the peer
     (see the module docstring). Row k is the sample at t_k = k h, like ``SimulationResult.state``/``measured``."""
-    rig, h = config.rig, config.encoder.sample_period
-    a, b, c, d = rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque
+    rig, h = config.rig, config.control_period
     count = config.encoder.resolution
     limit = config.controller.lqr.torque_limit
     negative_gain = -np.asarray(gain, dtype=float).ravel()
@@ -184,18 +189,15 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     else:
         continuous = continuous_vfe_observer(A, B_F, config.observers.vfe)
     Ad, Bd = held_input_discretisation(continuous.A(), continuous.B(), h)
-    dahl, adaptation = config.observers.dahl, config.observers.adaptation
-    adapt = config.observers.adaptation_enabled
+    dahl = config.observers.dahl
+    adapt = dahl.adaptation is not None
+    adaptation = dahl.adaptation.k_sigma if adapt else None
     sigma0 = dahl.sigma0
 
+    model = Model.from_rig(rig)  # the package's closed-form equations, frictionless like this loop
+
     def dynamics(t, x, u):
-        theta, _, theta_dot, phi_dot = x
-        s, co = math.sin(theta), math.cos(theta)
-        m12, m22 = c * co, a + b * s * s
-        r1 = d * s + b * s * co * phi_dot * phi_dot
-        r2 = c * s * theta_dot * theta_dot - 2.0 * b * s * co * theta_dot * phi_dot + u
-        det = b * m22 - m12 * m12
-        return [theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (b * r2 - m12 * r1) / det]
+        return _accelerations(model, x, u, arm_friction=False, pendulum_friction=False)
 
     def quantise(x):
         return np.array([count * round(x[0] / count), count * round(x[1] / count)])
@@ -206,7 +208,7 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     x = np.asarray(config.initial_state, dtype=float)
     y = quantise(x)  # the encoder's initialization sample
     observer = np.zeros(Ad.shape[0])
-    z, k_sigma, u = 0.0, [adaptation.initial, adaptation.initial], 0.0
+    z, k_sigma, u = 0.0, [adaptation.initial, adaptation.initial] if adapt else [1.0, 1.0], 0.0
     for k in range(steps):
         t = k * h
         states[k] = x
@@ -250,7 +252,7 @@ def agreement(config: SimulationConfig, result: SimulationResult, states: np.nda
     the run's duration if none differs)."""
     differs = np.flatnonzero(np.any(result.measured != measured, axis=1))
     first = differs[0] if differs.size else len(states)
-    return float(np.max(np.abs(result.state[:first] - states[:first]))), first * config.encoder.sample_period
+    return float(np.max(np.abs(result.state[:first] - states[:first]))), first * config.control_period
 
 
 def with_fine_encoder(config: SimulationConfig) -> SimulationConfig:

@@ -5,7 +5,7 @@ multisine torque and a square-wave arm reference keeping the arm moving): the 10
 the 1-minute log its first minute. Both are diagnosed in this process, the short one first, with one worker
 (``--workers 1``: the candidate fits run in this process, so its memory figures cover all of the diagnosis).
 
-Per log and stage (load: ``load_log``; diagnose: ``run_diagnosis``, which loads again, fits, replays in Drake and
+Per log and stage (load: ``load_log``; diagnose: ``diagnose`` and ``write_report``, which load again, fits, replays in Drake and
 writes the report), printed: wall time; the peak resident memory during the stage (sampled from /proc every
 20 ms) and its rise over the resident memory before the stage; for the load stage also the tracemalloc peak of
 its Python and numpy allocations (tracemalloc slows the diagnosis' Python loops several-fold, so it is not used
@@ -31,7 +31,8 @@ from pathlib import Path
 
 from furuta_drake.config import ExcitationConfig, SimulationConfig
 from furuta_drake.diagnosis.logs import load_log, load_rig
-from furuta_drake.diagnosis.pipeline import run_diagnosis
+from furuta_drake.diagnosis.pipeline import diagnose
+from furuta_drake.diagnosis.report import write_report
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig
@@ -107,8 +108,8 @@ def stages(rig_path: Path, log_path: Path, out: Path, workers: int) -> dict:
     rig = load_rig(rig_path)
     return {
         "load": lambda: load_log(log_path, rig),
-        "diagnose": lambda: run_diagnosis(rig_path=rig_path, train_paths=[log_path], out=out / log_path.stem,
-                                          force=True, workers=workers, echo=lambda message: None),
+        "diagnose": lambda: write_report(out / log_path.stem, diagnose(rig=rig_path, train=[log_path], workers=workers),
+                                         force=True),
     }
 
 

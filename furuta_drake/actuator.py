@@ -1,7 +1,7 @@
 """What stands between the commanded arm torque and the rigid bodies: actuator imperfections, a spring or
 cogging on the arm, and a DC motor driven by voltage.
 
-These are the sim-to-real effects of the diagnosis vocabulary (``spec/diagnosis-interface.md``:
+These are the sim-to-real effects of the diagnosis vocabulary (``docs/diagnose.md``:
 ``input_delay``, ``actuator_lag``, ``actuator_deadzone``, ``torque_gain_error``, ``actuator_saturation``,
 ``arm_spring``), built from Drake's C++ primitives so that they add next to nothing to a closed-loop run; the
 nominal values make every block an identity and leave it out.

@@ -17,10 +17,9 @@ from pydrake.systems.primitives import (
     ObservabilityMatrix,
 )
 
+from furuta_drake.observers.linear import ANGLES
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import RigParameters
-
-ANGLES = np.hstack([np.eye(2), np.zeros((2, 2))])  # C of Eq. 2: the encoders measure theta and phi
 
 
 def linear_plant(A: np.ndarray, B: np.ndarray, C: np.ndarray = ANGLES) -> LinearSystem:
@@ -45,7 +44,7 @@ def controllability(A: np.ndarray, B: np.ndarray) -> dict:
             "condition": float(np.linalg.cond(matrix))}
 
 
-def closed_loop_eigenvalues(rig: RigParameters, K: np.ndarray, observer: LinearSystem) -> np.ndarray:
+def observer_loop_eigenvalues(rig: RigParameters, K: np.ndarray, observer: LinearSystem) -> np.ndarray:
     """Eigenvalues of the continuous closed loop plant + observer + LQR, from ``Linearize`` of the diagram.
 
     ``observer`` is a continuous ``LinearSystem`` with input [y (2); u (1)] (and, for VFE, the friction

@@ -39,7 +39,7 @@ def _parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="simulate a Furuta rig in closed loop and write its log")
     sim.add_argument("--config", type=Path, help="simulate config YAML (default: the Lund rig balancing)")
-    sim.add_argument("--rig", help="shipped rig name (lund, qube_servo2) or a rig YAML in the spec's format; "
+    sim.add_argument("--rig", help="shipped rig name (lund, qube_servo2) or a rig YAML (docs/diagnose.md); "
                                    "ignored with --config")
     sim.add_argument("--duration", type=float, help="override the config's duration [s]")
     sim.add_argument("--seed", type=int, help="override the config's seed")
@@ -52,7 +52,8 @@ def _parser() -> argparse.ArgumentParser:
     sim.set_defaults(run=_run_simulate)
 
     diag = sub.add_parser("diagnose", help="diagnose the sim-to-real gap of a rig from its logs")
-    diag.add_argument("--rig", type=Path, required=True, help="rig YAML (spec/diagnosis-interface.md)")
+    diag.add_argument("--rig", type=Path, required=True,
+                      help="rig YAML (docs/diagnose.md; `furuta-drake rig --template` writes one to start from)")
     diag.add_argument("--train", type=Path, nargs="+", required=True, help="logs the candidates are fitted on")
     diag.add_argument("--heldout", type=Path, nargs="*", default=[], help="logs every held-out figure uses")
     diag.add_argument("--out", type=Path, required=True, help="output directory")
@@ -62,6 +63,14 @@ def _parser() -> argparse.ArgumentParser:
                                           "replays (same results as local processes)")
     diag.add_argument("--folds", type=int, help="repeat the decision on K >= 2 splits of the logs into train and "
                                                 "held-out blocks and report its consistency")
+    diag.add_argument("--columns", metavar="NAME=COLUMN,...",
+                      help="the logs' own column names, e.g. time=t,theta=alpha,phi=theta,voltage=vm (names: time, "
+                           "theta, phi, torque, voltage; a name not mapped is read as itself; in an MCAP log an "
+                           "unmapped time is each message's log time)")
+    diag.add_argument("--angle-unit", help="unit of both logged angles: rad (default), deg or counts (the rig's "
+                                           "counts_per_rev)")
+    diag.add_argument("--topic", help="MCAP channel holding the run, JSON messages whose fields are the columns "
+                                      "(default: the file's only channel); logs are CSV, Parquet or MCAP by extension")
     diag.set_defaults(run=_run_diagnose)
 
     des = sub.add_parser("design", help="design the experiment that settles what a diagnosis could not decide")
@@ -83,6 +92,15 @@ def _parser() -> argparse.ArgumentParser:
                      help="largest arm angle |phi| allowed under any hypothesis [rad] (default 1)")
     des.add_argument("--seed", type=int, default=0, help="seed of the search and of the predicted noise (default 0)")
     des.set_defaults(run=_run_design, balancing=False)
+
+    rig = sub.add_parser("rig", help="write an annotated rig file to start from, or check one")
+    rig_action = rig.add_mutually_exclusive_group(required=True)
+    rig_action.add_argument("--template", choices=["lund", "qube_servo2"],
+                            help="print the shipped rig's file with every key explained (redirect it to a file)")
+    rig_action.add_argument("--check", type=Path, metavar="FILE",
+                            help="print the constants FILE implies: lumped constants, the paper's alpha1, alpha2, "
+                                 "beta3-beta5, the upright poles and the hanging natural frequency")
+    rig.set_defaults(run=_run_rig)
 
     rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
     rep.add_argument("--only", nargs="+", metavar="EXPERIMENT",
@@ -225,9 +243,23 @@ def _run_sweep(args) -> int:
     return 0
 
 
+def _run_rig(args) -> int:
+    from furuta_drake.rig import RIGS
+    from furuta_drake.rig_file import format_rig_check, rig_template
+
+    if args.template is not None:
+        print(rig_template(RIGS[args.template](), f"the shipped {args.template} rig"), end="")
+    else:
+        from furuta_drake.diagnosis.logs import load_rig
+
+        print(format_rig_check(load_rig(args.check), str(args.check)), end="")
+    return 0
+
+
 def _run_diagnose(args) -> int:
     from tqdm import tqdm
 
+    from furuta_drake.diagnosis.log_format import LogFormat
     from furuta_drake.diagnosis.pipeline import diagnose
     from furuta_drake.diagnosis.report import write_report
     from furuta_drake.outputs import prepare_output_dir
@@ -238,11 +270,13 @@ def _run_diagnose(args) -> int:
         raise ConfigError("--workers sizes the local processes; with --scheduler the cluster's workers run the fits")
     if args.folds is not None and args.folds < 2:
         raise ConfigError(f"--folds must be >= 2, got {args.folds}")
+    log_format = LogFormat.parse(args.columns, args.angle_unit, args.topic)
     protect = [args.rig, *args.train, *args.heldout]
     prepare_output_dir(args.out, force=args.force, protect=protect)
     with tqdm(desc="fitting candidates", unit="fit", disable=not sys.stderr.isatty()) as bar:
         diagnosis = diagnose(rig=args.rig, train=args.train, heldout=args.heldout, folds=args.folds,
-                             workers=args.workers, scheduler=args.scheduler, progress=lambda result: bar.update(1))
+                             workers=args.workers, scheduler=args.scheduler, progress=lambda result: bar.update(1),
+                             log_format=log_format)
     for note in diagnosis.notes:
         print(note)
     write_report(args.out, diagnosis, force=args.force, protect=protect)

@@ -6,6 +6,10 @@ Two kinds of blocks meet here. ``rig`` is the *nominal* model: the LQR and the o
 on the joints, actuator imperfections, a cable spring or cogging, and the encoder that measures the angles.
 A fitted diagnosis writes exactly these sections, so ``furuta-drake simulate --config fitted_model.yaml``
 runs the corrected model.
+
+One clock drives every sampled block: the control period, ``rig.sample_period``. The encoder, the LQR and the
+observers are given it when the diagram is built; their sections may state it (``encoder.sample_period``,
+``controller.lqr.period``, ``observers.hg.period``, ...), and a stated period that differs is an error.
 """
 
 from __future__ import annotations
@@ -16,74 +20,79 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
-from furuta_drake.adaptation import KSigmaAdaptationParameters
-from furuta_drake.control import LqrParameters
+from furuta_drake.controllers.lqr import LqrParameters
+from furuta_drake.controllers.swingup import SwingUpParameters
 from furuta_drake.encoder import EncoderParameters
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
-from furuta_drake.observers.adaptive_dahl import DahlAdaptationParameters
 from furuta_drake.observers.dahl import DahlObserverParameters
 from furuta_drake.observers.hg import HighGainParameters
 from furuta_drake.observers.vfe import VfeParameters
 from furuta_drake.rig import RIGS, RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, load_yaml_dataclass
 
-VelocitySource = Literal["true", "derivative", "hg", "vfe"]
+VelocitySource = Literal["true", "derivative", "hg", "vfe", "kinematic_hg"]
 
 
 @dataclass
 class ControllerConfig:
     """Sec. IV-A: LQR state feedback u = -K (x_hat - x_ref), optionally minus the friction estimate (Sec. IV-C).
 
-    ``mode = "open_loop"`` applies only the excitation torque (hanging identification runs).
-    ``velocity_source`` picks the state estimate the LQR uses: the encoder angles with the true velocities
-    (reference diagram (iv)), a
-    discrete derivative of the encoder angles, the HG observer (Eq. 4, diagram (i)) or the VFE observer with the
-    Dahl friction observer (Eq. 8-13, diagrams (ii)-(iii)). ``gain`` overrides the LQR design (checked to
-    stabilise the nominal linearization).
+    ``mode = "swingup"`` pumps the pendulum's energy up from hanging and hands over to the same LQR near the top
+    (:mod:`furuta_drake.controllers.swingup`, parameters in ``swingup``); ``mode = "open_loop"`` applies only the
+    excitation torque (hanging identification runs). ``velocity_source`` picks the state estimate the controller
+    uses: the encoder angles with the true velocities (reference diagram (iv)), a discrete derivative of the
+    encoder angles, the HG observer (Eq. 4, diagram (i)), the VFE observer with the Dahl friction observer
+    (Eq. 8-13, diagrams (ii)-(iii)), or (swing-up only) the high-gain observer on the kinematic model.
+    ``friction_compensation`` subtracts F_hat of the Dahl observer on the velocity source's arm velocity; the
+    kinematic model has no friction, so with ``kinematic_hg`` F_hat is the VFE's Dahl observer's (``vfe`` must be
+    in ``observers.run``). ``gain`` overrides the LQR design (checked to stabilise the nominal linearization).
     """
 
-    mode: Literal["lqr", "open_loop"] = "lqr"
+    mode: Literal["lqr", "swingup", "open_loop"] = "lqr"
     velocity_source: VelocitySource = "true"
     friction_compensation: bool = False
     lqr: LqrParameters = field(default_factory=LqrParameters)
     gain: list[float] | None = None
+    swingup: SwingUpParameters = field(default_factory=SwingUpParameters)
 
     def validate(self, where: str = "controller") -> None:
         self.lqr.validate(f"{where}.lqr")
+        self.swingup.validate(f"{where}.swingup")
         if self.gain is not None:
             if len(self.gain) != 4 or not all(math.isfinite(g) for g in self.gain):
                 raise ConfigError(f"{where}.gain must be 4 finite numbers [theta, phi, theta_dot, phi_dot], "
                                   f"got {self.gain!r}")
-        if self.friction_compensation and self.velocity_source not in ("hg", "vfe"):
+        if self.friction_compensation and self.velocity_source not in ("hg", "vfe", "kinematic_hg"):
             raise ConfigError(f"{where}.friction_compensation needs the Dahl observer, which reads an observer's "
                               f"arm velocity: set {where}.velocity_source to 'hg' or 'vfe'")
+        if self.velocity_source == "kinematic_hg" and self.mode != "swingup":
+            raise ConfigError(f"{where}.velocity_source 'kinematic_hg' is the swing-up's observer: set {where}.mode "
+                              f"to 'swingup' or choose 'true', 'derivative', 'hg' or 'vfe'")
 
 
 @dataclass
 class ObserverConfig:
-    """The observers of Sec. III and the K_sigma adaptation of Sec. V. ``run`` lists observers that run side
-    by side on the same measurements for comparison (the paper's Table II experiment); the one the controller
-    uses always runs."""
+    """The observers of Sec. III; the arm's Dahl observer adapts (Sec. V, VII) as its ``dahl.adaptation``
+    section says. ``run`` lists observers that run side by side on the same measurements for comparison (the
+    paper's Table II experiment); the one the controller uses always runs."""
 
     hg: HighGainParameters = field(default_factory=HighGainParameters)
     dahl: DahlObserverParameters = field(default_factory=DahlObserverParameters)
     vfe: VfeParameters = field(default_factory=VfeParameters)
-    adaptation: KSigmaAdaptationParameters = field(default_factory=KSigmaAdaptationParameters)
-    adaptation_enabled: bool = False
     run: list[Literal["hg", "vfe"]] = field(default_factory=list)
     pendulum_friction: DahlObserverParameters | None = None  # a friction observer on the pendulum, feeding VFE
-    dahl_adaptation: DahlAdaptationParameters | None = None  # adapt the arm observer's Fc+/-, sigma0 (Sec. VII)
+    start_at_initial_state: bool = False  # the linear observers start at initial_state (else at x_hat = 0)
 
     def validate(self, where: str = "observers") -> None:
         self.hg.validate(f"{where}.hg")
         self.dahl.validate(f"{where}.dahl")
         if self.pendulum_friction is not None:
             self.pendulum_friction.validate(f"{where}.pendulum_friction")
-        if self.dahl_adaptation is not None:
-            self.dahl_adaptation.validate(f"{where}.dahl_adaptation")
+            if self.pendulum_friction.adaptation is not None:
+                raise ConfigError(f"{where}.pendulum_friction.adaptation must be null: nothing compensates the "
+                                  f"pendulum's friction, so its observer does not adapt")
         self.vfe.validate(f"{where}.vfe")
-        self.adaptation.validate(f"{where}.adaptation")
 
 
 @dataclass
@@ -199,16 +208,37 @@ class SimulationConfig:
                 and self.excitation.command is None:
             raise ConfigError(f"{prefix}controller.mode 'open_loop' needs an excitation: set "
                               f"{prefix}excitation.torque_rms > 0 or {prefix}excitation.command")
+        if self.controller.friction_compensation and self.controller.velocity_source == "kinematic_hg" \
+                and "vfe" not in self.observers.run:
+            raise ConfigError(f"{prefix}controller.friction_compensation with the kinematic HG takes F_hat from the "
+                              f"VFE's Dahl observer: add 'vfe' to {prefix}observers.run")
+        if self.controller.mode == "swingup" and self.excitation.arm_reference_amplitude != 0:
+            raise ConfigError(f"{prefix}controller.mode 'swingup' follows no arm reference: set "
+                              f"{prefix}excitation.arm_reference_amplitude to 0")
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise ConfigError(f"{prefix}duration must be a positive number of seconds, got {self.duration!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise ConfigError(f"{prefix}seed must be an integer in [0, 2^32), got {self.seed!r}")
+        stated = {"encoder.sample_period": self.encoder.sample_period,
+                  "controller.lqr.period": self.controller.lqr.period, "observers.hg.period": self.observers.hg.period,
+                  "observers.dahl.period": self.observers.dahl.period,
+                  "observers.vfe.period": self.observers.vfe.period}
+        if self.observers.pendulum_friction is not None:
+            stated["observers.pendulum_friction.period"] = self.observers.pendulum_friction.period
+        for key, period in stated.items():
+            require_control_period(period, self.control_period, f"{prefix}{key}",
+                                   f"the control period {prefix}rig.sample_period")
+
+    @property
+    def control_period(self) -> float:
+        """The period [s] of every sampled block (encoder, controller, observers, loggers): the rig's."""
+        return self.rig.sample_period
 
     @classmethod
     def from_rig(cls, rig: RigParameters | str, **sections) -> "SimulationConfig":
         """A config for ``rig`` (a RigParameters or a shipped name: 'lund', 'qube_servo2'): the rig file's
-        nominal friction moves into the ``friction`` section, its encoder, sample period and torque limit into
-        ``encoder`` and ``controller``; ``sections`` override whole sections."""
+        nominal friction moves into the ``friction`` section, its encoder (counts and sample period) into
+        ``encoder``, its torque limit into ``controller``; ``sections`` override whole sections."""
         if isinstance(rig, str):
             if rig not in RIGS:
                 raise ConfigError(f"unknown rig {rig!r}; known: {sorted(RIGS)}")
@@ -219,7 +249,7 @@ class SimulationConfig:
         )
         nominal_rig = dataclasses.replace(rig, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
                                           pendulum_viscous=0.0)
-        lqr = dataclasses.replace(LqrParameters(), period=rig.sample_period, torque_limit=rig.torque_limit)
+        lqr = dataclasses.replace(LqrParameters(), torque_limit=rig.torque_limit)
         config = cls(
             rig=nominal_rig,
             friction=friction,
@@ -227,6 +257,21 @@ class SimulationConfig:
             controller=ControllerConfig(lqr=lqr),
         )
         return dataclasses.replace(config, **sections)
+
+
+def swingup_config(config_or_rig: SimulationConfig | RigParameters | str, *, duration: float = 10.0,
+                   theta0: float = math.pi, velocity_source: str = "kinematic_hg",
+                   params: SwingUpParameters | None = None) -> SimulationConfig:
+    """``config_or_rig`` (a config, a RigParameters or a shipped rig's name) swinging up from rest at ``theta0``
+    [rad] (hanging: pi) for ``duration`` [s]: the swing-up controller (``params``, or the config's own) fed by
+    ``velocity_source``, the linear observers started at that state (a rig's observer initialised from its first
+    sample), and no theta bound in the envelope monitor."""
+    config = config_or_rig if isinstance(config_or_rig, SimulationConfig) else SimulationConfig.from_rig(config_or_rig)
+    controller = dataclasses.replace(config.controller, mode="swingup", velocity_source=velocity_source,
+                                     swingup=params or config.controller.swingup)
+    return dataclasses.replace(config, controller=controller, initial_state=[theta0, 0.0, 0.0, 0.0],
+                               duration=duration, monitor=dataclasses.replace(config.monitor, theta_bound=None),
+                               observers=dataclasses.replace(config.observers, start_at_initial_state=True))
 
 
 def _static_friction(coulomb: float, viscous: float) -> JointFrictionParameters:

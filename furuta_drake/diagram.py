@@ -1,41 +1,41 @@
-"""``build_furuta_diagram``: the paper's block diagram wired in a Drake ``DiagramBuilder``.
+"""``build_furuta_diagram``: the paper's block diagram wired in a Drake ``DiagramBuilder`` from small builders.
 
 Reading order follows the signal path of the rig::
 
-    u_LQ - F_hat ──► actuator chain ──► MultibodyPlant ◄── friction + spring/cogging + back-EMF
+    u_LQ - F_hat ──► actuator chain ──► MultibodyPlant ◄── friction + spring/cogging + back-EMF   add_furuta_world
         ▲                                   │ (true state)
         │                                   ▼
-    LQR (Sec. IV-A) ◄── observer ◄──── encoder (counts, 1 kHz)
-                         HG (Eq. 4) | VFE (Eq. 11) + Dahl (Eq. 8, 16) + K_sigma (Eq. 18)
+    controller ◄── observers ◄──────── encoder (counts, sampled at the control period)           add_observers
+    (LQR, Sec. IV-A,    HG (Eq. 4) | VFE (Eq. 11) + Dahl (Eq. 8, 16) + K_sigma (Eq. 18)
+     or swing-up)                                                                                 add_command
 
-Every block is a Drake system; the loggers record every signal a result file needs at the control period.
+Every block is a Drake system sampled at the control period; the loggers record every signal a result file
+needs at that period (:func:`add_loggers`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
-    Adder, ConstantVectorSource, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource,
-    VectorLogSink, ZeroOrderHold,
+    Adder, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
+    ZeroOrderHold,
 )
 
-from furuta_drake.actuator import add_actuator, add_arm_disturbance
-from furuta_drake.adaptation import KSigmaAdapter, KSigmaDahlObserver
 from furuta_drake.config import SimulationConfig
-from furuta_drake.control import LqrController, check_stabilizing, design_lqr, upright_linearization
+from furuta_drake.controllers.lqr import LqrController, lqr_gain
+from furuta_drake.controllers.swingup import EnergySwingUpController, kinematic_model
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
-from furuta_drake.friction import JointFriction
-from furuta_drake.observers.adaptive_dahl import AdaptiveDahlObserver
 from furuta_drake.observers.dahl import DahlFrictionObserver
-from furuta_drake.observers.hg import HighGainObserver
+from furuta_drake.observers.hg import HighGainObserver, HighGainParameters
 from furuta_drake.observers.vfe import VfeObserver, friction_error_response
-from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
+from furuta_drake.world import FurutaWorld, add_furuta_world
 
 
 @dataclass
@@ -50,262 +50,261 @@ class FurutaDiagram:
     config: SimulationConfig
 
 
-def build_furuta_diagram(config: SimulationConfig, *, meshcat=None, make_controller=None) -> FurutaDiagram:
-    """Build the closed loop (or the open-loop excitation run) that ``config`` describes.
-
-    With ``meshcat`` (a ``pydrake.geometry.Meshcat``) a ``MeshcatVisualizer`` draws the plant.
-    ``make_controller(builder, lqr_gain, measured)`` replaces the LqrController of ``controller.mode = 'lqr'``
-    (e.g. :mod:`furuta_drake.swingup`): it adds a system with the LqrController's ports (``arm_torque_Nm`` out,
-    ``state_estimate`` in, fed the ``velocity_source`` estimate unless it connected it itself, and
-    ``friction_compensation_Nm`` when compensating) and returns (system, {name: estimate port of an observer it
-    added}); its other outputs are logged into ``signals`` and the estimates into ``estimates``.
-    """
+def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDiagram:
+    """Build the closed loop (or the open-loop excitation run) that ``config`` describes. With ``meshcat`` (a
+    ``pydrake.geometry.Meshcat``) a ``MeshcatVisualizer`` draws the plant."""
     config.validate()
-    rig, period = config.rig, config.encoder.sample_period
+    period = config.control_period
     builder = DiagramBuilder()
-    loggers: dict[str, VectorLogSink] = {}
-
-    def log(name: str, port: OutputPort) -> None:
-        loggers[name] = LogVectorOutput(port, builder, publish_period=period)
-
-    # --- The plant and the world around it --------------------------------------------------------------------
-    plant, scene_graph = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=meshcat is not None)
-    P = plant_to_paper_permutation(plant)
-    to_paper_order = builder.AddNamedSystem("true_state", MatrixGain(P))
-    builder.Connect(plant.get_state_output_port(), to_paper_order.get_input_port())
-    true_state = to_paper_order.get_output_port()
-
-    applied_forces = []
-    if config.friction.arm.model == "none" and config.friction.pendulum.model == "none":
-        # No friction: a constant zero for the log rather than a Python system evaluated twice at every integrator
-        # stage (a fifth of a frictionless closed loop's time in the profile).
-        true_friction = builder.AddNamedSystem("friction", ConstantVectorSource(np.zeros(2))).get_output_port()
-    else:
-        friction = builder.AddNamedSystem("friction", JointFriction(plant, config.friction))
-        builder.Connect(plant.get_state_output_port(), friction.get_input_port())
-        applied_forces.append(friction.GetOutputPort("generalized_force_Nm"))
-        true_friction = friction.GetOutputPort("friction_torque_Nm")
-
-    arm_torque_to_generalized = _arm_torque_to_generalized_force(plant)
-    disturbance = add_arm_disturbance(builder, config.disturbance, true_state)
-    if disturbance is not None:
-        to_force = builder.AddNamedSystem("disturbance_to_force", MatrixGain(arm_torque_to_generalized))
-        builder.Connect(disturbance, to_force.get_input_port())
-        applied_forces.append(to_force.get_output_port())
-    if rig.motor is not None:
-        # Back-EMF of the DC motor: a torque -kt ke / R phi_dot on the arm (the command is torque-equivalent).
-        back_emf = builder.AddNamedSystem("motor_back_emf", MatrixGain(
-            -rig.motor.back_emf_damping * arm_torque_to_generalized @ np.array([[0.0, 0.0, 0.0, 1.0]])))
-        builder.Connect(true_state, back_emf.get_input_port())
-        applied_forces.append(back_emf.get_output_port())
-    if applied_forces:
-        _sum_into(builder, applied_forces, plant.get_applied_generalized_force_input_port(), "applied_forces")
-
-    # Delays are resolved to half a control period (a finer clock costs an integrator stop per tick).
-    actuator_input, actuator_output = add_actuator(builder, config.actuator, delay_resolution=period / 2.0)
-    builder.Connect(actuator_output, plant.get_actuation_input_port())
-
-    # --- Sensors ---------------------------------------------------------------------------------------------
-    encoder = builder.AddNamedSystem("encoder", Encoder(config.encoder))
-    builder.Connect(true_state, encoder.GetInputPort("true_state"))
+    world = add_furuta_world(builder, rig=config.rig, friction=config.friction, actuator=config.actuator,
+                             disturbance=config.disturbance, control_period=period,
+                             with_scene_graph=meshcat is not None)
+    encoder = builder.AddNamedSystem("encoder", Encoder(config.encoder, period=period))
+    builder.Connect(world.true_state, encoder.GetInputPort("true_state"))
     measured = encoder.GetOutputPort("measured_angles_rad")
+    command = add_command(builder, config, world=world)
+    observers = add_observers(builder, config, true_state=world.true_state, measured=measured,
+                              command=command.torque)
+    if command.controller is not None:
+        builder.Connect(observers.estimates[config.controller.velocity_source],
+                        command.controller.GetInputPort("state_estimate"))
+        if config.controller.friction_compensation:
+            builder.Connect(observers.compensation, command.controller.GetInputPort("friction_compensation_Nm"))
+    loggers = add_loggers(builder, period, world=world, measured=measured, command=command, observers=observers)
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
+        # Published on control samples (every 16th, ~60 frames/s at 1 kHz): the integrator already stops there,
+        # so drawing adds no step boundary and the run is bit-identical to one without Meshcat.
+        params = MeshcatVisualizerParams()
+        params.publish_period = 16 * period
+        MeshcatVisualizer.AddToBuilder(builder, world.scene_graph, meshcat, params)
+    diagram = builder.Build()
+    diagram.set_name("furuta_" + config.controller.mode)
+    return FurutaDiagram(diagram, world.plant, world.scene_graph, loggers, command.lqr_gain, config)
 
-    # --- Command: LQR on an estimate, or open-loop excitation ------------------------------------------------
-    commands = []
+
+@dataclass
+class Command:
+    """What :func:`add_command` added: ``torque``, the commanded arm torque [N m] (excitation plus controller,
+    held at the control period); the ``controller`` (None in open loop), whose ``state_estimate`` input (and
+    ``friction_compensation_Nm`` when compensating) the caller connects; its ``lqr_gain`` (1x4)."""
+
+    torque: OutputPort
+    controller: object | None
+    lqr_gain: np.ndarray | None
+
+
+def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: FurutaWorld) -> Command:
+    """The seeded excitation torque and ``config``'s controller (the LQR of Sec. IV-A or the swing-up with it),
+    summed into ``world``'s arm torque input."""
+    period, controller_config = config.control_period, config.controller
+    torques = []
     excitation = torque_excitation_trajectory(config.excitation, config.duration, period, config.seed)
     if excitation is not None:
         # Held at the control period like the controller's output, so that every command is a discrete signal.
         source = builder.AddNamedSystem("torque_excitation", TrajectorySource(excitation))
         hold = builder.AddNamedSystem("torque_excitation_hold", ZeroOrderHold(period, 1))
         builder.Connect(source.get_output_port(), hold.get_input_port())
-        commands.append(hold.get_output_port())
-    lqr_gain = None
-    estimates: dict[str, OutputPort] = {}
-    controller = None
-    if config.controller.mode == "lqr":
-        A, B = upright_linearization(plant)
-        if config.controller.gain is not None:
-            lqr_gain = np.asarray(config.controller.gain, dtype=float).reshape(1, 4)
-            check_stabilizing(A, B, lqr_gain, config.controller.lqr.discrete, config.controller.lqr.period,
-                              "controller.gain")
-        else:
-            lqr_gain = design_lqr(plant, config.controller.lqr)
+        torques.append(hold.get_output_port())
+    controller = gain = None
+    if controller_config.mode != "open_loop":
+        gain = controller_gain(world.plant, config)
+        limit, compensation = controller_config.lqr.torque_limit, controller_config.friction_compensation
         reference = arm_reference_trajectory(config.excitation, config.duration)
-        if make_controller is None:
+        if controller_config.mode == "lqr":
             controller = builder.AddNamedSystem("lqr", LqrController(
-                lqr_gain, config.controller.lqr.period, config.controller.lqr.torque_limit,
-                friction_compensation=config.controller.friction_compensation, reference=reference is not None))
+                gain, period=period, torque_limit=limit, friction_compensation=compensation,
+                reference=reference is not None))
         else:
-            controller, own_estimates = make_controller(builder, lqr_gain, measured)
-            estimates.update(own_estimates)
-            for i in range(controller.num_output_ports()):
-                if controller.get_output_port(i).get_name() != "arm_torque_Nm":
-                    log(f"signal_{controller.get_output_port(i).get_name()}", controller.get_output_port(i))
-        commands.append(controller.GetOutputPort("arm_torque_Nm"))
+            controller = builder.AddNamedSystem("swingup", EnergySwingUpController(
+                config.rig, gain, controller_config.swingup, period=period, torque_limit=limit,
+                friction_compensation=compensation))
+        torques.append(controller.GetOutputPort("arm_torque_Nm"))
         if reference is not None:
             source = builder.AddNamedSystem("arm_reference", TrajectorySource(reference))
             builder.Connect(source.get_output_port(), controller.GetInputPort("state_reference"))
     # Every command is the output of a block updated at the control period, so at each tick the observers read
     # the torque applied over the previous period (Drake's discrete semantics: updates read pre-update values).
-    command = _sum_into(builder, commands, actuator_input, "commanded_torque")
+    if len(torques) == 1:
+        torque = torques[0]
+    else:
+        total = builder.AddNamedSystem("commanded_torque", Adder(len(torques), 1))
+        for i, port in enumerate(torques):
+            builder.Connect(port, total.get_input_port(i))
+        torque = total.get_output_port()
+    builder.Connect(torque, world.arm_torque_input)
+    return Command(torque, controller, gain)
 
-    # --- Observers (Sec. III) --------------------------------------------------------------------------------
-    needed = set(config.observers.run)
-    if config.controller.mode == "lqr" and config.controller.velocity_source in ("hg", "vfe"):
-        needed.add(config.controller.velocity_source)
-    A_model, B_F = linearized_upright(rig)
+
+def controller_gain(plant: MultibodyPlant, config: SimulationConfig) -> np.ndarray:
+    """The LQR gain K (1x4, paper order) of ``config``: ``controller.gain`` checked to stabilise the upright of
+    ``plant``, or the LQ design of ``controller.lqr``, at the control period."""
+    return lqr_gain(plant, config.controller.lqr, period=config.control_period, gain=config.controller.gain)
+
+
+@dataclass
+class Observers:
+    """What :func:`add_observers` added: ``estimates``, the state estimate [rad, rad/s] of each velocity source
+    that runs; ``compensation``, the F_hat [N m] a compensating controller subtracts (None when the controller
+    does not compensate); ``signals``, the observers' further outputs a run logs (``friction_estimate``,
+    ``friction_error_estimate``, and ``K_sigma`` or ``dahl_parameters`` when the Dahl observer adapts)."""
+
+    estimates: dict[str, OutputPort] = field(default_factory=dict)
+    compensation: OutputPort | None = None
+    signals: dict[str, OutputPort] = field(default_factory=dict)
+
+
+def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_state: OutputPort,
+                  measured: OutputPort, command: OutputPort) -> Observers:
+    """The observers of ``config`` (Sec. III) on the ``measured`` angles [rad] and the commanded arm torque
+    ``command`` [N m]: those of ``observers.run`` and the controller's velocity source, with the Dahl observer
+    whose F_hat a compensating controller subtracts (Sec. IV-A: on the arm velocity of the observer it uses).
+    The reference diagram (iv) reads the true velocities from ``true_state``."""
+    period, controller = config.control_period, config.controller
+    source = controller.velocity_source if controller.mode != "open_loop" else None
+    compensate = source is not None and controller.friction_compensation
+    needed = set(config.observers.run) | ({source} & {"hg", "vfe"})
+    A_model, B_F = linearized_upright(config.rig)
+    out, linear = Observers(), []
     if "hg" in needed:
-        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg))
+        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg,
+                                                                    period=period))
         builder.Connect(measured, hg.GetInputPort("measured_angles_rad"))
         builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
-        estimates["hg"] = hg.GetOutputPort("state_estimate")
-        if controller is not None and config.controller.friction_compensation \
-                and config.controller.velocity_source == "hg":
-            # Sec. IV-A: u = u_LQ - F_hat with F_hat from the Dahl observer (Eq. 8) on the HG arm velocity.
-            hg_dahl, _ = add_dahl_observer(builder, config.observers.dahl, hg.GetOutputPort("state_estimate"),
-                                           measured, "hg")
-            builder.Connect(hg_dahl.GetOutputPort("friction_estimate_Nm"),
-                            controller.GetInputPort("friction_compensation_Nm"))
+        out.estimates["hg"] = hg.GetOutputPort("state_estimate")
+        linear.append(hg)
+        if compensate and source == "hg":
+            # Adaptation reads the VFE's eps_hat_F: on the HG estimate the Dahl observer runs without it.
+            hg_dahl, _ = add_dahl_observer(builder, dataclasses.replace(config.observers.dahl, adaptation=None),
+                                           out.estimates["hg"], measured, "hg", period=period)
+            out.compensation = hg_dahl.GetOutputPort("friction_estimate_Nm")
     if "vfe" in needed:
-        # Eq. 18 runs inside the Dahl observer (one Python update per sample instead of two and an output),
-        # unless that observer adapts its own parameters (Sec. VII): then a KSigmaAdapter drives its K_sigma.
-        merged = config.observers.adaptation_enabled and config.observers.dahl_adaptation is None
-        vfe, dahl, arm_velocity = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe,
-                                                    config.observers.dahl, measured, command,
-                                                    config.observers.pendulum_friction,
-                                                    config.observers.dahl_adaptation,
-                                                    k_sigma=config.observers.adaptation if merged else None)
-        if config.observers.dahl_adaptation is not None:
-            log("dahl_parameters", dahl.GetOutputPort("dahl_parameters"))
-        estimates["vfe"] = vfe.GetOutputPort("state_estimate")
-        log("friction_estimate", dahl.GetOutputPort("friction_estimate_Nm"))
-        log("friction_error_estimate", vfe.GetOutputPort("friction_error_estimate_Nm"))
-        if merged:
-            log("K_sigma", dahl.GetOutputPort("K_sigma_branches"))
-        elif config.observers.adaptation_enabled:
-            adapter = builder.AddNamedSystem("k_sigma_adapter", KSigmaAdapter(
-                config.observers.adaptation, sigma0=config.observers.dahl.sigma0))
-            builder.Connect(arm_velocity.get_output_port(),
-                            adapter.GetInputPort("arm_velocity_estimate_rad_per_s"))
-            builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
-                            adapter.GetInputPort("friction_error_estimate_Nm"))
-            builder.Connect(dahl.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
-            builder.Connect(adapter.GetOutputPort("K_sigma"), dahl.GetInputPort("K_sigma"))
-            log("K_sigma", adapter.GetOutputPort("K_sigma_branches"))
-        if controller is not None and config.controller.friction_compensation \
-                and config.controller.velocity_source == "vfe":
-            builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"),
-                            controller.GetInputPort("friction_compensation_Nm"))
-    if "derivative" == config.controller.velocity_source and config.controller.mode == "lqr":
+        vfe, dahl, _ = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe, config.observers.dahl,
+                                         measured, command, config.observers.pendulum_friction, period=period)
+        out.estimates["vfe"] = vfe.GetOutputPort("state_estimate")
+        linear.append(vfe)
+        adaptation = config.observers.dahl.adaptation
+        if adaptation is not None and adaptation.parameters is not None:
+            out.signals["dahl_parameters"] = dahl.GetOutputPort("dahl_parameters")
+        out.signals["friction_estimate"] = dahl.GetOutputPort("friction_estimate_Nm")
+        out.signals["friction_error_estimate"] = vfe.GetOutputPort("friction_error_estimate_Nm")
+        if adaptation is not None and adaptation.k_sigma is not None:
+            out.signals["K_sigma"] = dahl.GetOutputPort("K_sigma_branches")
+        if compensate and source in ("vfe", "kinematic_hg"):
+            out.compensation = dahl.GetOutputPort("friction_estimate_Nm")
+    if source == "derivative":
         derivative = builder.AddNamedSystem("angle_derivative", DiscreteDerivative(2, period))
-        mux = builder.AddNamedSystem("angles_and_rates", Multiplexer([2, 2]))
         builder.Connect(measured, derivative.get_input_port())
-        builder.Connect(measured, mux.get_input_port(0))
-        builder.Connect(derivative.get_output_port(), mux.get_input_port(1))
-        estimates["derivative"] = mux.get_output_port()
-    if controller is not None and config.controller.velocity_source == "true":
-        # The reference diagram (iv): encoder angles with the true velocities.
+        out.estimates["derivative"] = _angles_and(builder, "angles_and_rates", measured, derivative.get_output_port())
+    if source == "true":
         velocities = builder.AddNamedSystem("true_velocities", MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
-        mux = builder.AddNamedSystem("angles_and_true_velocities", Multiplexer([2, 2]))
         builder.Connect(true_state, velocities.get_input_port())
-        builder.Connect(measured, mux.get_input_port(0))
-        builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
-        estimates["true"] = mux.get_output_port()
-    if controller is not None and not builder.IsConnectedOrExported(controller.GetInputPort("state_estimate")):
-        builder.Connect(estimates[config.controller.velocity_source], controller.GetInputPort("state_estimate"))
+        out.estimates["true"] = _angles_and(builder, "angles_and_true_velocities", measured,
+                                            velocities.get_output_port())
+    if source == "kinematic_hg":
+        # The swing-up's velocities: the high-gain structure on the gravity-free kinematic model.
+        eps = controller.swingup.velocity_eps
+        kinematic = builder.AddNamedSystem("kinematic_hg_observer", HighGainObserver(
+            kinematic_model(), HighGainParameters(eps_theta=eps, eps_phi=eps), period=period))
+        builder.Connect(measured, kinematic.GetInputPort("measured_angles_rad"))
+        builder.Connect(command, kinematic.GetInputPort("arm_torque_Nm"))
+        out.estimates["kinematic_hg"] = kinematic.GetOutputPort("state_estimate")
+        linear.append(kinematic)
+    if config.observers.start_at_initial_state:
+        for observer in linear:  # the first measurement's state rather than the upright x_hat = 0
+            start = np.zeros(observer.discrete.A().shape[0])
+            start[:4] = config.initial_state
+            observer.discrete.configure_default_state(start)
+    return out
 
-    # --- Loggers, sampled at the control period like the rig's data ------------------------------------------
-    true_sampled = builder.AddNamedSystem("true_state_sample", ZeroOrderHold(period, 4))
-    builder.Connect(true_state, true_sampled.get_input_port())
-    friction_sampled = builder.AddNamedSystem("true_friction_sample", ZeroOrderHold(period, 2))
-    builder.Connect(true_friction, friction_sampled.get_input_port())
-    log("state", true_sampled.get_output_port())
-    log("measured_angles", measured)
-    log("torque", command)
-    log("true_friction", friction_sampled.get_output_port())
-    for name, port in estimates.items():
-        if name != "true":
-            log(f"estimate_{name}", port)
 
-    if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
-        # Published on control samples (16 ms, ~60 frames/s): the integrator already stops there, so drawing
-        # adds no step boundary and the run is bit-identical to one without Meshcat (the default 1/64 s is not).
-        params = MeshcatVisualizerParams()
-        params.publish_period = 16 * period
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
-
-    diagram = builder.Build()
-    diagram.set_name("furuta_" + config.controller.mode)
-    return FurutaDiagram(diagram, plant, scene_graph, loggers, lqr_gain, config)
+def _angles_and(builder: DiagramBuilder, name: str, measured: OutputPort, velocities: OutputPort) -> OutputPort:
+    """[theta, phi] of the encoder stacked on [theta_dot, phi_dot] of ``velocities``: a paper-order estimate."""
+    mux = builder.AddNamedSystem(name, Multiplexer([2, 2]))
+    builder.Connect(measured, mux.get_input_port(0))
+    builder.Connect(velocities, mux.get_input_port(1))
+    return mux.get_output_port()
 
 
 def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, measured: OutputPort,
-                      command: OutputPort, pendulum_params=None, adaptation=None, k_sigma=None):
+                      command: OutputPort, pendulum_params=None, *, period: float):
     """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
-    (Eq. 8, 16), which reads the VFE's arm velocity estimate; with ``pendulum_params`` a second friction
-    observer on the pendulum joint feeds F_hat_theta too, and with ``adaptation`` (DahlAdaptationParameters)
-    the arm observer adapts Fc+/- and sigma0 from eps_hat_F (Sec. VII); with ``k_sigma``
-    (KSigmaAdaptationParameters) it is a KSigmaDahlObserver adapting K_sigma (Eq. 18). Returns (vfe, dahl,
-    arm_velocity)."""
-    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(model, vfe_params,
-                                                             pendulum_friction_input=pendulum_params is not None))
+    (Eq. 8, 16), which reads the VFE's arm velocity estimate and, when ``dahl_params.adaptation`` is given, its
+    eps_hat_F (Eq. 18, or the Fc and sigma0 law of Sec. VII); with ``pendulum_params`` a second friction
+    observer on the pendulum joint feeds F_hat_theta too. ``model`` is (A, B_F) of Eq. 1-2, ``period`` the
+    control period [s]. Returns (vfe, dahl, arm_velocity)."""
+    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(
+        model, vfe_params, period=period, pendulum_friction_input=pendulum_params is not None))
     estimate = vfe.GetOutputPort("state_estimate")
-    error_response = None if adaptation is None else friction_error_response(*model, vfe.gains)
-    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe", adaptation=adaptation,
-                                           error_response=error_response, k_sigma=k_sigma)
-    if adaptation is not None or k_sigma is not None:
+    adaptation = dahl_params.adaptation
+    error_response = friction_error_response(*model, vfe.gains) if adaptation is not None \
+        and adaptation.parameters is not None else None
+    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe", period=period,
+                                           error_response=error_response)
+    if adaptation is not None:
         builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
                         dahl.GetInputPort("friction_error_estimate_Nm"))
     builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
     builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
     if pendulum_params is not None:
-        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", joint="pendulum")
+        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", period=period,
+                                        joint="pendulum")
         builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
                         vfe.GetInputPort("pendulum_friction_estimate_Nm"))
     return vfe, dahl, arm_velocity
 
 
-def _arm_torque_to_generalized_force(plant: MultibodyPlant) -> np.ndarray:
-    """Column (nv x 1) mapping an arm torque to the plant's generalized forces."""
-    column = np.zeros((plant.num_velocities(), 1))
-    column[plant.GetJointByName("arm").velocity_start(), 0] = 1.0
-    return column
-
-
-def _sum_into(builder: DiagramBuilder, ports: list[OutputPort], destination, name: str):
-    """Connect the sum of ``ports`` into ``destination`` (an input port, or None) and return the summed port."""
-    if len(ports) == 1:
-        summed = ports[0]
-    else:
-        adder = builder.AddNamedSystem(name, Adder(len(ports), ports[0].size()))
-        for i, port in enumerate(ports):
-            builder.Connect(port, adder.get_input_port(i))
-        summed = adder.get_output_port()
-    if destination is not None:
-        builder.Connect(summed, destination)
-    return summed
-
-
 def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
-                      joint: str = "arm", adaptation=None, error_response=None, k_sigma=None):
+                      *, period: float, joint: str = "arm", error_response=None):
     """The Dahl (or LuGre) friction observer (Eq. 8, 16) of ``joint`` on that joint's velocity in an observer's
-    ``state_estimate`` (paper order). Returns (observer, velocity selector), named ``{prefix}_dahl_observer`` and
-    ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer`` and
-    ``{prefix}_pendulum_velocity`` for the pendulum; with ``adaptation`` the arm's is an AdaptiveDahlObserver
-    (``error_response``: its VFE's ``friction_error_response``), with ``k_sigma`` a KSigmaDahlObserver."""
+    ``state_estimate`` (paper order), adapting as ``params.adaptation`` says (``error_response``: its VFE's
+    ``friction_error_response``, for the Fc and sigma0 law). Returns (observer, velocity selector), named
+    ``{prefix}_dahl_observer`` and ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer``
+    and ``{prefix}_pendulum_velocity`` for the pendulum."""
     label = prefix if joint == "arm" else f"{prefix}_pendulum"
-    if adaptation is not None:
-        observer = AdaptiveDahlObserver(params, adaptation, error_response)
-    elif k_sigma is not None:
-        observer = KSigmaDahlObserver(params, k_sigma)
-    else:
-        observer = DahlFrictionObserver(params, joint)
-    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", observer)
+    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", DahlFrictionObserver(
+        params, period=period, joint=joint, error_response=error_response))
     row = np.array([[0.0, 0.0, 0.0, 1.0]]) if joint == "arm" else np.array([[0.0, 0.0, 1.0, 0.0]])
     velocity = builder.AddNamedSystem(f"{prefix}_{joint}_velocity", MatrixGain(row))
     builder.Connect(state_estimate, velocity.get_input_port())
     builder.Connect(velocity.get_output_port(), dahl.GetInputPort(f"{joint}_velocity_estimate_rad_per_s"))
     builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
     return dahl, velocity
+
+
+def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, measured: OutputPort,
+                command: Command, observers: Observers) -> dict[str, VectorLogSink]:
+    """Loggers at the control ``period`` [s], sampled like the rig's data: ``state`` (the true state, held),
+    ``measured_angles``, ``torque`` (the command), ``true_friction`` (held), ``estimate_{source}`` for each
+    observer's estimate and ``signal_{name}`` for the observers' signals and the swing-up's ``swingup_mode`` and
+    ``pendulum_energy_J``."""
+    loggers = {}
+
+    def log(name: str, port: OutputPort) -> None:
+        loggers[name] = LogVectorOutput(port, builder, publish_period=period)
+
+    true_sampled = builder.AddNamedSystem("true_state_sample", ZeroOrderHold(period, 4))
+    builder.Connect(world.true_state, true_sampled.get_input_port())
+    friction_sampled = builder.AddNamedSystem("true_friction_sample", ZeroOrderHold(period, 2))
+    builder.Connect(world.friction_torque, friction_sampled.get_input_port())
+    log("state", true_sampled.get_output_port())
+    log("measured_angles", measured)
+    log("torque", command.torque)
+    log("true_friction", friction_sampled.get_output_port())
+    for name, port in observers.estimates.items():
+        if name != "true":
+            log(f"estimate_{name}", port)
+    signals = dict(observers.signals)
+    if isinstance(command.controller, EnergySwingUpController):
+        signals.update({name: command.controller.GetOutputPort(name) for name in ("swingup_mode",
+                                                                                  "pendulum_energy_J")})
+    for name, port in signals.items():
+        log(f"signal_{name}", port)
+    return loggers
+
+
+__all__ = [
+    "FurutaDiagram", "build_furuta_diagram", "Command", "add_command", "controller_gain", "Observers",
+    "add_observers", "add_vfe_with_dahl", "add_dahl_observer", "add_loggers",
+]

@@ -1,6 +1,6 @@
 """Incremental encoders on the two joints: the only measurements of the rig (paper Sec. II, y = [theta, phi]).
 
-The encoder samples the true angles every ``sample_period`` and holds the sample, quantised to whole counts:
+The encoder samples the true angles every control period and holds the sample, quantised to whole counts:
 the staircase y(t) = q round((angle(t_k) + n_k) / q) for t in [t_k, t_k+1), q = 2 pi / counts_per_rev, with
 optional white Gaussian noise n_k (the ``measurement_noise`` effect of the diagnosis vocabulary) added before
 the quantisation. Angles are not wrapped: an incremental encoder counts turns.
@@ -14,16 +14,16 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.rig import _require_nonnegative, _require_positive
 
 
 @dataclass
 class EncoderParameters:
-    """Resolution, sampling and noise of the two joint encoders."""
+    """Resolution and noise of the two joint encoders; they sample at the control period."""
 
     counts_per_rev: int = 4096  # [counts/rev]; one count is 2 pi / counts_per_rev [rad]
-    sample_period: float = 1e-3  # [s]
+    sample_period: float | None = None  # [s] optional: a stated sample period must equal the control period
     noise_std: float = 0.0  # [rad] white Gaussian noise added to each sample before quantisation
     seed: int = 0  # selects the noise sequence
 
@@ -32,7 +32,8 @@ class EncoderParameters:
         if isinstance(counts, bool) or not isinstance(counts, (int, float)) or not math.isfinite(counts) \
                 or int(counts) != counts or counts < 4:
             raise ConfigError(f"{where}.counts_per_rev must be an integer >= 4, got {counts!r}")
-        _require_positive(self.sample_period, f"{where}.sample_period")
+        if self.sample_period is not None:
+            _require_positive(self.sample_period, f"{where}.sample_period")
         _require_nonnegative(self.noise_std, f"{where}.noise_std")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ConfigError(f"{where}.seed must be a non-negative integer, got {self.seed!r}")
@@ -47,9 +48,9 @@ class Encoder(LeafSystem):
     """Sampled, quantised (and optionally noisy) measurement of theta and phi.
 
     Input ``true_state``: the paper's x = [theta, phi, theta_dot, phi_dot]. Output ``measured_angles_rad``:
-    [theta, phi] sampled by a periodic discrete update at ``sample_period`` and held, rounded to the nearest
-    count (error within half a count when noise_std = 0). An initialization event takes a first sample, so the
-    output is a measurement of the initial state from the start, before the periodic sample at t = 0. The
+    [theta, phi] sampled by a periodic discrete update at the control period ``period`` [s] and held, rounded to
+    the nearest count (error within half a count when noise_std = 0). An initialization event takes a first
+    sample, so the output is a measurement of the initial state from the start, before the periodic sample at t = 0. The
     output is the discrete state: the encoder has no direct feedthrough.
 
     Noise is counter-based: the noise of sample k is a pure function of (seed, k), drawn in blocks of
@@ -57,15 +58,17 @@ class Encoder(LeafSystem):
     only the sample counter k. So the same seed gives the same measurements in every fresh simulation and in
     every cloned context, independently of ``Diagram.SetRandomContext`` and of the other random blocks of the
     diagram. The alternatives cost more or lose the seed: a numpy ``Generator`` in abstract state is deep-copied
-    by every unrestricted update (measured 140 us per sample against 11 us here), and Drake's ``RandomSource``
-    takes its seed from the diagram's random context, not from this encoder's ``seed``.
+    by every unrestricted update (an order of magnitude slower per sample), and Drake's ``RandomSource`` takes its
+    seed from the diagram's random context, not from this encoder's ``seed``.
     """
 
     NOISE_BLOCK = 4096  # samples of noise drawn at once
 
-    def __init__(self, params: EncoderParameters):
+    def __init__(self, params: EncoderParameters, *, period: float):
         super().__init__()
         params.validate()
+        _require_positive(period, "Encoder period")
+        require_control_period(params.sample_period, period, "encoder.sample_period")
         self._resolution = params.resolution
         self._noise_std = float(params.noise_std)
         self._seed = int(params.seed)
@@ -78,7 +81,7 @@ class Encoder(LeafSystem):
         else:
             update = self._sample
         self.DeclareInitializationDiscreteUpdateEvent(update)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.sample_period, 0.0, update)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, update)
         self.DeclareStateOutputPort("measured_angles_rad", self._measured)
 
     def _write(self, discrete_state, theta: float, phi: float) -> None:

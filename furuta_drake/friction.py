@@ -19,8 +19,10 @@ Dahl is passive: with the bristle energy sigma0 z^2 / 2, d/dt (E + sigma0 z^2 / 
 - b v^2 <= 0. For LuGre the same storage is non-increasing whenever |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2
 (a sufficient condition; Barabanov and Ortega 2000, the paper's [5], give the necessary and sufficient one).
 
-The bristle state is stiff (rate sigma0 |v| / Fc up to 1e4 1/s, NOTES.md): :func:`dahl_exact_step` is its
-exact step at frozen velocity, stable at any step size, for discrete-time users (the friction observers).
+The bristle state is stiff (rate sigma0 |v| / Fc: about 800 |v| 1/s with the paper's sigma0 = 10 N m/rad and
+Fc = 0.012 N m): :func:`dahl_exact_step` is its exact step at frozen velocity, stable at any step size, and
+:func:`held_input_gain` what a constant input adds over that step, for discrete-time users (the friction
+observers).
 """
 
 from __future__ import annotations
@@ -193,6 +195,12 @@ def dahl_exact_step(z, v, dt, sigma0, coulomb_level):
         return z_ss + (z - z_ss) * math.exp(-sigma0 * abs(v) * dt / coulomb_level)
     z_ss = coulomb_level * np.sign(v) / sigma0
     return z_ss + (z - z_ss) * np.exp(-sigma0 * np.abs(v) * dt / coulomb_level)
+
+
+def held_input_gain(rate: float, period: float) -> float:
+    """int_0^h e^(-r s) ds [s]: what a constant input adds over one ``period`` h [s] to dz/dt = -r z + input,
+    r = ``rate`` [1/s] >= 0 (h itself at r = 0)."""
+    return -math.expm1(-rate * period) / rate if rate > 0 else period
 
 
 # --- The Drake system ------------------------------------------------------------------------------------------

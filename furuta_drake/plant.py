@@ -7,7 +7,7 @@ models.
 
 Kinematics: joint ``arm`` (phi) about the vertical +z axis at the base; joint ``pendulum`` (theta) at the arm
 tip, about the arm's axis, pointing so that theta = 0 is upright and theta > 0 tilts the pendulum towards the
-arm's direction of positive motion: the paper's convention (beta4 < 0, ``paper/NOTES.md``).
+arm's direction of positive motion: the paper's convention (beta4 < 0, ``docs/paper.md``).
 """
 
 from __future__ import annotations

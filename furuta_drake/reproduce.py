@@ -1,6 +1,6 @@
 """The paper's experiments on the simulated Lund rig: Tables I-II, Fig. 5 and Figs. 6-7.
 
-The simulated rig (``paper_rig_config``) is what NOTES.md says about the real one: arm Dahl friction of
+The simulated rig (``paper_rig_config``) is what ``docs/paper.md`` says about the real one: arm Dahl friction of
 0.012 N m (phi_dot > 0) and 0.018 N m (phi_dot < 0) with sigma0 = 10 N m/rad, pendulum Coulomb friction of
 0.001 N m, 4096-count encoders sampled at 1 kHz, the 0.2 N m torque limit. The paper does not say what kept
 its arm moving; here a seeded multisine torque disturbance (0.2-3 Hz) plays that role, with an RMS chosen so
@@ -13,7 +13,7 @@ notebook and the tests share it.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.systems.analysis import Simulator
@@ -25,25 +25,27 @@ from furuta_drake.config import ExcitationConfig, SimulationConfig
 from furuta_drake.diagram import add_vfe_with_dahl
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
+from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import SimulationResult, simulate
 
-# The paper's values (NOTES.md), squared errors in rad^2 and (rad/s)^2.
+# The paper's values (Tables I-II, Fig. 6), squared errors in rad^2 and (rad/s)^2.
 PAPER_TABLE1 = {("phi", "mean"): (3.5e-3, 2.3e-3), ("phi", "std"): (3.4e-3, 2.5e-3),
                 ("theta", "mean"): (4.2e-5, 6.4e-5), ("theta", "std"): (4.7e-5, 7.7e-5)}
 PAPER_TABLE2 = {("phi_dot", "mean"): (31e-3, 9e-3), ("phi_dot", "std"): (48e-3, 13e-3),
                 ("theta_dot", "mean"): (4.1e-3, 1.1e-3), ("theta_dot", "std"): (6.4e-3, 1.6e-3)}
 PAPER_K_SIGMA_RANGE = (1.34, 2.05)
-ARM_COULOMB_POS, ARM_COULOMB_NEG = 0.012, 0.018  # [N m], NOTES.md / Fig. 7
+ARM_COULOMB_POS, ARM_COULOMB_NEG = 0.012, 0.018  # [N m], Sec. V-D / Fig. 7
 ARM_SIGMA0 = 10.0  # [N m/rad]
 PENDULUM_COULOMB = 0.001  # [N m]
 ADAPTATION_ENABLE_TIME = 7.8  # [s], Sec. V-D
 UNDERESTIMATED_COULOMB = 0.009  # [N m], the start of Figs. 6-7
-ADAPTATION_GAMMA = 15000.0  # [1/((N m)^2 s)]: the paper gives none; K_sigma settles within ~15 s of enabling
+ADAPTATION_GAMMA = 15000.0  # [1/((N m)^2 s)]: the paper gives none; K_sigma settles within the 40 s run
 TRANSIENT = 1.0  # [s] dropped from every statistic (start-up from theta0)
-HG_EPS = (0.002, 0.003, 0.004, 0.005, 0.007, 0.01, 0.014, 0.02)  # [s] error poles at -1/eps
-VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0, 3.0)  # times the default eigenvalues of G, -20 ... -35 rad/s
+SWEEP_HG_EPS = (0.002, 0.003, 0.004, 0.005, 0.007, 0.01, 0.014, 0.02)  # [s] error poles at -1/eps
+SWEEP_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0, 3.0)  # times the default eigenvalues of G, -20 ... -35 rad/s
 
 
 def paper_rig_config(seed: int = 0, duration: float = 20.0) -> SimulationConfig:
@@ -123,7 +125,7 @@ def table2(runs: TableRuns) -> list[dict]:
 def velocity_references(result: SimulationResult, config: SimulationConfig) -> dict[str, np.ndarray]:
     """Table II's two references for [theta_dot, phi_dot]: the paper's zero-phase 5 Hz Butterworth of the
     encoder angles' derivative, and the true velocity."""
-    return {"butterworth": butterworth_velocity_reference(result.measured, config.encoder.sample_period),
+    return {"butterworth": butterworth_velocity_reference(result.measured, config.control_period),
             "true": result.state[:, 2:]}
 
 
@@ -135,7 +137,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     the closed loop, the update at t_{k+1} reads the measurement of t_k and the torque applied over
     [t_k, t_{k+1}); after the start-up transient the replayed estimates equal the closed loop's.
     """
-    period = config.encoder.sample_period
+    period = config.control_period
     times = result.time + period / 2  # between two updates: immune to the rounding of the re-timed log
     builder = DiagramBuilder()
     angles = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, result.measured.T)))
@@ -144,14 +146,15 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     A, B_F = linearized_upright(config.rig)
     loggers = {}
     if hg is not None:
-        hg_system = builder.AddSystem(HighGainObserver((A, B_F), hg))
+        hg_system = builder.AddSystem(HighGainObserver((A, B_F), hg, period=period))
         builder.Connect(angles.get_output_port(), hg_system.GetInputPort("measured_angles_rad"))
         builder.Connect(torque.get_output_port(), hg_system.GetInputPort("arm_torque_Nm"))
         loggers["hg"] = LogVectorOutput(hg_system.GetOutputPort("state_estimate"), builder, period)
     if vfe is not None:
         vfe_params, dahl_params = vfe
         vfe_system, _, _ = add_vfe_with_dahl(builder, (A, B_F), vfe_params, dahl_params, angles.get_output_port(),
-                                             torque.get_output_port(), config.observers.pendulum_friction)
+                                             torque.get_output_port(), config.observers.pendulum_friction,
+                                             period=period)
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
     diagram = builder.Build()
     simulator = Simulator(diagram)
@@ -162,16 +165,16 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
 
 
 def observer_sweep(pilot: SimulationResult, config: SimulationConfig) -> list[dict]:
-    """Replay the HG observer for every eps in ``HG_EPS`` and the VFE observer (with its Dahl observer) for
-    every scale of its eigenvalues in ``VFE_SCALES`` on the pilot run's measurements, and give each one's mean
+    """Replay the HG observer for every eps in ``SWEEP_HG_EPS`` and the VFE observer (with its Dahl observer) for
+    every scale of its eigenvalues in ``SWEEP_VFE_SCALES`` on the pilot run's measurements, and give each one's mean
     squared velocity errors against both references (rows marked ``best`` have the lowest arm error vs the
     true velocity, per observer)."""
     keep = _after_transient(pilot)
     references = velocity_references(pilot, config)
     candidates = [("hg", "eps", eps, {"hg": dataclasses.replace(config.observers.hg, eps_theta=eps, eps_phi=eps)})
-                  for eps in HG_EPS]
+                  for eps in SWEEP_HG_EPS]
     candidates += [("vfe", "eigenvalue_scale", scale, {"vfe": (_scaled_vfe(config, scale), config.observers.dahl)})
-                   for scale in VFE_SCALES]
+                   for scale in SWEEP_VFE_SCALES]
     rows = []
     for observer, parameter, value, kwargs in candidates:
         estimate = replay_observers(pilot, config, **kwargs)[observer][keep, 2:]
@@ -228,7 +231,7 @@ def steady_friction_values(result: SimulationResult, config: SimulationConfig, s
     """Mean F_hat, F_hat + eps_hat_F (arm entry) and the true arm friction [N m] over steady sliding phases
     after ``start_time``, per direction of the true arm velocity ('pos': phi_dot > 0, 'neg': phi_dot < 0)."""
     keep = result.time >= start_time
-    min_samples = int(min_duration / config.encoder.sample_period)
+    min_samples = int(min_duration / config.control_period)
     masks = steady_phases(result.state[:, 3], threshold, min_samples)
     f_hat = result.signals["friction_estimate"][:, 0]
     eps = result.signals["friction_error_estimate"][:, 1]
@@ -267,15 +270,14 @@ def adaptation_config(config: SimulationConfig, duration: float = 40.0) -> Simul
     """Figs. 6-7: an underestimated Dahl observer (Fc_hat = 0.009 N m both ways, K_sigma = 1), LQR on VFE
     without compensation (Sec. V-C: the arm must move to excite the adaptation), K_sigma adaptation enabled
     at t = 7.8 s."""
+    adaptation = DahlAdaptation(k_sigma=KSigmaAdaptationParameters(enable_time=ADAPTATION_ENABLE_TIME,
+                                                                   gamma=ADAPTATION_GAMMA))
     dahl = dataclasses.replace(config.observers.dahl, coulomb_pos=UNDERESTIMATED_COULOMB,
-                               coulomb_neg=UNDERESTIMATED_COULOMB)
-    adaptation = dataclasses.replace(config.observers.adaptation, enable_time=ADAPTATION_ENABLE_TIME,
-                                     gamma=ADAPTATION_GAMMA)
+                               coulomb_neg=UNDERESTIMATED_COULOMB, adaptation=adaptation)
     return dataclasses.replace(
         config, duration=duration,
         controller=dataclasses.replace(config.controller, velocity_source="vfe", friction_compensation=False),
-        observers=dataclasses.replace(config.observers, dahl=dahl, adaptation=adaptation, adaptation_enabled=True,
-                                      run=["vfe"]))
+        observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]))
 
 
 def adaptation_experiment(config: SimulationConfig, duration: float = 40.0, progress=None) -> dict:

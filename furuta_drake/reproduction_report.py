@@ -5,8 +5,8 @@ writes, into a directory that appears complete or not at all: ``table1.csv``, ``
 fairness sweep ``observer_sweep.csv``), ``fig3.png`` ... ``fig7.png``, ``adaptation.json``, ``report.md``,
 ``config.yaml`` (the simulated rig, a ``simulate`` config), ``reproduction.yaml`` (these settings and the
 tuned observers) and every run's raw log with its config in ``logs/``; ``beyond`` adds ``beyond.md`` and the
-plots of the studies of :mod:`furuta_drake.beyond` (the open problems of the paper's Sec. VI-VII). CSV and JSON files are byte-identical
-for the same settings.
+plots of the studies of :mod:`furuta_drake.studies` (the open problems of the paper's Sec. VI-VII). CSV and JSON
+files are byte-identical for the same settings.
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ from furuta_drake.yamlio import dump_yaml_dataclass
 
 EXPERIMENTS = ("table1", "table2", "fig5", "fig6", "fig7", "beyond")
 PAPER_EXPERIMENTS = EXPERIMENTS[:-1]
-BEYOND_STUDIES = ("pendulum_observer", "parameter_adaptation", "lugre_observer", "stability", "swingup")
+BEYOND_STUDIES = ("pendulum_observer_study", "parameter_adaptation_study", "lugre_observer_study", "stability_study",
+                  "swingup_study")
 
 
 @dataclass
@@ -109,24 +110,24 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
                             staging / "beyond.csv")
         (staging / "reproduction.yaml").write_text(_settings_yaml(settings, tuned))
         figures["wall_time_s"] = time.perf_counter() - started
-        (staging / "report.md").write_text(report_markdown(figures, settings))
+        (staging / "report.md").write_text(reproduction_markdown(figures, settings))
         if "beyond" in only:
-            (staging / "beyond.md").write_text(beyond_markdown(figures["beyond"], settings))
+            (staging / "beyond.md").write_text(studies_markdown(figures["beyond"], settings))
     return figures
 
 
 def run_beyond(seed: int, small: bool, progress=None) -> list:
-    """Every study of :mod:`furuta_drake.beyond` (``BEYOND_STUDIES``), each on the paper's rig and ``seed``."""
+    """Every study of :mod:`furuta_drake.studies` (``BEYOND_STUDIES``), each on the paper's rig and ``seed``."""
     import importlib
 
     studies = []
     for name in BEYOND_STUDIES:
-        studies.append(importlib.import_module(f"furuta_drake.beyond.{name}").study(seed=seed, small=small))
+        studies.append(importlib.import_module(f"furuta_drake.studies.{name}").study(seed=seed, small=small))
         reproduce.report_progress(progress, f"beyond: {name}")
     return studies
 
 
-def beyond_markdown(studies: list, settings: ReproductionSettings) -> str:
+def studies_markdown(studies: list, settings: ReproductionSettings) -> str:
     """beyond.md: each study's table (the paper's method next to the extension) and what it shows."""
     lines = ["# Beyond the paper: the open problems of its Sections VI-VII", "",
              f"Each study runs the paper's method and the extension on the same simulated rig and seed "
@@ -186,7 +187,7 @@ def _settings_yaml(settings: ReproductionSettings, tuned) -> str:
         "hg": tuned.observers.hg, "vfe": tuned.observers.vfe}})
 
 
-def report_markdown(figures: dict, settings: ReproductionSettings) -> str:
+def reproduction_markdown(figures: dict, settings: ReproductionSettings) -> str:
     """report.md: every figure next to the paper's, with the ratio, and the targets of the reproduction."""
     lines = ["# Reproduction of Lenain et al., *A Velocity Observer Based on Friction Adaptation*", "",
              f"Simulated Lund rig (`config.yaml`), seed {settings.seed}; Tables I-II and Fig. 5 from "

@@ -1,4 +1,4 @@
-"""Result files of a simulation: the log CSV of ``spec/diagnosis-interface.md``, the summary and the config.
+"""Result files of a simulation: the log CSV of ``furuta-drake diagnose`` (``docs/diagnose.md``), the summary and the config.
 
 Everything written here is deterministic (fixed float formatting, sorted keys, no wall-clock figures), so
 the same config and seed give byte-identical files.
@@ -22,7 +22,7 @@ LOG_COLUMNS = ["time", "torque", "theta", "phi", "theta_true", "phi_true", "thet
 
 
 def write_log_csv(result, path: str | Path) -> None:
-    """The spec's log format: ``time, torque, theta, phi`` (encoder angles, torque command), then the true
+    """The diagnosis' log format: ``time, torque, theta, phi`` (encoder angles, torque command), then the true
     angles and velocities the simulation knows (extra columns, ignored by ``diagnose``)."""
     table = np.column_stack([result.time, result.torque, result.measured, result.state])
     np.savetxt(path, table, delimiter=",", header=",".join(LOG_COLUMNS), comments="", fmt="%.9g")
@@ -38,7 +38,7 @@ def summary(result, config: SimulationConfig) -> dict:
     """Figures of a run: control accuracy (paper Table I statistics), extremes, the LQR gain."""
     theta, phi = result.state[:, 0], result.state[:, 1]
     out = {
-        "duration_s": float(result.time[-1] - result.time[0] + config.encoder.sample_period),
+        "duration_s": float(result.time[-1] - result.time[0] + config.control_period),
         "samples": int(result.time.size),
         "seed": config.seed,
         "theta_abs_max_rad": float(np.max(np.abs(theta))),

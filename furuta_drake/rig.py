@@ -1,4 +1,4 @@
-"""Rig parameters of a Furuta pendulum, in the vocabulary of ``spec/diagnosis-interface.md``.
+"""Rig parameters of a Furuta pendulum: the rig file of ``furuta-drake diagnose`` (``docs/diagnose.md``).
 
 A :class:`RigParameters` is the nominal model a user states for a rig: the rigid-body data that
 MultibodyPlant needs, the sensor and actuator limits, and the friction and DC motor the nominal model
@@ -20,15 +20,24 @@ from typing import Any
 import numpy as np
 
 from furuta_drake.errors import ConfigError
+from furuta_drake.yamlio import documented_field
 
 
 @dataclass
 class MotorParameters:
     """Armature-controlled DC motor driving the arm: tau = kt (V - ke phi_dot) / R (inductance neglected)."""
 
-    resistance: float = 8.4  # [ohm]
-    torque_constant: float = 0.042  # kt [N m / A]
-    backemf_constant: float = 0.042  # ke [V s / rad]
+    resistance: float = documented_field(
+        8.4, "armature resistance R", "ohm", required=True,
+        measure="ohmmeter across the motor terminals with the rotor held (turn it a little between readings and "
+                "take the typical value), or the motor's datasheet")
+    torque_constant: float = documented_field(
+        0.042, "torque constant kt", "N m/A", required=True,
+        measure="the motor's datasheet; in SI units it equals the back-EMF constant")
+    backemf_constant: float = documented_field(
+        0.042, "back-EMF constant ke", "V s/rad", required=True,
+        measure="spin the arm by hand or with a second motor and divide the open-circuit terminal voltage by the "
+                "arm speed, or the datasheet")
 
     def validate(self, where: str = "motor") -> None:
         for name in ("resistance", "torque_constant", "backemf_constant"):
@@ -46,29 +55,66 @@ class MotorParameters:
 
 @dataclass
 class RigParameters:
-    """The nominal model of a Furuta rig (SI units), field for field the spec's rig YAML.
+    """The nominal model of a Furuta rig (SI units), field for field the rig file.
 
-    The defaults are the Lund pendulum of the paper (``paper/NOTES.md``): they reproduce the four lumped
-    constants J_arm + m r^2, J_p + m l^2, m l r and m g l exactly.
+    The defaults are the Lund pendulum of the paper (``docs/paper.md``): they reproduce the four lumped
+    constants J_arm + m r^2, J_p + m l^2, m l r and m g l exactly. A rig file must state every field declared
+    ``required``; ``furuta-drake rig --template`` writes one with each key explained.
     """
 
-    arm_inertia: float = 1.274e-3  # arm (+ rotor) about the vertical axis [kg m^2]
-    arm_length: float = 0.25  # pivot to pendulum joint [m]
-    pendulum_mass: float = 0.033172  # [kg]
-    pendulum_com: float = 0.30  # pendulum joint to its centre of mass [m]
-    pendulum_inertia: float = 8.997e-4  # about its centre of mass, transverse [kg m^2]
-    gravity: float = 9.81  # [m/s^2]
-    counts_per_rev: int = 4096  # encoder resolution [counts/rev]
-    sample_period: float = 0.001  # [s]
-    torque_limit: float = 0.2  # [N m]
-    theta_direction: int = 1  # -1 when logs count theta opposite to the paper's convention
-    arm_coulomb: float = 0.0  # [N m]
-    arm_viscous: float = 0.0  # [N m s/rad]
-    pendulum_coulomb: float = 0.0  # [N m]
-    pendulum_viscous: float = 0.0  # [N m s/rad]
-    motor: MotorParameters | None = None
-    # Effects the nominal model already includes: vocabulary names -> parameters (docs/diagnose.md).
-    effects: dict[str, dict[str, Any]] | None = None
+    arm_inertia: float = documented_field(
+        1.274e-3, "arm with everything it carries except the pendulum (hub, encoder, motor rotor) about the "
+                  "vertical axis", "kg m^2", required=True,
+        measure="CAD, or the rotor's datasheet inertia plus m_arm L^2/3 for a rod pivoted at its end "
+                "(m_arm L^2/12 for one spun about its centre), or a torsion-pendulum test of the arm")
+    arm_length: float = documented_field(
+        0.25, "arm pivot axis to pendulum joint axis", "m", required=True,
+        measure="calliper between the two axes")
+    pendulum_mass: float = documented_field(
+        0.033172, "pendulum link with everything that swings with it", "kg", required=True,
+        measure="kitchen or lab scale")
+    pendulum_com: float = documented_field(
+        0.30, "pendulum joint axis to the pendulum's centre of mass", "m", required=True,
+        measure="balance the link on a knife edge and measure from the joint axis to the balance point")
+    pendulum_inertia: float = documented_field(
+        8.997e-4, "pendulum inertia about its centre of mass, about an axis parallel to the joint", "kg m^2",
+        required=True,
+        measure="hold the arm, time small free swings of the hanging pendulum: period T gives J_p + m l^2 = m g l "
+                "(T / 2 pi)^2, subtract m l^2 (m pendulum_mass, l pendulum_com); m L^2/12 for a uniform rod of "
+                "length L")
+    gravity: float = documented_field(9.81, "gravitational acceleration", "m/s^2", required=True,
+                                      measure="the local value; 9.81 anywhere on Earth to 0.3 %")
+    counts_per_rev: int = documented_field(
+        4096, "encoder resolution the nominal model assumes, after quadrature decoding", "counts/rev",
+        required=True, measure="encoder lines x 4 for quadrature, or count the change over one full turn by hand")
+    sample_period: float = documented_field(
+        0.001, "control and logging period", "s", required=True,
+        measure="the controller's fixed step; the logs' median time step")
+    torque_limit: float = documented_field(
+        0.2, "largest arm torque the actuator gives", "N m", required=True,
+        measure="voltage limit x kt / R at stall for a voltage-driven DC motor, or current limit x kt")
+    theta_direction: int = documented_field(
+        1, "1 when the logs count theta as furuta-drake does, -1 when they count it the other way", "",
+        measure="with the pendulum hanging, push the arm towards +phi: 1 when the pendulum swings towards +theta; "
+                "furuta-drake diagnose checks it on the logs and names this key when it disagrees")
+    arm_coulomb: float = documented_field(
+        0.0, "arm Coulomb friction the nominal model already has", "N m",
+        measure="the smallest steady torque that keeps the arm turning slowly; 0 lets the diagnosis find it")
+    arm_viscous: float = documented_field(
+        0.0, "arm viscous friction the nominal model already has (not the motor's back-EMF)", "N m s/rad",
+        measure="slope of the steady torque against the arm speed at a few speeds")
+    pendulum_coulomb: float = documented_field(
+        0.0, "pendulum joint Coulomb friction the nominal model already has", "N m",
+        measure="linear (not exponential) decay of the hanging pendulum's free swings with the arm held")
+    pendulum_viscous: float = documented_field(
+        0.0, "pendulum joint viscous friction the nominal model already has", "N m s/rad",
+        measure="exponential decay rate of the hanging pendulum's free swings times 2 (J_p + m l^2)")
+    motor: MotorParameters | None = documented_field(
+        None, "DC motor driving the arm; required when the logs give the input as a voltage",
+        measure="see its three keys")
+    effects: dict[str, dict[str, Any]] | None = documented_field(
+        None, "effects the nominal model already includes: vocabulary names -> parameters (docs/diagnose.md)",
+        measure="leave it out at first; a diagnosis writes fitted_rig.yaml with the effects it accepted")
 
     def validate(self, where: str = "rig") -> None:
         """Raise :class:`ConfigError` naming the first non-physical value."""
@@ -91,7 +137,7 @@ class RigParameters:
             except ConfigError as err:
                 raise ConfigError(f"{where}.{err}") from None
 
-    # Lumped constants of the Furuta equations of motion (Gaefvert 1998; NOTES.md).
+    # Lumped constants of the Furuta equations of motion (Gaefvert 1998; docs/paper.md).
     @property
     def arm_inertia_total(self) -> float:
         """J_arm + m r^2 [kg m^2]: arm inertia with the pendulum mass at the arm tip."""
@@ -122,7 +168,7 @@ class RigParameters:
 
 
 def lund_rig() -> RigParameters:
-    """The Lund University Furuta pendulum of the paper (NOTES.md), 4096-count encoders, 1 kHz control."""
+    """The Lund University Furuta pendulum of the paper (docs/paper.md), 4096-count encoders, 1 kHz control."""
     return RigParameters()
 
 
@@ -153,17 +199,29 @@ def linearized_upright(rig: RigParameters) -> tuple[np.ndarray, np.ndarray]:
     """A (4x4) and B_F (4x2) of paper Eq. 1-2 at the upright, x = [theta, phi, theta_dot, phi_dot].
 
     B_F's columns are the pendulum-torque and arm-torque inputs, tau = [F_theta, u + F_phi] (Eq. 3;
-    NOTES.md explains the column order printed in Eq. 2). Computed in closed form from the lumped constants;
+    ``docs/paper.md`` explains the column order printed in Eq. 2). Computed in closed form from the lumped constants;
     the tests check it against Drake's ``Linearize`` of the MultibodyPlant.
     """
+    return _linearized(rig, cos_theta=1.0)
+
+
+def linearized_hanging(rig: RigParameters) -> tuple[np.ndarray, np.ndarray]:
+    """A (4x4) and B_F (4x2) as :func:`linearized_upright`, at the hanging equilibrium theta = pi: the
+    coupling and the gravity stiffness change sign, so the pendulum mode is an oscillation at
+    sqrt(m g l (J_arm + m r^2) / det M) rad/s with the arm free."""
+    return _linearized(rig, cos_theta=-1.0)
+
+
+def _linearized(rig: RigParameters, cos_theta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 1 linearized at rest at cos(theta) = +-1 (the upright or hanging)."""
     Ja, Jp, c, mgl = rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque
-    # Mass matrix at theta = 0 in q = [theta, phi]; with the paper's theta direction the coupling is +m l r,
-    # which makes beta4 = -c / det(M) < 0.
-    M = np.array([[Jp, c], [c, Ja]])
+    # Mass matrix in q = [theta, phi]; with the paper's theta direction the coupling is +m l r cos(theta), which
+    # makes beta4 = -c / det(M) < 0 at the upright.
+    M = np.array([[Jp, c * cos_theta], [c * cos_theta, Ja]])
     Minv = np.linalg.inv(M)
     A = np.zeros((4, 4))
     A[0, 2] = A[1, 3] = 1.0
-    A[2:, 0] = Minv[:, 0] * mgl  # gravity acts on theta only: d/dtheta (m g l sin theta) = m g l
+    A[2:, 0] = Minv[:, 0] * mgl * cos_theta  # gravity acts on theta only: d/dtheta (m g l sin theta)
     B_F = np.zeros((4, 2))
     B_F[2:, :] = Minv
     return A, B_F
@@ -180,5 +238,5 @@ def _require_nonnegative(value, where: str) -> None:
 
 
 __all__ = [
-    "MotorParameters", "RigParameters", "RIGS", "lund_rig", "qube_servo2_rig", "linearized_upright",
+    "MotorParameters", "RigParameters", "RIGS", "lund_rig", "qube_servo2_rig", "linearized_upright", "linearized_hanging",
 ]

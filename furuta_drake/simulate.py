@@ -30,7 +30,8 @@ class SimulationResult:
     ``state`` is the true paper-order state [theta, phi, theta_dot, phi_dot]; ``measured`` the encoder angles;
     ``torque`` the commanded arm torque [N m]; ``true_friction`` the friction torques [F_theta, F_phi] the
     simulation applied; ``estimates`` each observer's state estimate; ``signals`` further logged signals
-    (``friction_estimate``, ``friction_error_estimate``, ``K_sigma``) when their blocks ran.
+    (``friction_estimate``, ``friction_error_estimate``, ``K_sigma``, ``dahl_parameters``, ``swingup_mode``,
+    ``pendulum_energy_J``) when their blocks ran.
     """
 
     time: np.ndarray
@@ -134,17 +135,14 @@ def _tape(built: FurutaDiagram, context, config: SimulationConfig, wall: float) 
     sees the value sampled at t_{k-1} (Drake publishes after the step that ends at t_k and before that instant's
     discrete update); rows are re-timed by one period so that row k is the sample taken at t_k."""
     logs = {name: logger.FindLog(context) for name, logger in built.loggers.items()}
-    period = config.encoder.sample_period
+    period = config.control_period
 
     def data(name):
         return logs[name].data().T[1:]
 
     time = logs["state"].sample_times()[1:] - period
     estimates = {name[len("estimate_"):]: data(name) for name in logs if name.startswith("estimate_")}
-    signals = {name: data(name) for name in ("friction_estimate", "friction_error_estimate", "K_sigma",
-                                                     "dahl_parameters")
-               if name in logs}
-    signals.update({name[len("signal_"):]: data(name) for name in logs if name.startswith("signal_")})
+    signals = {name[len("signal_"):]: data(name) for name in logs if name.startswith("signal_")}
     return SimulationResult(
         time=time, state=data("state"), measured=data("measured_angles"), torque=data("torque")[:, 0],
         true_friction=data("true_friction"), estimates=estimates, signals=signals, lqr_gain=built.lqr_gain,

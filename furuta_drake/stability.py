@@ -1,4 +1,6 @@
-"""Stability evidence for the nested observers with adaptation (the paper leaves it open, Sec. VI-VII).
+"""The nested loop (plant, observer, Dahl observer, LQR) linearized at the upright and affine in a frozen K_sigma,
+and the tools that judge its stability: stable K_sigma intervals, common quadratic Lyapunov functions, a sampled
+region of attraction and basin maps (the paper leaves stability open, Sec. VI-VII).
 
 **Linearization at the upright.** At rest (velocity 0) a Dahl (or LuGre) bristle is in its presliding regime,
 where it is linear: dz/dt = v - sigma0 |v| z / Fc(v) has the derivative v at v = 0 (|v| z is of second order),
@@ -9,8 +11,9 @@ K_z = -(sigma0_hat / rho) (eps_phi + rho2 eps_v) (the sigma1 |v| factor is 1 at 
 (sigma0_hat z_hat + (sigma1 + sigma2) v_hat). With K_sigma frozen, the loop plant (+ presliding friction) +
 observer (VFE, Eq. 11, fed by F_hat; or HG, Eq. 4) + Dahl observer + LQR with compensation u = u_LQ - F_hat is
 a linear system, affine in K_sigma: A(K_sigma) = A0 + K_sigma A1 (:func:`linear_loop`), in continuous time or
-as the 1 kHz sampled loop of the simulation (zero-order hold of the plant, the observers' exact discretisation,
-the Dahl observer's exact step linearized to z_hat + h (v_hat + K_z), the controller's one-period hold).
+as the loop of the simulation sampled at the control period (zero-order hold of the plant, the observers' exact
+discretisation, the Dahl observer's exact step linearized to z_hat + h (v_hat + K_z), the controller's one-period
+hold).
 Coulomb levels do not enter: they only set how far the presliding regime reaches (|F| well below Fc).
 
 **The conserved mode.** z - angle is constant in presliding (z' = joint velocity), whatever the controller:
@@ -28,8 +31,8 @@ its two ends suffice).
 What this does not prove: the sliding regime (|F| at Fc, the |v| z terms) is nonlinear and outside the
 linearization; the Coulomb friction of the pendulum has no linearization (left out: it only dissipates);
 saturation and quantisation are left out. :func:`lyapunov_region` (a sampled quadratic Lyapunov estimate of the
-true-state LQR loop with the torque limit; Drake's ``RegionOfAttraction`` on a cubic fit of the plant did not
-finish in minutes with Clarabel or CSDP) and :func:`basin_map` (the full nonlinear 1 kHz loop simulated from a
+true-state LQR loop with the torque limit, where Drake's ``RegionOfAttraction`` on a cubic fit of the plant is
+beyond Clarabel and CSDP) and :func:`basin_map` (the full nonlinear sampled loop simulated from a
 grid of initial states) cover the large motions.
 """
 
@@ -42,15 +45,17 @@ import numpy as np
 from pydrake.solvers import ClarabelSolver, MathematicalProgram
 from pydrake.systems.analysis import DiscreteTimeApproximation
 from pydrake.systems.framework import DiagramBuilder, OutputPortSelection
-from pydrake.systems.primitives import Linearize, LinearSystem
+from pydrake.systems.primitives import Linearize
 
 from furuta_drake.config import SimulationConfig
-from furuta_drake.control import design_lqr, upright_linearization
+from furuta_drake.controllers.lqr import upright_linearization, zero_order_hold
+from furuta_drake.diagram import controller_gain
 from furuta_drake.errors import ConfigError, SimulationDiverged
-from furuta_drake.friction import FrictionParameters, JointFriction, JointFrictionParameters
+from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.observers.hg import continuous_high_gain_observer
 from furuta_drake.observers.vfe import continuous_vfe_observer
-from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
+from furuta_drake.plant import make_furuta_plant, plant_to_paper_permutation
+from furuta_drake.world import add_furuta_world
 from furuta_drake.rig import linearized_upright
 
 OBSERVERS = ("vfe", "hg")
@@ -68,24 +73,25 @@ class PreslidingPlant:
 
 
 def presliding_plant(config: SimulationConfig) -> PreslidingPlant:
-    """Drake's ``Linearize`` of the MultibodyPlant with ``config``'s bristle friction (Dahl/LuGre joints; static
-    Coulomb friction has no linearization at rest and is left out) at the upright, permuted to paper order."""
+    """Drake's ``Linearize`` at the upright of ``config``'s world (:func:`furuta_drake.world.add_furuta_world`)
+    with its bristle friction (Dahl/LuGre joints; static Coulomb friction has no linearization at rest and is
+    left out) and the rig's back-EMF, permuted to paper order. The actuator chain, spring and cogging are left
+    out."""
     keep = {joint: p if p.has_bristles else JointFrictionParameters()
             for joint, p in (("arm", config.friction.arm), ("pendulum", config.friction.pendulum))}
     builder = DiagramBuilder()
-    plant, _ = add_furuta_plant(builder, config.rig, time_step=0.0, with_scene_graph=False)
-    friction = builder.AddSystem(JointFriction(plant, FrictionParameters(**keep)))
-    builder.Connect(plant.get_state_output_port(), friction.get_input_port())
-    builder.Connect(friction.GetOutputPort("generalized_force_Nm"), plant.get_applied_generalized_force_input_port())
-    builder.ExportInput(plant.get_actuation_input_port(), "arm_torque_Nm")
+    world = add_furuta_world(builder, rig=config.rig, friction=FrictionParameters(**keep),
+                             control_period=config.control_period)
+    builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     diagram.get_input_port().FixValue(context, [0.0])
     linear = Linearize(diagram, context, output_port_index=OutputPortSelection.kNoOutput)
     # The diagram's continuous state is the plant's then the friction's (the order the systems were added).
-    nx, nb = plant.num_multibody_states(), friction.num_continuous_states()
+    nx = world.plant.num_multibody_states()
+    nb = 0 if world.friction is None else world.friction.num_continuous_states()
     T = np.zeros((nx + nb, nx + nb))
-    T[:4, :nx] = plant_to_paper_permutation(plant)
+    T[:4, :nx] = world.to_paper
     T[4:, nx:] = np.eye(nb)
     A, B = T @ linear.A() @ T.T, T @ linear.B()
     bristle_joints = [index for index, p in ((0, keep["pendulum"]), (1, keep["arm"])) if p.has_bristles]
@@ -152,15 +158,14 @@ def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool 
     config.validate()
     dahl = config.observers.dahl
     A_model, B_F = linearized_upright(config.rig)
-    K = _lqr_gain(config)
+    K = controller_gain(make_furuta_plant(config.rig), config)
     plant = presliding_plant(config)
     npl = plant.A.shape[0]
+    period = config.control_period
     if observer == "vfe":
         obs = continuous_vfe_observer(A_model, B_F, config.observers.vfe)
-        period = config.observers.vfe.period
     else:
         obs = continuous_high_gain_observer(A_model, B_F, config.observers.hg)
-        period = config.observers.hg.period
     nw = obs.A().shape[0]
     s = {"plant": slice(0, npl), "observer": slice(npl, npl + nw), "z_hat": npl + nw}
     n = npl + nw + 1 + (1 if discrete else 0)
@@ -185,7 +190,7 @@ def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool 
         z_rate -= injection_sign * (dahl.sigma0 / dahl.rho) * (y[1] + dahl.rho2 * v_hat)
     A0, A1 = np.zeros((n, n)), np.zeros((n, n))
     if discrete:
-        Phi, Gamma = _zoh(plant.A, plant.B, period)
+        Phi, Gamma = zero_order_hold(plant.A, plant.B, period)
         observer_d = DiscreteTimeApproximation(obs, period)
         Ad, Bd = observer_d.A(), observer_d.B()
         A0[s["plant"], s["plant"]] = Phi
@@ -208,19 +213,6 @@ def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool 
     W = np.zeros((plant.conserved.shape[0], n))
     W[:, s["plant"]] = plant.conserved
     return LinearLoop(A0, A1, W, s, period if discrete else None)
-
-
-def _lqr_gain(config: SimulationConfig) -> np.ndarray:
-    if config.controller.gain is not None:
-        return np.asarray(config.controller.gain, dtype=float).reshape(1, 4)
-    from furuta_drake.plant import make_furuta_plant
-    return design_lqr(make_furuta_plant(config.rig), config.controller.lqr)
-
-
-def _zoh(A: np.ndarray, B: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
-    system = DiscreteTimeApproximation(LinearSystem(A, B, np.zeros((0, A.shape[0])), np.zeros((0, B.shape[1]))),
-                                       period)
-    return system.A(), system.B()
 
 
 def stable_intervals(loop: LinearLoop, k_min: float = 0.05, k_max: float = 6.0, points: int = 240,
@@ -338,13 +330,12 @@ def lyapunov_region(config: SimulationConfig, directions: int = 2000, radii: int
     limit u = sat(-K x) (no friction, no observer). Sampled, not certified: ``directions`` random directions,
     each at ``radii`` levels up to the first increase."""
     from pydrake.math import RealContinuousLyapunovEquation
-    from furuta_drake.plant import make_furuta_plant
 
     plant = make_furuta_plant(config.rig)
     context = plant.CreateDefaultContext()
     P_perm = plant_to_paper_permutation(plant)
     A, B = upright_linearization(plant)
-    K = _lqr_gain(config)
+    K = controller_gain(plant, config)
     lqr = config.controller.lqr
     P = RealContinuousLyapunovEquation(A - B @ K, np.diag(lqr.state_weights) + lqr.input_weight * K.T @ K)
     limit = lqr.torque_limit
@@ -375,7 +366,7 @@ FALLEN_THETA = 0.5  # [rad] the monitor's bound in basin runs (stops a falling r
 
 
 def catches(config: SimulationConfig) -> bool:
-    """Whether the full nonlinear 1 kHz loop of ``config`` balances from its initial state: the monitor never
+    """Whether the full nonlinear sampled loop of ``config`` balances from its initial state: the monitor never
     stops it (|theta| <= FALLEN_THETA, no runaway) and |theta| stays below CAUGHT_THETA over the last
     CAUGHT_WINDOW."""
     from furuta_drake.simulate import simulate

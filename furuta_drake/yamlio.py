@@ -2,8 +2,9 @@
 
 Like Drake's ``yaml_load_typed`` (which this follows: the dataclass is the schema, unknown keys are errors,
 absent keys keep the dataclass default), but an error says ``rig.yaml:3: key 'arm_lenght' ...`` so a user can
-find it, an integer is accepted where a float is expected, and the loaded tree is validated by the
-dataclasses' own ``validate`` methods.
+find it, an integer is accepted where a float is expected, a field declared with :func:`documented_field`
+``(required=True)`` must be in the file (its default serves Python callers only), and the loaded tree is
+validated by the dataclasses' own ``validate`` methods.
 """
 
 from __future__ import annotations
@@ -22,6 +23,20 @@ from furuta_drake.errors import ConfigError, read_input_text
 
 
 YAML12_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+
+
+def documented_field(default, meaning: str, unit: str = "", *, required: bool = False, measure: str = ""):
+    """A dataclass field that a YAML file documents: ``meaning`` and ``unit`` name it in errors and templates,
+    ``measure`` says how to obtain its value, and a ``required`` field must be in every file (a missing one is a
+    ConfigError naming the key, what it is and its unit; the ``default`` then serves Python callers only)."""
+    return dataclasses.field(default=default, metadata={"meaning": meaning, "unit": unit, "required": required,
+                                                        "measure": measure})
+
+
+def field_description(field: dataclasses.Field) -> str:
+    """"meaning [unit]" of a :func:`documented_field` ("" for another field)."""
+    meaning, unit = field.metadata.get("meaning", ""), field.metadata.get("unit", "")
+    return f"{meaning} [{unit}]" if unit else meaning
 
 
 def load_yaml_dataclass(path: str | Path, schema: type, validate: bool = True):
@@ -152,6 +167,10 @@ def convert_node(node, tp, source: str, key_path: str):
             if key in values:
                 raise ConfigError(f"{_where(source, key_node, sub_path)} duplicate key {key!r}")
             values[key] = convert_node(value_node, hints[key], source, sub_path)
+        for field in dataclasses.fields(tp):
+            if field.metadata.get("required") and field.name not in values:
+                where = f"{_where(source, node, key_path)}:" if key_path else f"{source}:"
+                raise ConfigError(f"{where} missing required key {field.name!r} ({field_description(field)})")
         return tp(**values)
     if origin in (list, tuple):
         if not isinstance(node, yaml.SequenceNode):

@@ -25,13 +25,12 @@ import os
 
 import numpy as np
 
-from furuta_drake.analysis import (
-    ANGLES, closed_loop_eigenvalues, observability, observer_for_analysis, separation_error,
-)
+from furuta_drake.analysis import observability, observer_for_analysis, observer_loop_eigenvalues, separation_error
 from furuta_drake.config import ExcitationConfig, SimulationConfig
-from furuta_drake.control import closed_loop_eigenvalues as lqr_eigenvalues
+from furuta_drake.controllers.lqr import state_feedback_eigenvalues
 from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
+from furuta_drake.observers.linear import ANGLES
 from furuta_drake.plotting import plot_friction_estimates, plot_velocity_estimates
 from furuta_drake.rig import linearized_upright, lund_rig
 from furuta_drake.simulate import simulate
@@ -99,10 +98,10 @@ for label, C in (("theta and phi", ANGLES), ("phi only", ANGLES[1:]), ("theta on
 
 # %%
 K = np.asarray(result.lqr_gain).reshape(1, 4)
-controller = lqr_eigenvalues(A, B_F[:, 1:], K, discrete=False, period=config.controller.lqr.period)
+controller = state_feedback_eigenvalues(A, B_F[:, 1:], K, discrete=False, period=config.control_period)
 print("LQR eig(A - B K):", np.round(np.sort_complex(controller), 2))
 for kind in ("hg", "vfe"):
     observer, error_eigenvalues = observer_for_analysis(kind, A, B_F, getattr(config.observers, kind))
-    loop = closed_loop_eigenvalues(rig, K, observer)
+    loop = observer_loop_eigenvalues(rig, K, observer)
     print(f"{kind.upper()} error eigenvalues:", np.round(np.sort_complex(error_eigenvalues), 2))
     print(f"    closed loop matches LQR + observer to {separation_error(loop, controller, error_eigenvalues):.1e}")

@@ -19,7 +19,9 @@
 # %%
 import os
 
-from furuta_drake.beyond import lugre_observer, parameter_adaptation, pendulum_observer, stability, swingup
+from furuta_drake.studies import (
+    lugre_observer_study, parameter_adaptation_study, pendulum_observer_study, stability_study, swingup_study,
+)
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
 
@@ -38,7 +40,7 @@ def show(study):
 # A Dahl observer on the pendulum joint too, feeding F_hat_theta into the VFE observer (Eq. 10's full F_hat).
 
 # %%
-study = pendulum_observer.study(small=SMALL)
+study = pendulum_observer_study.study(small=SMALL)
 show(study)
 study.figures["pendulum_observer_velocities"]
 
@@ -46,7 +48,7 @@ study.figures["pendulum_observer_velocities"]
 # ## A LuGre observer on a rig with a Stribeck effect
 
 # %%
-study = lugre_observer.study(small=SMALL)
+study = lugre_observer_study.study(small=SMALL)
 show(study)
 study.figures["lugre_observer_lugre"]
 
@@ -55,7 +57,7 @@ study.figures["lugre_observer_lugre"]
 # The two-parameter law against Eq. 18 from an under- and an over-estimated Dahl set (four 30-40 s runs).
 
 # %%
-study = parameter_adaptation.study(small=SMALL)
+study = parameter_adaptation_study.study(small=SMALL)
 show(study)
 study.figures["parameter_adaptation"]
 
@@ -65,7 +67,7 @@ study.figures["parameter_adaptation"]
 # K_sigma, the true sigma0 and the observer gains, and the sampled basin of attraction of the nonlinear loop.
 
 # %%
-study = stability.study(small=SMALL)
+study = stability_study.study(small=SMALL)
 show(study)
 list(study.figures.values())[0]
 
@@ -75,6 +77,6 @@ list(study.figures.values())[0]
 # the observers. The full study also feeds the swing-up log to `furuta-drake diagnose`.
 
 # %%
-study = swingup.study(small=SMALL)
+study = swingup_study.study(small=SMALL)
 show(study)
 list(study.figures.values())[0]

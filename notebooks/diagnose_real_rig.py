@@ -12,8 +12,8 @@
 
 # %% [markdown]
 # # Diagnosing a real QUBE-Servo 2 against its nominal model
-# Six recordings of a real Quanser QUBE-Servo 2 (SimuRLacra, TU Darmstadt, BSD-3; see `shared/data/
-# qube-servo2-real/README.md`): voltage-driven swing-ups that end balancing, and an open-loop chirp with the
+# Six recordings of a real Quanser QUBE-Servo 2 (SimuRLacra, TU Darmstadt, BSD-3; see the repository's
+# `data/qube-servo2-real/README.md`): voltage-driven swing-ups that end balancing, and an open-loop chirp with the
 # pendulum hanging, at 250 Hz. The nominal model is Quanser's public parameter set (`rig.yaml`). The
 # diagnosis fits every effect of the vocabulary on two train logs and judges it on two other, held-out logs:
 # what the gap is, where it sits, which effect explains it, and how far it shrinks.
@@ -26,13 +26,12 @@ import tempfile
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import furuta_drake
+from furuta_drake.data import QUBE_REAL_DIR as DATA, QUBE_REAL_RIG as RIG
 from furuta_drake.diagnosis.logs import load_logs, load_rig
-from furuta_drake.diagnosis.pipeline import run_diagnosis
+from furuta_drake.diagnosis.pipeline import diagnose
+from furuta_drake.diagnosis.report import write_report
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
-DATA = Path(furuta_drake.__file__).resolve().parents[1].parent / "shared" / "data" / "qube-servo2-real"
-RIG = DATA / "rig.yaml"
 TRAIN = [DATA / "swingup_250Hz_10s_a.csv", DATA / "chirp_10to0Hz_pos1p5V_250Hz_10s.csv"]
 HELDOUT = [DATA / "swingup_250Hz_7s_negdir.csv", DATA / "swingup_250Hz_5s_0414.csv"]
 # The small run tries the strongest candidates of the full run and a few that compete with them.
@@ -41,8 +40,9 @@ CANDIDATES = (("inertia_mismatch", "torque_gain_error", "actuator_lag", "arm_vis
 
 # %% [markdown]
 # ## The logs
-# Voltage in, encoder angles out (2048 counts per turn). `theta` is in the spec's convention once the rig
-# file's `theta_direction: -1` is applied; swing-ups start hanging at |theta| = pi and end balancing at 0.
+# Voltage in, encoder angles out (2048 counts per turn). `theta` is in furuta-drake's convention
+# (`docs/paper.md`) once the rig file's `theta_direction: -1` is applied; swing-ups start hanging at
+# |theta| = pi and end balancing at 0.
 
 # %%
 rig = load_rig(RIG)
@@ -67,12 +67,12 @@ fig.tight_layout()
 
 # %%
 out = Path(tempfile.mkdtemp(prefix="diagnose_real_")) / "report"
-report = run_diagnosis(rig_path=RIG, train_paths=TRAIN, heldout_paths=HELDOUT, out=out, workers=None,
-                       candidates=CANDIDATES, echo=print)
-gap = report["gap"]
-print(gap["metric"])
-print(f"nominal held-out gap {gap['nominal']['heldout']:.2f} counts "
-      f"(theta {gap['per_signal_nominal_heldout']['theta']:.2f}, phi {gap['per_signal_nominal_heldout']['phi']:.2f})")
+diagnosis = diagnose(rig=RIG, train=TRAIN, heldout=HELDOUT, candidates=CANDIDATES)
+write_report(out, diagnosis)
+gap = diagnosis.gap
+print(gap.metric)
+print(f"nominal held-out gap {gap.nominal['heldout']:.2f} counts "
+      f"(theta {gap.per_signal_nominal_heldout['theta']:.2f}, phi {gap.per_signal_nominal_heldout['phi']:.2f})")
 
 # %% [markdown]
 # ## Where the gap is
@@ -80,7 +80,7 @@ print(f"nominal held-out gap {gap['nominal']['heldout']:.2f} counts "
 # held-out logs, for the nominal model.
 
 # %%
-loc = report["localization"]
+loc = diagnosis.localization
 print("signals:", {k: round(v, 2) for k, v in loc["signals"].items()})
 for w in loc["windows"][:5]:
     print(f"  {w['log']:32s} {w['start']:5.2f}-{w['end']:5.2f} s  {w['why']}")
@@ -90,24 +90,29 @@ for b in loc["frequency_bands"]:
     print(f"  {b['low_hz']:5.1f}-{b['high_hz']:5.1f} Hz {b['share_of_gap']:6.1%}")
 
 # %% [markdown]
-# ## Which effect, and how far the gap shrinks
-# Every candidate, fitted on the train logs only, ranked by its held-out reduction; the headline figures are
-# Drake replays of the held-out windows through a diagram of the project's systems with the fitted effect.
+# ## Which effects, and how far the gap shrinks
+# Effects are accepted one at a time, each by its held-out reduction over the model that holds the earlier ones;
+# every model tried is ranked with its fitted parameters and their 95 % intervals. The headline figures are Drake
+# replays of the held-out windows through a diagram of the project's systems with the fitted effects.
 
 # %%
-for row in report["ranking"][:6]:
-    params = ", ".join(f"{k} {v:.4g}" for k, v in row["params"].items() if "." not in k or "+" in row["effect"])
-    print(f"{row['effect']:36s} held-out reduction {row['heldout_reduction']:6.1%} "
-          f"(5 % bound {row['evidence']:6.1%})  {params}")
-print(f"\nverdict: {report['verdict']}  effects: {report['effects']}")
-print(f"held-out gap {gap['nominal']['heldout']:.2f} -> {gap['with_effects']['heldout']:.2f} counts "
-      f"({gap['heldout_reduction']:.0%} reduction, Drake replay)")
+for row in diagnosis.ranking[:6]:
+    params = ", ".join(f"{k} {v:.4g}" + (" [{:.3g}, {:.3g}]".format(*row.params_ci[k]) if k in row.params_ci else "")
+                       for k, v in row.params.items() if not isinstance(v, str))
+    print(f"{row.effect:44s} held-out reduction {row.heldout_reduction:6.1%} (5 % bound {row.evidence:6.1%})  {params}")
+print(f"\nverdict: {diagnosis.verdict}  effects: {diagnosis.effects}")
+for step in diagnosis.steps:
+    print(f"  + {step.effect}: held-out gap {step.heldout_gap:.2f} counts ({step.reduction_over_previous:.0%} of what "
+          "the earlier effects left)")
+print(f"held-out gap {gap.nominal['heldout']:.2f} -> {gap.with_effects['heldout']:.2f} counts "
+      f"({gap.heldout_reduction:.0%} reduction, {gap.evaluated_by})")
+print(diagnosis.choice)
 
 # %%
-accepted = next((row for row in report["ranking"]
-                 if sorted(row["effect"].split("+")) == sorted(report["effects"])), None)
-# A pair's parameters are prefixed with their effect's name: "inertia_mismatch.arm_inertia_scale".
-params = {} if accepted is None else {k.split(".")[-1]: v for k, v in accepted["params"].items()}
+accepted = next((row for row in diagnosis.ranking if row.effect.split("+") == [s.effect for s in diagnosis.steps]),
+                None)
+# A model of several effects prefixes its parameters with their effect's name: "inertia_mismatch.arm_inertia_scale".
+params = {} if accepted is None else {k.split(".")[-1]: v for k, v in accepted.params.items()}
 if "arm_inertia_scale" in params:
     scales = {k: params[k] for k in ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale")}
     print("lumped constants relative to the rig file:", {k: round(v, 3) for k, v in scales.items()})
@@ -129,6 +134,15 @@ for ax, name in zip(axes, ("residuals.png", "residual_spectra.png")):
     ax.axis("off")
 fig.tight_layout()
 print(sorted(p.name for p in out.iterdir()))
+
+# %% [markdown]
+# ## What these logs could not have missed
+# For every effect not accepted, the smallest size the same rule would have detected on these held-out windows.
+
+# %%
+for limit in diagnosis.detection_limits:
+    value = "not detected in its range" if limit.value is None else f"{limit.value:.3g} {limit.unit}"
+    print(f"  {limit.effect:22s} {limit.param:20s} {value}")
 
 # %% [markdown]
 # ## What it says

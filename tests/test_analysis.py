@@ -6,9 +6,10 @@ import pytest
 from scipy.linalg import solve_continuous_are
 
 from furuta_drake.analysis import (
-    ANGLES, closed_loop_eigenvalues, controllability, observability, observer_for_analysis, separation_error,
+    controllability, observability, observer_for_analysis, observer_loop_eigenvalues, separation_error,
 )
 from furuta_drake.observers.hg import HighGainParameters
+from furuta_drake.observers.linear import ANGLES
 from furuta_drake.observers.vfe import VfeParameters
 from furuta_drake.rig import RIGS, linearized_upright
 
@@ -31,7 +32,7 @@ def test_closed_loop_eigenvalues_are_controller_and_observer_eigenvalues(kind, p
     B = B_F[:, [1]]
     K = np.linalg.solve([[10.0]], B.T @ solve_continuous_are(A, B, np.diag([10.0, 10.0, 0.1, 0.1]), [[10.0]]))
     observer, observer_eigenvalues = observer_for_analysis(kind, A, B_F, params)
-    closed = closed_loop_eigenvalues(rig, K, observer)
+    closed = observer_loop_eigenvalues(rig, K, observer)
     assert closed.size == 4 + observer_eigenvalues.size
     assert separation_error(closed, np.linalg.eigvals(A - B @ K), observer_eigenvalues) < 1e-6 * np.max(
         np.abs(closed))

@@ -1,4 +1,4 @@
-"""The bad-input corpus of issue 9 (``tests/bad_inputs/manifest.yaml``) through the real command line.
+"""The bad-input corpus (``tests/bad_inputs/manifest.yaml``) through the real command line.
 
 Each case runs ``python -m furuta_drake.cli`` in a subprocess on a copy of the corpus and must end with the
 manifest's exit code (2), exactly one stderr line starting with "furuta-drake" that contains every expected
@@ -75,8 +75,8 @@ def test_manifest_is_well_formed_and_uses_every_corpus_file():
             used.update(re.findall(r"\{case_dir\}/([^/\s]+)", arg))
     for name in used:
         assert (CORPUS / name).exists(), name  # a file, or a directory (a diagnosis' output)
-    inputs = {p.name for p in CORPUS.iterdir() if (p.suffix in (".csv", ".yaml") and p.name != "manifest.yaml")
-              or p.is_dir()}
+    inputs = {p.name for p in CORPUS.iterdir()
+              if (p.suffix in (".csv", ".yaml", ".parquet", ".mcap") and p.name != "manifest.yaml") or p.is_dir()}
     assert inputs == used, f"corpus files no case uses: {sorted(inputs - used)}; missing: {sorted(used - inputs)}"
 
 

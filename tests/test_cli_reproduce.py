@@ -1,5 +1,5 @@
-"""``furuta-drake reproduce`` end to end on short runs: the files of issue 6 with their stable formats, and
-byte-identical CSV/JSON for the same seed (issue 9)."""
+"""``furuta-drake reproduce`` end to end on short runs: the tables, figures and logs with their stable formats,
+and byte-identical CSV/JSON for the same seed."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def two_runs(tmp_path_factory):
     return outs
 
 
-def test_writes_every_file_of_issue_6(two_runs):
+def test_writes_every_table_figure_log_and_config(two_runs):
     out = two_runs[0]
     for name in ("table1.csv", "table2.csv", "observer_sweep.csv", "adaptation.json", "report.md", "config.yaml",
                  "reproduction.yaml", *(f"fig{i}.png" for i in range(3, 8))):
@@ -36,7 +36,7 @@ def test_writes_every_file_of_issue_6(two_runs):
     assert load_config(out / "config.yaml").encoder.counts_per_rev == 4096
 
 
-def test_table_formats_are_the_issue_s(two_runs):
+def test_tables_have_their_stable_columns_and_the_papers_values(two_runs):
     with open(two_runs[0] / "table1.csv") as file:
         rows = list(csv.DictReader(file))
     assert list(rows[0]) == ["signal", "statistic", "HG", "VFE", "paper_HG", "paper_VFE"]
@@ -85,7 +85,7 @@ def test_beyond_writes_its_table_plots_and_logs(tmp_path, monkeypatch):
     # One short study through the real command (each study's figures are asserted in its own tests).
     from furuta_drake import reproduction_report
 
-    monkeypatch.setattr(reproduction_report, "BEYOND_STUDIES", ("lugre_observer",))
+    monkeypatch.setattr(reproduction_report, "BEYOND_STUDIES", ("lugre_observer_study",))
     out = tmp_path / "beyond"
     assert main(["reproduce", "--only", "beyond", "--quick", "--out", str(out)]) == 0
     text = (out / "beyond.md").read_text()

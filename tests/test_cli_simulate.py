@@ -1,4 +1,4 @@
-"""``furuta-drake simulate``: files in the spec's format, safe output directories (reruns: test_determinism.py)."""
+"""``furuta-drake simulate``: files in the diagnosis' log format, safe output directories (reruns: test_determinism.py)."""
 
 import base64
 import json

@@ -1,6 +1,7 @@
 """Dahl friction observer (paper Eq. 8-9, 16): the closed-form solution of the Dahl equation at constant
 velocity, the K_z injection's steady state and sign, stability of the exact step at stiff settings."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,23 +10,30 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from furuta_drake.errors import ConfigError
-from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters
+from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver, DahlObserverParameters
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 
 PERIOD = 1e-3
 
 
 def stepper(params: DahlObserverParameters, *, velocity: float, phi: float = 0.0, reference=None,
             k_sigma: float | None = None, z0: float = 0.0):
-    """The observer with fixed inputs; returns a function advancing n periods and returning (z_hat, F_hat)."""
-    system = DahlFrictionObserver(params)
+    """The observer with fixed inputs; returns a function advancing n periods and returning (z_hat, F_hat).
+    ``k_sigma``: K_sigma held at that value (the one-gain law with gamma = 0); None: no adaptation (K_sigma = 1)."""
+    if k_sigma is not None:
+        params = dataclasses.replace(params, adaptation=DahlAdaptation(
+            k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_sigma)))
+    system = DahlFrictionObserver(params, period=PERIOD)
     context = system.CreateDefaultContext()
     system.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, phi])
     if reference is not None:
         system.GetInputPort("arm_reference_rad").FixValue(context, list(reference))
     if k_sigma is not None:
-        system.GetInputPort("K_sigma").FixValue(context, [k_sigma])
-    context.SetDiscreteState([z0])
+        system.GetInputPort("friction_error_estimate_Nm").FixValue(context, [0.0, 0.0])
+        context.SetDiscreteState([z0, k_sigma, k_sigma])
+    else:
+        context.SetDiscreteState([z0])
 
     def advance(steps: int):
         for _ in range(steps):
@@ -67,7 +75,7 @@ def test_zero_velocity_holds_the_state():
     assert friction == pytest.approx(-params.sigma0 * 0.0009)
 
 
-def test_unconnected_k_sigma_is_one_and_k_sigma_scales_only_the_output():
+def test_without_adaptation_k_sigma_is_one_and_k_sigma_scales_only_the_output():
     params = DahlObserverParameters()
     _, unit = stepper(params, velocity=0.3, reference=(0.0, 0.3))(50)
     z, scaled = stepper(params, velocity=0.3, reference=(0.0, 0.3), k_sigma=1.6)(50)
@@ -113,4 +121,4 @@ def test_exact_step_is_stable_and_monotone_at_stiff_settings():
 ])
 def test_invalid_parameters_are_rejected_naming_the_field(field, value):
     with pytest.raises(ConfigError, match=rf"observers\.dahl\.{field}"):
-        DahlFrictionObserver(DahlObserverParameters(**{field: value}))
+        DahlFrictionObserver(DahlObserverParameters(**{field: value}), period=PERIOD)

@@ -177,7 +177,7 @@ def balancing_log(rig_name: str, seed: int, effect: str, level: int, duration: f
     result = simulate(config)
     return RunLog(name=f"balance_{seed}.csv", path="", time=result.time, theta=result.measured[:, 0],
                   phi=result.measured[:, 1], input_kind="torque", input=result.torque,
-                  sample_period=config.encoder.sample_period)
+                  sample_period=config.control_period)
 
 
 @pytest.mark.parametrize("rig_name, effect, law", [("lund", "arm_stribeck", "arm"),

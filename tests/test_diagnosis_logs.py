@@ -127,7 +127,7 @@ def test_wrapped_angles_are_refused_with_the_line(tmp_path):
     wrapped = dict(raw, theta=np.angle(np.exp(1j * raw["theta"])))  # into (-pi, pi]
     first_wrap = int(np.flatnonzero(np.abs(np.diff(wrapped["theta"])) > math.pi)[0]) + 1
     path = write_qube(tmp_path / "wrapped.csv", wrapped)
-    with pytest.raises(LogError, match=rf"wrapped\.csv:{first_wrap + 2}: column 'theta' .* wrapped; the spec "
+    with pytest.raises(LogError, match=rf"wrapped\.csv:{first_wrap + 2}: column 'theta' .* wrapped; the diagnosis "
                                        r"wants unwrapped"):
         load_log(path, load_rig(QUBE_RIG))
 
@@ -135,7 +135,7 @@ def test_wrapped_angles_are_refused_with_the_line(tmp_path):
 def test_hanging_log_in_degrees_is_refused(tmp_path):
     raw = read_qube(CHIRP)
     degrees = dict(raw, theta=np.degrees(raw["theta"]), phi=np.degrees(raw["phi"]))
-    with pytest.raises(LogError, match=r"degrees; the spec wants radians"):
+    with pytest.raises(LogError, match=r"degrees; the diagnosis wants radians"):
         load_log(write_qube(tmp_path / "deg.csv", degrees), load_rig(QUBE_RIG))
 
 
@@ -149,7 +149,7 @@ def test_balancing_log_in_degrees_is_refused_from_the_arm_response(tmp_path):
     rig = load_rig(QUBE_RIG)
     log = load_log(path, rig)
     assert np.max(np.abs(log.theta)) < 2 * math.pi
-    with pytest.raises(LogError, match=r"degrees; the spec wants radians"):
+    with pytest.raises(LogError, match=r"degrees; the diagnosis wants radians"):
         check_input_direction([log], rig)
 
 

@@ -1,5 +1,5 @@
 """Integration tests of build_furuta_diagram and simulate: the paper's diagrams balance, the log is the
-spec's, runs are reproducible, a diverging run is stopped and reported."""
+diagnosis' log format, runs are reproducible, a diverging run is stopped and reported."""
 
 import dataclasses
 
@@ -9,6 +9,8 @@ import pytest
 from furuta_drake.config import SimulationConfig, dump_config, load_config
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
+from furuta_drake.observers.dahl import DahlAdaptation
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.simulate import simulate
 
 
@@ -21,7 +23,7 @@ def coulomb_arm(level: float) -> FrictionParameters:
 
 
 def test_balancing_with_arm_coulomb_friction_and_quantised_encoders():
-    """Issue 4: from theta0 = 0.1 rad, with 0.015 N m arm Coulomb friction and 4096-count encoders, the LQR
+    """From theta0 = 0.1 rad, with 0.015 N m arm Coulomb friction and 4096-count encoders, the LQR
     keeps |theta| < 0.01 rad after 3 s."""
     result = simulate(lund(friction=coulomb_arm(0.015), duration=5.0, initial_state=[0.1, 0.0, 0.0, 0.0]))
     after = result.time >= 3.0
@@ -37,7 +39,7 @@ THETA_BOUND = {"true": 0.05, "hg": 0.05, "vfe": 0.05, "derivative": 0.2}
 
 @pytest.mark.parametrize("source", ["true", "derivative", "hg", "vfe"])
 def test_each_paper_diagram_balances_for_five_seconds(source):
-    """Issue 5: diagrams (i) HG, (ii) VFE + Dahl, (iv) true velocities, and the discrete derivative."""
+    """Diagrams (i) HG, (ii) VFE + Dahl, (iv) true velocities, and the discrete derivative."""
     config = lund(friction=coulomb_arm(0.012), duration=5.0, initial_state=[0.05, 0.0, 0.0, 0.0])
     config = dataclasses.replace(config, controller=dataclasses.replace(config.controller, velocity_source=source))
     result = simulate(config)
@@ -50,10 +52,10 @@ def test_each_paper_diagram_balances_for_five_seconds(source):
 def test_adaptive_diagram_runs_and_logs_k_sigma():
     """Diagram (iii): VFE + Dahl + K_sigma adapter; K_sigma starts at 1 and stays finite and positive."""
     config = lund(friction=coulomb_arm(0.015), duration=3.0)
-    observers = dataclasses.replace(config.observers, adaptation_enabled=True,
-                                    adaptation=dataclasses.replace(config.observers.adaptation, enable_time=1.0))
-    config = dataclasses.replace(config, observers=observers, controller=dataclasses.replace(
-        config.controller, velocity_source="vfe"))
+    dahl = dataclasses.replace(config.observers.dahl, adaptation=DahlAdaptation(
+        k_sigma=KSigmaAdaptationParameters(enable_time=1.0)))
+    config = dataclasses.replace(config, observers=dataclasses.replace(config.observers, dahl=dahl),
+                                 controller=dataclasses.replace(config.controller, velocity_source="vfe"))
     result = simulate(config)
     k_sigma = result.signals["K_sigma"]
     np.testing.assert_allclose(k_sigma[0], [1.0, 1.0])

@@ -26,21 +26,22 @@ def measured_after_first_sample(encoder, x):
 @given(theta=st.floats(-50.0, 50.0), phi=st.floats(-50.0, 50.0),
        counts=st.sampled_from([4, 500, 2048, 4096, 10000]))
 def test_measurement_is_a_whole_count_within_half_a_count_of_the_angle(theta, phi, counts):
-    encoder = Encoder(EncoderParameters(counts_per_rev=counts))
+    encoder = Encoder(EncoderParameters(counts_per_rev=counts), period=1e-3)
     y = measured_after_first_sample(encoder, [theta, phi, 3.0, -2.0])
     count = 2 * math.pi / counts
     np.testing.assert_allclose(y / count, np.round(y / count), atol=1e-9)
     assert np.all(np.abs(y - [theta, phi]) <= count / 2 * (1 + 1e-9))
 
 
-def ramp_run(params, duration, log_period, slope=(10.0, -7.0), seed_context=None):
-    """Encoder on a ramp x(t) = [0.3 + slope_theta t, -1 + slope_phi t]; returns the log's times and values."""
+def ramp_run(params, period, duration, log_period, slope=(10.0, -7.0), seed_context=None):
+    """Encoder sampling at ``period`` on a ramp x(t) = [0.3 + slope_theta t, -1 + slope_phi t]; returns the log's
+    times and values."""
     builder = DiagramBuilder()
     start, end = np.array([0.3, -1.0, 0, 0]), np.array([0.3, -1.0, 0, 0])
     end[:2] += duration * np.asarray(slope)
     source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(
         [0.0, duration], np.column_stack([start, end]))))
-    encoder = builder.AddSystem(Encoder(params))
+    encoder = builder.AddSystem(Encoder(params, period=period))
     builder.Connect(source.get_output_port(), encoder.GetInputPort("true_state"))
     logger = LogVectorOutput(encoder.GetOutputPort("measured_angles_rad"), builder, publish_period=log_period)
     diagram = builder.Build()
@@ -54,9 +55,9 @@ def ramp_run(params, duration, log_period, slope=(10.0, -7.0), seed_context=None
 
 def test_output_is_the_sample_held_for_exactly_one_period():
     period = 4e-3
-    params = EncoderParameters(counts_per_rev=4096, sample_period=period)
+    params = EncoderParameters(counts_per_rev=4096)
     count = params.resolution
-    times, y, start, slope = ramp_run(params, duration=0.1, log_period=period / 8)
+    times, y, start, slope = ramp_run(params, period, duration=0.1, log_period=period / 8)
     counts = np.round(y / count)
     # Between samples (t_k, t_k+1) the output is the count of the angle at t_k; at t_k itself Drake shows the
     # value before that instant's update, i.e. still the previous sample.
@@ -72,8 +73,8 @@ def test_output_is_the_sample_held_for_exactly_one_period():
 
 def test_noise_has_the_requested_std_is_white_and_is_reproducible_by_seed():
     sigma, period, duration = 0.01, 1e-3, 5.0
-    params = EncoderParameters(counts_per_rev=4096, sample_period=period, noise_std=sigma, seed=3)
-    times, y, start, slope = ramp_run(params, duration, period)
+    params = EncoderParameters(counts_per_rev=4096, noise_std=sigma, seed=3)
+    times, y, start, slope = ramp_run(params, period, duration, period)
     # Row j (j >= 1) holds the sample taken at t_{j-1}; 5000 samples cross a noise block of 4096.
     error = y[1:] - (start + np.outer(times[:-1], slope))
     # Noise plus uniform quantisation of a moving angle: variance sigma^2 + q^2 / 12.
@@ -85,9 +86,9 @@ def test_noise_has_the_requested_std_is_white_and_is_reproducible_by_seed():
         assert abs(np.corrcoef(column[:-1], column[1:])[0, 1]) < 4 / math.sqrt(n)
     assert abs(np.corrcoef(error[:, 0], error[:, 1])[0, 1]) < 4 / math.sqrt(n)
 
-    _, again, _, _ = ramp_run(params, duration, period, seed_context=12345)
+    _, again, _, _ = ramp_run(params, period, duration, period, seed_context=12345)
     np.testing.assert_array_equal(again, y)
-    _, other_seed, _, _ = ramp_run(EncoderParameters(noise_std=sigma, seed=4), duration, period)
+    _, other_seed, _, _ = ramp_run(EncoderParameters(noise_std=sigma, seed=4), period, duration, period)
     assert np.mean(other_seed == y) < 0.5
 
 
@@ -98,4 +99,9 @@ def test_noise_has_the_requested_std_is_white_and_is_reproducible_by_seed():
 ])
 def test_non_physical_parameters_are_rejected_with_the_field_named(field, value):
     with pytest.raises(ConfigError, match=f"encoder.{field}"):
-        Encoder(EncoderParameters(**{field: value}))
+        Encoder(EncoderParameters(**{field: value}), period=1e-3)
+
+
+def test_a_stated_sample_period_must_be_the_control_period():
+    with pytest.raises(ConfigError, match=r"encoder.sample_period = 0.001 differs from the control period = 0.002"):
+        Encoder(EncoderParameters(sample_period=1e-3), period=2e-3)

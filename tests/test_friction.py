@@ -126,7 +126,7 @@ def run_friction_alone(params: FrictionParameters, *, theta_dot: float, phi_dot:
 @pytest.mark.parametrize("direction", [1.0, -1.0])
 def test_dahl_friction_settles_to_the_coulomb_level_of_each_direction(direction):
     """At constant v, Eq. 7 drives z to Fc(v) sign(v) / sigma0 at the rate sigma0 |v| / Fc: the exerted torque
-    tends to -Fc(v) sign(v), with Fc+ = 0.012 N m and Fc- = 0.018 N m on the arm (NOTES.md) and another pair
+    tends to -Fc(v) sign(v), with Fc+ = 0.012 N m and Fc- = 0.018 N m on the arm (the paper's Sec. V-D) and another pair
     on the pendulum moving the other way."""
     params = FrictionParameters(arm=JointFrictionParameters.dahl(0.012, 0.018, sigma0=10.0),
                                 pendulum=JointFrictionParameters.dahl(0.002, 0.003, sigma0=5.0))

@@ -38,7 +38,7 @@ def observe_closed_loop(params: HighGainParameters, x0, x_hat0, duration: float)
     zero = builder.AddSystem(ConstantVectorSource([0.0]))
     measure = builder.AddSystem(MatrixGain(C))
     control = builder.AddSystem(MatrixGain(-K))
-    hg = builder.AddSystem(HighGainObserver((A, B_F), params))
+    hg = builder.AddSystem(HighGainObserver((A, B_F), params, period=PERIOD))
     builder.Connect(zero.get_output_port(), plant.get_input_port())
     builder.Connect(plant.get_output_port(), measure.get_input_port())
     builder.Connect(plant.get_output_port(), control.get_input_port())
@@ -89,7 +89,7 @@ def velocity_noise_std(eps: float, noise_std: float, duration: float = 20.0) -> 
     noise = builder.AddSystem(RandomSource(RandomDistribution.kGaussian, 2, PERIOD))
     scale = builder.AddSystem(Gain(noise_std, 2))
     zero = builder.AddSystem(ConstantVectorSource([0.0]))
-    hg = builder.AddSystem(HighGainObserver((A, B_F), HighGainParameters(eps_theta=eps, eps_phi=eps)))
+    hg = builder.AddSystem(HighGainObserver((A, B_F), HighGainParameters(eps_theta=eps, eps_phi=eps), period=PERIOD))
     builder.Connect(noise.get_output_port(), scale.get_input_port())
     builder.Connect(scale.get_output_port(), hg.GetInputPort("measured_angles_rad"))
     builder.Connect(zero.get_output_port(), hg.GetInputPort("arm_torque_Nm"))
@@ -117,7 +117,7 @@ def test_discretisation_is_the_exact_zero_order_hold_of_eq_4():
     """x_hat_k+1 = e^(F h) x_hat_k + int_0^h e^(F s) ds G [y_k; u_k] with F = A - H C, G = [H, B]: the matrix
     exponential of the augmented matrix [[F, G], [0, 0]] (scipy), against Drake's discretisation."""
     params = HighGainParameters()
-    hg = HighGainObserver(lund_rig(), params)
+    hg = HighGainObserver(lund_rig(), params, period=PERIOD)
     H = high_gain_matrix(params)
     augmented = np.zeros((7, 7))
     augmented[:4, :4], augmented[:4, 4:] = A - H @ C, np.hstack([H, B])
@@ -135,4 +135,4 @@ def test_discretisation_is_the_exact_zero_order_hold_of_eq_4():
 def test_invalid_parameters_are_rejected_naming_the_field(field, value):
     params = HighGainParameters(**{field: value})
     with pytest.raises(ConfigError, match=rf"observers\.hg\.{field}"):
-        HighGainObserver(lund_rig(), params)
+        HighGainObserver(lund_rig(), params, period=PERIOD)

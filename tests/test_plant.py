@@ -1,4 +1,4 @@
-"""The MultibodyPlant models against the Lund rig's numbers (paper/NOTES.md) and public QUBE-Servo 2 data."""
+"""The MultibodyPlant models against the Lund rig's numbers (docs/paper.md) and public QUBE-Servo 2 data."""
 
 import numpy as np
 import pytest
@@ -6,18 +6,20 @@ from pydrake.systems.primitives import Linearize
 
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import MODEL_FILES, MODELS_DIR, furuta_urdf, joint_indices, make_furuta_plant
-from furuta_drake.rig import RIGS, lund_rig, linearized_upright, qube_servo2_rig
+from furuta_drake.rig import RIGS, linearized_hanging, linearized_upright, lund_rig, qube_servo2_rig
 
-# NOTES.md: linearization of the Lund rig at the upright, x = [theta, phi, theta_dot, phi_dot].
+# docs/paper.md: linearization of the Lund rig at the upright, x = [theta, phi, theta_dot, phi_dot].
 ALPHA1, ALPHA2 = 47.949, -35.640
 BETA3, BETA4, BETA5 = 491.16, -365.07, 570.10
 UNSTABLE_POLE = 6.925
 
 
-def drake_linearization(rig):
-    """Linearize the parsed plant at the upright; return A and the [pendulum, arm] torque columns in paper order."""
+def drake_linearization(rig, theta0=0.0):
+    """Linearize the parsed plant at rest at theta = ``theta0`` (the upright by default); return A and the
+    [pendulum, arm] torque columns in paper order."""
     plant = make_furuta_plant(rig)
     context = plant.CreateDefaultContext()
+    plant.SetPositions(context, np.where(np.arange(2) == joint_indices(plant)[0], theta0, 0.0))
     plant.get_actuation_input_port().FixValue(context, [0.0])
     plant.get_applied_generalized_force_input_port().FixValue(context, np.zeros(2))
     theta, phi = joint_indices(plant)
@@ -63,20 +65,26 @@ def test_lumped_constants_of_the_lund_rig():
     assert rig.gravity_torque == pytest.approx(0.097625, rel=1e-4)
 
 
+@pytest.mark.parametrize("name", ["lund", "qube_servo2"])
+def test_closed_form_hanging_linearization_agrees_with_drake(name):
+    A_drake, B_pendulum, B_arm = drake_linearization(name, theta0=np.pi)
+    A, B_F = linearized_hanging(RIGS[name]())
+    np.testing.assert_allclose(A, A_drake, rtol=1e-4, atol=1e-9)
+    np.testing.assert_allclose(B_F[:, 0], B_pendulum, rtol=1e-4, atol=1e-9)
+    np.testing.assert_allclose(B_F[:, 1], B_arm, rtol=1e-4, atol=1e-9)
+
+
 def test_hanging_pendulum_frequency_of_the_qube_matches_a_compound_pendulum():
     """Hanging, arm free: small oscillations at sqrt(m g l / (J_p + m l^2 - (m l r)^2 / Ja_total))."""
     rig = qube_servo2_rig()
-    A, _ = linearized_upright(rig)
-    # At the hanging equilibrium gravity's sign flips: eigenvalues of the upright's A with alpha negated.
-    A_hanging = A.copy()
-    A_hanging[2:, 0] *= -1
+    A_hanging, _ = linearized_hanging(rig)
     omega = np.max(np.abs(np.linalg.eigvals(A_hanging).imag))
     Jp, Ja, c, mgl = rig.pendulum_inertia_total, rig.arm_inertia_total, rig.coupling, rig.gravity_torque
     assert omega == pytest.approx(np.sqrt(mgl / (Jp - c**2 / Ja)), rel=1e-9)
 
 
 def test_positive_arm_torque_swings_hanging_pendulum_towards_positive_theta():
-    """spec/diagnosis-interface.md: hanging, accelerating the arm towards +phi swings the pendulum to +theta."""
+    """The sign convention of the logs: hanging, accelerating the arm towards +phi swings the pendulum to +theta."""
     from pydrake.systems.analysis import Simulator
     plant = make_furuta_plant("qube_servo2")
     context = plant.CreateDefaultContext()

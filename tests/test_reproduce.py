@@ -1,5 +1,5 @@
-"""The paper's experiments on the simulated Lund rig (issue 6), on runs shorter than the paper's where the
-targets allow: the numbers asserted are the paper's (NOTES.md) and the simulated rig's true friction."""
+"""The paper's experiments on the simulated Lund rig, on runs shorter than the paper's where the targets allow:
+the numbers asserted are the paper's (docs/paper.md) and the simulated rig's true friction."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def _row(rows, signal, statistic, reference=None):
 
 @pytest.mark.parametrize("reference", ["butterworth", "true"])
 def test_table2_vfe_cuts_the_velocity_errors(table_runs, reference):
-    # Paper: 3.4x on the arm, 3.7x on the pendulum; issue 6 asks >= 2.5x and >= 2x against both references.
+    # Paper: 3.4x on the arm, 3.7x on the pendulum; the reproduction asks >= 2.5x and >= 2x against both references.
     rows = reproduce.table2(table_runs)
     arm = _row(rows, "phi_dot", "mean", reference)
     pendulum = _row(rows, "theta_dot", "mean", reference)
@@ -47,7 +47,7 @@ def test_table1_similar_control_accuracy(table_runs):
 def test_fairness_sweep_finds_an_interior_optimum(table_runs):
     # A high-gain observer trades encoder-noise amplification (small eps) against lag (large eps), so its
     # best eps lies strictly inside a grid spanning 2-20 ms; likewise for the VFE poles.
-    for observer, grid in (("hg", reproduce.HG_EPS), ("vfe", reproduce.VFE_SCALES)):
+    for observer, grid in (("hg", reproduce.SWEEP_HG_EPS), ("vfe", reproduce.SWEEP_VFE_SCALES)):
         rows = [row for row in table_runs.sweep if row["observer"] == observer]
         assert [row["value"] for row in rows] == list(grid)
         best = [row for row in rows if row["best"]]

@@ -10,13 +10,16 @@ from hypothesis import given, settings, strategies as st
 from furuta_drake import reproduce
 from furuta_drake.analysis import separation_error
 from furuta_drake.config import ExcitationConfig
+from furuta_drake.diagram import controller_gain
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.observers.hg import high_gain_error_matrix
 from furuta_drake.observers.vfe import vfe_error_matrix, vfe_gains
+from furuta_drake.plant import make_furuta_plant
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import simulate
+from furuta_drake.studies.stability_study import adaptive_loop_config
 from furuta_drake.stability import (
-    _lqr_gain, catches, common_lyapunov, interval_containing, linear_loop, lyapunov_region, presliding_plant,
+    catches, common_lyapunov, interval_containing, linear_loop, lyapunov_region, presliding_plant,
     stable_intervals,
 )
 
@@ -45,7 +48,7 @@ def test_without_friction_and_k_sigma_zero_the_separation_principle_holds(observ
     config = _without_arm_friction(BASE)
     loop = linear_loop(config, observer)
     A, B_F = linearized_upright(config.rig)
-    K = _lqr_gain(config)
+    K = controller_gain(make_furuta_plant(config.rig), config)
     if observer == "vfe":
         error = np.linalg.eigvals(vfe_error_matrix(A, B_F, vfe_gains(A, B_F, config.observers.vfe.eigenvalues)))
     else:
@@ -114,10 +117,7 @@ def test_the_common_lyapunov_function_decreases_for_every_k_sigma_of_its_interva
 
 
 def _adaptive(config):
-    adaptation = dataclasses.replace(config.observers.adaptation, enable_time=0.0, gamma=reproduce.ADAPTATION_GAMMA)
-    return dataclasses.replace(config, duration=1.0, excitation=ExcitationConfig(),
-                               observers=dataclasses.replace(config.observers, adaptation=adaptation,
-                                                             adaptation_enabled=True, run=[]))
+    return dataclasses.replace(adaptive_loop_config(config), duration=1.0, excitation=ExcitationConfig())
 
 
 @pytest.mark.parametrize("theta0", [-0.05, 0.05])

@@ -14,7 +14,7 @@ from furuta_drake.sweep import SweepConfig, dask_client, load_sweep, resolve_swe
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 LUND = SimulationConfig.from_rig("lund")
-# Lund linearization (NOTES.md): theta_ddot = ALPHA1 theta + BETA4 u at the upright.
+# Lund linearization (docs/paper.md): theta_ddot = ALPHA1 theta + BETA4 u at the upright.
 ALPHA1, BETA4 = 47.949, -365.07
 
 

@@ -8,21 +8,24 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.control import LqrParameters, design_lqr
+from furuta_drake.config import ControllerConfig, SimulationConfig, dump_config, swingup_config
+from furuta_drake.controllers.lqr import LqrParameters, design_lqr
+from furuta_drake.controllers.swingup import (BALANCE, SWING, EnergySwingUpController, SwingUpParameters, catch_time,
+                                              pendulum_energy, wrap_angle)
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import lund_rig, qube_servo2_rig
-from furuta_drake.swingup import (BALANCE, SWING, EnergySwingUpController, SwingUpParameters, catch_time,
-                                  pendulum_energy, simulate_swingup, wrap_angle)
+from furuta_drake.simulate import simulate
+from furuta_drake.yamlio import loads_yaml_dataclass
 
 RIG = lund_rig()
 PLANT = make_furuta_plant(RIG)
-K = design_lqr(PLANT, LqrParameters())
+K = design_lqr(PLANT, LqrParameters(), period=1e-3)
 
 
 def controller_step(x, params=SwingUpParameters(), mode=SWING, rig=RIG, limit=0.2):
     """One update of the controller at state estimate x (paper order): (torque, mode, energy)."""
-    controller = EnergySwingUpController(rig, K, params, 1e-3, limit)
+    controller = EnergySwingUpController(rig, K, params, period=1e-3, torque_limit=limit)
     context = controller.CreateDefaultContext()
     controller.GetInputPort("state_estimate").FixValue(context, np.asarray(x, dtype=float))
     context.SetDiscreteState(1, [mode])
@@ -95,14 +98,14 @@ def test_hand_over_has_hysteresis():
 
 def test_validate_names_the_field():
     with pytest.raises(ConfigError, match="swingup.energy_gain"):
-        EnergySwingUpController(RIG, K, SwingUpParameters(energy_gain=-1.0), 1e-3, 0.2)
+        EnergySwingUpController(RIG, K, SwingUpParameters(energy_gain=-1.0), period=1e-3, torque_limit=0.2)
     with pytest.raises(ConfigError, match="catch_angle < release_angle"):
         SwingUpParameters(catch_angle=0.9, release_angle=0.8).validate()
     assert wrap_angle(3 * math.pi / 2) == pytest.approx(-math.pi / 2)
 
 
 def test_lund_rig_is_swung_up_caught_and_balanced_within_the_torque_limit():
-    result = simulate_swingup("lund", duration=4.0)
+    result = simulate(swingup_config("lund", duration=4.0))
     assert catch_time(result) < 3.0
     last = result.time > result.time[-1] - 1.0
     assert np.max(np.abs(wrap_angle(result.state[last, 0]))) < 0.1
@@ -112,13 +115,26 @@ def test_lund_rig_is_swung_up_caught_and_balanced_within_the_torque_limit():
 
 def test_qube_swing_up_respects_its_smaller_limit():
     qube = qube_servo2_rig()
-    result = simulate_swingup("qube_servo2", duration=2.0)
+    result = simulate(swingup_config("qube_servo2", duration=2.0))
     assert np.max(np.abs(result.torque)) <= qube.torque_limit + 1e-12
     assert np.max(np.abs(result.torque)) == pytest.approx(qube.torque_limit)  # the pumping saturates
 
 
+def test_a_swing_up_config_round_trips_and_reruns_identically():
+    """The swing-up is a simulate config (``controller.mode: swingup``): its YAML gives the same run."""
+    config = swingup_config("lund", duration=1.0)
+    again = loads_yaml_dataclass(dump_config(config), SimulationConfig)
+    assert again == config
+    np.testing.assert_array_equal(simulate(config).state, simulate(again).state)
+
+
+def test_the_kinematic_observer_is_the_swing_ups_alone():
+    with pytest.raises(ConfigError, match="velocity_source 'kinematic_hg' is the swing-up's observer"):
+        ControllerConfig(velocity_source="kinematic_hg").validate()
+
+
 def test_study_small_returns_rows():
-    from furuta_drake.beyond.swingup import study
+    from furuta_drake.studies.swingup_study import study
 
     outcome = study(small=True)
     metrics = [row["metric"] for row in outcome.rows]

@@ -38,7 +38,7 @@ def observe_plant_with_friction(friction, friction_estimate: float, excitation: 
     torque = builder.AddSystem(Adder(2, 1))
     measure = builder.AddSystem(MatrixGain(C))
     estimate = builder.AddSystem(ConstantVectorSource([friction_estimate]))
-    vfe = builder.AddSystem(VfeObserver((A, B_F)))
+    vfe = builder.AddSystem(VfeObserver((A, B_F), period=PERIOD))
     builder.Connect(excite.get_output_port(0), plant_input.get_input_port(0))
     builder.Connect(true_friction.get_output_port(), plant_input.get_input_port(1))
     builder.Connect(plant_input.get_output_port(), plant.get_input_port())
@@ -102,7 +102,7 @@ def test_gains_place_the_eigenvalues_of_g(rates):
 
 def test_discretisation_is_the_exact_zero_order_hold_and_ports_are_named():
     """x_k+1 = e^(G h) x_k + int_0^h e^(G s) ds [K_F, b, b] [y; u; F_hat_phi], b = [B; 0] the arm column."""
-    vfe = VfeObserver(lund_rig())
+    vfe = VfeObserver(lund_rig(), period=PERIOD)
     K_F = vfe.gains
     arm = np.concatenate([B[:, 0], np.zeros(2)])[:, None]
     augmented = np.zeros((10, 10))
@@ -125,9 +125,11 @@ def test_discretisation_is_the_exact_zero_order_hold_and_ports_are_named():
 ])
 def test_invalid_eigenvalues_are_rejected_naming_the_field(eigenvalues, field):
     with pytest.raises(ConfigError, match=rf"observers\.vfe\.{field}"):
-        VfeObserver(lund_rig(), VfeParameters(eigenvalues=eigenvalues))
+        VfeObserver(lund_rig(), VfeParameters(eigenvalues=eigenvalues), period=PERIOD)
 
 
-def test_nonpositive_period_is_rejected():
-    with pytest.raises(ConfigError, match=r"observers\.vfe\.period"):
-        VfeObserver(lund_rig(), VfeParameters(period=0.0))
+def test_a_stated_period_must_be_positive_and_the_control_period():
+    with pytest.raises(ConfigError, match=r"observers\.vfe\.period must be > 0"):
+        VfeObserver(lund_rig(), VfeParameters(period=0.0), period=PERIOD)
+    with pytest.raises(ConfigError, match=r"observers\.vfe\.period = 0.001 differs from the control period = 0.002"):
+        VfeObserver(lund_rig(), VfeParameters(period=1e-3), period=2e-3)

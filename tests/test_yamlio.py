@@ -2,6 +2,7 @@
 
 import dataclasses
 import math
+import re
 
 import pytest
 import yaml
@@ -14,7 +15,15 @@ from furuta_drake.rig import MotorParameters, RigParameters
 from furuta_drake.yamlio import (dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass, locate,
                                  locate_in_file)
 
-SHARED_RIG = QUBE_DATA / "rig.yaml"
+QUBE_RIG = QUBE_DATA / "rig.yaml"
+REQUIRED = [f.name for f in dataclasses.fields(RigParameters) if f.metadata.get("required")]
+
+
+def with_required(text: str) -> str:
+    """``text`` followed by the Lund rig's value of every required key it does not set (its line numbers kept)."""
+    lund = RigParameters()
+    return text + "".join(f"{name}: {getattr(lund, name)}\n" for name in REQUIRED
+                          if not re.search(rf"^{name}:", text, re.MULTILINE))
 
 
 def test_misspelt_key_names_file_line_and_key(tmp_path):
@@ -38,11 +47,12 @@ def test_misspelt_key_names_file_line_and_key(tmp_path):
 ])
 def test_bad_values_are_named(text, fragment):
     with pytest.raises(ConfigError, match=fragment.replace(".", r"\.").replace("[", r"\[")):
-        loads_yaml_dataclass(text, RigParameters, source="rig.yaml")
+        loads_yaml_dataclass(with_required(text), RigParameters, source="rig.yaml")
 
 
 def test_exponent_without_a_dot_is_a_number_as_in_yaml_1_2():
-    rig = loads_yaml_dataclass("sample_period: 1e-3\ncounts_per_rev: 4e3\narm_inertia: +2E-3\n", RigParameters)
+    rig = loads_yaml_dataclass(with_required("sample_period: 1e-3\ncounts_per_rev: 4e3\narm_inertia: +2E-3\n"),
+                               RigParameters)
     assert (rig.sample_period, rig.counts_per_rev, rig.arm_inertia) == (0.001, 4000, 0.002)
 
 
@@ -55,8 +65,8 @@ def test_empty_file_and_directory_are_refused(tmp_path):
         load_yaml_dataclass(tmp_path, RigParameters)
 
 
-def test_the_shared_qube_rig_file_loads():
-    rig = load_yaml_dataclass(SHARED_RIG, RigParameters)
+def test_the_shipped_qube_rig_file_loads():
+    rig = load_yaml_dataclass(QUBE_RIG, RigParameters)
     assert rig.theta_direction == -1
     assert rig.motor == MotorParameters(8.4, 0.042, 0.042)
     assert rig.counts_per_rev == 2048
@@ -79,12 +89,12 @@ def test_round_trip_is_exact(arm_inertia, pendulum_mass, counts, direction, coul
 
 def test_validation_errors_name_the_line_of_their_key_without_a_root_prefix(tmp_path):
     path = tmp_path / "rig.yaml"
-    path.write_text("arm_inertia: 1.0e-3\n# the pendulum\npendulum_mass: -0.1\nmotor:\n  resistance: 8.4\n"
-                    "  torque_constant: -0.04\n")
+    motor = "motor:\n  resistance: 8.4\n  torque_constant: -0.04\n  backemf_constant: 0.04\n"
+    path.write_text(with_required("arm_inertia: 1.0e-3\n# the pendulum\npendulum_mass: -0.1\n" + motor))
     with pytest.raises(ConfigError) as err:
         load_yaml_dataclass(path, RigParameters)
     assert str(err.value) == f"{path}:3: pendulum_mass must be a positive finite number, got -0.1"
-    path.write_text("motor:\n  resistance: 8.4\n  torque_constant: -0.04\n")
+    path.write_text(with_required(motor))
     with pytest.raises(ConfigError, match=r"rig\.yaml:3: motor\.torque_constant must be a positive"):
         load_yaml_dataclass(path, RigParameters)
 

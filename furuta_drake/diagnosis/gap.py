@@ -209,7 +209,9 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
     where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
     overshoot), and the window's damping shrinks 3x after a kept step and grows 10x, to at least 1 (about half
     the Gauss-Newton step), after a refused one. Each trial is
-    simulated with its own sensitivities, so a kept step needs no further call."""
+    simulated with its own sensitivities, so a kept step needs no further call. The steps are written here
+    because scipy's least-squares solvers take one problem at a time: batched over windows, every window's step
+    costs one surrogate call for all of them."""
     count = 2 * np.pi / nominal_counts
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
     bristles = initial_bristles(model, windows)

@@ -12,14 +12,17 @@ from __future__ import annotations
 
 import base64
 import html
+import re
 from pathlib import Path
 
 SECTIONS = (("gap", "Gap"), ("ranking", "Ranking of the candidates"), ("localization", "Where the gap is"),
             ("figures", "Figures"))
 SHOWN_KEYS = ("verdict", "effects", "gap", "ranking", "localization")  # the rest go to "More"
 PERCENT_KEYS = ("heldout_reduction", "share_of_gap", "share_of_samples")
+NUMBER = re.compile(r"[-+]?[0-9.]+(e[-+]?[0-9]+)?( %)?")  # a formatted number: right-aligned in its cell
 STYLE = """
-body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 75em; padding: 0 1em; color: #222; }
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 90em; padding: 0 1em; color: #222; }
+.scroll { overflow-x: auto; }
 h1 { font-size: 1.6em; border-bottom: 2px solid #444; padding-bottom: .3em; }
 h2 { margin-top: 2em; border-bottom: 1px solid #bbb; }
 table { border-collapse: collapse; margin: .8em 0; font-size: .9em; }
@@ -165,12 +168,12 @@ def _records(rows: list[dict]) -> str:
 def _table(header: list[str], rows: list[list]) -> str:
     head = "".join(f"<th>{_text(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(_cell(value) for value in row) + "</tr>\n" for row in rows)
-    return f"<table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n{body}</tbody>\n</table>"
+    return f'<div class="scroll"><table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n{body}</tbody>\n</table></div>'
 
 
 def _cell(value) -> str:
     if isinstance(value, _Raw):
-        return f"<td>{value}</td>"
+        return f'<td class="num">{value}</td>' if NUMBER.fullmatch(value) else f"<td>{value}</td>"
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return f'<td class="num">{_number(value)}</td>'
     return f"<td>{_text(value)}</td>"

@@ -1,15 +1,17 @@
-"""Load and check the CSV run logs and the rig file of ``spec/diagnosis-interface.md`` (stage 1 of the diagnosis),
-and the two types the stages share: :class:`RunLog` (a checked log) and :class:`WindowResiduals` (the gap stage's
+"""Load and check the run logs and the rig file of ``furuta-drake diagnose`` (``docs/diagnose.md``; stage 1 of the
+diagnosis), and the two types the stages share: :class:`RunLog` (a checked log) and :class:`WindowResiduals` (the gap stage's
 per-window residuals that the localisation reads).
 
-Every bad input raises :class:`~furuta_drake.errors.LogError` (a log) or :class:`~furuta_drake.errors.ConfigError`
-(the rig file) with one line naming the file, the 1-based line (the header is line 1) and the column, so the
-command line can print it and exit 2. Unknown extra columns are not an error: they are listed in
+A log is CSV, Parquet or MCAP (:mod:`~furuta_drake.diagnosis.log_readers` produces its columns; a
+:class:`~furuta_drake.diagnosis.log_format.LogFormat` maps a lab's column names and angle unit); one code path
+here checks them, whatever the format. Every bad input raises :class:`~furuta_drake.errors.LogError` (a log) or
+:class:`~furuta_drake.errors.ConfigError` (the rig file) with one line naming the file, the row (for a CSV the
+1-based line, the header is line 1) and the column, so the command line can print it and exit 2. Unknown extra columns are not an error: they are listed in
 :attr:`RunLog.ignored_columns` and :func:`ignored_columns_note` words the one line the command prints.
 
 Beyond the format, the checks refuse what would otherwise be "diagnosed" as a model error: a time gap (never
 interpolated), angles in degrees, angles wrapped into one turn, and (from the data, pooled over the logs) a theta
-or phi direction that contradicts the spec's sign conventions.
+or phi direction that contradicts the sign conventions of ``docs/diagnose.md``.
 
 Sign checks, from Savitzky-Golay second derivatives of the angles. With a = J_arm + m r^2, b = J_p + m l^2,
 c = m l r, d = m g l (paper Eq. 1 in the paper's theta direction) the pendulum row reads
@@ -36,13 +38,15 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import savgol_filter
 
-from furuta_drake.errors import LogError, read_input_text
+from furuta_drake.diagnosis.log_format import LogFormat
+from furuta_drake.diagnosis.log_readers import LOG_TIME, Where, open_log
+from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import load_yaml_dataclass
 
 INPUT_COLUMNS = ("torque", "voltage")
 ANGLE_COLUMNS = ("theta", "phi")
-PERIOD_TOLERANCE = 0.01  # the spec: a constant sample period within 1 %
+PERIOD_TOLERANCE = 0.01  # a constant sample period within 1 %
 GAP_FACTOR = 1.5  # a step longer than this many periods is a gap (missing samples)
 MAX_THETA_RAD = 4 * math.pi  # beyond two pendulum turns from the upright, the angles are not radians
 MIN_SAMPLES = 3
@@ -89,51 +93,99 @@ class WindowResiduals:
 
 
 def load_rig(path: str | Path) -> RigParameters:
-    """The rig file (spec "Rig"), strictly: unknown keys and non-physical values raise ConfigError naming
+    """The rig file, strictly (every required key present): unknown keys and non-physical values raise ConfigError naming
     file:line:key."""
     return load_yaml_dataclass(path, RigParameters)
 
 
-def load_log(path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file") -> RunLog:
-    """Read and check one CSV log (spec "Logs"); theta is multiplied by ``rig.theta_direction``.
+def load_log(path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file",
+             log_format: LogFormat = LogFormat()) -> RunLog:
+    """Read and check one log (CSV, Parquet or MCAP by its extension; see
+    :mod:`~furuta_drake.diagnosis.log_readers`).
 
-    ``rig_path`` only names the rig file in the error a voltage log raises when the rig has no motor.
+    Parameters
+    ----------
+    path
+        the log file.
+    rig
+        the rig file's model: ``theta`` is multiplied by its ``theta_direction``, angles in counts use its
+        ``counts_per_rev``, a voltage log needs its ``motor``.
+    rig_path
+        names the rig file in errors.
+    log_format
+        the file's column names, angle unit and MCAP topic (default: the columns under their own names, radians).
     """
     path = Path(path)
-    lines = _read_lines(path)
-    header = [name.strip() for name in lines[0].lstrip("\ufeff").split(",")]
-    columns = _check_header(path, header)
-    input_kind = "torque" if "torque" in columns else "voltage"
+    reader = open_log(path, log_format.topic)
+    columns = _resolve_columns(reader, log_format)
+    input_kind = next(name for name in INPUT_COLUMNS if name in columns)
+    label = {name: log_format.label(name) for name in columns}
     if input_kind == "voltage" and rig.motor is None:
-        raise LogError(f"{path}:1: column 'voltage': a voltage log needs a DC motor, but {rig_path} has no "
-                       f"'motor' block (add motor: {{resistance, torque_constant, backemf_constant}})")
-    data, line_numbers = _parse_numbers(path, lines, header, columns)
-    time, theta, phi, command = (np.ascontiguousarray(data[:, i]) for i in range(4))
-    where = _Where(path, line_numbers)
-    sample_period = _check_time(where, time)
-    _check_angles(where, theta, phi)
+        raise LogError(f"{reader.header_where}: column {label['voltage']}: a voltage log needs a DC motor, but "
+                       f"{rig_path} has no 'motor' block (add motor: {{resistance, torque_constant, "
+                       f"backemf_constant}})")
+    data, where = reader.read({column: label[name] for name, column in columns.items()})
+    for j, name in enumerate(columns):
+        bad = np.flatnonzero(~np.isfinite(data[:, j]))
+        if bad.size:
+            raise LogError(f"{where(bad[0])}: column {label[name]} is {float(data[bad[0], j])}: every value must "
+                           f"be a finite number")
+    if len(data) < MIN_SAMPLES:
+        raise LogError(f"{where(len(data) - 1)}: only {len(data)} data rows, need at least {MIN_SAMPLES}")
+    scale = log_format.radians_per_unit(rig.counts_per_rev)
+    time, theta, phi, command = (np.ascontiguousarray(data[:, j]) for j in range(4))
+    theta, phi = theta * scale, phi * scale
+    sample_period = _check_time(where, time, label["time"])
+    _check_angles(where, theta, phi, label, log_format.angle_unit)
     theta = theta * rig.theta_direction
     for array in (time, theta, phi, command):
         array.setflags(write=False)
     torque_per_volt = 1.0 if rig.motor is None or input_kind == "torque" else \
         rig.motor.torque_constant / rig.motor.resistance
-    known = set(("time",) + ANGLE_COLUMNS + INPUT_COLUMNS)
+    used = set(columns.values()) | {LOG_TIME}
     return RunLog(name=path.name, path=str(path), time=time, theta=theta, phi=phi, input_kind=input_kind,
                   input=command, sample_period=sample_period, torque_per_volt=torque_per_volt,
-                  ignored_columns=tuple(name for name in header if name not in known))
+                  ignored_columns=tuple(name for name in reader.names if name not in used))
 
 
-def load_logs(paths, rig: RigParameters, rig_path: str | Path = "the rig file") -> list[RunLog]:
-    """:func:`load_log` for each path, then the sign checks pooled over all of them (phi first: a flipped phi
-    also flips the arm-pendulum coupling that the theta check reads)."""
-    logs = [load_log(path, rig, rig_path) for path in paths]
+def _resolve_columns(reader, log_format: LogFormat) -> dict[str, str]:
+    """furuta-drake's name -> the file's column for time, theta, phi and the one input column; a LogError naming
+    the columns the file has, the ones expected and the mapping in force when they do not match."""
+    names = set(reader.names)
+    column = {name: log_format.column(name) for name in ("time",) + ANGLE_COLUMNS + INPUT_COLUMNS}
+    if "time" not in log_format.columns:
+        column["time"] = reader.default_time
+    shown = [name for name in reader.names if name != LOG_TIME]
+    has = f"the file has: {', '.join(shown) or 'no columns'}"
+    mapping = f"; mapping in force: {log_format.describe()}" if log_format.describe() else ""
+    missing = [name for name in ("time",) + ANGLE_COLUMNS if column[name] not in names]
+    if missing:
+        expected = ", ".join(log_format.label(name) for name in ("time",) + ANGLE_COLUMNS)
+        raise LogError(f"{reader.header_where}: missing column {', '.join(log_format.label(m) for m in missing)} "
+                       f"({has}; expected {expected} and {log_format.label('torque')} or "
+                       f"{log_format.label('voltage')}{mapping}; --columns maps other names)")
+    inputs = [name for name in INPUT_COLUMNS if column[name] in names]
+    if not inputs:
+        raise LogError(f"{reader.header_where}: no input column: expected {log_format.label('torque')} [N m] or "
+                       f"{log_format.label('voltage')} [V] ({has}{mapping}; --columns maps other names)")
+    if len(inputs) == 2:
+        raise LogError(f"{reader.header_where}: both {log_format.label('torque')} and "
+                       f"{log_format.label('voltage')} columns: a log has exactly one input column")
+    return {name: column[name] for name in ("time",) + ANGLE_COLUMNS + (inputs[0],)}
+
+
+def load_logs(paths, rig: RigParameters, rig_path: str | Path = "the rig file",
+              log_format: LogFormat = LogFormat()) -> list[RunLog]:
+    """:func:`load_log` for each path (all in ``log_format``), then the sign checks pooled over all of them (phi
+    first: a flipped phi also flips the arm-pendulum coupling that the theta check reads)."""
+    logs = [load_log(path, rig, rig_path, log_format) for path in paths]
     check_input_direction(logs, rig, rig_path)
     check_theta_direction(logs, rig, rig_path)
     return logs
 
 
 def ignored_columns_note(logs: list[RunLog]) -> str | None:
-    """The one line saying which extra columns were ignored (spec "Logs"), or None when there were none."""
+    """The one line saying which extra columns were ignored, or None when there were none."""
     per_log = [f"{log.name}: {', '.join(log.ignored_columns)}" for log in logs if log.ignored_columns]
     if not per_log:
         return None
@@ -167,7 +219,7 @@ def check_theta_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
         raise LogError(
             f"{rig_path}: theta_direction: {rig.theta_direction} contradicts the logs ({names}): with it the "
             f"arm-pendulum coupling d(theta_ddot)/d(cos(theta) phi_ddot) is {coef[0]:+.3g} (t = {t_stat[0]:.0f}), "
-            f"the spec's convention gives {expected:+.3g} (near the upright a positive arm acceleration gives a "
+            f"the convention gives {expected:+.3g} (near the upright a positive arm acceleration gives a "
             f"negative pendulum acceleration): the logs count theta the other way, set theta_direction: "
             f"{-rig.theta_direction} (unless it is phi that counts against the input)")
 
@@ -197,11 +249,11 @@ def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
         raise LogError(
             f"{names}: columns 'theta'/'phi': the arm accelerates {coef[0]:.3g} +- {std[0]:.2g} times more per unit "
             f"command than the rig ({rig_path}) allows (57.3 would be degrees): the angles look like degrees; the "
-            f"spec wants radians (unless the rig's arm inertia is off by that factor)")
+            f"diagnosis wants radians: pass --angle-unit deg (unless the rig's arm inertia is off by that factor)")
     if coef[0] < -CLEAR_T_STAT * std[0]:
         raise LogError(
             f"{names}: column 'phi' counts against the input: the arm acceleration per unit command is "
-            f"{coef[0]:+.3g} times the rig's ({rig_path}) (t = {coef[0] / std[0]:.0f}); the spec wants phi positive in "
+            f"{coef[0]:+.3g} times the rig's ({rig_path}) (t = {coef[0] / std[0]:.0f}); phi must be positive in "
             f"the direction a positive input accelerates the arm (negate phi, or the input)")
 
 
@@ -252,118 +304,41 @@ def _pooled_fit(rows, logs):
     return coef, std
 
 
-@dataclass(frozen=True)
-class _Where:
-    path: Path
-    line_numbers: np.ndarray  # 1-based file line of each data row
-
-    def __call__(self, row: int) -> str:
-        return f"{self.path}:{int(self.line_numbers[row])}"
-
-
-def _read_lines(path: Path) -> list[str]:
-    lines = read_input_text(path, "a CSV log", LogError).splitlines()
-    while lines and not lines[-1].strip():
-        lines.pop()
-    if not lines:
-        raise LogError(f"{path}:1: empty file, expected a header line 'time,theta,phi,torque' (or voltage)")
-    return lines
-
-
-def _check_header(path: Path, header: list[str]) -> dict[str, int]:
-    seen = {}
-    for index, name in enumerate(header):
-        if name in seen:
-            raise LogError(f"{path}:1: column {index + 1}: duplicate column name {name!r}")
-        seen[name] = index
-    missing = [name for name in ("time",) + ANGLE_COLUMNS if name not in seen]
-    if missing:
-        raise LogError(f"{path}:1: missing column {', '.join(repr(m) for m in missing)} (header: "
-                       f"{','.join(header)}); required: time, theta, phi and torque or voltage")
-    inputs = [name for name in INPUT_COLUMNS if name in seen]
-    if not inputs:
-        raise LogError(f"{path}:1: no input column: expected 'torque' [N m] or 'voltage' [V] "
-                       f"(header: {','.join(header)})")
-    if len(inputs) == 2:
-        raise LogError(f"{path}:1: both 'torque' and 'voltage' columns: a log has exactly one input column")
-    return {name: seen[name] for name in ("time", "theta", "phi", inputs[0])}
-
-
-def _parse_numbers(path: Path, lines: list[str], header: list[str], columns: dict[str, int]):
-    """The four used columns as floats (rows x [time, theta, phi, input]) and each row's file line number."""
-    body = lines[1:]
-    line_numbers = np.arange(2, len(lines) + 1)
-    blank = [i for i, line in enumerate(body) if not line.strip()]
-    if blank:
-        keep = np.ones(len(body), bool)
-        keep[blank] = False
-        body = [line for line, k in zip(body, keep) if k]
-        line_numbers = line_numbers[keep]
-    if not body:
-        raise LogError(f"{path}:1: header only, no data rows")
-    expected_commas = len(header) - 1
-    if sum(line.count(",") for line in body) != expected_commas * len(body):
-        for line, number in zip(body, line_numbers):
-            if line.count(",") != expected_commas:
-                raise LogError(f"{path}:{number}: {line.count(',') + 1} fields, the header has {len(header)}")
-    order = list(columns.values())
-    try:
-        data = np.loadtxt(body, delimiter=",", usecols=order, dtype=float, ndmin=2)
-    except ValueError as err:
-        _raise_unparsable(path, body, line_numbers, columns)
-        raise LogError(f"{path}: cannot read the numbers ({err})") from None
-    for j, name in enumerate(columns):
-        bad = np.flatnonzero(~np.isfinite(data[:, j]))
-        if bad.size:
-            row = bad[0]
-            raise LogError(f"{path}:{line_numbers[row]}: column '{name}' is {float(data[row, j])}: every value must "
-                           f"be a finite number")
-    if len(data) < MIN_SAMPLES:
-        raise LogError(f"{path}:{line_numbers[-1]}: only {len(data)} data rows, need at least {MIN_SAMPLES}")
-    return data, line_numbers
-
-
-def _raise_unparsable(path: Path, body: list[str], line_numbers: np.ndarray, columns: dict[str, int]) -> None:
-    for line, number in zip(body, line_numbers):
-        fields = line.split(",")
-        for name, index in columns.items():
-            try:
-                float(fields[index])
-            except ValueError:
-                raise LogError(f"{path}:{number}: column '{name}': {fields[index].strip()!r} is not a "
-                               f"number") from None
-
-
-def _check_time(where: _Where, time: np.ndarray) -> float:
+def _check_time(where: Where, time: np.ndarray, label: str) -> float:
+    """The log's sample period [s]; LogError at the first step that is not forward, a gap or irregular."""
     step = np.diff(time)
     bad = np.flatnonzero(step <= 0)
     if bad.size:
         row = bad[0] + 1
         kind = "duplicates" if step[bad[0]] == 0 else "goes back from"
-        raise LogError(f"{where(row)}: column 'time': {time[row]:.9g} {kind} the previous sample's "
+        raise LogError(f"{where(row)}: column {label}: {time[row]:.9g} {kind} the previous sample's "
                        f"{time[row - 1]:.9g}: time must be strictly increasing")
     period = float(np.median(step))
     gaps = np.flatnonzero(step > GAP_FACTOR * period)
     if gaps.size:
         row = gaps[0] + 1
-        raise LogError(f"{where(row)}: column 'time': gap of {step[gaps[0]]:.6g} s from t = {time[row - 1]:.6g} "
+        raise LogError(f"{where(row)}: column {label}: gap of {step[gaps[0]]:.6g} s from t = {time[row - 1]:.6g} "
                        f"to t = {time[row]:.6g} s (about {round(step[gaps[0]] / period) - 1} missing samples of "
                        f"{period:.6g} s); the diagnosis does not interpolate: split the log at the gap")
     irregular = np.flatnonzero(np.abs(step - period) > PERIOD_TOLERANCE * period)
     if irregular.size:
         row = irregular[0] + 1
-        raise LogError(f"{where(row)}: column 'time': step {step[irregular[0]]:.6g} s deviates by "
+        raise LogError(f"{where(row)}: column {label}: step {step[irregular[0]]:.6g} s deviates by "
                        f"{abs(step[irregular[0]] / period - 1):.1%} from the log's sample period {period:.6g} s "
-                       f"(the spec allows 1 %)")
+                       f"(at most {PERIOD_TOLERANCE:.0%} is allowed)")
     return period
 
 
-def _check_angles(where: _Where, theta: np.ndarray, phi: np.ndarray) -> None:
+def _check_angles(where: Where, theta: np.ndarray, phi: np.ndarray, label: dict[str, str], unit: str) -> None:
+    """LogError when the angles (in radians after the unit conversion) look like degrees or are wrapped."""
+    read_as = "" if unit == "rad" else f" (read as {unit}, in radians)"
+    hint = "pass --angle-unit deg or give radians" if unit == "rad" else f"check --angle-unit {unit}"
     far = np.flatnonzero(np.abs(theta) > MAX_THETA_RAD)
     if far.size:
         row = far[0]
-        raise LogError(f"{where(row)}: column 'theta' is {theta[row]:.6g}, more than two turns from the upright: "
-                       f"the angles look like degrees; the spec wants radians (theta 0 upright, unwrapped)")
+        raise LogError(f"{where(row)}: column {label['theta']} is {theta[row]:.6g}{read_as}, more than two turns "
+                       f"from the upright: the angles look like degrees; the diagnosis wants radians ({hint}; "
+                       f"theta 0 upright, unwrapped)")
     for name, angle in (("theta", theta), ("phi", phi)):
         step = np.diff(angle)
         jumps = np.flatnonzero(np.abs(step) > math.pi)
@@ -372,8 +347,9 @@ def _check_angles(where: _Where, theta: np.ndarray, phi: np.ndarray) -> None:
         row = jumps[0] + 1
         turns = step[jumps[0]] / (2 * math.pi)
         if abs(turns - round(turns)) < 0.1:
-            raise LogError(f"{where(row)}: column '{name}' jumps by {step[jumps[0]]:+.4g} rad in one sample "
-                           f"(from {angle[row - 1]:.6g} to {angle[row]:.6g}): the angle is wrapped; the spec wants "
-                           f"unwrapped angles (e.g. numpy.unwrap)")
-        raise LogError(f"{where(row)}: column '{name}' jumps by {step[jumps[0]]:+.4g} rad in one sample: not a "
-                       f"continuous angle in radians (degrees?); the spec wants unwrapped radians")
+            raise LogError(f"{where(row)}: column {label[name]} jumps by {step[jumps[0]]:+.4g} rad in one sample "
+                           f"(from {angle[row - 1]:.6g} to {angle[row]:.6g}){read_as}: the angle is wrapped; the "
+                           f"diagnosis wants unwrapped angles (e.g. numpy.unwrap)")
+        raise LogError(f"{where(row)}: column {label[name]} jumps by {step[jumps[0]]:+.4g} rad in one "
+                       f"sample{read_as}: not a continuous angle in radians (degrees?); the diagnosis wants "
+                       f"unwrapped radians ({hint})")

@@ -24,6 +24,8 @@ from furuta_drake.diagnosis.gap import (
     GapResult, evaluate_gap, gap_metric_definition, horizon_seconds, make_windows, window_residuals, window_samples,
 )
 from furuta_drake.diagnosis.localize import localize
+from furuta_drake.diagnosis.log_format import LogFormat
+from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs, load_rig
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.replay import model_actuator, model_rig, replay_gaps
@@ -31,7 +33,9 @@ from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import (
     Artifacts, Consistency, Diagnosis, GapFigures, RankedCandidate, Step,
 )
-from furuta_drake.diagnosis.select import CLOSES, Bootstrap, Evidence, choose, confusable, threshold_note
+from furuta_drake.diagnosis.select import (
+    CLOSES, ENTRY, MARGIN, Bootstrap, Evidence, choose, confusable, threshold_note,
+)
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import FrictionParameters
@@ -110,35 +114,49 @@ def fold_split(logs: list[RunLog], folds: int, fold: int, rig: RigParameters) ->
 
 @dataclass
 class Selection:
-    """The outcome of the step-by-step selection on one split of the logs."""
+    """The outcome of the selection on one split of the logs: the effects kept, in the order they entered, and
+    every model fitted on the way."""
 
     nominal: GapResult  # the nominal model on the held-out windows
-    tried: list[tuple[int, FitResult]]  # every model fitted, with its step
-    accepted: list[FitResult] = field(default_factory=list)  # the model after each accepted step
-    over_nominal: dict[str, Evidence] = field(default_factory=dict)
-    over_previous: dict[str, Evidence] = field(default_factory=dict)
+    tried: list[tuple[int, FitResult]]  # every model fitted, with its step (its number of effects)
+    kept: list[str] = field(default_factory=list)  # the accepted effects, in the order they entered
+    over_nominal: dict[str, Evidence] = field(default_factory=dict)  # model name -> evidence over nominal
+    over_previous: dict[str, Evidence] = field(default_factory=dict)  # ... over the model it was built on
+    over_others: dict[str, Evidence] = field(default_factory=dict)  # kept effect -> final over final without it
+    over_step: list[Evidence] = field(default_factory=list)  # each accepted step over the step before
     confusable: list[dict] = field(default_factory=list)
     at_floor: bool = False  # the nominal model explains the held-out data to within their noise
 
+    def model(self, effects) -> FitResult | None:
+        """The fitted model holding exactly ``effects`` (in any order), or None."""
+        return next((r for _, r in self.tried if not r.failure and set(r.effects) == set(effects)), None)
+
+    @property
+    def accepted(self) -> list[FitResult]:
+        """The model after each accepted step: holding the first 1, 2, ... kept effects."""
+        return [self.model(self.kept[:k]) for k in range(1, len(self.kept) + 1)]
+
     @property
     def final(self) -> FitResult | None:
-        return self.accepted[-1] if self.accepted else None
+        return self.model(self.kept) if self.kept else None
+
+    @property
+    def closes(self) -> bool:
+        return bool(self.kept) and self.over_nominal[self.final.name].reduction >= CLOSES
 
     @property
     def verdict(self) -> str:
-        if not self.accepted:
+        if not self.closes:
             return "none" if self.at_floor else "unexplained"
-        if self.over_nominal[self.final.name].reduction < CLOSES:
-            return "unexplained"
         return self.effects[0]
 
     @property
     def effects(self) -> list[str]:
         """The accepted effects in the order accepted (empty for none and unexplained); a Stribeck fit without
         static excess is named Coulomb friction (the vocabulary's Stribeck is static friction *above* it)."""
-        if not self.accepted or self.over_nominal[self.final.name].reduction < CLOSES:
+        if not self.closes:
             return []
-        return [_vocabulary_name(name, self.final.effects[name]) for name in self.final.effects]
+        return [_vocabulary_name(name, self.final.effects[name]) for name in self.kept]
 
 
 def _vocabulary_name(name: str, effect: Effect) -> str:
@@ -149,44 +167,84 @@ def _vocabulary_name(name: str, effect: Effect) -> str:
 
 def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: int, names: list[str],
                    settings: DiagnosisSettings, run: Callable) -> Selection:
-    """Accept up to ``settings.max_effects`` effects one at a time under the held-out rule
-    (:mod:`furuta_drake.diagnosis.select`): at each step every candidate not yet held (nor a variant of a held
-    effect's law) is fitted together with the held ones and judged against the model holding them."""
+    """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.select`):
+    forward, one at a time, each fitted together with the earlier ones and entering when it reduces the gap of
+    the model holding them; then backward, each kept only while the model without it is worse by the rule."""
     bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
     nominal_gap = evaluate_gap(nominal, heldout, counts)
     selection = Selection(nominal_gap, [], at_floor=bootstrap.at_floor(nominal_gap.per_window))
-    previous = nominal_gap.per_window
+
+    def fit(tasks, step, previous):
+        results = [_as_fit(task, result) for task, result in zip(tasks, run(fit_task, tasks))]
+        for result in results:
+            selection.tried.append((step, result))
+            if not result.failure:
+                selection.over_nominal[result.name] = bootstrap.evidence(nominal_gap.per_window,
+                                                                         result.heldout.per_window)
+                selection.over_previous[result.name] = bootstrap.evidence(previous, result.heldout.per_window)
+        return results
+
+    def task(new, held):
+        return FitTask(new=new, fixed=held.effects if held else {}, model=nominal, train=train, heldout=heldout,
+                       logs=tuple(logs), nominal_counts=counts, settings=settings,
+                       fixed_samples=held.samples if held else {})
+
     for step in range(1, settings.max_effects + 1):
+        held = selection.final
+        previous = held.heldout.per_window if held else nominal_gap.per_window
         if step > 1 and bootstrap.at_floor(previous):
             break
-        held = selection.final.effects if selection.final else {}
-        pool = [name for name in names if not law_of(name) & set(held)]
-        tasks = [FitTask(new=name, fixed=held, model=nominal, train=train, heldout=heldout, logs=tuple(logs),
-                         nominal_counts=counts, settings=settings,
-                         fixed_samples=selection.final.samples if selection.final else {}) for name in pool]
-        results = [_as_fit(task, result) for task, result in zip(tasks, run(fit_task, tasks))]
-        selection.tried += [(step, result) for result in results]
-        fitted = {result.name: result for result in results if not result.failure}
-        for name, result in fitted.items():
-            selection.over_nominal[name] = bootstrap.evidence(nominal_gap.per_window, result.heldout.per_window)
-            selection.over_previous[name] = bootstrap.evidence(previous, result.heldout.per_window)
+        pool = [name for name in names if not law_of(name) & set(selection.kept)]
+        fitted = {r.name: r for r in fit([task(name, held) for name in pool], step, previous) if not r.failure}
         if selection.at_floor:
             break
         evidence = {name: selection.over_previous[name] for name in fitted}
         added = {name: name.split("+")[-1] for name in fitted}
-        chosen = choose(evidence, added)
+        chosen = choose(evidence, added, margin=ENTRY)
         if chosen is None:
             break
-        fitted[chosen] = _refit_forms(fitted[chosen], tasks[pool.index(added[chosen])], run)
-        selection.tried = [(s, fitted[chosen] if r.name == chosen else r) for s, r in selection.tried]
-        for reference, store in ((nominal_gap.per_window, selection.over_nominal), (previous, selection.over_previous)):
-            store[chosen] = bootstrap.evidence(reference, fitted[chosen].heldout.per_window)
-        evidence[chosen] = selection.over_previous[chosen]
+        refitted = _refit_forms(fitted[chosen], task(added[chosen], held), run)
+        if refitted is not fitted[chosen]:
+            selection.tried = [(s, refitted if r is fitted[chosen] else r) for s, r in selection.tried]
+            fitted[chosen] = refitted
+            selection.over_nominal[chosen] = bootstrap.evidence(nominal_gap.per_window, refitted.heldout.per_window)
+            evidence[chosen] = selection.over_previous[chosen] = bootstrap.evidence(previous,
+                                                                                     refitted.heldout.per_window)
         per_window = {name: result.heldout.per_window for name, result in fitted.items()}
         selection.confusable += confusable(chosen, evidence, added, previous, per_window, bootstrap)
-        selection.accepted.append(fitted[chosen])
-        previous = fitted[chosen].heldout.per_window
+        selection.kept.append(added[chosen])
+    _backward(selection, bootstrap, nominal_gap, task, fit)
     return selection
+
+
+def _backward(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task: Callable, fit: Callable
+              ) -> None:
+    """Drop, one at a time, the kept effect whose removal costs the least while that cost's lower bound is not
+    above ``MARGIN``: every effect finally kept reduces the held-out gap of the model holding all the others by
+    the rule's margin (an effect that entered beside a stronger one it masked must earn its place)."""
+    while selection.kept:
+        final = selection.final
+        without = {}
+        for name in selection.kept:
+            others = [other for other in selection.kept if other != name]
+            model = selection.model(others) if others else None
+            if others and model is None:
+                held = selection.model(others[:-1]) if len(others) > 1 else None
+                model = next((r for r in fit([task(others[-1], held)], len(others),
+                                                   held.heldout.per_window if held else nominal_gap.per_window)
+                              if not r.failure), None)
+            # (a model without it that failed to fit leaves the effect judged against the nominal model)
+            reference = model.heldout.per_window if model else nominal_gap.per_window
+            without[name] = bootstrap.evidence(reference, final.heldout.per_window)
+        weakest = min(selection.kept, key=lambda name: without[name].lower_bound)
+        if without[weakest].lower_bound > MARGIN:
+            break
+        selection.kept.remove(weakest)
+    selection.over_others = {name: without[name] for name in selection.kept}
+    models = [nominal_gap] + [model.heldout for model in selection.accepted]
+    selection.over_step = [bootstrap.evidence(before.per_window, after.per_window)
+                           for before, after in zip(models[:-1], models[1:])]
+    selection.confusable = [pair for pair in selection.confusable if pair["effects"][0] in selection.kept]
 
 
 def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
@@ -222,21 +280,20 @@ def _as_fit(task: FitTask, result) -> FitResult:
 
 def choice_text(selection: Selection) -> str:
     """Why the verdict, in one paragraph."""
-    if not selection.accepted:
+    if not selection.kept:
         if selection.at_floor:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
-        return "No candidate reduces the nominal model's held-out gap with a lower bound above the margin."
-    parts = []
-    for k, result in enumerate(selection.accepted):
-        added = result.name.split("+")[-1]
-        evidence = selection.over_previous[result.name]
-        against = "the nominal model" if k == 0 else "the model holding " + ", ".join(result.name.split("+")[:-1])
-        parts.append(f"{added} reduces the held-out gap of {against} by {evidence.reduction:.1%} (5 % lower bound "
-                     f"{evidence.lower_bound:.1%})")
-    text = "; ".join(parts) + "."
-    if selection.verdict == "unexplained":
-        text += (f" Together they reduce the nominal gap by {selection.over_nominal[selection.final.name].reduction:.1%}, "
-                 f"less than the {CLOSES:.0%} that explains it: the gap is unexplained.")
+        return ("No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's "
+                "margin.")
+    total = selection.over_nominal[selection.final.name]
+    text = (f"The model holding {', '.join(selection.kept)} reduces the nominal held-out gap by {total.reduction:.1%} "
+            f"(5 % lower bound {total.lower_bound:.1%}). ")
+    if len(selection.kept) > 1:
+        text += "Without each of them the held-out gap of the others' model grows: " + "; ".join(
+            f"{name} brings {selection.over_others[name].reduction:.1%} (lower bound "
+            f"{selection.over_others[name].lower_bound:.1%})" for name in selection.kept) + "."
+    if not selection.closes:
+        text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
     for pair in selection.confusable:
         text += (f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "
                  f"({pair['why']}); {pair['effects'][0]} was accepted for its larger point reduction or fewer "
@@ -346,7 +403,8 @@ def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, l
 
 def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: list[str] | None = None,
              settings: DiagnosisSettings = DiagnosisSettings(), folds: int | None = None, workers: int | None = None,
-             scheduler: str | None = None, progress: Callable | None = None, log_format=None) -> Diagnosis:
+             scheduler: str | None = None, progress: Callable | None = None,
+             log_format: LogFormat = LogFormat()) -> Diagnosis:
     """Diagnose the gap between the rig file's nominal model and the logs.
 
     Parameters
@@ -363,8 +421,8 @@ def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: li
     settings.validate()
     rig_path = Path(rig)
     rig_params = load_rig(rig_path)
-    train_logs = load_logs(train, rig_params, rig_path)
-    heldout_logs = load_logs(heldout, rig_params, rig_path) if heldout else []
+    train_logs = load_logs(train, rig_params, rig_path, log_format)
+    heldout_logs = load_logs(heldout, rig_params, rig_path, log_format) if heldout else []
     notes = [note for note in [ignored_columns_note(train_logs + heldout_logs)] if note]
     if heldout_logs:
         fit_logs, test_logs = train_logs, heldout_logs
@@ -411,15 +469,16 @@ def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: li
     if folds is not None and folds >= 2:
         consistency_result = consistency(train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds)
     steps = []
-    for result in selection.accepted if final else []:
+    for name, result, over_step in zip(selection.kept, selection.accepted if final else [], selection.over_step):
         params, _ = _params(result, nominal)
-        over_nominal, over_previous = selection.over_nominal[result.name], selection.over_previous[result.name]
-        steps.append(Step(result.name.split("+")[-1], params, over_nominal.heldout_gap, over_nominal.reduction,
-                          over_previous.reduction))
+        over_nominal, over_others = selection.over_nominal[result.name], selection.over_others[name]
+        steps.append(Step(name, params, over_nominal.heldout_gap, over_nominal.reduction, over_step.reduction,
+                          over_others.reduction, over_others.lower_bound))
     record = input_record(rig_path=rig_path, train=train, heldout=heldout,
                           seeds={"bootstrap": settings.seed, "fit_windows": settings.seed},
                           options={"workers": workers, "scheduler": scheduler, "holdout": holdout_note,
-                                   "candidates": names, "folds": folds, "settings": dataclasses.asdict(settings)})
+                                   "candidates": names, "folds": folds, "settings": dataclasses.asdict(settings),
+                                   "log_format": log_format.record()})
     curves = [effect_curve(name, describe(name, effect, nominal), rig_params)
               for name, effect in (final.effects.items() if final else [])]
     artifacts = Artifacts(before, after, nominal_heldout.sensor_variance, curves,

@@ -16,16 +16,16 @@ import dataclasses
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Adder, AffineSystem, TrajectorySource
+from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from furuta_drake.actuator import ActuatorParameters, add_actuator
+from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
-from furuta_drake.friction import FrictionParameters, JointFriction
-from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
+from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
+from furuta_drake.world import add_furuta_world
 
 
 def model_rig(model: Model, rig: RigParameters) -> RigParameters:
@@ -56,38 +56,26 @@ class WindowReplayer:
 
     def __init__(self, model: Model, rig: RigParameters, time: np.ndarray, command: np.ndarray):
         builder = DiagramBuilder()
-        plant, _ = add_furuta_plant(builder, model_rig(model, rig), time_step=0.0, with_scene_graph=False)
-        self.plant = plant
-        self.P = plant_to_paper_permutation(plant)
-        friction = builder.AddSystem(JointFriction(plant, FrictionParameters(
-            arm=model.arm_friction, pendulum=model.pendulum_friction)))
-        builder.Connect(plant.get_state_output_port(), friction.get_input_port())
-        # Back-EMF damping and the arm spring: tau_phi = -k_emf phi_dot - k (phi - phi_0), one affine block.
-        arm = np.zeros((plant.num_velocities(), 1))
-        arm[plant.GetJointByName("arm").velocity_start(), 0] = 1.0
-        gains = np.zeros((1, 4))
-        gains[0, 1], gains[0, 3] = -model.spring_stiffness, -model.back_emf_damping
-        linear = builder.AddSystem(AffineSystem(
-            np.zeros((0, 0)), np.zeros((0, self.P.shape[1])), np.zeros(0), np.zeros((0, 0)),
-            arm @ gains @ self.P, (arm * model.spring_stiffness * model.spring_equilibrium).ravel()))
-        builder.Connect(plant.get_state_output_port(), linear.get_input_port())
-        forces = builder.AddSystem(Adder(2, plant.num_velocities()))
-        builder.Connect(friction.GetOutputPort("generalized_force_Nm"), forces.get_input_port(0))
-        builder.Connect(linear.get_output_port(), forces.get_input_port(1))
-        builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
         period = float(np.median(np.diff(time)))
+        # The simulate world of the model: its rigid body, friction, spring and back-EMF, and its actuator but for
+        # the delay, which is the time shift of the replayed command below.
+        world = add_furuta_world(
+            builder, rig=model_rig(model, rig), control_period=period,
+            friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
+            actuator=model_actuator(model), back_emf_damping=model.back_emf_damping,
+            disturbance=DisturbanceParameters(arm_spring_stiffness=model.spring_stiffness,
+                                              arm_spring_equilibrium=model.spring_equilibrium))
+        self.plant, self.P, self.friction = world.plant, world.to_paper, world.friction
         breaks = np.append(time, time[-1] + period) + model.delay
         source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
             breaks, np.append(command, command[-1]).reshape(1, -1))))
-        actuator_in, actuator_out = add_actuator(builder, model_actuator(model), delay_resolution=period)
-        builder.Connect(source.get_output_port(), actuator_in)
-        builder.Connect(actuator_out, plant.get_actuation_input_port())
+        builder.Connect(source.get_output_port(), world.arm_torque_input)
         self.diagram = builder.Build()
         self.simulator = Simulator(self.diagram)
-        ApplySimulatorConfig(REPLAY_INTEGRATOR, self.simulator)
+        self.integrator = REPLAY_INTEGRATOR  # the integrator every window starts afresh with
+        ApplySimulatorConfig(self.integrator, self.simulator)
         self.context = self.simulator.get_mutable_context()
-        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
-        self.friction = friction
+        self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
         self.default_context = self.context.Clone()
         self.lag = model.lag > 0
 
@@ -96,7 +84,7 @@ class WindowReplayer:
         """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (lag filter at the command, the
         arm's Dahl bristle at ``bristle``). Every window starts with a fresh integrator, so its result does not
         depend on the step size the previous window ended with."""
-        ApplySimulatorConfig(REPLAY_INTEGRATOR, self.simulator)
+        ApplySimulatorConfig(self.integrator, self.simulator)
         self.context.SetTimeStateAndParametersFrom(self.default_context)
         self.context.SetTime(start_time)
         if self.lag:

@@ -175,9 +175,11 @@ def report_markdown(report: dict, figures: dict[str, str]) -> str:
               f"held-out logs; {gap.get('evaluated_by', '')}).", ""]
     if report.get("steps"):
         lines += ["## Steps", "", "| step | effect accepted | held-out gap [counts] | reduction over nominal | "
-                  "reduction over the previous step |", "|---:|---|---:|---:|---:|"]
+                  "over the previous step | over the model of all the others [lower bound] |",
+                  "|---:|---|---:|---:|---:|---:|"]
         lines += [f"| {i} | `{step['effect']}` | {_fmt(step['heldout_gap'])} | {_percent(step['heldout_reduction'])} "
-                  f"| {_percent(step['reduction_over_previous'])} |" for i, step in enumerate(report["steps"], 1)]
+                  f"| {_percent(step['reduction_over_previous'])} | {_percent(step.get('reduction_over_others'))} "
+                  f"[{_percent(step.get('evidence_over_others'))}] |" for i, step in enumerate(report["steps"], 1)]
         lines.append("")
     lines += [f"How effects are accepted: {report.get('rule', '')}", ""]
     if report.get("holdout"):

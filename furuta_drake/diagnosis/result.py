@@ -56,13 +56,16 @@ class RankedCandidate:
 
 @dataclass
 class Step:
-    """One accepted effect and the held-out gap of the model holding it and the earlier ones."""
+    """One accepted effect and the held-out gap of the model holding it and the earlier ones; what the effect
+    brings to the model holding all the other accepted effects (``*_over_others``, which the rule reads)."""
 
     effect: str
     params: dict[str, Any]
     heldout_gap: Number
     heldout_reduction: Number  # over the nominal model
-    reduction_over_previous: Number = None
+    reduction_over_previous: Number = None  # over the model of the step before
+    reduction_over_others: Number = None
+    evidence_over_others: Number = None  # its 5 % bootstrap lower bound
 
 
 @dataclass

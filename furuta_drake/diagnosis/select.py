@@ -1,17 +1,21 @@
-"""The held-out rule that accepts an effect (stage 4 of the diagnosis), one step at a time.
+"""The held-out rule that accepts an effect (stage 4 of the diagnosis).
 
 Significance comes from the data: each held-out window contributes its own excess squared residual, so the
-reduction of the held-out gap that a model brings over the previous one is bootstrapped over windows (paired:
-the same resampled windows for both). At every step (the first against the nominal model, each further one
-against the model that already holds the earlier effects):
+reduction of the held-out gap that a model brings over another is bootstrapped over windows (paired: the same
+resampled windows for both). Effects enter one at a time (the first against the nominal model, each further
+one fitted together with the earlier ones and judged against the model holding them), then each must earn its
+place against the model holding all the others:
 
-- the previous model is *at the floor* when its held-out gap is below ``FLOOR_COUNTS`` or below twice its own
-  bootstrap standard error: it already explains the data to within their noise, and nothing more is accepted
-  (verdict ``none`` at the first step);
-- a candidate is *supported* when the 5 % lower bound of its reduction over the previous model exceeds
-  ``MARGIN``; the accepted one is the supported candidate with the largest reduction, replaced by one with fewer
-  parameters when that one is within ``PARSIMONY`` of it (Coulomb before Stribeck or asymmetry when the data
-  cannot tell them apart);
+- a model is *at the floor* when its held-out gap is below ``FLOOR_COUNTS`` or below twice its own bootstrap
+  standard error: it already explains the data to within their noise, and nothing more enters (verdict
+  ``none`` when the nominal model is);
+- a candidate *enters* when the 5 % lower bound of its reduction over the model holding the earlier effects
+  exceeds ``ENTRY``: the candidate with the largest reduction, replaced by one with fewer parameters when that
+  one is within ``PARSIMONY`` of it (Coulomb before Stribeck or asymmetry when the data cannot tell them
+  apart). Entry is lenient because effects mask each other: with three strong effects acting, none alone may
+  explain much;
+- an effect is *kept* when the 5 % lower bound of the reduction it brings to the model holding all the other
+  kept effects exceeds ``MARGIN``; the weakest one that does not is dropped, and the others judged again;
 - two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
   difference of their reductions holds 0: the data explain them equally well, and the report says so;
 - the verdict is ``unexplained`` when the nominal model is above the floor and the accepted effects together
@@ -27,6 +31,7 @@ import numpy as np
 from furuta_drake.diagnosis.candidates import CANDIDATES, law_of
 
 FLOOR_COUNTS = 0.25
+ENTRY = 0.05
 MARGIN = 0.2
 PARSIMONY = 0.03
 CLOSES = 0.5
@@ -36,11 +41,13 @@ CONFUSABLE_LEVEL = 0.9  # two-sided level of the interval of a difference of red
 def threshold_note(bootstrap: int, seed: int) -> str:
     """The acceptance rule in one paragraph, written into every report."""
     return (f"Held-out reductions are bootstrapped over held-out windows ({bootstrap} paired resamples, seed "
-            f"{seed}). Effects are accepted one at a time, at most three: a model is at the floor (nothing more is "
-            f"accepted; verdict none at the first step) when its held-out gap is below {FLOOR_COUNTS} counts or "
-            f"twice its bootstrap standard error; a candidate is supported when the 5 % lower bound of its reduction "
-            f"over the model holding the earlier effects exceeds {MARGIN:.0%}; among supported candidates a simpler "
-            f"one within {PARSIMONY:.0%} of the best is accepted; two supported candidates of different laws whose "
+            f"{seed}). Effects enter one at a time, at most three: a model is at the floor (nothing more enters; "
+            f"verdict none for the nominal model) when its held-out gap is below {FLOOR_COUNTS} counts or twice its "
+            f"bootstrap standard error; the candidate with the largest reduction over the model holding the earlier "
+            f"effects enters when the 5 % lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
+            f"{PARSIMONY:.0%} of it is preferred); an effect is kept when the 5 % lower bound of the reduction it "
+            f"brings to the model holding all the other kept effects exceeds {MARGIN:.0%}, else the weakest is "
+            f"dropped; two supported candidates of different laws whose "
             f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
             f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
             f"unexplained.")
@@ -103,10 +110,11 @@ def order(evidence: dict[str, Evidence]) -> list[str]:
                                               name))
 
 
-def choose(evidence: dict[str, Evidence], new: dict[str, str]) -> str | None:
-    """The accepted candidate among ``evidence`` (over the previous model), or None when none is supported.
-    ``new``: each candidate's added effect, whose parameters the parsimony rule counts."""
-    supported = [name for name in order(evidence) if evidence[name].lower_bound > MARGIN]
+def choose(evidence: dict[str, Evidence], new: dict[str, str], margin: float = MARGIN) -> str | None:
+    """The candidate among ``evidence`` (over the previous model) whose reduction's lower bound exceeds
+    ``margin`` (the best, or a simpler one within ``PARSIMONY`` of it), or None. ``new``: each candidate's added
+    effect, whose parameters the parsimony rule counts."""
+    supported = [name for name in order(evidence) if evidence[name].lower_bound > margin]
     if not supported:
         return None
     best = supported[0]

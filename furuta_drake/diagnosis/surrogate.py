@@ -162,8 +162,11 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
 
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
-    (a Dahl or LuGre arm only; its torque is held over each substep and z follows the substep's displacement).
-    Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle).
+    (a Dahl or LuGre arm only: at every RK4 stage the bristle is its exact step from the substep's start over the
+    stage's arm displacement, :func:`bristle_step`, so the stiff bristle needs no step of its own).
+    Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The fixed-step
+    RK4 is written here because scipy's ODE solvers integrate one system at a time: here one step advances
+    every window at once, as numpy arrays over windows.
     """
     dt = period / substeps
     x = np.array(x0, dtype=float)
@@ -184,19 +187,24 @@ def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: n
     out = np.empty((horizon, 2, x.shape[1]))
     out[0] = x[:2]
     half = 0.5 * dt
+    p = model.arm_friction
+
+    def stage(state, z0, phi0, tau):
+        if bristles:  # the bristle at this stage: its exact step from the substep's start over the displacement
+            tau = tau + bristle_friction_torque(bristle_step(z0, state[1] - phi0, state[3], p), state[3], p)
+        return _accelerations(model, state, tau, arm, pendulum)
+
     for i in range(steps):
         tau = torque[i]
+        k1 = stage(x, z, x[1], tau)
+        k2 = stage(x + half * k1, z, x[1], tau)
+        k3 = stage(x + half * k2, z, x[1], tau)
+        k4 = stage(x + dt * k3, z, x[1], tau)
+        x_next = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
         if bristles:
-            tau = tau + bristle_friction_torque(z, x[3], model.arm_friction)
-            phi_before = x[1]
-        k1 = _accelerations(model, x, tau, arm, pendulum)
-        k2 = _accelerations(model, x + half * k1, tau, arm, pendulum)
-        k3 = _accelerations(model, x + half * k2, tau, arm, pendulum)
-        k4 = _accelerations(model, x + dt * k3, tau, arm, pendulum)
-        x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if bristles:
-            moved = x[1] - phi_before
-            z = bristle_step(z, moved, moved / dt, model.arm_friction)
+            moved = x_next[1] - x[1]
+            z = bristle_step(z, moved, moved / dt, p)
+        x = x_next
         if (i + 1) % substeps == 0:
             out[(i + 1) // substeps] = x[:2]
     return out

@@ -1,4 +1,4 @@
-"""Dahl friction observer of the arm, paper Eq. 8-9 with the adaptive gain K_sigma of Eq. 16:
+"""Dahl friction observer of the arm, paper Eq. 8-9 with the gain K_sigma of Eq. 16, and its adaptation:
 
     z_hat' = v - sigma0 |v| z_hat / Fc(v) + K_z,
     K_z    = -(sigma0 / rho) (1 + s1 sigma1 |v| / Fc(v)) [eps_phi + rho2 eps_v],
@@ -8,16 +8,15 @@ v is the nested velocity estimate (the VFE's arm velocity, an input port: the ri
 eps_phi = phi - phi_ref and eps_v = v - v_ref the controller's tracking errors (reference zero when
 balancing), Fc(v) the observer's Coulomb level for the sign of v. F_hat is the friction torque EXERTED on the
 arm (opposite to the velocity, the package's convention), so Eq. 8's F_hat = sigma0 z_hat and Eq. 16's printed
-"d/dt F_hat" are read as F_hat = -K_sigma sigma0 z_hat (NOTES.md); with this sign Eq. 18 is a gradient descent
+"d/dt F_hat" are read as F_hat = -K_sigma sigma0 z_hat (``docs/paper.md``); with this sign Eq. 18 is a gradient descent
 as printed. A controller compensates with u = u_LQ - F_hat; with the printed sign of K_z an arm displaced to
 phi > phi_ref at rest makes z_hat fall and F_hat grow, so u pushes the arm back: an integral action of gain
 K_sigma sigma0^2 / rho. On a free arm that restores; in the balancing loop it does not: the LQR moves the arm
-through the pendulum (K_phi < 0), and the linearized loop at rest (``furuta_drake.stability``) has a slow
-unstable mode (about +0.14 1/s at K_sigma = 1) with the printed sign and none with ``injection_sign = -1``. In
-the nonlinear loop the stick-slip limit cycle hides it (60 s balancing runs: arm RMS 0.035 rad with the
-printed sign, 0.038 rad reversed), so the default stays the paper's.
+through the pendulum (K_phi < 0), and the linearized loop at rest (:mod:`furuta_drake.stability`) has a slow
+unstable mode with the printed sign and none with ``injection_sign = -1``. In the nonlinear loop the stick-slip
+limit cycle hides it, so the default stays the paper's.
 
-Sign s1 of the sigma1 term (``sigma1_sign``, NOTES.md): Eq. 9 prints +. The cited design (Freidovich et al.
+Sign s1 of the sigma1 term (``sigma1_sign``, ``docs/paper.md``): Eq. 9 prints +. The cited design (Freidovich et al.
 2006) is for LuGre, F = sigma0 z + sigma1 z' + sigma2 v = sigma0 (1 - sigma1 |v| / g(v)) z + (sigma1 + sigma2) v,
 so the observer error z - z_hat reaches the motion through sigma0 (1 - sigma1 |v| / g) and the injection that
 cancels that cross term in a Lyapunov function must carry the same factor: the default is s1 = -1. (The paper
@@ -37,8 +36,13 @@ model's bristle rate (friction.bristle_friction_torque). Without them it is exac
 observes the pendulum's friction F_theta from the pendulum velocity estimate; nothing can compensate it (the
 pendulum has no actuator), so it feeds the VFE observer only and, with ``rho = None``, runs without injection.
 
+Adaptation (``DahlObserverParameters.adaptation``, an optional section): none (K_sigma = 1), the paper's
+K_sigma law (Eq. 16-18, :mod:`furuta_drake.observers.k_sigma`) or the adaptation of Fc+/- and sigma0
+(Sec. VII, :mod:`furuta_drake.observers.parameter_adaptation`). Both read the VFE observer's eps_hat_F and run
+inside this system, in one state vector [z_hat, the law's entries], so that each sample is one Python update.
+
 Defaults: the paper's measured arm levels (0.012 N m for v > 0, 0.018 for v < 0, Sec. V-D), sigma0 = 10 N m/rad
-(NOTES.md), and rho = 100 N m s/rad, rho2 = 0.1 s: a gentle injection (K_z / v of a few percent over Table I's
+(``docs/paper.md``), and rho = 100 N m s/rad, rho2 = 0.1 s: a gentle injection (K_z / v of a few percent over Table I's
 motion, eps_phi ~ 0.05 rad, v ~ 0.5 rad/s), so that F_hat reflects the Dahl model's calibration, as in Fig. 5.
 """
 
@@ -47,18 +51,43 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.friction import (JointFrictionParameters, bristle_friction_torque, dahl_exact_step,
-                                   stribeck_curve)
+                                   held_input_gain, stribeck_curve)
+from furuta_drake.observers.k_sigma import (K_SIGMA_NEG, K_SIGMA_POS, KSigmaAdaptationParameters, adapting_branch,
+                                            k_sigma_step)
+from furuta_drake.observers.parameter_adaptation import (LOG_FC_NEG, LOG_FC_POS, LOG_SIGMA0, PE_FC_NEG, PE_FC_POS,
+                                                         PE_SIGMA0, ParameterAdaptationLaw,
+                                                         ParameterAdaptationParameters, adapted_model, initial_state)
 
 JOINTS = ("arm", "pendulum")
 
 
 @dataclass
+class DahlAdaptation:
+    """How the arm's Dahl observer adapts: exactly one of ``k_sigma`` (the paper's one-gain law, Eq. 16-18) and
+    ``parameters`` (Fc+/- and sigma0, Sec. VII)."""
+
+    k_sigma: KSigmaAdaptationParameters | None = None
+    parameters: ParameterAdaptationParameters | None = None
+
+    def validate(self, where: str = "observers.dahl.adaptation") -> None:
+        if (self.k_sigma is None) == (self.parameters is None):
+            raise ConfigError(f"{where} must give exactly one of k_sigma (Eq. 18) and parameters (Fc and sigma0, "
+                              f"Sec. VII); null switches adaptation off")
+        if self.k_sigma is not None:
+            self.k_sigma.validate(f"{where}.k_sigma")
+        else:
+            self.parameters.validate(f"{where}.parameters")
+
+
+@dataclass
 class DahlObserverParameters:
-    """The observer's Dahl model (Eq. 8), or LuGre model with Stribeck levels, and Eq. 9's design constants."""
+    """The observer's Dahl model (Eq. 8), or LuGre model with Stribeck levels, Eq. 9's design constants and the
+    optional adaptation."""
 
     coulomb_pos: float = 0.012  # Fc used while v > 0 [N m]
     coulomb_neg: float = 0.018  # Fc used while v <= 0 [N m]
@@ -68,17 +97,20 @@ class DahlObserverParameters:
     rho: float | None = 100.0  # injection scale [N m s/rad]: K_z = -(sigma0/rho) (...) [eps + rho2 eps_v]; None: off
     rho2: float = 0.1  # velocity-error weight [s]
     injection_sign: int = 1  # sign of K_z (Eq. 9 printed: +1); -1 reverses the injection (see furuta_drake.stability)
-    period: float = 1e-3  # [s]
+    period: float | None = None  # [s] optional: the observer runs at the control period; a stated one must equal it
     static_pos: float | None = None  # LuGre Stribeck breakaway level Fs+ [N m]; None: no Stribeck (Dahl)
     static_neg: float | None = None  # Fs- [N m]
     stribeck_velocity: float = 0.05  # vs [rad/s]
     sigma2: float = 0.0  # viscous coefficient [N m s/rad] (LuGre)
+    adaptation: DahlAdaptation | None = None  # None: K_sigma = 1 and the parameters fixed
 
     def validate(self, where: str = "observers.dahl") -> None:
-        for name in ("coulomb_pos", "coulomb_neg", "sigma0", "period", "stribeck_velocity"):
+        for name in ("coulomb_pos", "coulomb_neg", "sigma0", "stribeck_velocity"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"{where}.{name} must be > 0, got {value!r}")
+        if self.period is not None and not (math.isfinite(self.period) and self.period > 0):
+            raise ConfigError(f"{where}.period must be > 0 (or null: the control period), got {self.period!r}")
         if self.rho is not None and not (math.isfinite(self.rho) and self.rho > 0):
             raise ConfigError(f"{where}.rho must be > 0 (or null: no injection), got {self.rho!r}")
         for name in ("sigma1", "rho2", "sigma2"):
@@ -89,6 +121,12 @@ class DahlObserverParameters:
             if getattr(self, name) not in (1, -1):
                 raise ConfigError(f"{where}.{name} must be 1 or -1, got {getattr(self, name)!r}")
         self.friction_law().validate(where)
+        if self.adaptation is not None:
+            self.adaptation.validate(f"{where}.adaptation")
+            if self.adaptation.parameters is not None and (
+                    self.sigma1 > 0 or self.sigma2 > 0 or self.static_pos is not None or self.static_neg is not None):
+                raise ConfigError(f"{where}.adaptation.parameters adapts a Dahl model: {where} must have no Stribeck "
+                                  f"levels, sigma1 or sigma2")
 
     def friction_law(self) -> JointFrictionParameters:
         """The observer's model as a friction law of :mod:`furuta_drake.friction` (LuGre; Dahl without
@@ -100,69 +138,105 @@ class DahlObserverParameters:
 
 
 class DahlFrictionObserver(LeafSystem):
-    """Eq. 8-9, 16 of one joint (the arm by default), discrete at ``params.period`` (exact step, see the module
-    docstring).
+    """Eq. 8-9, 16 of one joint (the arm by default), discrete at the control period ``period`` [s] (exact step,
+    see the module docstring), with ``params.adaptation``'s law when one is given (arm only).
 
     Inputs: ``{joint}_velocity_estimate_rad_per_s`` (v), ``measured_angles_rad`` ([theta, phi]; the joint's
-    angle gives eps), ``arm_reference_rad`` (arm only: [phi_ref [rad], v_ref [rad/s]], zero if unconnected),
-    ``K_sigma`` (1 if unconnected; the adapter drives it). State z_hat [rad]. Outputs: ``friction_estimate_Nm``
-    (F_hat = -K_sigma sigma0 z_hat [N m] for Dahl; feeds through K_sigma, and v for LuGre's sigma1, sigma2) and
-    ``bristle_state_rad``.
+    angle gives eps), ``arm_reference_rad`` (arm only: [phi_ref [rad], v_ref [rad/s]], zero if unconnected) and,
+    when adapting, ``friction_error_estimate_Nm`` (the VFE's eps_hat_F = [pendulum, arm] [N m]). Discrete state
+    [z_hat [rad], the law's entries]: [K_sigma+, K_sigma-] for ``k_sigma``, the log-parameters, sensitivities,
+    excitation measures and regressor filters of :mod:`~furuta_drake.observers.parameter_adaptation` for
+    ``parameters``. Outputs: ``friction_estimate_Nm`` (F_hat = -K_sigma sigma0 z_hat [N m] for Dahl, K_sigma of
+    v's sign; feeds through v for K_sigma and for LuGre's sigma1, sigma2), ``bristle_state_rad`` (z_hat), and
+    ``K_sigma_branches`` ([K_sigma+, K_sigma-]) with ``k_sigma``, ``dahl_parameters`` ([Fc+ [N m], Fc- [N m],
+    sigma0 [N m/rad]]) and ``parameter_excitation`` (the windowed mean of psi^2 per parameter [(N m)^2]) with
+    ``parameters``. ``error_response`` is (M, N) of ``vfe.friction_error_response`` for the VFE observer that
+    feeds eps_hat_F (``parameters`` only).
     """
 
-    K_SIGMA_INPUT = True  # a subclass that keeps K_sigma itself declares no K_sigma input
-
-    def __init__(self, params: DahlObserverParameters | None = None, joint: str = "arm"):
+    def __init__(self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm",
+                 error_response=None):
         LeafSystem.__init__(self)
         params = params or DahlObserverParameters()
         params.validate()
+        where = "observers.dahl" if joint == "arm" else "observers.pendulum_friction"
+        require_control_period(params.period, period, f"{where}.period")
         if joint not in JOINTS:
             raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
-        self.params, self.joint = params, joint
+        adaptation = params.adaptation
+        if adaptation is not None and joint != "arm":
+            raise ConfigError(f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the "
+                              f"{joint}'s")
+        self.params, self.joint, self.period = params, joint, period
         self._law = params.friction_law()
         self._angle_index = 1 if joint == "arm" else 0
         self._velocity = self.DeclareVectorInputPort(f"{joint}_velocity_estimate_rad_per_s", 1)
         self._angles = self.DeclareVectorInputPort("measured_angles_rad", 2)
         self._reference = self.DeclareVectorInputPort("arm_reference_rad", 2) if joint == "arm" else None
-        self._k_sigma = self.DeclareVectorInputPort("K_sigma", 1) if self.K_SIGMA_INPUT else None
-        initial = self._initial_state(params)
-        state = self.DeclareDiscreteState(initial)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
-        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction,
-                                     prerequisites_of_calc=self._friction_prerequisites())
-        if len(initial) == 1:
-            self.DeclareStateOutputPort("bristle_state_rad", state)
-        else:  # a subclass keeps more than z_hat (its first entry)
-            self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle,
-                                         prerequisites_of_calc={self.xd_ticket()})
+        if adaptation is not None:
+            self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
+        xd = self.xd_ticket()
+        state = {xd}
+        if adaptation is None:
+            initial, update, calc = [0.0], self._update, self._calc_friction
+            if params.sigma1 > 0 or params.sigma2 > 0:
+                state = {*state, self._velocity.ticket()}
+        elif adaptation.k_sigma is not None:
+            k_sigma = adaptation.k_sigma
+            initial, update, calc = [0.0, k_sigma.initial, k_sigma.initial], self._update_k_sigma, self._calc_k_sigma
+            state = {*state, self._velocity.ticket()}
+        else:
+            if error_response is None:
+                raise ConfigError("observers.dahl.adaptation.parameters needs the VFE observer's error response "
+                                  "(error_response)")
+            self._parameter_law = ParameterAdaptationLaw(adaptation.parameters, error_response, period)
+            initial = initial_state(params.coulomb_pos, params.coulomb_neg, params.sigma0)
+            update, calc = self._update_parameters, self._calc_adapted
+        self.DeclareDiscreteState(initial)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, update)
+        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, calc, prerequisites_of_calc=state)
+        self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle, prerequisites_of_calc={xd})
+        if adaptation is not None and adaptation.k_sigma is not None:
+            self.DeclareVectorOutputPort("K_sigma_branches", 2, self._calc_branches, prerequisites_of_calc={xd})
+        elif adaptation is not None:
+            self.DeclareVectorOutputPort("dahl_parameters", 3, self._calc_parameters, prerequisites_of_calc={xd})
+            self.DeclareVectorOutputPort("parameter_excitation", 3, self._calc_excitation,
+                                         prerequisites_of_calc={xd})
 
-    def _friction_prerequisites(self) -> set:
-        """What F_hat depends on: the state, K_sigma, and v for LuGre's sigma1, sigma2."""
-        tickets = {self.xd_ticket(), self._k_sigma.ticket()}
-        if self.params.sigma1 > 0 or self.params.sigma2 > 0:
-            tickets.add(self._velocity.ticket())
-        return tickets
+    # --- Outputs --------------------------------------------------------------------------------------------
 
-    def _k_sigma_value(self, context) -> float:
-        """K_sigma of Eq. 16: the input, 1 while unconnected."""
-        return self._k_sigma.Eval(context)[0] if self._k_sigma.HasValue(context) else 1.0
+    def _model_torque(self, context, z: float) -> float:
+        """F of the observer's fixed model at z [rad]: -sigma0 z (Dahl) or the LuGre torque at v [N m]."""
+        p = self.params
+        if p.sigma1 > 0 or p.sigma2 > 0:
+            return bristle_friction_torque(z, self._velocity.Eval(context)[0], self._law)
+        return -p.sigma0 * z
 
-    def _initial_state(self, params: DahlObserverParameters) -> list[float]:
-        """The discrete state at t = 0: z_hat = 0."""
-        return [0.0]
+    def _calc_friction(self, context, output: BasicVector):
+        output.SetAtIndex(0, self._model_torque(context, context.get_discrete_state(0).GetAtIndex(0)))
+
+    def _calc_k_sigma(self, context, output: BasicVector):
+        x = context.get_discrete_state_vector()
+        k_sigma = x.GetAtIndex(K_SIGMA_POS if self._velocity.Eval(context)[0] > 0 else K_SIGMA_NEG)
+        output.SetAtIndex(0, k_sigma * self._model_torque(context, x.GetAtIndex(0)))
+
+    def _calc_adapted(self, context, output: BasicVector):
+        x = context.get_discrete_state_vector().value()
+        output.SetAtIndex(0, -math.exp(x[LOG_SIGMA0]) * x[0])
 
     def _calc_bristle(self, context, output: BasicVector):
         output.SetAtIndex(0, context.get_discrete_state(0).GetAtIndex(0))
 
-    def _calc_friction(self, context, output: BasicVector):
-        k_sigma = self._k_sigma_value(context)
-        z = context.get_discrete_state(0).GetAtIndex(0)
-        p = self.params
-        if p.sigma1 > 0 or p.sigma2 > 0:
-            torque = bristle_friction_torque(z, self._velocity.Eval(context)[0], self._law)
-        else:
-            torque = -p.sigma0 * z
-        output.SetAtIndex(0, k_sigma * torque)
+    def _calc_branches(self, context, output: BasicVector):
+        output.SetFromVector(context.get_discrete_state_vector().value()[[K_SIGMA_POS, K_SIGMA_NEG]])
+
+    def _calc_parameters(self, context, output: BasicVector):
+        output.SetFromVector(np.exp(context.get_discrete_state_vector().value()[[LOG_FC_POS, LOG_FC_NEG, LOG_SIGMA0]]))
+
+    def _calc_excitation(self, context, output: BasicVector):
+        output.SetFromVector(context.get_discrete_state_vector().value()[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]])
+
+    # --- Updates, one a sample: Eq. 8-9, then the adaptation law's step --------------------------------------
 
     def tracking_errors(self, context, v: float | None = None) -> tuple[float, float]:
         """(eps, eps_v) of Eq. 9: the joint angle and velocity (``v`` when the caller has read it) minus the
@@ -176,23 +250,46 @@ class DahlFrictionObserver(LeafSystem):
         return angle, v
 
     def _update(self, context, discrete_state):
+        self._step_bristle(context, discrete_state)
+
+    def _step_bristle(self, context, discrete_state) -> float:
+        """Eq. 8-9 over one period: z_hat by the exact step with K_z held (module docstring); returns v."""
         p = self.params
         v = float(self._velocity.Eval(context)[0])  # a float: math, not numpy scalars, in the step
         z = context.get_discrete_state(0).GetAtIndex(0)
         level = stribeck_curve(v, self._law)
-        z_next = float(dahl_exact_step(z, v, p.period, p.sigma0, level))
+        z_next = float(dahl_exact_step(z, v, self.period, p.sigma0, level))
         if p.rho is not None:
             k_z = injection(p, p.sigma0, v, level, *self.tracking_errors(context, v))
-            z_next += held_input_gain(p.sigma0 * abs(v) / level, p.period) * k_z
+            z_next += held_input_gain(p.sigma0 * abs(v) / level, self.period) * k_z
         discrete_state.get_mutable_vector(0).SetAtIndex(0, z_next)
+        return v
+
+    def _update_k_sigma(self, context, discrete_state):
+        """z_hat (:meth:`_update`), then Eq. 18 on the branch of v's sign from the values before the sample."""
+        v = self._step_bristle(context, discrete_state)
+        branch = adapting_branch(self.params.adaptation.k_sigma, context.get_time(), v)
+        if branch is None:
+            return
+        state = discrete_state.get_mutable_vector(0)
+        index = K_SIGMA_POS + branch
+        state.SetAtIndex(index, state.GetAtIndex(index) + k_sigma_step(
+            self.params.adaptation.k_sigma, self.period, self.params.sigma0, self._error.Eval(context)[1],
+            context.get_discrete_state(0).GetAtIndex(0)))
+
+    def _update_parameters(self, context, discrete_state):
+        """z_hat and the parameter law over one period with the adapted Fc and sigma0."""
+        p = self.params
+        x = context.get_discrete_state_vector().value().copy()
+        v = self._velocity.Eval(context)[0]
+        sigma0, level = adapted_model(x, v)
+        k_z = injection(p, sigma0, v, level, *self.tracking_errors(context, v)) if p.rho is not None else 0.0
+        self._parameter_law.step(x, v=v, sigma0=sigma0, level=level, k_z=k_z, time=context.get_time(),
+                                 friction_error=self._error.Eval(context)[1])
+        discrete_state.get_mutable_vector().SetFromVector(x)
 
 
 def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
     """K_z of Eq. 9 [rad/s]: -s (sigma0 / rho) (1 + s1 sigma1 |v| / g(v)) (eps + rho2 eps_v), s = injection_sign."""
     return -p.injection_sign * (sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (
         eps + p.rho2 * eps_v)
-
-
-def held_input_gain(rate: float, period: float) -> float:
-    """int_0^h e^(-r s) ds: what a constant input adds over one period to dz/dt = -r z + input."""
-    return -math.expm1(-rate * period) / rate if rate > 0 else period

@@ -1,4 +1,4 @@
-"""Velocity and friction error (VFE) observer, paper Eq. 11-13, with the slips NOTES.md lists fixed:
+"""Velocity and friction error (VFE) observer, paper Eq. 11-13, with the slips ``docs/paper.md`` lists fixed:
 
     x_hat'     = A x_hat + B u + B_F (F_hat + eps_hat_F) + K1 (y - C x_hat)
     eps_hat_F' = K2 (y - C x_hat)
@@ -10,10 +10,9 @@ from the Dahl observer in the arm entry (Eq. 11 prints [F_hat_phi, 0]). K_F = [K
 error [x - x_hat; (F - F_hat) - eps_hat_F] while F - F_hat is constant, so then eps_hat_F converges to the
 friction error F - F_hat (Eq. 14-15) and x_hat to x.
 
-Default eigenvalues -20, -23, ..., -35 rad/s: at least as fast as the fastest pole of the default LQ loop
-(-19.5 rad/s), so the estimate does not slow the regulation, and about 7 times slower than the default HG
-observer, which is what makes the VFE estimate quiet (Table II): for 4096-count quantisation noise the arm
-velocity estimate's std is about 3e-3 rad/s against 2e-2 for the HG.
+Default eigenvalues -20, -23, ..., -35 rad/s: at least as fast as the fastest pole of the default LQ loop, so the
+estimate does not slow the regulation, and several times slower than the default HG observer (-200 rad/s),
+which is what makes the VFE estimate quiet (Table II).
 """
 
 from __future__ import annotations
@@ -26,17 +25,17 @@ import numpy as np
 from pydrake.systems.primitives import LinearSystem
 from scipy.signal import place_poles
 
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.observers.linear import ANGLES, DiscreteLinearObserver, model_matrices
 
 
 @dataclass
 class VfeParameters:
     """The six eigenvalues of G (Eq. 12) [1/s] (negative reals, none repeated more than twice: the two
-    measured angles allow a multiplicity of two) and the sampling period."""
+    measured angles allow a multiplicity of two)."""
 
     eigenvalues: list[float] = field(default_factory=lambda: [-20.0, -23.0, -26.0, -29.0, -32.0, -35.0])
-    period: float = 1e-3  # [s]
+    period: float | None = None  # [s] optional: the observer runs at the control period; a stated one must equal it
 
     def validate(self, where: str = "observers.vfe") -> None:
         if len(self.eigenvalues) != 6:
@@ -50,8 +49,8 @@ class VfeParameters:
             if self.eigenvalues.count(value) > 2:
                 raise ConfigError(f"{where}.eigenvalues repeats {value} {self.eigenvalues.count(value)} times; "
                                   f"two angle measurements allow at most 2")
-        if not (math.isfinite(self.period) and self.period > 0):
-            raise ConfigError(f"{where}.period must be > 0, got {self.period!r}")
+        if self.period is not None and not (math.isfinite(self.period) and self.period > 0):
+            raise ConfigError(f"{where}.period must be > 0 (or null: the control period), got {self.period!r}")
 
 
 def augmented_model(A: np.ndarray, B_F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -111,15 +110,17 @@ def continuous_vfe_observer(A: np.ndarray, B_F: np.ndarray, params: VfeParameter
 
 
 class VfeObserver(DiscreteLinearObserver):
-    """Eq. 11 sampled at ``params.period`` (exact zero-order hold of the inputs). ``rig_or_AB``: a RigParameters
-    or (A, B_F). Inputs ``measured_angles_rad`` [theta, phi], ``arm_torque_Nm`` (u) and ``friction_estimate_Nm``
-    (F_hat_phi, the Dahl observer's arm friction), and with ``pendulum_friction_input``
+    """Eq. 11 sampled at the control period ``period`` [s] (exact zero-order hold of the inputs). ``rig_or_AB``: a
+    RigParameters or (A, B_F). Inputs ``measured_angles_rad`` [theta, phi], ``arm_torque_Nm`` (u) and
+    ``friction_estimate_Nm`` (F_hat_phi, the Dahl observer's arm friction), and with ``pendulum_friction_input``
     ``pendulum_friction_estimate_Nm`` (F_hat_theta, Eq. 10's full F_hat); outputs ``state_estimate`` (x_hat
     [rad, rad/s]) and ``friction_error_estimate_Nm`` (eps_hat_F = [pendulum, arm]). ``gains`` is K_F = [K1; K2]."""
 
-    def __init__(self, rig_or_AB, params: VfeParameters | None = None, pendulum_friction_input: bool = False):
+    def __init__(self, rig_or_AB, params: VfeParameters | None = None, *, period: float,
+                 pendulum_friction_input: bool = False):
         params = params or VfeParameters()
         params.validate()
+        require_control_period(params.period, period, "observers.vfe.period")
         A, B_F = model_matrices(rig_or_AB)
         self.params = params
         continuous = continuous_vfe_observer(A, B_F, params, pendulum_friction_input)
@@ -128,5 +129,5 @@ class VfeObserver(DiscreteLinearObserver):
         if pendulum_friction_input:
             inputs.append(("pendulum_friction_estimate_Nm", 1))
         DiscreteLinearObserver.__init__(
-            self, continuous, params.period, inputs=inputs,
+            self, continuous, period, inputs=inputs,
             outputs=[("state_estimate", 4), ("friction_error_estimate_Nm", 2)], name="vfe_observer")

@@ -1,7 +1,7 @@
 """Regenerate the log and rig files of this corpus: ``python tests/bad_inputs/generate.py`` (from the repo root).
 
 Synthetic logs are a smooth 1 kHz torque run; the sign, unit and wrap cases are cut from the real QUBE-Servo 2
-recordings in ``shared/data/qube-servo2-real`` (BSD-3-Clause, see README.md). The hand-written YAML files
+recordings in the repository's ``data/qube-servo2-real`` (BSD-3-Clause, see README.md). The hand-written YAML files
 (``config_*.yaml``, ``sweep_*.yaml``) and ``manifest.yaml`` are not generated.
 """
 
@@ -12,13 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
+from furuta_drake.data import QUBE_REAL_DIR as QUBE_DATA
+from furuta_drake.diagnosis.log_writers import write_log
+
 HERE = Path(__file__).resolve().parent
-QUBE_DATA = HERE.parent.parent.parent / "shared" / "data" / "qube-servo2-real"
 QUBE_RIG_TEXT = (QUBE_DATA / "rig.yaml").read_text()
 THETA_MINUS = "theta_direction: -1         # these logs count theta opposite to the paper's convention (checked on the data)"
 
 LUND_RIG = """\
-# The Lund pendulum of the paper (furuta_drake.rig.lund_rig), in the format of spec/diagnosis-interface.md.
+# The Lund pendulum of the paper (furuta_drake.rig.lund_rig) as a furuta-drake rig file.
 arm_inertia: 1.274e-3
 arm_length: 0.25
 pendulum_mass: 0.033172
@@ -103,6 +105,17 @@ def qube_logs() -> None:
     write_qube("log_phi_reversed.csv", dict(swingup, phi=-swingup["phi"]), kick)
 
 
+def other_formats() -> None:
+    """Parquet and MCAP copies of the synthetic torque log, one with a column missing, and files that are not
+    Parquet or MCAP at all."""
+    columns = {name: np.array([float(row[j]) for row in synthetic_rows()])
+               for j, name in enumerate(["time", "theta", "phi", "torque"])}
+    write_log(HERE / "good_torque.mcap", columns, topic="/furuta/log")
+    write_log(HERE / "log_missing_theta.parquet", {k: v for k, v in columns.items() if k != "theta"})
+    (HERE / "log_not_parquet.parquet").write_text("time,theta,phi,torque\n0,0,0,0\n")
+    (HERE / "log_not_mcap.mcap").write_bytes(b"\x89MCAP0\r\n" + b"not an MCAP file, cut after its magic\n")
+
+
 def rigs() -> None:
     assert THETA_MINUS in QUBE_RIG_TEXT
     (HERE / "rig_lund.yaml").write_text(LUND_RIG)
@@ -117,6 +130,7 @@ def rigs() -> None:
         "rig_zero_sample_period.yaml": ("sample_period: 0.001", "sample_period: 0"),
         "rig_zero_counts.yaml": ("counts_per_rev: 4096", "counts_per_rev: 0"),
         "rig_wrong_type.yaml": ("arm_length: 0.25", "arm_length: 25 cm"),
+        "rig_missing_arm_inertia.yaml": ("arm_inertia: 1.274e-3\n", ""),
     }
     for name, (old, new) in edits.items():
         assert old in LUND_RIG, old
@@ -127,4 +141,5 @@ def rigs() -> None:
 if __name__ == "__main__":
     synthetic_logs()
     qube_logs()
+    other_formats()
     rigs()

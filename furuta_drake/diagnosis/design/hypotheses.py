@@ -179,8 +179,10 @@ def _name(effects: dict[str, Effect]) -> str:
 
 
 def _entry(ranked: list[dict], names: list[str], step: int) -> dict | None:
-    """The ranking entry of the model holding ``names`` (in order) fitted at ``step``."""
-    return next((entry for entry in ranked if entry["step"] == step and entry["effect"].split("+") == names), None)
+    """The ranking entry of the model holding ``names`` (in any order; the diagnosis may fit a model again once an
+    effect is dropped), preferably the one fitted at ``step``."""
+    matches = [entry for entry in ranked if set(entry["effect"].split("+")) == set(names)]
+    return next((entry for entry in matches if entry["step"] == step), matches[0] if matches else None)
 
 
 def _rival(accepted: dict[str, Effect], steps: list[str], step: int, entry: dict) -> dict[str, Effect]:

@@ -4,7 +4,8 @@ The output directory of ``furuta-drake diagnose`` holds ``report.json`` (the ran
 accepted steps, the confusable pairs and the detection limits) and ``config.yaml`` (the rig file and the logs
 with their sha256). The design needs the rig file the diagnosis started from (the nominal model every hypothesis
 is built on) and the logs (their input column, the held-out windows the new log will join): both are read from
-the paths ``config.yaml`` records and must be unchanged since. Anything missing or from a report without the
+the paths ``config.yaml`` records (relative ones from the working directory), in the log format it records, and
+must be unchanged since. Anything missing or from a report without the
 keys the design reads is a :class:`~furuta_drake.errors.ConfigError` naming the file and the key.
 """
 
@@ -17,6 +18,7 @@ from pathlib import Path
 
 import yaml
 
+from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import RunLog, load_logs, load_rig
 from furuta_drake.errors import ConfigError, FurutaError
 from furuta_drake.rig import RigParameters
@@ -74,8 +76,11 @@ def read_diagnosis(directory: str | Path) -> DiagnosisRecord:
     rig = load_rig(rig_path)
     train = [_checked_input(entry, config_path, f"train[{i}]") for i, entry in enumerate(inputs["train"])]
     heldout = [_checked_input(entry, config_path, f"heldout[{i}]") for i, entry in enumerate(inputs["heldout"])]
+    recorded = ((config.get("options") or {}).get("log_format")) or {}
     try:
-        logs = load_logs(train + heldout, rig, rig_path)
+        log_format = LogFormat(columns=dict(recorded.get("columns") or {}),
+                               angle_unit=recorded.get("angle_unit") or "rad", topic=recorded.get("topic"))
+        logs = load_logs(train + heldout, rig, rig_path, log_format)
     except FurutaError as err:
         raise ConfigError(f"{config_path}: a log it records no longer loads: {err}") from None
     return DiagnosisRecord(directory, report, hashlib.sha256(text).hexdigest(), rig, rig_path, logs[:len(train)],

@@ -10,9 +10,10 @@ held-out windows (the new log joins them, it does not replace them), and applies
 :mod:`furuta_drake.diagnosis.select` with its bootstrap:
 
 - a nested pair (the truth is the rival plus one effect): detected when the truth's reduction over the rival
-  has a 5 % lower bound above the margin (and, for a first effect, closes the gap);
-- otherwise: detected when the rule chooses the truth (its parsimony included) and, for two different laws,
-  the two are no longer confusable.
+  has a 5 % lower bound above the margin, so the effect is kept (and, for a first effect, closes the gap);
+- otherwise: detected when the rule lets the truth's effect enter rather than the rival's (its parsimony
+  included), keeps it (the lower bound of its reduction over the model without it above the margin) and, for
+  two different laws, no longer finds the two confusable.
 
 The detection probability is the share of draws detected; the gap difference (rival minus truth [counts]) is
 pooled over draws and bootstrap resamples, on the experiment's held-out half and on all held-out windows. The
@@ -27,7 +28,7 @@ import numpy as np
 from furuta_drake.diagnosis.candidates import law_of
 from furuta_drake.diagnosis.design.criterion import Refit
 from furuta_drake.diagnosis.gap import project_out_states
-from furuta_drake.diagnosis.select import CLOSES, MARGIN, Bootstrap, choose, gap_of
+from furuta_drake.diagnosis.select import CLOSES, ENTRY, MARGIN, Bootstrap, choose, gap_of
 from furuta_drake.diagnosis.surrogate import Model
 
 TRUTH, RIVAL = "truth", "rival"
@@ -87,9 +88,11 @@ def _detected(bootstrap: Bootstrap, excess: dict[str, np.ndarray], new: dict[str
     truth = bootstrap.evidence(excess["previous"], excess[TRUTH])
     if nested:
         return truth.lower_bound > MARGIN and (not first_effect or truth.reduction >= CLOSES)
-    # The rule's keys are the effects each model adds (its parsimony counts their parameters).
+    # The rule's keys are the effects each model adds (its parsimony counts their parameters); the chosen one
+    # enters on a lenient bound and is kept when it reduces the model without it by the margin.
     evidence = {new[TRUTH]: truth, new[RIVAL]: bootstrap.evidence(excess["previous"], excess[RIVAL])}
-    if choose(evidence, {name: name for name in evidence}) != new[TRUTH]:
+    if choose(evidence, {name: name for name in evidence}, margin=ENTRY) != new[TRUTH] \
+            or truth.lower_bound <= MARGIN:
         return False
     if law_of(new[TRUTH]) == law_of(new[RIVAL]):  # variants of one law are never confusable: the choice stands
         return True

@@ -91,9 +91,15 @@ def surrogate_closed_loop(model: Model, gain: np.ndarray, dithers: np.ndarray, p
     x = np.tile(np.asarray(UPRIGHT, dtype=float)[:, None], (1, designs))
     lag_state, z = np.zeros(designs), np.zeros(designs)
     arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
-    bristles = model.arm_friction.has_bristles
+    bristles, p = model.arm_friction.has_bristles, model.arm_friction
     resolution = 2 * np.pi / counts
     K = np.ravel(gain)
+
+    def stage(state, z0, phi0, tau):
+        if bristles:  # as predict_windows: the bristle's exact step from the substep's start
+            tau = tau + bristle_friction_torque(bristle_step(z0, state[1] - phi0, state[3], p), state[3], p)
+        return _accelerations(model, state, tau, arm, pendulum)
+
     angles, logged = np.empty((samples, 2, designs)), np.empty((designs, samples))
     for k in range(samples):
         angles[k] = x[:2]
@@ -108,15 +114,13 @@ def surrogate_closed_loop(model: Model, gain: np.ndarray, dithers: np.ndarray, p
                 start, lag_state = lag_state, held + (lag_state - held) * decay
                 held = held + (start - held) * model.lag / dt * (1.0 - decay)
             tau = applied_torque(model, held)
+            k1 = stage(x, z, x[1], tau)
+            k2 = stage(x + 0.5 * dt * k1, z, x[1], tau)
+            k3 = stage(x + 0.5 * dt * k2, z, x[1], tau)
+            k4 = stage(x + dt * k3, z, x[1], tau)
+            x_next = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
             if bristles:
-                tau = tau + bristle_friction_torque(z, x[3], model.arm_friction)
-                phi_before = x[1]
-            k1 = _accelerations(model, x, tau, arm, pendulum)
-            k2 = _accelerations(model, x + 0.5 * dt * k1, tau, arm, pendulum)
-            k3 = _accelerations(model, x + 0.5 * dt * k2, tau, arm, pendulum)
-            k4 = _accelerations(model, x + dt * k3, tau, arm, pendulum)
-            x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-            if bristles:
-                moved = x[1] - phi_before
-                z = bristle_step(z, moved, moved / dt, model.arm_friction)
+                moved = x_next[1] - x[1]
+                z = bristle_step(z, moved, moved / dt, p)
+            x = x_next
     return angles, logged

@@ -1,35 +1,36 @@
-"""The two-parameter (Fc+/-, sigma0) adaptation of the Dahl observer (issue 10): sensitivities against finite
+"""The two-parameter (Fc+/-, sigma0) adaptation of the Dahl observer: sensitivities against finite
 differences, the excitation check in steady sliding, and the study against the one-gain law of Eq. 18."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from furuta_drake.beyond import parameter_adaptation
-from furuta_drake.observers.adaptive_dahl import (
-    S_FC_POS, S_SIGMA0, Z, AdaptiveDahlObserver, DahlAdaptationParameters,
-)
-from furuta_drake.observers.dahl import DahlObserverParameters
+from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver, DahlObserverParameters
+from furuta_drake.observers.parameter_adaptation import S_FC_POS, S_SIGMA0, Z, ParameterAdaptationParameters
 from furuta_drake.observers.vfe import VfeParameters, friction_error_response, vfe_gains
 from furuta_drake.rig import linearized_upright, lund_rig
+from furuta_drake.studies import parameter_adaptation_study
 
 A, B_F = linearized_upright(lund_rig())
+PERIOD = 1e-3  # [s] the Lund rig's control period
 RESPONSE = friction_error_response(A, B_F, vfe_gains(A, B_F, VfeParameters().eigenvalues))
 
 
 def run(params, adaptation, velocities, error=0.0):
     """Advance the observer through ``velocities`` (one per period) with a fixed eps_hat_F; return the state."""
-    system = AdaptiveDahlObserver(params, adaptation, RESPONSE)
+    params = dataclasses.replace(params, adaptation=DahlAdaptation(parameters=adaptation))
+    system = DahlFrictionObserver(params, period=PERIOD, error_response=RESPONSE)
     context = system.CreateDefaultContext()
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
     system.GetInputPort("friction_error_estimate_Nm").FixValue(context, [0.0, error])
     port = system.GetInputPort("arm_velocity_estimate_rad_per_s")
     for k, v in enumerate(velocities):
         port.FixValue(context, [v])
-        context.SetTime(k * params.period)
+        context.SetTime(k * PERIOD)
         context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context).value())
     return system, context
 
@@ -41,7 +42,7 @@ def reversal(n=300):
 
 def test_sensitivities_match_finite_differences():
     """s_c = dz/dFc+ and s_s = dz/dsigma0 along a reversal, against central differences of z (no adaptation)."""
-    frozen = DahlAdaptationParameters(enable_time=1e9)
+    frozen = ParameterAdaptationParameters(enable_time=1e9)
     base = DahlObserverParameters(rho=None)
     _, context = run(base, frozen, reversal())
     state = context.get_discrete_state_vector().value()
@@ -58,7 +59,7 @@ def test_steady_sliding_excites_the_level_not_the_stiffness():
     excitation check freezes sigma0 and Fc- while Fc+ follows e = F_hat - F = -eps_hat_F (here F is 0.003 N m
     stronger than F_hat, so Fc+ must grow)."""
     params = DahlObserverParameters(rho=None)
-    adaptation = DahlAdaptationParameters(enable_time=0.0)
+    adaptation = ParameterAdaptationParameters(enable_time=0.0)
     n = 500  # 0.5 s: with eps_hat_F held fixed (no loop to answer), Fc+ would grow without bound
     system, context = run(params, adaptation, np.full(n, 0.5), error=-0.003)
     fc_pos, fc_neg, sigma0 = system.GetOutputPort("dahl_parameters").Eval(context)
@@ -76,22 +77,22 @@ def test_matched_model_does_not_drift():
     """eps_hat_F = 0 (the model explains the friction): nothing adapts, however rich the motion."""
     params = DahlObserverParameters(rho=None)
     velocities = 0.5 * np.sin(np.linspace(0, 6 * math.pi, 3000))
-    system, context = run(params, DahlAdaptationParameters(enable_time=0.0), velocities, error=0.0)
+    system, context = run(params, ParameterAdaptationParameters(enable_time=0.0), velocities, error=0.0)
     np.testing.assert_allclose(system.GetOutputPort("dahl_parameters").Eval(context),
                                [params.coulomb_pos, params.coulomb_neg, params.sigma0], rtol=1e-14)
 
 
 def test_two_parameter_law_recovers_fc_and_sigma0_where_one_gain_cannot():
-    study = parameter_adaptation.study(seed=2, small=True)
+    study = parameter_adaptation_study.study(seed=2, small=True)
     for row in study.rows:
         error = abs(row["extension"] / row["true"] - 1.0)
         if row["metric"].startswith("Fc"):
-            assert error < 0.10, row  # issue 10: Fc within 10 %
+            assert error < 0.10, row  # Fc within 10 %
         else:
             assert error < 0.30, row  # sigma0 within 30 %
     # Eq. 18 scales Fc and sigma0 together: from (0.75 Fc, 0.5 sigma0) its K_sigma sigma0 ends near
     # 0.5 / 0.75 = 0.67 of the truth, from (1.3 Fc, 2 sigma0) near 2 / 1.3 = 1.54 or worse: > 30 % off either way.
-    for start in parameter_adaptation.STARTS:
+    for start in parameter_adaptation_study.STARTS:
         worst = max(abs(row["paper"] / row["true"] - 1.0) for row in study.rows
                     if row["metric"].startswith("sigma0") and start in row["metric"])
         assert worst > 0.30

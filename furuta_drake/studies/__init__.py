@@ -1,8 +1,8 @@
-"""Beyond the paper: the open problems of its Sections VI-VII, each compared with the paper's own method on the
-same simulated rig and seed (``furuta-drake reproduce --only beyond``).
+"""Studies of the paper's open problems (its Sections VI-VII), each comparing the paper's own method with an
+extension on the same simulated rig and seed (``furuta-drake reproduce --only beyond``).
 
-Every study is a module of this package with a function ``study(seed: int = 0, small: bool = False) ->
-BeyondStudy``; ``small`` shortens it for the tests and notebooks.
+Every study is a module ``*_study`` of this package with a function ``study(seed: int = 0, small: bool = False)
+-> Study``; ``small`` shortens it for the tests and notebooks.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 
 @dataclass
-class BeyondStudy:
+class Study:
     """One study's outcome: ``rows`` of beyond.md (keys: ``metric``, ``paper``, ``extension``, ``unit``,
     ``note``; ``paper`` is the paper's method's figure, ``extension`` ours, None when not applicable),
     ``figures`` ({file stem: matplotlib Figure}), ``logs`` ({name: SimulationResult} worth keeping) and the

@@ -1,29 +1,28 @@
-"""Stability evidence for the nested observers with adaptation (Sec. VI-VII's open point): the 1 kHz loop
-linearized at the upright in the presliding regime (:mod:`furuta_drake.stability`), swept over frozen K_sigma,
-the true bristle stiffness sigma0 and the observer gains, for the paper's HG-based loop and the nested VFE +
-Dahl loop, with Eq. 9's injection K_z as printed and reversed; and the basin of the full nonlinear loops
-(HG with Dahl compensation, K_sigma = 1; VFE + Dahl with K_sigma adaptation from t = 0) against a quadratic
-Lyapunov estimate of the true-state loop."""
+"""Study: stability of the nested observers with adaptation (Sec. VI-VII's open point). The 1 kHz loop
+linearized at the upright in the presliding regime (:func:`furuta_drake.stability.linear_loop`) is swept over
+frozen K_sigma, the true bristle stiffness sigma0 and the observer gains, for the paper's HG-based loop and the
+nested VFE + Dahl loop, with Eq. 9's injection K_z as printed and reversed; the basins of the full nonlinear loops
+(HG with Dahl compensation, K_sigma = 1; VFE + Dahl with K_sigma adaptation from t = 0) are set against a
+quadratic Lyapunov estimate of the true-state loop."""
 
 from __future__ import annotations
 
 import dataclasses
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from furuta_drake import reproduce, stability  # noqa: E402
-from furuta_drake.beyond import BeyondStudy  # noqa: E402
+from furuta_drake import reproduce, stability
+from furuta_drake.observers.dahl import DahlAdaptation
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
+from furuta_drake.studies import Study
 
 LOOPS = (("HG + Dahl (paper)", "hg", 1), ("VFE + Dahl, K_z as printed", "vfe", 1),
          ("VFE + Dahl, K_z reversed", "vfe", -1))
 K_GRID = np.geomspace(0.25, 4.0, 61)
 SIGMA0_FACTORS = np.geomspace(0.25, 4.0, 25)  # true sigma0 / the observer's
-VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0)
-HG_EPS = (0.002, 0.005, 0.01, 0.02)  # [s]
+GAINS_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0)  # the VFE eigenvalues of the observer-gain map, times the default
+GAINS_HG_EPS = (0.002, 0.005, 0.01, 0.02)  # [s] the HG eps of the observer-gain map
 
 
 def _with_true_sigma0(config, factor: float):
@@ -39,14 +38,14 @@ def _stable_range_text(intervals) -> str:
     return ", ".join(f"[{a:.2f}, {b:.2f}]" for a, b in intervals) or "none"
 
 
-def _adaptive_config(config):
+def adaptive_loop_config(config):
     """The nested loop with Eq. 18 running from t = 0 (the reproduction's gain)."""
-    adaptation = dataclasses.replace(config.observers.adaptation, enable_time=0.0, gamma=reproduce.ADAPTATION_GAMMA)
-    return dataclasses.replace(config, observers=dataclasses.replace(config.observers, adaptation=adaptation,
-                                                                     adaptation_enabled=True, run=[]))
+    adaptation = DahlAdaptation(k_sigma=KSigmaAdaptationParameters(enable_time=0.0, gamma=reproduce.ADAPTATION_GAMMA))
+    dahl = dataclasses.replace(config.observers.dahl, adaptation=adaptation)
+    return dataclasses.replace(config, observers=dataclasses.replace(config.observers, dahl=dahl, run=[]))
 
 
-def study(seed: int = 0, small: bool = False) -> BeyondStudy:
+def study(seed: int = 0, small: bool = False) -> Study:
     """Linearized stability maps, stable frozen-K_sigma ranges, common Lyapunov intervals and basins."""
     base = reproduce.paper_rig_config(seed=seed)
     hg_config = dataclasses.replace(reproduce.with_velocity_source(base, "hg"),
@@ -68,19 +67,21 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
             for label, observer, sign in LOOPS}
     at_one = np.argmin(np.abs(K_GRID - 1.0))
     stable_factors = factors[maps[reversed_label][:, at_one] < 0]
+    scales = GAINS_VFE_SCALES[::2] if small else GAINS_VFE_SCALES
     gains = {f"VFE eigenvalues x{s}": _rates(stability.linear_loop(
         dataclasses.replace(base, observers=dataclasses.replace(base.observers, vfe=dataclasses.replace(
             base.observers.vfe, eigenvalues=[s * e for e in base.observers.vfe.eigenvalues]))),
-        "vfe", True, injection_sign=-1)) for s in (VFE_SCALES[::2] if small else VFE_SCALES)}
+        "vfe", True, injection_sign=-1)) for s in scales}
     gains.update({f"HG eps {eps * 1e3:g} ms": _rates(stability.linear_loop(
         dataclasses.replace(base, observers=dataclasses.replace(base.observers, hg=dataclasses.replace(
-            base.observers.hg, eps_theta=eps, eps_phi=eps))), "hg", True)) for eps in (HG_EPS[::2] if small else HG_EPS)})
+            base.observers.hg, eps_theta=eps, eps_phi=eps))), "hg", True))
+        for eps in (GAINS_HG_EPS[::2] if small else GAINS_HG_EPS)})
 
     region = stability.lyapunov_region(base, directions=200 if small else 1500, seed=seed)
     thetas = np.linspace(-0.3, 0.3, 5) if small else np.linspace(-0.36, 0.36, 13)
     theta_dots = np.array([-0.25, 0.0, 0.25]) if small else np.array([-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0])
     duration = 1.5 if small else 2.0
-    basin_loops = {"HG + Dahl, K_sigma = 1 (paper)": hg_config, "VFE + Dahl + K_sigma adaptation": _adaptive_config(base)}
+    basin_loops = {"HG + Dahl, K_sigma = 1 (paper)": hg_config, "VFE + Dahl + K_sigma adaptation": adaptive_loop_config(base)}
     if small:
         basin_loops = dict(list(basin_loops.items())[1:])
     basins = {label: stability.basin_map(config, thetas, theta_dots, duration, workers=1 if small else 2)
@@ -147,7 +148,7 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
     figures = {"stability_decay_maps": _plot_maps(maps, factors),
                "stability_observer_gains": _plot_gains(gains),
                "stability_basin": _plot_basins(basins, thetas, theta_dots, region)}
-    return BeyondStudy(title="Stability of the nested observers with adaptation", rows=rows, summary=summary,
+    return Study(title="Stability of the nested observers with adaptation", rows=rows, summary=summary,
                        figures=figures)
 
 

@@ -1,8 +1,9 @@
-"""Swing-up and catch (Sec. VII's last open point): the energy swing-up of :mod:`furuta_drake.swingup` on the
-simulated Lund rig of the reproduction (arm Dahl friction, pendulum Coulomb friction, 4096-count encoders, the
-0.2 N m limit; no excitation torque: the swing is the excitation), with the paper's HG and VFE + Dahl observers
-running side by side, against the truth, over the large motion and after the catch; the swing-up controller fed by
-the paper's HG observer against the kinematic high-gain observer; and a swing-up log for the diagnosis."""
+"""Study: swing-up and catch (Sec. VII's last open point). The energy swing-up of
+:mod:`furuta_drake.controllers.swingup` on the simulated Lund rig of the reproduction (arm Dahl friction, pendulum
+Coulomb friction, 4096-count encoders, the 0.2 N m limit; no excitation torque: the swing is the excitation), with
+the paper's HG and VFE + Dahl observers running side by side, against the truth, over the large motion and after
+the catch; the swing-up controller fed by the paper's HG observer against the kinematic high-gain observer; and a
+swing-up log for the diagnosis."""
 
 from __future__ import annotations
 
@@ -15,9 +16,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from furuta_drake import reproduce
-from furuta_drake.beyond import BeyondStudy
+from furuta_drake.studies import Study
 from furuta_drake.results import write_log_csv
-from furuta_drake.swingup import BALANCE, catch_time, pendulum_energy, simulate_swingup, wrap_angle
+from furuta_drake.simulate import simulate
+from furuta_drake.config import swingup_config
+from furuta_drake.controllers.swingup import BALANCE, catch_time, pendulum_energy, wrap_angle
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 SETTLE = 1.0  # [s] after the catch before the balance figures are read
@@ -31,13 +34,13 @@ def swingup_rig_config(seed: int = 0, duration: float = 10.0):
                                observers=dataclasses.replace(config.observers, run=["hg", "vfe"]))
 
 
-def study(seed: int = 0, small: bool = False) -> BeyondStudy:
+def study(seed: int = 0, small: bool = False) -> Study:
     """Time to catch, arm excursion and velocity errors of the observers over a swing-up; with ``small`` a 3 s
     run, no robustness count and no diagnosis."""
     duration = 3.0 if small else 10.0
     config = swingup_rig_config(seed, duration)
-    ours = simulate_swingup(config, duration=duration)
-    paper = simulate_swingup(config, duration=duration, velocity="hg")
+    ours = simulate(swingup_config(config, duration=duration))
+    paper = simulate(swingup_config(config, duration=duration, velocity_source="hg"))
     t_ours, t_paper = catch_time(ours), catch_time(paper)
     limit = config.controller.lqr.torque_limit
     swing = ours.time < (t_ours if math.isfinite(t_ours) else math.inf)
@@ -62,7 +65,8 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
                              rms[("kinematic_hg", phase)][index], "rad/s", "the kinematic HG feeds the controller"))
     caught = None
     if not small:
-        caught = sum(math.isfinite(catch_time(simulate_swingup(config, duration=duration, theta0=math.pi + offset)))
+        caught = sum(math.isfinite(catch_time(simulate(swingup_config(config, duration=duration,
+                                                                      theta0=math.pi + offset))))
                      for offset in START_OFFSETS)
         rows.append(_row(f"starts caught within {duration:g} s", None, caught, "of " + str(len(START_OFFSETS)),
                          "theta0 = pi + " + ", ".join(f"{o:g}" for o in START_OFFSETS) + " rad"))
@@ -88,7 +92,7 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
                     f"while the arm moves.")
         summary += " " + _diagnose(ours, config)
 
-    return BeyondStudy(title="Swing-up and catch", rows=rows, summary=summary,
+    return Study(title="Swing-up and catch", rows=rows, summary=summary,
                        figures={"swingup_states": plot_swingup(ours, config), "swingup_energy": plot_energy(ours, config)},
                        logs={"swingup": ours})
 
@@ -117,14 +121,13 @@ def _row(metric: str, paper, extension, unit: str, note: str) -> dict:
 def _diagnose(result, config) -> str:
     """Run the diagnosis (``furuta-drake diagnose --rig rig.yaml --train swingup.csv``) on the swing-up log against
     the frictionless nominal rig and say what it selected, against the rig's true friction."""
-    from furuta_drake.diagnosis.pipeline import run_diagnosis
+    from furuta_drake.diagnosis.pipeline import diagnose
 
     with tempfile.TemporaryDirectory() as directory:
         directory = Path(directory)
         write_log_csv(result, directory / "swingup.csv")
         (directory / "rig.yaml").write_text(dump_yaml_dataclass(config.rig))
-        report = run_diagnosis(rig_path=directory / "rig.yaml", train_paths=[directory / "swingup.csv"],
-                               out=directory / "diagnosis", echo=lambda *_: None)
+        report = diagnose(rig=directory / "rig.yaml", train=[directory / "swingup.csv"]).to_json()
     arm = config.friction.arm
     ranks = {entry["effect"]: i + 1 for i, entry in enumerate(report["ranking"])}
     return (f"The diagnosis of the swing-up log against the frictionless nominal rig says {report['verdict']} "

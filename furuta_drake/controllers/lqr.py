@@ -3,7 +3,7 @@
 The design model is Drake's linearization of the MultibodyPlant at theta = 0 (paper Eq. 1-2), in the paper's
 order x = [theta, phi, theta_dot, phi_dot] with the arm torque u as input: d/dt x = A x + B u, B = [0, 0, beta4,
 beta5]^T. The control law is u = -K (x_hat - x_ref) - F_hat, saturated at the rig's torque limit, computed from
-the sample at t_k and held over [t_k, t_k+1) like the rig's 1 kHz controller.
+the sample at t_k and held over [t_k, t_k+1) at the control period, like the rig's controller.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from pydrake.systems.primitives import (
     Demultiplexer, Linearize, LinearSystem, MatrixGain, Multiplexer, Saturation, ZeroOrderHold,
 )
 
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.plant import plant_to_paper_permutation
 from furuta_drake.rig import _require_nonnegative, _require_positive
 
@@ -52,20 +52,19 @@ def zero_order_hold(A: np.ndarray, B: np.ndarray, period: float) -> tuple[np.nda
 
 @dataclass
 class LqrParameters:
-    """Weights of the LQ design (paper Sec. IV-A, Anderson and Moore) and the controller's sampling and limit.
+    """Weights of the LQ design (paper Sec. IV-A, Anderson and Moore) and the controller's torque limit; the
+    controller samples at the control period.
 
     The cost is sum x^T Q x + R u^2 with Q = diag(state_weights) in paper order. The defaults give the Lund rig
-    moderate gains, K = [-1.98, -0.31, -0.38, -0.17] at 1 kHz (closed-loop poles about -19.5, -10.7,
-    -4.4 +- 1.3j rad/s): the start from theta = 0.1 rad stays within the 0.2 N m limit, the gains on the
-    velocities are low enough for observer velocity estimates, and with the paper's 0.015 N m arm friction
-    uncompensated the residual motion is of the size of Table I (theta, phi RMS of a few mrad and a few
-    hundredths of a rad).
+    moderate gains (closed-loop poles of a few to a few tens of rad/s): the start from theta = 0.1 rad stays
+    within the 0.2 N m limit, the gains on the velocities are low enough for observer velocity estimates, and
+    with the paper's arm friction uncompensated the residual motion is of the size of Table I.
     """
 
     state_weights: list[float] = field(default_factory=lambda: [10.0, 10.0, 0.1, 0.1])  # [theta, phi, dtheta, dphi]
     input_weight: float = 100.0  # R
-    discrete: bool = True  # DARE on the zero-order-hold model at ``period``; else the continuous Riccati equation
-    period: float = 1e-3  # control period [s]
+    discrete: bool = True  # DARE on the zero-order-hold model at the control period; else the continuous one
+    period: float | None = None  # [s] optional: a stated period must equal the control period
     torque_limit: float = 0.2  # [N m]
 
     def validate(self, where: str = "lqr") -> None:
@@ -74,28 +73,46 @@ class LqrParameters:
                               f"got {self.state_weights!r}")
         for i, weight in enumerate(self.state_weights):
             _require_nonnegative(weight, f"{where}.state_weights[{i}]")
-        for name in ("input_weight", "period", "torque_limit"):
+        for name in ("input_weight", "torque_limit"):
             _require_positive(getattr(self, name), f"{where}.{name}")
+        if self.period is not None:
+            _require_positive(self.period, f"{where}.period")
         if not isinstance(self.discrete, bool):
             raise ConfigError(f"{where}.discrete must be true or false, got {self.discrete!r}")
 
 
-def design_lqr(plant: MultibodyPlant, params: LqrParameters, where: str = "controller.lqr") -> np.ndarray:
-    """LQ gain K (1x4, paper order, u = -K x) for the upright linearization of ``plant``.
+def design_lqr(plant: MultibodyPlant, params: LqrParameters, *, period: float,
+               where: str = "controller.lqr") -> np.ndarray:
+    """LQ gain K (1x4, paper order, u = -K x) for the upright linearization of ``plant``, for a controller
+    sampled at ``period`` [s] (the DARE on the zero-order-hold model when ``params.discrete``).
 
     Raises :class:`ConfigError` when the weights leave an unstable or marginal mode out of the cost (e.g. zero
     weight on phi leaves the arm's double integrator unregulated), for which no stabilising LQ gain exists.
     """
     params.validate(where)
+    require_control_period(params.period, period, f"{where}.period")
     A, B = upright_linearization(plant)
     Q, R = np.diag(np.asarray(params.state_weights, dtype=float)), np.array([[params.input_weight]])
     if params.discrete:
-        Ad, Bd = zero_order_hold(A, B, params.period)
+        Ad, Bd = zero_order_hold(A, B, period)
         _require_detectable(Ad, Q, True, where)
         K, _ = DiscreteTimeLinearQuadraticRegulator(Ad, Bd, Q, R)
     else:
         _require_detectable(A, Q, False, where)
         K, _ = LinearQuadraticRegulator(A, B, Q, R)
+    return K
+
+
+def lqr_gain(plant: MultibodyPlant, params: LqrParameters, *, period: float, gain=None,
+             where: str = "controller.gain") -> np.ndarray:
+    """The LQR gain K (1x4, paper order) of a controller sampled at ``period`` [s]: ``gain`` (4 numbers) when
+    given, checked by :func:`check_stabilizing` to stabilise the upright linearization of ``plant`` (``where``
+    names it in the error), else :func:`design_lqr` of ``params``."""
+    if gain is None:
+        return design_lqr(plant, params, period=period)
+    K = np.asarray(gain, dtype=float).reshape(1, 4)
+    A, B = upright_linearization(plant)
+    check_stabilizing(A, B, K, params.discrete, period, where)
     return K
 
 
@@ -110,7 +127,7 @@ def _require_detectable(A: np.ndarray, Q: np.ndarray, discrete: bool, where: str
                               f"{eigenvalue:.4g} out of the cost: no stabilising LQ gain (weight phi and theta)")
 
 
-def closed_loop_eigenvalues(A: np.ndarray, B: np.ndarray, K: np.ndarray, discrete: bool,
+def state_feedback_eigenvalues(A: np.ndarray, B: np.ndarray, K: np.ndarray, discrete: bool,
                             period: float) -> np.ndarray:
     """Eigenvalues of A - B K (continuous, rad/s) or of Ad - Bd K (discrete, zero-order hold at ``period``)."""
     K = np.asarray(K, dtype=float).reshape(1, -1)
@@ -127,7 +144,7 @@ def check_stabilizing(A: np.ndarray, B: np.ndarray, K, discrete: bool, period: f
     if K.size != A.shape[0] or not np.all(np.isfinite(K)):
         raise ConfigError(f"{where} must be {A.shape[0]} finite numbers [theta, phi, theta_dot, phi_dot], "
                           f"got {K.ravel().tolist()}")
-    eigenvalues = closed_loop_eigenvalues(A, B, K, discrete, period)
+    eigenvalues = state_feedback_eigenvalues(A, B, K, discrete, period)
     if discrete:
         worst = eigenvalues[np.argmax(np.abs(eigenvalues))]
         if abs(worst) >= 1.0:
@@ -152,7 +169,7 @@ class LqrController(Diagram):
     +-``torque_limit``) and ``lqr_torque_Nm`` (u_LQ before compensation and saturation). No direct feedthrough.
     """
 
-    def __init__(self, K, period: float, torque_limit: float, friction_compensation: bool = False,
+    def __init__(self, K, *, period: float, torque_limit: float, friction_compensation: bool = False,
                  reference: bool = False):
         Diagram.__init__(self)
         K = _checked_gain(K, period, torque_limit).reshape(1, 4)
@@ -196,6 +213,6 @@ def _checked_gain(K, period: float, torque_limit: float) -> np.ndarray:
 
 
 __all__ = [
-    "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "closed_loop_eigenvalues",
+    "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "lqr_gain", "state_feedback_eigenvalues",
     "check_stabilizing", "LqrController",
 ]

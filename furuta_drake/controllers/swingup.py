@@ -18,26 +18,24 @@ Velocity estimate: the paper's HG observer (Eq. 4) carries the upright lineariza
 alpha1 theta is wrong away from the upright (at theta = pi it predicts 150 rad/s^2 where the truth is 0) and
 grows with every turn theta makes, so a catch at theta = 2 pi n fails. The swing-up loop therefore estimates
 velocities with the same high-gain structure on the kinematic model (theta_ddot = phi_ddot = 0: no gravity, no
-input), which is invariant to whole turns; its bias is a1 eps / a2 times the true acceleration (about 10 ms of
-it). :mod:`furuta_drake.beyond.swingup` measures both against the truth.
+input, :func:`kinematic_model`; ``controller.velocity_source = 'kinematic_hg'``), which is invariant to whole
+turns; its bias is a1 eps / a2 times the true acceleration. :mod:`furuta_drake.studies.swingup_study` measures
+both against the truth.
+
+In a simulate config the swing-up is ``controller.mode = 'swingup'`` with its parameters in
+``controller.swingup``; :func:`furuta_drake.config.swingup_config` makes one that starts hanging.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from furuta_drake.config import MonitorConfig, SimulationConfig
-from furuta_drake.diagram import FurutaDiagram, build_furuta_diagram
 from furuta_drake.errors import ConfigError
-from furuta_drake.observers.hg import HighGainObserver, HighGainParameters
-from furuta_drake.observers.linear import DiscreteLinearObserver
 from furuta_drake.rig import RigParameters, _require_nonnegative, _require_positive, linearized_upright
-from furuta_drake.simulate import SimulationResult, simulate
 
 SWING, BALANCE = 0.0, 1.0  # values of the ``swingup_mode`` output
 
@@ -58,7 +56,7 @@ class SwingUpParameters:
     arm_return_time: float = 2.0  # [s] time constant of the LQR's arm reference, from phi at the catch to 0
     swing_torque_limit: float | None = None  # [N m] cap of the pumping torque (None: the rig's torque limit)
 
-    def validate(self, where: str = "swingup") -> None:
+    def validate(self, where: str = "controller.swingup") -> None:
         for name in ("energy_gain", "catch_angle", "catch_energy", "release_angle", "velocity_eps", "arm_return_time",
                      "catch_torque_ratio"):
             _require_positive(getattr(self, name), f"{where}.{name}")
@@ -92,7 +90,7 @@ class EnergySwingUpController(LeafSystem):
     1 LQR) and ``pendulum_energy_J`` (E of the estimate at t_k).
     """
 
-    def __init__(self, rig: RigParameters, K, params: SwingUpParameters, period: float, torque_limit: float,
+    def __init__(self, rig: RigParameters, K, params: SwingUpParameters, *, period: float, torque_limit: float,
                  friction_compensation: bool = False):
         super().__init__()
         rig.validate()
@@ -170,72 +168,9 @@ def kinematic_model() -> tuple[np.ndarray, np.ndarray]:
     return A, np.zeros((4, 2))
 
 
-def swingup_config(config_or_rig: SimulationConfig | RigParameters | str, duration: float = 10.0,
-                   theta0: float = math.pi) -> SimulationConfig:
-    """``config_or_rig`` (a config, a RigParameters or a shipped rig's name) started at rest at ``theta0`` [rad]
-    (hanging: pi), without the balance-only theta bound of the envelope monitor."""
-    config = config_or_rig if isinstance(config_or_rig, SimulationConfig) else SimulationConfig.from_rig(config_or_rig)
-    return dataclasses.replace(config, initial_state=[theta0, 0.0, 0.0, 0.0], duration=duration,
-                               monitor=dataclasses.replace(config.monitor, theta_bound=None))
-
-
-def build_swingup_diagram(config_or_rig: SimulationConfig | RigParameters | str,
-                          params: SwingUpParameters | None = None, *, duration: float = 10.0,
-                          theta0: float = math.pi, velocity: str = "kinematic_hg", meshcat=None) -> FurutaDiagram:
-    """The rig of :func:`furuta_drake.diagram.build_furuta_diagram` (plant, friction, actuator, encoder, the
-    observers of ``config.observers.run``, the LQR gain from Drake's linearization) with the
-    :class:`EnergySwingUpController` in place of the LqrController, fed by the kinematic high-gain observer
-    (``velocity = 'kinematic_hg'``, logged as ``estimates['kinematic_hg']``) or by one of the config's velocity
-    sources ('true', 'derivative', 'hg', 'vfe'); swingup_mode and pendulum_energy_J are logged in ``signals``.
-
-    ``config_or_rig`` goes through :func:`swingup_config` (hanging start, no theta bound). Returns the
-    FurutaDiagram and the config it was built from in ``.config``. Every linear observer (the kinematic HG and
-    the paper's HG and VFE) starts at the initial state, as a rig's observer initialised from its first sample.
-    """
-    params = params or SwingUpParameters()
-    params.validate()
-    config = swingup_config(config_or_rig, duration, theta0)
-    if velocity != "kinematic_hg":
-        config = dataclasses.replace(config, controller=dataclasses.replace(config.controller, velocity_source=velocity))
-    lqr = config.controller.lqr
-
-    def make_controller(builder, lqr_gain, measured):
-        controller = builder.AddNamedSystem("swingup", EnergySwingUpController(
-            config.rig, lqr_gain, params, lqr.period, lqr.torque_limit,
-            friction_compensation=config.controller.friction_compensation))
-        if velocity != "kinematic_hg":
-            return controller, {}
-        observer = builder.AddNamedSystem("kinematic_hg_observer", HighGainObserver(
-            kinematic_model(), HighGainParameters(eps_theta=params.velocity_eps, eps_phi=params.velocity_eps,
-                                                  period=lqr.period)))
-        estimate = observer.GetOutputPort("state_estimate")
-        builder.Connect(measured, observer.GetInputPort("measured_angles_rad"))
-        builder.Connect(controller.GetOutputPort("arm_torque_Nm"), observer.GetInputPort("arm_torque_Nm"))
-        builder.Connect(estimate, controller.GetInputPort("state_estimate"))
-        return controller, {"kinematic_hg": estimate}
-
-    built = build_furuta_diagram(config, meshcat=meshcat, make_controller=make_controller)
-    for system in built.diagram.GetSystems():
-        if isinstance(system, DiscreteLinearObserver):
-            # Initialised at the start state (the first measurement), not at the upright x_hat = 0.
-            x0 = np.zeros(system.discrete.A().shape[0])
-            x0[:4] = config.initial_state
-            system.discrete.configure_default_state(x0)
-    return built
-
-
-def simulate_swingup(config_or_rig: SimulationConfig | RigParameters | str, params: SwingUpParameters | None = None,
-                     *, duration: float = 10.0, theta0: float = math.pi, velocity: str = "kinematic_hg",
-                     meshcat=None, progress=None) -> SimulationResult:
-    """Swing up from hanging and catch (:func:`build_swingup_diagram`), run by
-    :func:`furuta_drake.simulate.simulate` (same envelope monitor, minus the theta bound, and the same tape)."""
-    built = build_swingup_diagram(config_or_rig, params, duration=duration, theta0=theta0, velocity=velocity,
-                                  meshcat=meshcat)
-    return simulate(built.config, built=built, progress=progress)
-
-
-def catch_time(result: SimulationResult) -> float:
-    """Time [s] of the last hand-over to the LQR (``swingup_mode`` rising to 1), NaN when it never caught."""
+def catch_time(result) -> float:
+    """Time [s] of the last hand-over to the LQR (``swingup_mode`` rising to 1) in a swing-up run's
+    :class:`~furuta_drake.simulate.SimulationResult`, NaN when it never caught."""
     mode = result.signals["swingup_mode"][:, 0]
     if mode[-1] != BALANCE:
         return math.nan
@@ -244,6 +179,5 @@ def catch_time(result: SimulationResult) -> float:
 
 
 __all__ = [
-    "SwingUpParameters", "EnergySwingUpController", "pendulum_energy", "wrap_angle", "kinematic_model",
-    "swingup_config", "build_swingup_diagram", "simulate_swingup", "catch_time",
+    "SwingUpParameters", "EnergySwingUpController", "pendulum_energy", "wrap_angle", "kinematic_model", "catch_time",
 ]

@@ -1,5 +1,5 @@
-"""Beyond the paper (issue 10): the LuGre observer, the friction observer on the pendulum joint, and their
-studies against the paper's arm-only Dahl observer."""
+"""The LuGre observer and the friction observer on the pendulum joint, and their studies against the paper's
+arm-only Dahl observer."""
 
 from __future__ import annotations
 
@@ -10,18 +10,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.beyond import lugre_observer, pendulum_observer
 from furuta_drake.errors import ConfigError
 from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters
 from furuta_drake.observers.vfe import VfeObserver
 from furuta_drake.rig import lund_rig
+from furuta_drake.studies import lugre_observer_study, pendulum_observer_study
+
+PERIOD = 1e-3  # [s] the Lund rig's control period
 
 LUGRE = dict(coulomb_pos=0.012, coulomb_neg=0.018, static_pos=0.02, static_neg=0.03, stribeck_velocity=0.1,
              sigma0=10.0, sigma1=0.1, sigma2=0.002)
 
 
 def settle(params: DahlObserverParameters, velocity: float, joint: str = "arm", steps: int = 20000):
-    system = DahlFrictionObserver(params, joint)
+    system = DahlFrictionObserver(params, period=PERIOD, joint=joint)
     context = system.CreateDefaultContext()
     system.GetInputPort(f"{joint}_velocity_estimate_rad_per_s").FixValue(context, [velocity])
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
@@ -46,12 +48,12 @@ def test_lugre_observer_settles_on_the_stribeck_curve(speed, positive):
 
 def test_pendulum_observer_has_pendulum_ports_and_no_injection():
     params = DahlObserverParameters(coulomb_pos=0.003, coulomb_neg=0.003, sigma0=2.0, rho=None)
-    system = DahlFrictionObserver(params, "pendulum")
+    system = DahlFrictionObserver(params, period=PERIOD, joint="pendulum")
     assert system.HasInputPort("pendulum_velocity_estimate_rad_per_s") and not system.HasInputPort("arm_reference_rad")
     # A pendulum displaced from the upright does not change the estimate without injection: pure Dahl model.
     assert settle(params, 1.0, "pendulum") == pytest.approx(-0.003, rel=1e-9)
     with pytest.raises(ConfigError, match="joint"):
-        DahlFrictionObserver(params, "wrist")
+        DahlFrictionObserver(params, period=PERIOD, joint="wrist")
     with pytest.raises(ConfigError, match="rho"):
         DahlObserverParameters(rho=-1.0).validate()
 
@@ -65,7 +67,8 @@ def test_vfe_pendulum_friction_enters_through_the_pendulum_column():
     system = continuous_vfe_observer(A, B_F, VfeParameters(), pendulum_friction_input=True)
     np.testing.assert_allclose(system.B()[:4, 4], B_F[:, 0])
     np.testing.assert_allclose(system.B()[:4, 3], B_F[:, 1])
-    assert VfeObserver(lund_rig(), pendulum_friction_input=True).HasInputPort("pendulum_friction_estimate_Nm")
+    vfe = VfeObserver(lund_rig(), period=PERIOD, pendulum_friction_input=True)
+    assert vfe.HasInputPort("pendulum_friction_estimate_Nm")
 
 
 def _figure(study, metric):
@@ -73,7 +76,7 @@ def _figure(study, metric):
 
 
 def test_pendulum_friction_observer_study():
-    study = pendulum_observer.study(seed=1, small=True)
+    study = pendulum_observer_study.study(seed=1, small=True)
     row = _figure(study, "theta_dot_mse (both joints)")
     # The arm-only VFE lumps the pendulum's 3 mN m friction into eps_hat_F with the VFE's lag; observing it
     # removes most of that error.
@@ -84,7 +87,7 @@ def test_pendulum_friction_observer_study():
 
 
 def test_lugre_observer_study():
-    study = lugre_observer.study(seed=1, small=True)
+    study = lugre_observer_study.study(seed=1, small=True)
     friction = _figure(study, "F_hat_rms_error")
     # The Dahl observer cannot represent the Stribeck breakaway (Fs = 1.67 Fc): its F_hat error is the missing
     # Fs - Fc bump; the LuGre observer has the structure.

@@ -1,14 +1,14 @@
-"""LuGre observer (Sec. VII): the friction observer with a LuGre model (Stribeck curve g(v), bristle damping
-sigma1, viscous sigma2; Freidovich et al. 2006) in place of Dahl, on a rig whose arm friction is LuGre with a
-Stribeck effect, against the paper's Dahl observer calibrated at the Coulomb levels. Both observers use the
-same VFE observer and the LQR with friction compensation."""
+"""Study: the LuGre observer (Sec. VII). The friction observer with a LuGre model (Stribeck curve g(v), bristle
+damping sigma1, viscous sigma2; Freidovich et al. 2006) in place of Dahl, on a rig whose arm friction is LuGre with
+a Stribeck effect, against the paper's Dahl observer calibrated at the Coulomb levels. Both observers use the same
+VFE observer and the LQR with friction compensation."""
 
 from __future__ import annotations
 
 import dataclasses
 
 from furuta_drake import reproduce
-from furuta_drake.beyond import BeyondStudy
+from furuta_drake.studies import Study
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.metrics import observer_figures
 from furuta_drake.plotting import plot_friction_estimates
@@ -19,7 +19,7 @@ SIGMA1 = 0.1  # [N m s/rad], about a third of the critical damping 2 sqrt(sigma0
 SIGMA2 = 0.002  # [N m s/rad]
 
 
-def study(seed: int = 0, small: bool = False) -> BeyondStudy:
+def study(seed: int = 0, small: bool = False) -> Study:
     """Friction and velocity estimation errors of the Dahl and the LuGre observer on a LuGre rig."""
     base = reproduce.paper_rig_config(seed=seed, duration=6.0 if small else 20.0)
     arm = JointFrictionParameters(model="lugre", coulomb_pos=reproduce.ARM_COULOMB_POS,
@@ -43,7 +43,7 @@ def study(seed: int = 0, small: bool = False) -> BeyondStudy:
                f"the Dahl observer's, and the VFE arm velocity error is "
                f"{dahl['phi_dot_mse'] / ours['phi_dot_mse']:.1f}x lower; control accuracy (phi^2, theta^2) changes "
                f"little, as with Table I.")
-    return BeyondStudy(
+    return Study(
         title="LuGre observer", rows=rows, summary=summary,
         figures={f"lugre_observer_{name}": plot_friction_estimates(result, title=label)
                  for (label, result), name in zip(results.items(), ("dahl", "lugre"))},

@@ -1,0 +1,106 @@
+"""The Furuta world: the MultibodyPlant and everything that acts on it, wired once for every user.
+
+:func:`add_furuta_world` adds to a ``DiagramBuilder`` the plant of a rig (:mod:`furuta_drake.plant`), the
+friction on its joints (:class:`~furuta_drake.friction.JointFriction`), the arm's spring and cogging
+(:func:`~furuta_drake.actuator.add_arm_disturbance`), the DC motor's back-EMF and the actuator chain
+(:func:`~furuta_drake.actuator.add_actuator`), and returns the ports a user connects: the arm torque command in,
+the true state and the friction torques out. The closed loop (:mod:`furuta_drake.diagram`), the diagnosis' Drake
+replay (:mod:`furuta_drake.diagnosis.replay`) and the stability analysis (:mod:`furuta_drake.stability`) all
+build their plant this way.
+
+Sign convention (paper Eq. 3): the generalized forces on the plant are tau = [F_theta, u + F_phi] plus the arm's
+spring, cogging and back-EMF torques, each an exerted torque on its joint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
+from pydrake.systems.primitives import Adder, ConstantVectorSource, MatrixGain
+
+from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters, add_actuator, add_arm_disturbance
+from furuta_drake.friction import FrictionParameters, JointFriction
+from furuta_drake.plant import ARM_JOINT, add_furuta_plant, plant_to_paper_permutation
+from furuta_drake.rig import RigParameters
+
+
+@dataclass
+class FurutaWorld:
+    """The handles of a world added by :func:`add_furuta_world`.
+
+    ``true_state``: [theta, phi, theta_dot, phi_dot] in the paper's order [rad, rad/s]; ``arm_torque_input``: the
+    commanded arm torque [N m], the actuator chain's input; ``friction_torque``: [F_theta, F_phi] [N m], the
+    torques friction exerts on the joints; ``friction``: the JointFriction system (its context holds the bristle
+    states), None when both joints are frictionless; ``to_paper``: P with x_paper = P x_plant.
+    """
+
+    plant: MultibodyPlant
+    scene_graph: object
+    friction: JointFriction | None
+    true_state: OutputPort
+    arm_torque_input: InputPort
+    friction_torque: OutputPort
+    to_paper: np.ndarray = field(repr=False)
+
+
+def add_furuta_world(builder: DiagramBuilder, *, rig: RigParameters, control_period: float,
+                     friction: FrictionParameters | None = None, actuator: ActuatorParameters | None = None,
+                     disturbance: DisturbanceParameters | None = None, back_emf_damping: float | None = None,
+                     with_scene_graph: bool = False) -> FurutaWorld:
+    """Add the continuous Furuta plant of ``rig`` with ``friction`` on its joints, the arm ``disturbance``
+    (spring, cogging), the back-EMF damping torque -``back_emf_damping`` phi_dot [N m s/rad] (None: kt ke / R of
+    ``rig.motor``, 0 without one) and the ``actuator`` chain (its delays resolved to half the
+    ``control_period`` [s]); absent sections add nothing. ``with_scene_graph``: a SceneGraph for visualisation.
+    The friction in ``rig`` itself (``arm_coulomb`` ...) is not read: friction comes as ``friction``.
+    """
+    friction = friction or FrictionParameters()
+    if back_emf_damping is None:
+        back_emf_damping = 0.0 if rig.motor is None else rig.motor.back_emf_damping
+    plant, scene_graph = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=with_scene_graph)
+    P = plant_to_paper_permutation(plant)
+    to_paper_order = builder.AddNamedSystem("true_state", MatrixGain(P))
+    builder.Connect(plant.get_state_output_port(), to_paper_order.get_input_port())
+    true_state = to_paper_order.get_output_port()
+
+    forces = []
+    if friction.arm.model == "none" and friction.pendulum.model == "none":
+        # No friction: a constant zero rather than a Python system evaluated at every integrator stage.
+        joint_friction = None
+        friction_torque = builder.AddNamedSystem("friction", ConstantVectorSource(np.zeros(2))).get_output_port()
+    else:
+        joint_friction = builder.AddNamedSystem("friction", JointFriction(plant, friction))
+        builder.Connect(plant.get_state_output_port(), joint_friction.get_input_port())
+        forces.append(joint_friction.GetOutputPort("generalized_force_Nm"))
+        friction_torque = joint_friction.GetOutputPort("friction_torque_Nm")
+
+    arm = np.zeros((plant.num_velocities(), 1))  # an arm torque as generalized forces
+    arm[plant.GetJointByName(ARM_JOINT).velocity_start(), 0] = 1.0
+    arm_torque = add_arm_disturbance(builder, disturbance or DisturbanceParameters(), true_state)
+    if arm_torque is not None:
+        to_force = builder.AddNamedSystem("disturbance_to_force", MatrixGain(arm))
+        builder.Connect(arm_torque, to_force.get_input_port())
+        forces.append(to_force.get_output_port())
+    if back_emf_damping != 0.0:
+        # The DC motor's back-EMF: a torque -kt ke / R phi_dot on the arm (commands are torque-equivalent).
+        back_emf = builder.AddNamedSystem("motor_back_emf", MatrixGain(
+            -back_emf_damping * arm @ np.array([[0.0, 0.0, 0.0, 1.0]])))
+        builder.Connect(true_state, back_emf.get_input_port())
+        forces.append(back_emf.get_output_port())
+    if len(forces) == 1:
+        builder.Connect(forces[0], plant.get_applied_generalized_force_input_port())
+    elif forces:
+        total = builder.AddNamedSystem("applied_forces", Adder(len(forces), plant.num_velocities()))
+        for i, force in enumerate(forces):
+            builder.Connect(force, total.get_input_port(i))
+        builder.Connect(total.get_output_port(), plant.get_applied_generalized_force_input_port())
+
+    actuator_input, actuator_output = add_actuator(builder, actuator or ActuatorParameters(),
+                                                   delay_resolution=control_period / 2.0)
+    builder.Connect(actuator_output, plant.get_actuation_input_port())
+    return FurutaWorld(plant, scene_graph, joint_friction, true_state, actuator_input, friction_torque, P)
+
+
+__all__ = ["FurutaWorld", "add_furuta_world"]
