@@ -103,7 +103,19 @@ def directions_of(hypotheses: Hypotheses) -> list[Direction]:
 
 
 class Evaluator:
-    """Scores batches of shapes: levels, surrogate runs under every hypothesis, bounds and noncentralities."""
+    """Scores batches of shapes: levels, surrogate runs under every hypothesis, bounds and noncentralities.
+
+    Parameters
+    ----------
+    family : the excitation family of the simulated experiment (its duration and sample period).
+    hypotheses : the hypotheses and pairs; rig : the rig file (encoder counts, windows); scales : the
+        candidates' scales (the refits' parameter bounds); bounds : what every run must respect.
+    runner : plays (D, N) commands [N m] on a model: (angles (N, 2, D) [rad], logged commands (D, N) [N m]).
+    unit_command : (D, BANDS) shapes -> (D, N) commands [N m] at level 1.
+    aimed_motion : (D, BANDS) shapes -> (D, N) arm angles [rad] the command aims at, at level 1 (None for a
+        dither: the LQR holds the arm).
+    hanging : the runs start hanging (the pendulum's excursion is from pi), else upright.
+    """
 
     def __init__(self, family: Family, hypotheses: Hypotheses, rig: RigParameters, scales, bounds: Bounds,
                  runner: Runner, unit_command: Callable[[np.ndarray], np.ndarray],
