@@ -1,4 +1,4 @@
-"""The ``furuta-drake`` command line: ``simulate``, ``diagnose``, ``reproduce``, ``sweep``.
+"""The ``furuta-drake`` command line: ``simulate``, ``diagnose``, ``design``, ``reproduce``, ``sweep``.
 
 Bad input ends with exit code 2 and one line naming the file, line or key; a run the monitor stopped ends with
 exit code 3 and the time and cause; no traceback for either.
@@ -72,6 +72,26 @@ def _parser() -> argparse.ArgumentParser:
     diag.add_argument("--topic", help="MCAP channel holding the run, JSON messages whose fields are the columns "
                                       "(default: the file's only channel); logs are CSV, Parquet or MCAP by extension")
     diag.set_defaults(run=_run_diagnose)
+
+    des = sub.add_parser("design", help="design the experiment that settles what a diagnosis could not decide")
+    des.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
+    des.add_argument("--out", type=Path, required=True, help="output directory")
+    des.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    des.add_argument("--duration", type=float,
+                     help="length of the experiment [s]; its first half trains, its second is held out (default: the "
+                          "shortest repeat of an 8 s experiment predicted to settle every pair, up to 64 s)")
+    mode = des.add_mutually_exclusive_group()
+    mode.add_argument("--hanging", dest="balancing", action="store_false",
+                      help="an open-loop command played from rest with the pendulum hanging (default)")
+    mode.add_argument("--balancing", dest="balancing", action="store_true",
+                      help="a dither added to the project's LQR balancing the pendulum upright")
+    des.add_argument("--target", nargs="+", default=[], metavar="EFFECT=VALUE",
+                     help="separate the accepted model from it plus EFFECT at VALUE (its main parameter, as the "
+                          "report's detection_limits state it) instead of from its rivals")
+    des.add_argument("--arm-bound", type=float, default=1.0,
+                     help="largest arm angle |phi| allowed under any hypothesis [rad] (default 1)")
+    des.add_argument("--seed", type=int, default=0, help="seed of the search and of the predicted noise (default 0)")
+    des.set_defaults(run=_run_design, balancing=False)
 
     rig = sub.add_parser("rig", help="write an annotated rig file to start from, or check one")
     rig_action = rig.add_mutually_exclusive_group(required=True)
@@ -270,6 +290,28 @@ def _run_diagnose(args) -> int:
           f"({gap.heldout_reduction:.0%} reduction)"
           + (f"; {len(failed)} candidate(s) failed, listed in the report" if failed else "")
           + f"; report in {args.out}")
+    return 0
+
+
+def _run_design(args) -> int:
+    from furuta_drake.diagnosis.design.output import write_design
+    from furuta_drake.diagnosis.design.pipeline import DesignSettings, design_experiment
+    from furuta_drake.outputs import prepare_output_dir
+
+    prepare_output_dir(args.out, force=args.force, protect=[args.diagnosis])
+    settings = dataclasses.replace(DesignSettings(), seed=args.seed)
+    design = design_experiment(args.diagnosis, duration=args.duration, balancing=args.balancing,
+                               targets=args.target, arm_bound=args.arm_bound, settings=settings,
+                               progress=lambda line: print(line, file=sys.stderr) if sys.stderr.isatty() else None)
+    for note in design.notes:
+        print(note)
+    write_design(args.out, design, force=args.force)
+    if design.status != "design":
+        print(f"no experiment: {design.reason}; wrote {args.out}")
+        return 0
+    weakest = min(pair["detection_probability"] for pair in design.pairs)
+    print(f"designed a {design.duration:g} s experiment separating {len(design.pairs)} pair(s) of hypotheses "
+          f"(weakest predicted detection probability {weakest:.0%}); play {args.out / 'experiment.csv'}")
     return 0
 
 

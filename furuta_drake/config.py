@@ -116,6 +116,8 @@ class ExcitationConfig:
     random phase spread log-uniformly over [frequency_min, frequency_max] and RMS ``torque_rms``.
     ``arm_reference_*``: a square-wave reference for the arm angle phi of the given amplitude and period
     (zero amplitude: balance at phi = 0). Both are generated from the config's seed.
+    ``command``: a recorded torque command [N m], one value per control period from t = 0 and zero after its
+    last (e.g. a designed experiment), added like the multisine.
     """
 
     torque_rms: float = 0.0  # [N m]
@@ -124,6 +126,7 @@ class ExcitationConfig:
     frequency_max: float = 8.0  # [Hz]
     arm_reference_amplitude: float = 0.0  # [rad]
     arm_reference_period: float = 4.0  # [s]
+    command: list[float] | None = None  # [N m] per control period
 
     def validate(self, where: str = "excitation") -> None:
         for name in ("torque_rms", "arm_reference_amplitude"):
@@ -137,6 +140,8 @@ class ExcitationConfig:
                               f"{self.frequency_min}, {self.frequency_max}")
         if self.arm_reference_period <= 0:
             raise ConfigError(f"{where}.arm_reference_period must be > 0, got {self.arm_reference_period}")
+        if self.command is not None and (not self.command or not all(math.isfinite(v) for v in self.command)):
+            raise ConfigError(f"{where}.command must be a non-empty list of finite torques [N m]")
 
 
 @dataclass
@@ -212,9 +217,10 @@ class SimulationConfig:
         if len(self.initial_state) != 4 or not all(math.isfinite(v) for v in self.initial_state):
             raise ConfigError(f"{prefix}initial_state must be 4 finite numbers [theta, phi, theta_dot, phi_dot],"
                               f" got {self.initial_state!r}")
-        if self.controller.mode == "open_loop" and self.excitation.torque_rms == 0:
+        if self.controller.mode == "open_loop" and self.excitation.torque_rms == 0 \
+                and self.excitation.command is None:
             raise ConfigError(f"{prefix}controller.mode 'open_loop' needs an excitation: set "
-                              f"{prefix}excitation.torque_rms > 0")
+                              f"{prefix}excitation.torque_rms > 0 or {prefix}excitation.command")
         if self.controller.friction_compensation and self.controller.velocity_source == "kinematic_hg" \
                 and "vfe" not in self.observers.run:
             raise ConfigError(f"{prefix}controller.friction_compensation with the kinematic HG takes F_hat from the "

@@ -1,4 +1,5 @@
-"""Seeded excitation signals: a multisine torque and a square-wave arm reference, as Drake trajectories."""
+"""Excitation signals as Drake trajectories: a seeded multisine torque, a recorded torque command, and a
+square-wave arm reference."""
 
 from __future__ import annotations
 
@@ -23,10 +24,17 @@ def multisine(excitation: ExcitationConfig, duration: float, sample_period: floa
 
 def torque_excitation_trajectory(excitation: ExcitationConfig, duration: float, sample_period: float,
                                  seed: int) -> PiecewisePolynomial | None:
-    """The multisine as a zero-order-hold trajectory at the control period, or None when ``torque_rms`` is 0."""
-    if excitation.torque_rms == 0:
+    """The multisine plus the recorded ``command`` (zero after its end) as a zero-order-hold trajectory at the
+    control period [N m], or None when there is neither."""
+    if excitation.torque_rms == 0 and excitation.command is None:
         return None
-    times, values = multisine(excitation, duration, sample_period, np.random.default_rng([seed, 1]))
+    times = np.arange(0.0, duration + 2 * sample_period, sample_period)
+    values = np.zeros(times.size)
+    if excitation.torque_rms > 0:
+        values += multisine(excitation, duration, sample_period, np.random.default_rng([seed, 1]))[1]
+    if excitation.command is not None:
+        played = np.asarray(excitation.command, dtype=float)[:times.size]
+        values[:played.size] += played
     return PiecewisePolynomial.ZeroOrderHold(times, values.reshape(1, -1))
 
 

@@ -1,0 +1,204 @@
+"""The hypotheses an experiment should separate, read from a diagnosis' report.
+
+Every hypothesis is a complete model of the rig: the rig file's nominal model with a set of effects at their
+fitted parameters (``ranking[].params``). The accepted model holds the accepted steps. Its rivals:
+
+- **confusable** pairs and the models **within** ``NEAR`` of held-out reduction of the accepted one at the same
+  step (variants of the accepted law too: the rule's parsimony chooses among them on a few points): the
+  accepted model with that step's effect replaced by the rival's (its parameters from its fit at that
+  step; the other effects keep the accepted values);
+- **next-step** models: the candidates of the step after the last accepted one that reduce what is left by at
+  least ``NEXT_STEP_REDUCTION`` on held-out data without being accepted (at most ``MAX_NEXT_STEP``), as the
+  accepted model plus that effect: was a further effect missed?
+- with ``--target effect=value`` instead: the accepted model plus that effect at that size (its main parameter,
+  in the units of ``detection_limits``), for effects whose detection limit in these logs is above the size.
+
+Each rival forms a :class:`Pair` with the accepted model. A pair is *nested* when the rival is the accepted model
+plus one effect: an experiment can only show that the effect is there (if the accepted model were the truth,
+the rival's fit would set the effect to nothing), so only the rival as the truth is informative.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, apply_effects, law_of, rig_model
+from furuta_drake.diagnosis.detection import INJECTIONS
+from furuta_drake.diagnosis.fit import scales_of
+from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.errors import ConfigError
+
+NEAR = 0.05  # rivals within this many points of held-out reduction of the accepted model at the same step
+NEXT_STEP_REDUCTION = 0.1  # a next-step candidate that reduces what is left by this much is a rival
+MAX_NEXT_STEP = 3
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """A complete model: the nominal model with ``effects`` (applied in order)."""
+
+    name: str  # the effects joined by "+" ("nominal" without any)
+    effects: dict[str, Effect]
+    model: Model
+    role: str  # "accepted", "rival" or "target"
+
+
+@dataclass(frozen=True)
+class Pair:
+    """Two hypotheses (indices into the hypothesis list) the experiment should separate.
+
+    ``step``: the diagnosis step at which they differ; ``previous``: the effects of the model they are both judged
+    against there (the held-out rule's reference); ``new``: the effect each adds at that step ("" for none).
+    """
+
+    first: int
+    second: int
+    step: int
+    previous: dict[str, Effect]
+    new: tuple[str, str]
+    why: str
+    nested: bool
+
+
+@dataclass(frozen=True)
+class Hypotheses:
+    """The hypotheses (the accepted one first), the pairs to separate and notes on targets left out."""
+
+    nominal: Model  # the rig file's model every hypothesis is built on
+    hypotheses: list[Hypothesis]
+    pairs: list[Pair]
+    notes: list[str]
+
+
+def entry_effects(entry: dict) -> dict[str, Effect]:
+    """The effects of a ranking entry from its ``effect`` ("a" or "a+b") and ``params`` (prefixed "a." when
+    it holds several)."""
+    from furuta_drake.diagnosis.candidates import effect_from_params
+
+    names = entry["effect"].split("+")
+    out = {}
+    for name in names:
+        prefix = f"{name}." if len(names) > 1 else ""
+        params = {key[len(prefix):]: value for key, value in entry["params"].items() if key.startswith(prefix)}
+        out[name] = effect_from_params(name, params)
+    return out
+
+
+def parse_target(text: str) -> tuple[str, float]:
+    """``effect=value`` of ``--target``; ConfigError naming the flag."""
+    name, sep, value = text.partition("=")
+    if not sep:
+        raise ConfigError(f"--target {text!r}: expected effect=value (e.g. actuator_lag=0.005)")
+    name = name.strip()
+    if name not in CANDIDATES:
+        raise ConfigError(f"--target {text!r}: unknown effect {name!r} (the vocabulary: {', '.join(CANDIDATES)})")
+    if name not in INJECTIONS:
+        raise ConfigError(f"--target {text!r}: {name} is a sensor effect; no command changes how well a log shows it")
+    try:
+        size = float(value)
+    except ValueError:
+        raise ConfigError(f"--target {text!r}: {value!r} is not a number") from None
+    if not size > 0 or size != size or size == float("inf"):
+        raise ConfigError(f"--target {text!r}: the size must be a positive number")
+    return name, size
+
+
+def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, float]] = ()) -> Hypotheses:
+    """The hypotheses and pairs of ``report`` (module docstring); ``train_logs`` set the scales of a target's
+    size. ConfigError when a target is already accepted or when nothing is left to separate."""
+    nominal = rig_model(rig)
+    ranked = [entry for entry in report["ranking"] if entry.get("status", "ok") == "ok"]
+    steps = [step["effect"] for step in report["steps"]]
+    final = _entry(ranked, steps, len(steps)) if steps else None
+    accepted = entry_effects(final) if final else {}
+    hypotheses = [Hypothesis(_name(accepted), accepted, apply_effects(nominal, accepted), "accepted")]
+    pairs, notes = [], []
+
+    def add(effects: dict[str, Effect], role: str, step: int, new: tuple[str, str], why: str, nested: bool):
+        name = _name(effects)
+        if any(h.name == name for h in hypotheses):
+            return
+        hypotheses.append(Hypothesis(name, effects, apply_effects(nominal, effects), role))
+        pairs.append(Pair(0, len(hypotheses) - 1, step, {k: accepted[k] for k in steps[:step - 1]}, new, why, nested))
+
+    if targets:
+        limits = {limit["effect"]: limit for limit in report["detection_limits"]}
+        scales = scales_of(train_logs, nominal)
+        for name, size in targets:
+            if name in accepted or law_of(name) & set(accepted):
+                raise ConfigError(f"--target {name}={size:g}: the diagnosis already accepted {name} (or a variant "
+                                  f"of its law)")
+            effect, increment = _target_effect(name, size, scales, hypotheses[0].model)
+            limit = limits.get(name, {}).get("value")
+            if limit is not None and _target_effect(name, limit, scales, hypotheses[0].model)[1] <= increment:
+                notes.append(f"--target {name}={size:g}: these logs already detect it (detection limit {limit:.4g} "
+                             f"{INJECTIONS[name].param}); no experiment is needed for it")
+                continue
+            add({**accepted, name: effect}, "target", len(steps) + 1, ("", name),
+                f"{name} at {INJECTIONS[name].param} = {size:g}, below what these logs detect "
+                f"({'not detected at any size' if limit is None else f'limit {limit:.4g}'})", nested=True)
+    else:
+        chosen_at = {k + 1: name for k, name in enumerate(steps)}
+        for pair in report.get("confusable", []):
+            chosen, other = pair["effects"]
+            step = next((k for k, name in chosen_at.items() if name == chosen), None)
+            entry = _entry(ranked, steps[:step - 1] + [other], step) if step else None
+            if entry is not None:
+                add(_rival(accepted, steps, step, entry), "rival", step, (chosen, other),
+                    f"confusable at step {step}: {pair['why']}", nested=False)
+        for step, chosen in chosen_at.items():
+            reference = _entry(ranked, steps[:step], step)
+            for entry in ranked if reference else []:
+                other = entry["effect"].split("+")[-1]
+                if (entry["step"] == step and other != chosen
+                        and entry["effect"].split("+")[:-1] == steps[:step - 1]
+                        and entry["heldout_reduction"] >= reference["heldout_reduction"] - NEAR):
+                    add(_rival(accepted, steps, step, entry), "rival", step,
+                        (chosen, other), f"at step {step}, {other} reduces the nominal held-out gap by "
+                        f"{entry['heldout_reduction']:.1%}, within {NEAR:.0%} of {chosen}'s "
+                        f"{reference['heldout_reduction']:.1%}", nested=False)
+        following = sorted((entry for entry in ranked if entry["step"] == len(steps) + 1
+                            and entry["effect"].split("+")[:-1] == steps
+                            and (entry["reduction_over_previous"] or 0.0) >= NEXT_STEP_REDUCTION),
+                           key=lambda entry: -entry["reduction_over_previous"])
+        for entry in following[:MAX_NEXT_STEP]:
+            other = entry["effect"].split("+")[-1]
+            add({**accepted, other: entry_effects(entry)[other]}, "rival", len(steps) + 1, ("", other),
+                f"{other} reduces the held-out gap the accepted model leaves by {entry['reduction_over_previous']:.1%}"
+                f" without being accepted", nested=True)
+    if not pairs:
+        raise ConfigError("nothing to separate: the diagnosis has no confusable pair, no rival within "
+                          f"{NEAR:.0%} of the accepted model and no next-step candidate; name an effect and a size "
+                          "with --target effect=value" if not targets else
+                          "nothing to separate: every --target is already detected by the diagnosis' logs")
+    return Hypotheses(nominal, hypotheses, pairs, notes)
+
+
+def _name(effects: dict[str, Effect]) -> str:
+    return "+".join(effects) or "nominal"
+
+
+def _entry(ranked: list[dict], names: list[str], step: int) -> dict | None:
+    """The ranking entry of the model holding ``names`` (in any order; the diagnosis may fit a model again once an
+    effect is dropped), preferably the one fitted at ``step``."""
+    matches = [entry for entry in ranked if set(entry["effect"].split("+")) == set(names)]
+    return next((entry for entry in matches if entry["step"] == step), matches[0] if matches else None)
+
+
+def _rival(accepted: dict[str, Effect], steps: list[str], step: int, entry: dict) -> dict[str, Effect]:
+    """The rival of ``entry`` (a model fitted at ``step``: the earlier accepted effects and another one) as a
+    complete model: its own fit, then the effects accepted after ``step`` at their accepted values."""
+    return {**entry_effects(entry), **{name: accepted[name] for name in steps[step:]}}
+
+
+def _target_effect(name: str, size: float, scales, model: Model) -> tuple[Effect, float]:
+    """The effect whose main parameter is ``size`` (the value a detection limit states: an increment over the
+    model, a gain or inertia scale, or a saturation limit [N m]) and the size of its departure from ``model``
+    that the detection limits bisect on."""
+    if name in ("torque_gain_error", "inertia_mismatch"):
+        increment = size - 1.0
+    elif name == "actuator_saturation":
+        increment = 1.0 - size / scales.command
+    else:
+        increment = size
+    return INJECTIONS[name].effect(increment, scales, model), abs(increment)

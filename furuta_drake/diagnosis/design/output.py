@@ -1,0 +1,216 @@
+"""The design's output directory: ``experiment.csv`` (the command to play), ``design.json``, ``design.md``,
+``design.png`` and ``config.yaml``; ``docs/design.md`` describes each. Written through
+:func:`~furuta_drake.outputs.atomic_output_dir`: it appears complete or not at all. Without a design (no
+experiment separates the hypotheses, or none stays within the bounds) there is no ``experiment.csv`` nor plot,
+and ``design.json`` says why.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from furuta_drake.diagnosis.candidates import describe
+from furuta_drake.diagnosis.design.pipeline import Design
+from furuta_drake.outputs import atomic_output_dir, versions
+
+SIGNIFICANT_DIGITS = 6
+
+
+def write_design(out_dir: str | Path, design: Design, *, force: bool = False) -> Path:
+    """Write every file of ``design`` into ``out_dir`` atomically; the diagnosis directory and its inputs are
+    protected from ``force``."""
+    record = design.record
+    protect = [record.directory, record.rig_path, *(Path(log.path) for log in record.train + record.heldout)]
+    with atomic_output_dir(out_dir, force=force, protect=protect) as staging:
+        document = design_json(design)
+        (staging / "design.json").write_text(json.dumps(_rounded(document), indent=2, allow_nan=False) + "\n")
+        if design.command is not None:
+            (staging / "experiment.csv").write_text(experiment_csv(design))
+            plot_design(design, staging / "design.png")
+        (staging / "design.md").write_text(design_markdown(document))
+        (staging / "config.yaml").write_text(yaml.safe_dump(_config(design), sort_keys=False))
+    return Path(out_dir)
+
+
+def _unit(design: Design) -> tuple[str, str]:
+    return ("voltage", "V") if design.input_kind == "voltage" else ("torque", "N m")
+
+
+def experiment_csv(design: Design) -> str:
+    """A comment line saying how to play it, then ``time`` and the rig's input column at its sample period."""
+    column, unit = _unit(design)
+    values = design.command / design.torque_per_volt
+    period = design.period
+    if design.mode == "balancing":
+        gain = ", ".join(f"{v:.6g}" for v in design.excitation["lqr_gain"])
+        how = (f"# dither [{unit}] to ADD to the output of furuta-drake's LQR balancing the pendulum upright (gain "
+               f"K = [{gain}] on [theta, phi, theta_dot, phi_dot], designed on the rig file), from rest upright, "
+               f"one value per {period:g} s sample; then stop the dither")
+    else:
+        how = (f"# open-loop command [{unit}]: play it as is from rest with the pendulum hanging, one value per "
+               f"{period:g} s sample, then zero")
+    rows = "".join(f"{k * period:.6f},{value + 0.0:.6g}\n" for k, value in enumerate(values))
+    return f"{how}\ntime,{column}\n{rows}"
+
+
+def design_json(design: Design) -> dict:
+    """The ``design.json`` object (docs/design.md lists every key)."""
+    column, unit = _unit(design)
+    scale = 1.0 / design.torque_per_volt
+    nominal = design.hypotheses.nominal
+    out = {
+        "status": design.status,
+        "reason": design.reason,
+        "mode": design.mode,
+        "duration_s": design.duration,
+        "sample_period_s": design.period,
+        "input": {"column": column, "unit": unit, "limit": design.bounds.command * scale,
+                  "file": "experiment.csv" if design.command is not None else None},
+        "hypotheses": [{"name": h.name, "role": h.role,
+                        "effects": {name: describe(name, effect, nominal) for name, effect in h.effects.items()}}
+                       for h in design.hypotheses.hypotheses],
+        "pairs": design.pairs,
+        "responses": {name: {"peak_arm_angle_rad": run.peaks["arm"],
+                             "peak_pendulum_excursion_rad": run.peaks["pendulum"],
+                             f"peak_command_{unit.replace(' ', '_')}": run.peaks["command"] * scale,
+                             "evaluated_by": "drake"} for name, run in design.runs.items()},
+        "bounds": {"arm_angle_rad": design.bounds.arm, "pendulum_excursion_rad": design.bounds.pendulum,
+                   f"command_{unit.replace(' ', '_')}": design.bounds.command * scale},
+        "excitation": design.excitation,
+        "seed": design.settings.seed,
+        "search": design.search,
+        "notes": design.notes,
+    }
+    return out
+
+
+def _config(design: Design) -> dict:
+    record = design.record
+    return {"diagnosis": {"path": str(record.directory), "report_sha256": record.report_sha256},
+            "rig": record.inputs["rig"], "train": record.inputs["train"], "heldout": record.inputs["heldout"],
+            "options": design.options, "versions": versions(), "seeds": {"search": design.settings.seed,
+                                                                          "noise": design.settings.seed}}
+
+
+def design_markdown(document: dict) -> str:
+    """design.md: the same content for a person."""
+    unit = document["input"]["unit"]
+    lines = ["# Experiment design", ""]
+    if document["status"] != "design":
+        lines += [f"**No experiment** ({document['status']}): {document['reason']}.", ""]
+    else:
+        how = ("a dither added to the LQR balancing the upright" if document["mode"] == "balancing" else
+               "played open loop from rest with the pendulum hanging")
+        lines += [f"`experiment.csv`: {document['duration_s']:g} s of `{document['input']['column']}` [{unit}], "
+                  f"{how}, one value per {document['sample_period_s']:g} s. Record it like the diagnosis' logs, "
+                  f"then run the diagnosis again with its first half added to `--train` and its second half to "
+                  f"`--heldout`.", "", "![command and predicted responses](design.png)", ""]
+    lines += ["## Hypotheses", "", "| hypothesis | role | effects |", "|---|---|---|"]
+    for h in document["hypotheses"]:
+        effects = "; ".join(f"{name}: " + ", ".join(f"{k} = {_fmt(v)}" for k, v in params.items())
+                            for name, params in h["effects"].items()) or "-"
+        lines.append(f"| `{h['name']}` | {h['role']} | {effects} |")
+    if document["pairs"]:
+        lines += ["", "## What the experiment separates", "",
+                  "| truth | rival | noncentrality | held-out gap difference [counts] (90 %) | detection "
+                  "probability |", "|---|---|---:|---:|---:|"]
+        for pair in document["pairs"]:
+            for d in pair["directions"]:
+                diff = d["gap_difference_all_heldout"]
+                lines.append(f"| `{d['truth']}` | `{d['rival']}` | {_fmt(d['noncentrality'])} | "
+                             f"{_fmt(diff['median'])} [{_fmt(diff['interval90'][0])}, {_fmt(diff['interval90'][1])}]"
+                             f" | {d['detection_probability']:.0%} |")
+        lines += ["", "The noncentrality is the expected log-likelihood ratio of the experiment's held-out half "
+                  "under the truth's encoder noise, once the rival is refit and every window's initial state "
+                  "re-projected; the gap difference (rival minus truth) is over all held-out windows the new "
+                  "diagnosis would judge; the detection probability is the share of noise draws in which its rule "
+                  "picks the truth and no longer finds the two confusable.", ""]
+        for pair in document["pairs"]:
+            lines.append(f"- `{pair['hypotheses'][0]}` vs `{pair['hypotheses'][1]}`: {pair['why']}")
+    if document["responses"]:
+        lines += ["", "## Predicted responses (Drake)", "", f"| hypothesis | peak arm angle [rad] | peak pendulum "
+                  f"excursion [rad] | peak command [{unit}] |", "|---|---:|---:|---:|"]
+        for name, r in document["responses"].items():
+            command = next(v for k, v in r.items() if k.startswith("peak_command"))
+            lines.append(f"| `{name}` | {_fmt(r['peak_arm_angle_rad'])} | {_fmt(r['peak_pendulum_excursion_rad'])} "
+                         f"| {_fmt(command)} |")
+    bounds = document["bounds"]
+    lines += ["", f"Bounds under every hypothesis: arm angle {_fmt(bounds['arm_angle_rad'])} rad, pendulum "
+              f"excursion {_fmt(bounds['pendulum_excursion_rad'])} rad, command "
+              f"{_fmt(next(v for k, v in bounds.items() if k.startswith('command')))} {unit}.", ""]
+    if document["excitation"].get("bands"):
+        lines += ["## Excitation", "", f"{document['excitation']['family']}; fundamental "
+                  f"{_fmt(document['excitation']['fundamental_hz'])} Hz, "
+                  f"{_fmt(document['excitation']['periods'])} periods, ramps of {_fmt(document['excitation']['ramp_s'])} s, "
+                  f"{document['excitation']['phases']} phases; seed {document['seed']}.", "",
+                  "| band [Hz] | components | amplitude |", "|---|---:|---:|"]
+        for band in document["excitation"]["bands"]:
+            amplitude = next((f"{_fmt(v)} {k.split('_', 1)[1].replace('_', ' ')}" for k, v in band.items()
+                              if k.startswith("amplitude")), "")
+            lines.append(f"| {_fmt(band['low_hz'])}-{_fmt(band['high_hz'])} | {band['components']} | {amplitude} |")
+    if document["notes"]:
+        lines += ["", "## Notes", ""] + [f"- {note}" for note in document["notes"]]
+    return "\n".join(lines) + "\n"
+
+
+def plot_design(design: Design, path: Path) -> None:
+    """The command, and the arm angle, the pendulum's excursion and the arm angle's departure from the accepted
+    hypothesis [counts] under every hypothesis (Drake runs), overlaid."""
+    _, unit = _unit(design)
+    fig = Figure(figsize=(10, 9))
+    axes = fig.subplots(4, 1, sharex=True)
+    time = np.arange(design.command.size) * design.period
+    axes[0].plot(time, design.command / design.torque_per_volt, color="k", lw=0.7)
+    axes[0].set_ylabel(f"{'dither' if design.mode == 'balancing' else 'command'} [{unit}]")
+    rest = 0.0 if design.mode == "balancing" else np.pi
+    count = 2 * np.pi / design.record.rig.counts_per_rev
+    reference = design.runs.get(design.hypotheses.hypotheses[0].name)
+    for name, run in design.runs.items():
+        axes[1].plot(run.time, run.angles[:, 1], lw=0.8, label=name)
+        axes[2].plot(run.time, run.angles[:, 0] - rest, lw=0.8)
+        if reference is not None:
+            n = min(run.time.size, reference.time.size)
+            axes[3].plot(run.time[:n], (run.angles[:n, 1] - reference.angles[:n, 1]) / count, lw=0.8)
+    for ax, bound in ((axes[1], design.bounds.arm), (axes[2], design.bounds.pendulum)):
+        for sign in (-1, 1):
+            ax.axhline(sign * bound, color="r", lw=0.6, ls=":")
+    axes[1].set_ylabel("arm angle phi [rad]")
+    axes[2].set_ylabel("pendulum from " + ("upright" if design.mode == "balancing" else "hanging") + " [rad]")
+    axes[3].set_ylabel("phi - phi(accepted) [counts]")
+    axes[3].set_xlabel("time [s]")
+    axes[1].legend(fontsize=7, loc="upper right")
+    for ax in axes:
+        ax.axvline(design.duration / 2, color="0.6", lw=0.6, ls="--")
+    axes[0].set_title("designed experiment (dashed: train | held-out halves) and its predicted responses")
+    fig.tight_layout()
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=110)
+
+
+def _rounded(value):
+    """Floats to SIGNIFICANT_DIGITS significant digits (non-finite as null), recursively."""
+    if isinstance(value, dict):
+        return {key: _rounded(v) for key, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_rounded(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        return float(f"{value:.{SIGNIFICANT_DIGITS}g}") if math.isfinite(value) else None
+    if isinstance(value, (np.integer, np.bool_)):
+        return value.item()
+    return value
+
+
+def _fmt(value) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, str):
+        return value
+    return f"{value:.4g}"

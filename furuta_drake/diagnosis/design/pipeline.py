@@ -1,0 +1,333 @@
+"""``furuta-drake design`` as one function, :func:`design_experiment`: read a diagnosis -> the hypotheses to
+separate -> search the excitation family on the surrogate -> check the best design in Drake under every
+hypothesis -> predict what the diagnosis would decide with its log added. ``docs/design.md`` explains every
+output.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from furuta_drake.diagnosis.candidates import apply_effects
+from furuta_drake.diagnosis.design.criterion import Parametrised, experiment_windows, refit_residuals
+from furuta_drake.diagnosis.design.family import Family
+from furuta_drake.diagnosis.design.hypotheses import Hypotheses, parse_target, read_hypotheses
+from furuta_drake.diagnosis.design.inputs import DiagnosisRecord, read_diagnosis
+from furuta_drake.diagnosis.design.optimise import (
+    SAFETY, Bounds, Candidate, Evaluator, Search, optimise,
+)
+from furuta_drake.diagnosis.design.predict import RIVAL, TRUTH, predict_direction
+from furuta_drake.diagnosis.design.rollout import (
+    drake_run, nominal_lqr_gain, surrogate_closed_loop, surrogate_runs,
+)
+from furuta_drake.diagnosis.fit import scales_of
+from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, window_samples
+from furuta_drake.errors import ConfigError, SimulationDiverged
+
+PENDULUM_BOUND = {"hanging": 0.5, "balancing": 0.2}  # [rad] from hanging or from the upright
+DRAKE_RESCALES = 2
+SETTLES = 0.8  # a design settles a pair when the rule tells its hypotheses apart in this share of noise draws
+REPEATS = (2, 3, 4, 6, 8)  # longer experiments tried for the suggested duration (multiples of it)
+AUTO_DURATION = 8.0  # [s] the experiment searched when no duration is given
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """Sizes and seeds of a design; the defaults are the command's, smaller values trade precision for speed.
+
+    Attributes
+    ----------
+    generations, population : the cross-entropy search's generations and designs per generation.
+    draws : Monte Carlo noise draws of the predicted outcome.
+    bootstrap : paired resamples of the held-out windows in each draw (the diagnosis' rule).
+    refit_iterations : Gauss-Newton steps of the refits that score the search's best designs and the final one.
+    seed : seed of the search's draws and of the noise draws.
+    """
+
+    generations: int = 3
+    population: int = 16
+    draws: int = 40
+    bootstrap: int = 1000
+    refit_iterations: int = 3
+    seed: int = 0
+
+    def validate(self) -> None:
+        for name in ("generations", "population", "draws", "bootstrap", "refit_iterations"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ConfigError(f"design setting {name} must be a positive integer, got {value!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ConfigError(f"design setting seed must be a non-negative integer, got {self.seed!r}")
+
+
+FAST = DesignSettings(generations=1, population=8, draws=8, bootstrap=200, refit_iterations=1)
+"""Settings for quick checks: every stage runs, briefly."""
+
+
+@dataclass
+class Run:
+    """One hypothesis under the final design in Drake."""
+
+    time: np.ndarray  # [s]
+    angles: np.ndarray  # (N, 2) true [theta, phi] [rad]
+    command: np.ndarray  # (N,) logged command [N m] (with --balancing: the LQR's plus the dither)
+    peaks: dict[str, float]
+
+
+@dataclass
+class Design:
+    """A finished design (``docs/design.md``): ``status`` is ``design``, ``no_separation`` or ``refused``."""
+
+    status: str
+    reason: str
+    mode: str  # "hanging" | "balancing"
+    duration: float  # [s]
+    period: float  # [s]
+    input_kind: str  # "torque" | "voltage"
+    torque_per_volt: float  # [N m / V] (1 for torque)
+    bounds: Bounds
+    hypotheses: Hypotheses
+    command: np.ndarray | None  # (N,) the played command [N m] (the dither with --balancing)
+    excitation: dict
+    pairs: list[dict]
+    runs: dict[str, Run]
+    search: dict
+    notes: list[str]
+    record: DiagnosisRecord
+    settings: DesignSettings
+    options: dict = field(default_factory=dict)
+
+
+def design_experiment(diagnosis: str | Path, *, duration: float | None = None, balancing: bool = False,
+                      targets: list[str] = (), arm_bound: float = 1.0, settings: DesignSettings = DesignSettings(),
+                      progress: Callable[[str], None] | None = None) -> Design:
+    """Design the experiment that separates a diagnosis' competing hypotheses.
+
+    Parameters
+    ----------
+    diagnosis : the output directory of ``furuta-drake diagnose``.
+    duration : length of the experiment [s]; its first half trains, its second half is held out. None: the
+        shortest repeat of an ``AUTO_DURATION`` experiment predicted to settle every pair, up to ``REPEATS[-1]``
+        times as long.
+    balancing : a dither added to the project's LQR balancing the upright, instead of an open-loop command played
+        from rest with the pendulum hanging.
+    targets : ``effect=value`` texts: separate the accepted model from it plus that effect at that size (the main
+        parameter's value, as ``detection_limits`` states it) instead of from its rivals.
+    arm_bound : the largest arm angle |phi| allowed under any hypothesis [rad].
+    settings : sizes and seeds (:class:`DesignSettings`); progress : called with a line per stage.
+    """
+    settings.validate()
+    if duration is not None and not (isinstance(duration, (int, float)) and math.isfinite(duration)
+                                     and duration > 0):
+        raise ConfigError(f"--duration must be a positive number of seconds, got {duration!r}")
+    if not (isinstance(arm_bound, (int, float)) and math.isfinite(arm_bound) and arm_bound > 0):
+        raise ConfigError(f"--arm-bound must be a positive angle [rad], got {arm_bound!r}")
+    parsed = [parse_target(text) for text in targets]
+    record = read_diagnosis(diagnosis)
+    rig, period = record.rig, record.rig.sample_period
+    horizon, smooth = window_samples(period, rig)
+    shortest = 2 * (horizon + 2 * smooth + 1) * period
+    if duration is not None and duration < shortest:
+        raise ConfigError(f"--duration {duration:g} s is too short: each half of the experiment must hold a gap "
+                          f"window of this rig ({shortest:.3g} s in all)")
+    hypotheses = read_hypotheses(record.report, rig, record.train, parsed)
+    mode = "balancing" if balancing else "hanging"
+    say = progress or (lambda line: None)
+    say(f"{len(hypotheses.hypotheses)} hypotheses, {len(hypotheses.pairs)} pairs to separate")
+    scales = scales_of(record.train, hypotheses.nominal)
+    accepted = hypotheses.hypotheses[0].model
+    family = Family(float(duration or AUTO_DURATION), period, accepted.a,
+                    accepted.back_emf_damping + accepted.arm_friction.viscous)
+    bounds = Bounds(float(arm_bound), PENDULUM_BOUND[mode], rig.torque_limit)
+    gain = nominal_lqr_gain(rig) if balancing else None
+    base = family.base()
+    if balancing:
+        evaluator = Evaluator(base, hypotheses, rig, scales, bounds,
+                              lambda model, dithers: surrogate_closed_loop(model, gain, dithers, period,
+                                                                           rig.torque_limit, rig.counts_per_rev),
+                              base.torque_dither, None, hanging=False)
+    else:
+        evaluator = Evaluator(base, hypotheses, rig, scales, bounds,
+                              lambda model, commands: (surrogate_runs(model, commands, period), commands),
+                              base.feedforward, base.arm_motion, hanging=True)
+    search = optimise(evaluator, hypotheses, settings.generations, settings.population, settings.refit_iterations,
+                      settings.seed, say)
+    torque_per_volt = record.train[0].torque_per_volt if record.input_kind == "voltage" else 1.0
+    common = dict(mode=mode, period=period, input_kind=record.input_kind, torque_per_volt=torque_per_volt,
+                  bounds=bounds, hypotheses=hypotheses, record=record, settings=settings,
+                  notes=list(hypotheses.notes), search=_search_summary(search),
+                  options={"duration": duration, "mode": mode, "targets": list(targets), "arm_bound": arm_bound,
+                           "settings": dataclasses.asdict(settings)})
+    if not search.directions:
+        return Design("no_separation", "no experiment separates them: " + _inseparable_text(search, hypotheses),
+                      duration=family.duration, command=None, excitation={}, pairs=[], runs={}, **common)
+    if search.best is None:
+        return Design("refused", f"no design of the family keeps the arm within {bounds.arm:g} rad, the pendulum "
+                      f"within {bounds.pendulum:g} rad of {'the upright' if balancing else 'hanging'} and the "
+                      f"command within {bounds.command:.4g} N m under every hypothesis",
+                      duration=family.duration, command=None, excitation={}, pairs=[], runs={}, **common)
+    if search.inseparable:
+        common["notes"].append("left out, no experiment of the family separates them: "
+                               + _inseparable_text(search, hypotheses))
+    design = _final(search, family, balancing, gain, common, scales, say)
+    if duration is None and design.status == "design":
+        needed = [pair["suggested_duration_s"] for pair in design.pairs]
+        longer = max((d for d in needed if d is not None), default=family.duration)
+        if longer > family.duration:
+            say(f"repeating the experiment to {longer:g} s")
+            design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales,
+                            say)
+    for pair in design.pairs:
+        if pair["detection_probability"] < SETTLES:
+            longer = pair["suggested_duration_s"]
+            design.notes.append(
+                f"{' vs '.join(pair['hypotheses'])}: predicted detection probability "
+                f"{pair['detection_probability']:.0%}, below {SETTLES:.0%}; " + (
+                    f"the same experiment repeated to {longer:g} s would reach it (--duration {longer:g})"
+                    if longer else f"not reached by repeating it up to {REPEATS[-1]} times"))
+    return design
+
+
+def _final(search: Search, family: Family, balancing: bool, gain, common: dict, scales, say) -> Design:
+    """The search's best design played for ``family.duration``: checked in Drake under every hypothesis (scaled
+    down if a bound is left) and its outcome predicted; ``refused`` when it still leaves a bound."""
+    hypotheses, bounds = common["hypotheses"], common["bounds"]
+    played = (family.torque_dither if balancing else family.feedforward)(search.best.amplitudes)[0]
+    best, runs = _checked_in_drake(dataclasses.replace(search.best, command=played), family, hypotheses,
+                                   common["record"].rig, bounds, balancing, gain, common["settings"], say)
+    excitation = {"family": "band-limited multisine " + ("torque dither added to the LQR" if balancing else
+                                                          "arm motion played as feedforward torque"),
+                  **family.describe(best.amplitudes, "N_m" if balancing else "rad")}
+    if balancing:
+        excitation["lqr_gain"] = [float(v) for v in np.ravel(gain)]
+    common = {**common, "notes": list(common["notes"])}
+    if runs is None:
+        return Design("refused", "the best design leaves a bound under some hypothesis in Drake even scaled down: "
+                      + _violations(best.peaks, bounds, hypotheses), duration=family.duration, command=None,
+                      excitation=excitation, pairs=[], runs={}, **common)
+    say("predicting the diagnosis' outcome")
+    pairs = _predicted_pairs(search, runs, hypotheses, common["record"], scales, common["settings"], family.duration)
+    return Design("design", "", duration=family.duration, command=best.command, excitation=excitation, pairs=pairs,
+                  runs={hypotheses.hypotheses[h].name: run for h, run in runs.items()}, **common)
+
+
+def _checked_in_drake(best: Candidate, family: Family, hypotheses: Hypotheses, rig, bounds: Bounds, balancing: bool,
+                      gain, settings: DesignSettings, say) -> tuple[Candidate, dict[int, Run] | None]:
+    """The best design played in Drake on every hypothesis it was checked on; scaled down (by the worst ratio,
+    with the search's safety margin) while a bound is left, at most ``DRAKE_RESCALES`` times. None for the
+    runs when it still leaves one."""
+    for _ in range(DRAKE_RESCALES + 1):
+        runs = {}
+        for h in best.runs:
+            say(f"checking the design in Drake on {hypotheses.hypotheses[h].name}")
+            try:
+                result = drake_run(rig, hypotheses.hypotheses[h].model, best.command, family.duration, balancing,
+                                   settings.seed, gain)
+            except SimulationDiverged:
+                runs[h] = Run(np.zeros(0), np.zeros((0, 2)), np.zeros(0), {"arm": np.inf, "pendulum": np.inf,
+                                                                           "command": np.inf})
+                continue
+            angles = result.state[:, :2]
+            rest = 0.0 if balancing else np.pi
+            runs[h] = Run(result.time, angles, result.torque, {
+                "arm": float(np.max(np.abs(angles[:, 1]))), "pendulum": float(np.max(np.abs(angles[:, 0] - rest))),
+                "command": float(np.max(np.abs(result.torque)))})
+        ratio = min(min(bounds.arm / max(run.peaks["arm"], 1e-300),
+                        bounds.pendulum / max(run.peaks["pendulum"], 1e-300),
+                        bounds.command * (1 + 1e-9) / max(run.peaks["command"], 1e-300)) for run in runs.values())
+        best = dataclasses.replace(best, peaks={h: run.peaks for h, run in runs.items()})
+        if ratio >= 1.0:
+            return best, runs
+        scale = SAFETY * ratio if ratio > 0 else 0.5  # 0: a run diverged
+        best = dataclasses.replace(best, level=best.level * scale, command=best.command * scale)
+    return best, None
+
+
+def _predicted_pairs(search: Search, runs: dict[int, Run], hypotheses: Hypotheses, record: DiagnosisRecord,
+                     scales, settings: DesignSettings, duration: float) -> list[dict]:
+    """Per pair: its hypotheses, why, and per informative direction the exact noncentrality and the predicted
+    outcome of the rule (:mod:`furuta_drake.diagnosis.design.predict`) on the Drake runs, with the duration
+    (a multiple of ``duration`` in ``REPEATS``) at which the outcome would be detected in ``SETTLES`` of the draws
+    (None when none is)."""
+    from furuta_drake.diagnosis.split import split_heldout
+
+    rig, counts = record.rig, record.rig.counts_per_rev
+    old_windows = make_windows(record.heldout if record.heldout else split_heldout(record.train)[1], rig)
+    old_cache: dict[str, np.ndarray] = {}
+
+    def old_excess(effects) -> np.ndarray:
+        key = repr(effects)
+        if key not in old_cache:
+            old_cache[key] = evaluate_gap(apply_effects(hypotheses.nominal, effects), old_windows, counts).per_window
+        return old_cache[key]
+
+    out = []
+    for index, pair in enumerate(hypotheses.pairs):
+        names = [hypotheses.hypotheses[pair.first].name, hypotheses.hypotheses[pair.second].name]
+        directions = [d for d in search.directions + search.inseparable if d.pair == index]
+        entry = {"hypotheses": names, "step": pair.step, "why": pair.why, "nested": pair.nested, "directions": []}
+        for direction in directions:
+            truth, rival = hypotheses.hypotheses[direction.truth], hypotheses.hypotheses[direction.rival]
+            run = runs[direction.truth]
+            train, heldout = experiment_windows(run.angles[:, :, None], run.command[None], record.rig.sample_period,
+                                                rig)
+            fits = {key: refit_residuals(Parametrised(hypotheses.nominal, effects, scales), train, heldout, counts,
+                                         settings.refit_iterations)
+                    for key, effects in ((TRUTH, truth.effects), (RIVAL, rival.effects),
+                                         ("previous", pair.previous))}
+            new = dict(zip((TRUTH, RIVAL), pair.new if direction.truth == pair.first else pair.new[::-1]))
+            arguments = (fits[TRUTH], fits[RIVAL], fits["previous"],
+                         {TRUTH: old_excess(truth.effects), RIVAL: old_excess(rival.effects),
+                          "previous": old_excess(pair.previous)},
+                         new, pair.nested, pair.step == 1, truth.model, counts, settings.draws, settings.bootstrap,
+                         settings.seed)
+            outcome = predict_direction(*arguments)
+            repeats = 1
+            if outcome["detection_probability"] < SETTLES:
+                repeats = next((r for r in REPEATS
+                                if predict_direction(*arguments, replicas=r)["detection_probability"] >= SETTLES),
+                               None)
+            outcome["suggested_duration_s"] = None if repeats is None else duration * repeats
+            squared = fits[RIVAL].residuals[1:] ** 2
+            entry["directions"].append({"truth": truth.name, "rival": rival.name,
+                                        "noncentrality": float(np.sum(squared) / fits[TRUTH].variance),
+                                        "rms_difference_counts": float(np.sqrt(np.mean(squared))),
+                                        "separable": direction in search.directions, **outcome})
+        entry["detection_probability"] = min(d["detection_probability"] for d in entry["directions"])
+        needed = [d["suggested_duration_s"] for d in entry["directions"]]
+        entry["suggested_duration_s"] = None if None in needed else max(needed)
+        out.append(entry)
+    return out
+
+
+def _search_summary(search: Search) -> dict:
+    feasible = [c for c in search.candidates if c.feasible]
+    return {"designs_evaluated": len(search.candidates), "within_bounds": len(feasible),
+            "criterion": "the smallest noncentrality over every pair's informative directions (surrogate: one "
+                         "linearised refit of the rival on the train half ranks a generation, iterated refits score "
+                         "its best designs)",
+            "best_weakest_noncentrality": None if search.best is None else search.best.score(search.directions,
+                                                                                            refined=True)}
+
+
+def _inseparable_text(search: Search, hypotheses: Hypotheses) -> str:
+    names = {(d.truth, d.rival) for d in search.inseparable}
+    return "; ".join(f"{hypotheses.hypotheses[t].name} (as the truth) and {hypotheses.hypotheses[r].name}: their "
+                     f"held-out windows differ by less than the noise of one sample over the whole experiment, once "
+                     f"the rival's parameters and initial states are refit" for t, r in sorted(names))
+
+
+def _violations(peaks: dict[int, dict[str, float]], bounds: Bounds, hypotheses: Hypotheses) -> str:
+    parts = []
+    for h, peak in peaks.items():
+        for key, limit in (("arm", bounds.arm), ("pendulum", bounds.pendulum), ("command", bounds.command)):
+            if not peak[key] <= limit * (1 + 1e-9):
+                parts.append(f"{hypotheses.hypotheses[h].name}: {key} {peak[key]:.3g} > {limit:.3g}")
+    return "; ".join(parts)
+

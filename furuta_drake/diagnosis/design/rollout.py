@@ -1,0 +1,126 @@
+"""A candidate experiment played on a hypothesis: fast batches on the diagnosis' surrogate, the check in Drake.
+
+:func:`surrogate_runs` integrates many commands at once from rest with the surrogate the diagnosis fits with
+(:func:`~furuta_drake.diagnosis.surrogate.predict_windows`, one window as long as the experiment);
+:func:`drake_run` plays one command on the Drake diagram of a hypothesis
+(:func:`~furuta_drake.diagnosis.corrected.model_config`: MultibodyPlant, the friction system and the actuator
+chain), open loop from rest hanging or, for ``balancing``, added to the project's LQR of the rig file's nominal
+model balancing the upright.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
+from furuta_drake.diagnosis.gap import COMMAND_PAD, substeps_for
+from furuta_drake.diagnosis.surrogate import Model, predict_windows
+from furuta_drake.rig import RigParameters
+
+HANGING = (np.pi, 0.0, 0.0, 0.0)  # [theta, phi, theta_dot, phi_dot]: at rest, the pendulum down
+UPRIGHT = (0.0, 0.0, 0.0, 0.0)
+
+
+def surrogate_runs(model: Model, commands: np.ndarray, period: float) -> np.ndarray:
+    """(N, 2, D) angles [theta, phi] [rad] of ``model`` under each of the D commands (D, N) [N m] (held over
+    each sample), open loop from rest hanging; row k is the angle at sample k."""
+    commands = np.atleast_2d(commands)
+    designs, samples = commands.shape
+    padded = np.concatenate([np.zeros((designs, COMMAND_PAD)), commands, np.zeros((designs, 1))], axis=1)
+    starts = COMMAND_PAD + np.arange(designs) * padded.shape[1]
+    x0 = np.tile(np.asarray(HANGING, dtype=float)[:, None], (1, designs))
+    return predict_windows(model, x0, padded.ravel(), starts, samples, period, substeps_for(period))
+
+
+def drake_config(rig: RigParameters, model: Model, command: np.ndarray, duration: float, balancing: bool,
+                 seed: int, lqr_gain: np.ndarray | None = None) -> SimulationConfig:
+    """The simulate config that plays ``command`` [N m] on ``model`` (a hypothesis of ``rig``): open loop from
+    rest hanging, or with ``balancing`` added to the LQR of gain ``lqr_gain`` (the rig file's) from rest
+    upright."""
+    from furuta_drake.diagnosis.corrected import model_config
+
+    config = model_config(rig, model)
+    controller = dataclasses.replace(config.controller, mode="lqr" if balancing else "open_loop",
+                                     gain=None if lqr_gain is None else [float(v) for v in np.ravel(lqr_gain)])
+    return dataclasses.replace(
+        config, controller=controller, excitation=ExcitationConfig(command=[float(v) for v in command]),
+        initial_state=list(UPRIGHT if balancing else HANGING), duration=duration, seed=seed,
+        monitor=MonitorConfig(theta_bound=None))
+
+
+def drake_run(rig: RigParameters, model: Model, command: np.ndarray, duration: float, balancing: bool, seed: int,
+              lqr_gain: np.ndarray | None = None):
+    """:func:`drake_config` simulated: the :class:`~furuta_drake.simulate.SimulationResult`."""
+    from furuta_drake.simulate import simulate
+
+    return simulate(drake_config(rig, model, command, duration, balancing, seed, lqr_gain))
+
+
+def nominal_lqr_gain(rig: RigParameters) -> np.ndarray:
+    """The gain (1, 4) of the project's LQR designed on the rig file's nominal model, as the lab would run it."""
+    from furuta_drake.diagram import build_furuta_diagram
+
+    return build_furuta_diagram(SimulationConfig.from_rig(rig.replace(effects=None))).lqr_gain
+
+
+def surrogate_closed_loop(model: Model, gain: np.ndarray, dithers: np.ndarray, period: float, limit: float,
+                          counts: int) -> tuple[np.ndarray, np.ndarray]:
+    """(angles (N, 2, D) [rad], logged commands (D, N) [N m]) of ``model`` balanced from rest upright by the LQR
+    u_k = sat(-K [theta_k, phi_k, theta_dot_k, phi_dot_k] + dither_k) (encoder angles of ``counts`` per
+    revolution, true velocities, as the project's LQR reads them; ``limit`` [N m]), one dither per row of
+    ``dithers`` (D, N).
+
+    The command depends on the state, so the surrogate's right-hand side and actuator chain (delay, lag, static
+    map, Dahl or LuGre bristle) are stepped one sample at a time, with the same RK4 substeps as
+    :func:`~furuta_drake.diagnosis.surrogate.predict_windows`.
+    """
+    from furuta_drake.diagnosis.surrogate import (
+        _accelerations, _acts, _delayed_command, applied_torque, bristle_step,
+    )
+    from furuta_drake.friction import bristle_friction_torque
+
+    dithers = np.atleast_2d(dithers)
+    designs, samples = dithers.shape
+    substeps = substeps_for(period)
+    dt = period / substeps
+    width = COMMAND_PAD + samples + 1
+    history = np.zeros(designs * width)
+    starts = COMMAND_PAD + np.arange(designs) * width
+    x = np.tile(np.asarray(UPRIGHT, dtype=float)[:, None], (1, designs))
+    lag_state, z = np.zeros(designs), np.zeros(designs)
+    arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
+    bristles, p = model.arm_friction.has_bristles, model.arm_friction
+    resolution = 2 * np.pi / counts
+    K = np.ravel(gain)
+
+    def stage(state, z0, phi0, tau):
+        if bristles:  # as predict_windows: the bristle's exact step from the substep's start
+            tau = tau + bristle_friction_torque(bristle_step(z0, state[1] - phi0, state[3], p), state[3], p)
+        return _accelerations(model, state, tau, arm, pendulum)
+
+    angles, logged = np.empty((samples, 2, designs)), np.empty((designs, samples))
+    for k in range(samples):
+        angles[k] = x[:2]
+        measured = np.vstack([np.round(x[:2] / resolution) * resolution, x[2:]])
+        u = np.clip(-(K @ measured) + dithers[:, k], -limit, limit)
+        history[starts + k] = u
+        logged[:, k] = u
+        for i in range(substeps):
+            held = _delayed_command(history, starts, k * period + i * dt, dt, period, model.delay)
+            if model.lag > 0:
+                decay = np.exp(-dt / model.lag)
+                start, lag_state = lag_state, held + (lag_state - held) * decay
+                held = held + (start - held) * model.lag / dt * (1.0 - decay)
+            tau = applied_torque(model, held)
+            k1 = stage(x, z, x[1], tau)
+            k2 = stage(x + 0.5 * dt * k1, z, x[1], tau)
+            k3 = stage(x + 0.5 * dt * k2, z, x[1], tau)
+            k4 = stage(x + dt * k3, z, x[1], tau)
+            x_next = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+            if bristles:
+                moved = x_next[1] - x[1]
+                z = bristle_step(z, moved, moved / dt, p)
+            x = x_next
+    return angles, logged
