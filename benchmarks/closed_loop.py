@@ -50,7 +50,12 @@ import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (
-    ConstantVectorSource, LogVectorOutput, MatrixGain, Multiplexer, Saturation, ZeroOrderHold,
+    ConstantVectorSource,
+    LogVectorOutput,
+    MatrixGain,
+    Multiplexer,
+    Saturation,
+    ZeroOrderHold,
 )
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
@@ -79,16 +84,23 @@ def configurations(duration: float) -> dict[str, SimulationConfig]:
     def variant(source: str, compensation: bool = False, adaptation: bool = False) -> SimulationConfig:
         law = DahlAdaptation(k_sigma=KSigmaAdaptationParameters()) if adaptation else None
         return dataclasses.replace(
-            base, controller=dataclasses.replace(base.controller, velocity_source=source,
-                                                 friction_compensation=compensation),
-            observers=dataclasses.replace(base.observers, dahl=dataclasses.replace(base.observers.dahl,
-                                                                                   adaptation=law)))
+            base,
+            controller=dataclasses.replace(base.controller, velocity_source=source, friction_compensation=compensation),
+            observers=dataclasses.replace(
+                base.observers, dahl=dataclasses.replace(base.observers.dahl, adaptation=law)
+            ),
+        )
 
-    return {"true LQR": variant("true"), "HG": variant("hg"), "VFE+Dahl": variant("vfe", True),
-            "VFE+Dahl+K": variant("vfe", True, True)}
+    return {
+        "true LQR": variant("true"),
+        "HG": variant("hg"),
+        "VFE+Dahl": variant("vfe", True),
+        "VFE+Dahl+K": variant("vfe", True, True),
+    }
 
 
 # --- The C++ floor ------------------------------------------------------------------------------------------------
+
 
 def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring)."""
@@ -107,8 +119,9 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     measured = encoder.get_output_port()
 
     lqr = builder.AddSystem(MatrixGain(-np.asarray(gain).reshape(1, 4)))
-    saturation = builder.AddSystem(Saturation([-config.controller.lqr.torque_limit],
-                                              [config.controller.lqr.torque_limit]))
+    saturation = builder.AddSystem(
+        Saturation([-config.controller.lqr.torque_limit], [config.controller.lqr.torque_limit])
+    )
     hold = builder.AddSystem(ZeroOrderHold(period, 1))
     builder.Connect(lqr.get_output_port(), saturation.get_input_port())
     builder.Connect(saturation.get_output_port(), hold.get_input_port())
@@ -164,6 +177,7 @@ def time_package(config: SimulationConfig) -> tuple[float, SimulationResult]:
 
 
 # --- The scipy peer -----------------------------------------------------------------------------------------------
+
 
 def held_input_discretisation(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Ad, Bd of dx/dt = A x + B u with u held over h (matrix exponential of the augmented system)."""
@@ -246,8 +260,10 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
 
 # --- The table ----------------------------------------------------------------------------------------------------
 
-def agreement(config: SimulationConfig, result: SimulationResult, states: np.ndarray,
-              measured: np.ndarray) -> tuple[float, float]:
+
+def agreement(
+    config: SimulationConfig, result: SimulationResult, states: np.ndarray, measured: np.ndarray
+) -> tuple[float, float]:
     """(max |x_package - x_peer| up to the first sample whose encoder counts differ, that sample's time [s];
     the run's duration if none differs)."""
     differs = np.flatnonzero(np.any(result.measured != measured, axis=1))
@@ -282,28 +298,38 @@ def main() -> None:
                 _, fine_states, _ = scipy_closed_loop(fine, result.lqr_gain)
                 check[name] = float(np.max(np.abs(simulate(fine).state - fine_states)))
 
-    print(f"{args.duration:g} s closed loop, Lund rig, best of {args.repeats}, CPU seconds on one core; x real = "
-          f"simulated / CPU s, ratio = CPU s / C++ floor's, speedup = scipy peer's CPU s / CPU s")
-    print(f"{'config':<11} {'cpu [s]':>7} {'wall [s]':>8} {'x real':>6} {'floor [s]':>9} {'ratio':>5} "
-          f"{'scipy [s]':>9} {'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}")
+    print(
+        f"{args.duration:g} s closed loop, Lund rig, best of {args.repeats}, CPU seconds on one core; x real = "
+        f"simulated / CPU s, ratio = CPU s / C++ floor's, speedup = scipy peer's CPU s / CPU s"
+    )
+    print(
+        f"{'config':<11} {'cpu [s]':>7} {'wall [s]':>8} {'x real':>6} {'floor [s]':>9} {'ratio':>5} "
+        f"{'scipy [s]':>9} {'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}"
+    )
     for name in configs:
         deviation, time_differs = until[name]
-        print(f"{name:<11} {package[name]:>7.3f} {wall[name]:>8.3f} {args.duration / package[name]:>6.1f} "
-              f"{floor[name]:>9.3f} "
-              f"{package[name] / floor[name]:>5.2f} {peer[name]:>9.2f} {peer[name] / package[name]:>7.1f} | "
-              f"{deviation:>22.1e} ({time_differs:>5.2f} s) {check[name]:>18.1e}")
+        print(
+            f"{name:<11} {package[name]:>7.3f} {wall[name]:>8.3f} {args.duration / package[name]:>6.1f} "
+            f"{floor[name]:>9.3f} "
+            f"{package[name] / floor[name]:>5.2f} {peer[name]:>9.2f} {peer[name] / package[name]:>7.1f} | "
+            f"{deviation:>22.1e} ({time_differs:>5.2f} s) {check[name]:>18.1e}"
+        )
     full = "VFE+Dahl+K"
     checks = [
         (f"full diagram >= {TARGET_REAL_TIME:g}x real time", args.duration / package[full] >= TARGET_REAL_TIME),
         (f"full diagram <= {TARGET_FLOOR_RATIO:g}x its C++ floor", package[full] / floor[full] <= TARGET_FLOOR_RATIO),
-        (f"full diagram >= {TARGET_PEER_SPEEDUP:g}x faster than the scipy peer",
-         peer[full] / package[full] >= TARGET_PEER_SPEEDUP),
+        (
+            f"full diagram >= {TARGET_PEER_SPEEDUP:g}x faster than the scipy peer",
+            peer[full] / package[full] >= TARGET_PEER_SPEEDUP,
+        ),
         (f"package = scipy peer within {TOLERANCE:g} (2^32-count encoder)", max(check.values()) <= TOLERANCE),
     ]
     for label, met in checks:
         print(f"{label}: {'met' if met else 'NOT met'}")
-    print(f"the C++ floor itself is {peer[full] / floor[full]:.1f}x faster than the scipy peer (full diagram's loop): "
-          f"the ceiling of the speedup for any Drake diagram of this loop")
+    print(
+        f"the C++ floor itself is {peer[full] / floor[full]:.1f}x faster than the scipy peer (full diagram's loop): "
+        f"the ceiling of the speedup for any Drake diagram of this loop"
+    )
 
     if args.profile:
         profiler = cProfile.Profile()

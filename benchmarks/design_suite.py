@@ -72,9 +72,14 @@ def play_on_true_rig(case: CaseSpec, experiment: Path, directory: Path) -> tuple
     torque = rows[:, 1] * (rig.motor.torque_constant / rig.motor.resistance if header[1] == "voltage" else 1.0)
     config = SimulationConfig.from_rig(rig)
     config = dataclasses.replace(
-        config, controller=dataclasses.replace(config.controller, mode="open_loop"),
-        excitation=ExcitationConfig(command=torque.tolist()), initial_state=list(HANGING),
-        duration=float(rows.shape[0] * rig.sample_period), seed=case.seed + 900, monitor=MonitorConfig(theta_bound=None))
+        config,
+        controller=dataclasses.replace(config.controller, mode="open_loop"),
+        excitation=ExcitationConfig(command=torque.tolist()),
+        initial_state=list(HANGING),
+        duration=float(rows.shape[0] * rig.sample_period),
+        seed=case.seed + 900,
+        monitor=MonitorConfig(theta_bound=None),
+    )
     for effect in case.effects:
         config = with_effect(config, effect, case.level)
     result = simulate(config)
@@ -95,10 +100,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"])
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")
-    parser.add_argument("--right-checks", type=int, default=3,
-                        help="right, non-confusable cases with rivals to separate that are re-run with a design")
-    parser.add_argument("--duration", type=float,
-                        help="length of the designed experiment [s] (default: the design's own choice)")
+    parser.add_argument(
+        "--right-checks",
+        type=int,
+        default=3,
+        help="right, non-confusable cases with rivals to separate that are re-run with a design",
+    )
+    parser.add_argument(
+        "--duration", type=float, help="length of the designed experiment [s] (default: the design's own choice)"
+    )
     parser.add_argument("--workers", type=int, help="processes of each diagnosis (default: all cores)")
     args = parser.parse_args(argv)
     out = args.out
@@ -115,16 +125,24 @@ def main(argv: list[str] | None = None) -> int:
             answer = write_case(case, folder)
             answer_path.write_text(json.dumps(answer, indent=2, sort_keys=True) + "\n")
         answers[case.name] = json.loads(answer_path.read_text())
-        before[case.name] = diagnosed(out / "before" / case.name, folder / "rig.yaml",
-                                      sorted(folder.glob("train_*.csv")), sorted(folder.glob("heldout_*.csv")),
-                                      args.workers)
+        before[case.name] = diagnosed(
+            out / "before" / case.name,
+            folder / "rig.yaml",
+            sorted(folder.glob("train_*.csv")),
+            sorted(folder.glob("heldout_*.csv")),
+            args.workers,
+        )
         report = before[case.name]
-        print(f"[{i}/{len(selected)}] {case.name:<58} before: {report['verdict']:<22} "
-              f"{'right' if verdict_is_right(answers[case.name], report) else 'WRONG'}"
-              f"{' confusable' if report.get('confusable') else ''}", flush=True)
+        print(
+            f"[{i}/{len(selected)}] {case.name:<58} before: {report['verdict']:<22} "
+            f"{'right' if verdict_is_right(answers[case.name], report) else 'WRONG'}"
+            f"{' confusable' if report.get('confusable') else ''}",
+            flush=True,
+        )
 
-    targeted = [c for c in selected if not verdict_is_right(answers[c.name], before[c.name])
-                or before[c.name].get("confusable")]
+    targeted = [
+        c for c in selected if not verdict_is_right(answers[c.name], before[c.name]) or before[c.name].get("confusable")
+    ]
     rows, checks = [], 0
     for case in targeted + [c for c in selected if c not in targeted]:
         if case not in targeted and checks >= args.right_checks:
@@ -134,55 +152,89 @@ def main(argv: list[str] | None = None) -> int:
             continue
         checks += case not in targeted
         rows.append(row)
-        print(f"{case.name:<58} {row['before']:<34} -> {row['design']:<13} "
-              f"p={_percent(row['predicted_detection'])} -> {row['after']:<34} "
-              f"{'right' if row['right_after'] else 'WRONG'}{' confusable' if row['confusable_after'] else ''}",
-              flush=True)
+        print(
+            f"{case.name:<58} {row['before']:<34} -> {row['design']:<13} "
+            f"p={_percent(row['predicted_detection'])} -> {row['after']:<34} "
+            f"{'right' if row['right_after'] else 'WRONG'}{' confusable' if row['confusable_after'] else ''}",
+            flush=True,
+        )
 
     figures = summarise(rows)
     print_table(rows, figures)
-    (out / "results.json").write_text(json.dumps({"figures": figures, "target": TARGET, "rows": rows}, indent=2)
-                                      + "\n")
-    (out / "config.json").write_text(json.dumps(
-        {"argv": sys.argv[1:] if argv is None else argv, "cases": [c.name for c in selected],
-         "targeted": [c.name for c in targeted], "checks": [r["case"] for r in rows if not r["targeted"]],
-         "experiment_duration_s": args.duration, "log_duration_s": 8.0, "seed": args.seed, "workers": args.workers,
-         "wall_time_s": time.perf_counter() - start, "python": platform.python_version(), **versions()},
-        indent=2) + "\n")
+    (out / "results.json").write_text(json.dumps({"figures": figures, "target": TARGET, "rows": rows}, indent=2) + "\n")
+    (out / "config.json").write_text(
+        json.dumps(
+            {
+                "argv": sys.argv[1:] if argv is None else argv,
+                "cases": [c.name for c in selected],
+                "targeted": [c.name for c in targeted],
+                "checks": [r["case"] for r in rows if not r["targeted"]],
+                "experiment_duration_s": args.duration,
+                "log_duration_s": 8.0,
+                "seed": args.seed,
+                "workers": args.workers,
+                "wall_time_s": time.perf_counter() - start,
+                "python": platform.python_version(),
+                **versions(),
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     return 0
 
 
 def redo(case: CaseSpec, answer: dict, report: dict, out: Path, args, targeted: bool) -> dict | None:
     """Design from the case's diagnosis, play it on the true rig, diagnose again; the row of the table (None for
     a right case whose diagnosis has nothing to separate)."""
-    row = {"case": case.name, "expected": answer["expected_verdict"], "before": _found(answer, report),
-           "right_before": verdict_is_right(answer, report), "confusable_before": bool(report.get("confusable")),
-           "targeted": targeted}
+    row = {
+        "case": case.name,
+        "expected": answer["expected_verdict"],
+        "before": _found(answer, report),
+        "right_before": verdict_is_right(answer, report),
+        "confusable_before": bool(report.get("confusable")),
+        "targeted": targeted,
+    }
     design_dir = out / "design" / case.name
     try:
         if not (design_dir / "design.json").is_file():
-            write_design(design_dir, design_experiment(out / "before" / case.name, duration=args.duration,
-                                                       settings=DesignSettings(seed=args.seed)), force=True)
+            write_design(
+                design_dir,
+                design_experiment(
+                    out / "before" / case.name, duration=args.duration, settings=DesignSettings(seed=args.seed)
+                ),
+                force=True,
+            )
     except FurutaError as err:
         if not targeted:
             return None
         row.update(design="none", predicted_detection=None, hypotheses=[], reason=str(err))
     else:
         design = json.loads((design_dir / "design.json").read_text())
-        row.update(design=design["status"], duration=design["duration_s"], hypotheses=[
-            h["name"] for h in design["hypotheses"]], predicted_detection=min(
-            (p["detection_probability"] for p in design["pairs"]), default=None))
+        row.update(
+            design=design["status"],
+            duration=design["duration_s"],
+            hypotheses=[h["name"] for h in design["hypotheses"]],
+            predicted_detection=min((p["detection_probability"] for p in design["pairs"]), default=None),
+        )
     after = report
     if row["design"] == "design":
         folder = out / "suite" / case.name
         logs = out / "after" / case.name / "logs"
         if not (logs / "experiment_heldout.csv").is_file():
             play_on_true_rig(case, design_dir / "experiment.csv", logs)
-        after = diagnosed(out / "after" / case.name / "report", folder / "rig.yaml",
-                          sorted(folder.glob("train_*.csv")) + [logs / "experiment_train.csv"],
-                          sorted(folder.glob("heldout_*.csv")) + [logs / "experiment_heldout.csv"], args.workers)
-    row.update(after=_found(answer, after), right_after=verdict_is_right(answer, after),
-               confusable_after=bool(after.get("confusable")))
+        after = diagnosed(
+            out / "after" / case.name / "report",
+            folder / "rig.yaml",
+            sorted(folder.glob("train_*.csv")) + [logs / "experiment_train.csv"],
+            sorted(folder.glob("heldout_*.csv")) + [logs / "experiment_heldout.csv"],
+            args.workers,
+        )
+    row.update(
+        after=_found(answer, after),
+        right_after=verdict_is_right(answer, after),
+        confusable_after=bool(after.get("confusable")),
+    )
     row["settled"] = row["right_after"] and not row["confusable_after"]
     return row
 
@@ -207,9 +259,12 @@ def summarise(rows: list[dict]) -> dict:
         "settled_after": sum(row["settled"] for row in targeted),
         "share_right_after": sum(row["right_after"] for row in targeted) / len(targeted) if targeted else None,
         "share_settled_after": sum(row["settled"] for row in targeted) / len(targeted) if targeted else None,
-        "wrong_before": len(wrong), "wrong_made_right": sum(row["right_after"] for row in wrong),
-        "confusable_before": len(confusable), "confusable_settled": sum(row["settled"] for row in confusable),
-        "right_checks": len(checks), "right_turned_wrong": sum(not row["right_after"] for row in checks)
+        "wrong_before": len(wrong),
+        "wrong_made_right": sum(row["right_after"] for row in wrong),
+        "confusable_before": len(confusable),
+        "confusable_settled": sum(row["settled"] for row in confusable),
+        "right_checks": len(checks),
+        "right_turned_wrong": sum(not row["right_after"] for row in checks)
         + sum(row["right_before"] and not row["right_after"] for row in targeted),
     }
 
@@ -217,19 +272,29 @@ def summarise(rows: list[dict]) -> dict:
 def print_table(rows: list[dict], figures: dict) -> None:
     print("\n| case | expected | before | design (p) | after |\n|---|---|---|---|---|")
     for row in rows:
-        before = row["before"] + ("" if row["right_before"] else " (wrong)") + (
-            " (confusable)" if row["confusable_before"] else "")
-        after = row["after"] + ("" if row["right_after"] else " (wrong)") + (
-            " (confusable)" if row["confusable_after"] else "")
-        print(f"| {row['case']} | {row['expected']} | {before} | {row['design']} ({_percent(row['predicted_detection'])})"
-              f" | {after} |")
-    print(f"\ntargeted (wrong or confusable with the default logs): {figures['targeted']}; designed "
-          f"{figures['designed']}; right after {figures['right_after']} ({_percent(figures['share_right_after'])}), "
-          f"right and no longer confusable {figures['settled_after']} ({_percent(figures['share_settled_after'])}); "
-          f"wrong made right {figures['wrong_made_right']}/{figures['wrong_before']}, confusable settled "
-          f"{figures['confusable_settled']}/{figures['confusable_before']}; right verdicts turned wrong "
-          f"{figures['right_turned_wrong']} (of {figures['right_checks']} right cases re-run and the confusable "
-          f"right ones); target >= {TARGET:.0%} right after")
+        before = (
+            row["before"]
+            + ("" if row["right_before"] else " (wrong)")
+            + (" (confusable)" if row["confusable_before"] else "")
+        )
+        after = (
+            row["after"]
+            + ("" if row["right_after"] else " (wrong)")
+            + (" (confusable)" if row["confusable_after"] else "")
+        )
+        print(
+            f"| {row['case']} | {row['expected']} | {before} | {row['design']} ({_percent(row['predicted_detection'])})"
+            f" | {after} |"
+        )
+    print(
+        f"\ntargeted (wrong or confusable with the default logs): {figures['targeted']}; designed "
+        f"{figures['designed']}; right after {figures['right_after']} ({_percent(figures['share_right_after'])}), "
+        f"right and no longer confusable {figures['settled_after']} ({_percent(figures['share_settled_after'])}); "
+        f"wrong made right {figures['wrong_made_right']}/{figures['wrong_before']}, confusable settled "
+        f"{figures['confusable_settled']}/{figures['confusable_before']}; right verdicts turned wrong "
+        f"{figures['right_turned_wrong']} (of {figures['right_checks']} right cases re-run and the confusable "
+        f"right ones); target >= {TARGET:.0%} right after"
+    )
 
 
 if __name__ == "__main__":

@@ -33,8 +33,14 @@ from furuta_drake.rig import RIGS, RigParameters
 from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import dump_yaml_dataclass
 
-EFFECTS = ("arm_coulomb_friction", "arm_viscous_friction", "actuator_lag", "torque_gain_error", "arm_spring",
-           "inertia_mismatch")
+EFFECTS = (
+    "arm_coulomb_friction",
+    "arm_viscous_friction",
+    "actuator_lag",
+    "torque_gain_error",
+    "arm_spring",
+    "inertia_mismatch",
+)
 
 
 def realise(config: SimulationConfig, effect: str, value: float) -> SimulationConfig:
@@ -42,14 +48,20 @@ def realise(config: SimulationConfig, effect: str, value: float) -> SimulationCo
     parameter and form)."""
     friction, actuator, rig = config.friction, config.actuator, config.rig
     if effect == "arm_coulomb_friction":
-        return dataclasses.replace(config, friction=dataclasses.replace(friction, arm=JointFrictionParameters.dahl(
-            value, value, sigma0=value / PRESLIDING_STARTS[0])))
+        return dataclasses.replace(
+            config,
+            friction=dataclasses.replace(
+                friction, arm=JointFrictionParameters.dahl(value, value, sigma0=value / PRESLIDING_STARTS[0])
+            ),
+        )
     if effect == "arm_viscous_friction":
-        return dataclasses.replace(config, friction=dataclasses.replace(friction, arm=JointFrictionParameters(
-            model="static", viscous=value)))
+        return dataclasses.replace(
+            config, friction=dataclasses.replace(friction, arm=JointFrictionParameters(model="static", viscous=value))
+        )
     if effect == "pendulum_friction":
-        return dataclasses.replace(config, friction=dataclasses.replace(
-            friction, pendulum=JointFrictionParameters.coulomb(value)))
+        return dataclasses.replace(
+            config, friction=dataclasses.replace(friction, pendulum=JointFrictionParameters.coulomb(value))
+        )
     if effect == "actuator_lag":
         return dataclasses.replace(config, actuator=dataclasses.replace(actuator, lag_time_constant=value))
     if effect == "torque_gain_error":
@@ -57,8 +69,9 @@ def realise(config: SimulationConfig, effect: str, value: float) -> SimulationCo
     if effect == "actuator_deadzone":
         return dataclasses.replace(config, actuator=dataclasses.replace(actuator, deadzone=value))
     if effect == "arm_spring":
-        return dataclasses.replace(config, disturbance=dataclasses.replace(config.disturbance,
-                                                                           arm_spring_stiffness=value))
+        return dataclasses.replace(
+            config, disturbance=dataclasses.replace(config.disturbance, arm_spring_stiffness=value)
+        )
     if effect == "inertia_mismatch":  # the arm's lumped inertia a = J_arm + m r^2 scaled by value
         total = value * rig.arm_inertia_total
         return dataclasses.replace(config, rig=rig.replace(arm_inertia=total - rig.pendulum_mass * rig.arm_length**2))
@@ -70,8 +83,9 @@ def scaled(effect: str, limit: float, factor: float) -> float:
     return 1.0 + factor * (limit - 1.0) if effect in ("torque_gain_error", "inertia_mismatch") else factor * limit
 
 
-def write_case(rig: RigParameters, folder: Path, seed: int, duration: float, effect: str | None = None,
-               value: float | None = None) -> None:
+def write_case(
+    rig: RigParameters, folder: Path, seed: int, duration: float, effect: str | None = None, value: float | None = None
+) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "rig.yaml").write_text(dump_yaml_dataclass(rig))
     for split, offset in (("train", 0), ("heldout", 500)):
@@ -82,8 +96,12 @@ def write_case(rig: RigParameters, folder: Path, seed: int, duration: float, eff
 
 
 def diagnosed(folder: Path, workers: int | None):
-    return diagnose(rig=folder / "rig.yaml", train=sorted(folder.glob("train_*.csv")),
-                    heldout=sorted(folder.glob("heldout_*.csv")), workers=workers)
+    return diagnose(
+        rig=folder / "rig.yaml",
+        train=sorted(folder.glob("train_*.csv")),
+        heldout=sorted(folder.glob("heldout_*.csv")),
+        workers=workers,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -100,9 +118,14 @@ def main(argv: list[str] | None = None) -> int:
     write_case(rig, args.out / "clean", 1, args.duration)
     clean = diagnosed(args.out / "clean", args.workers)
     limits = {limit.effect: limit for limit in clean.detection_limits}
-    print(f"clean logs: verdict {clean.verdict}; limits: "
-          + ", ".join(f"{name} {limits[name].param} {limits[name].value:.3g} {limits[name].unit}"
-                      for name in args.effects if limits.get(name) and limits[name].value is not None))
+    print(
+        f"clean logs: verdict {clean.verdict}; limits: "
+        + ", ".join(
+            f"{name} {limits[name].param} {limits[name].value:.3g} {limits[name].unit}"
+            for name in args.effects
+            if limits.get(name) and limits[name].value is not None
+        )
+    )
     rows, counts = [], {}
     for effect in args.effects:
         limit = limits.get(effect)
@@ -119,19 +142,41 @@ def main(argv: list[str] | None = None) -> int:
                 diagnosis = diagnosed(folder, args.workers)
                 found = effect in diagnosis.effects
                 detected += found
-                rows.append({"effect": effect, "factor": factor, "value": value, "seed": seed,
-                             "verdict": diagnosis.verdict, "effects": diagnosis.effects, "detected": found,
-                             "seconds": time.perf_counter() - start})
+                rows.append(
+                    {
+                        "effect": effect,
+                        "factor": factor,
+                        "value": value,
+                        "seed": seed,
+                        "verdict": diagnosis.verdict,
+                        "effects": diagnosis.effects,
+                        "detected": found,
+                        "seconds": time.perf_counter() - start,
+                    }
+                )
             counts[f"{effect} x{factor:g}"] = detected
             target = "target >= 9" if factor > 1 else "target <= 3"
-            print(f"{effect:<22} {factor:g} x limit = {value:.4g} {limit.unit}: detected {detected}/{args.seeds} "
-                  f"({target})", flush=True)
-    (args.out / "results.json").write_text(json.dumps({
-        "rig": args.rig, "clean_verdict": clean.verdict,
-        "limits": {name: dataclasses.asdict(limit) for name, limit in limits.items()},
-        "detected": counts, "rows": rows}, indent=2) + "\n")
-    (args.out / "config.json").write_text(json.dumps({"argv": sys.argv[1:] if argv is None else argv,
-                                                      "versions": versions()}, indent=2) + "\n")
+            print(
+                f"{effect:<22} {factor:g} x limit = {value:.4g} {limit.unit}: detected {detected}/{args.seeds} "
+                f"({target})",
+                flush=True,
+            )
+    (args.out / "results.json").write_text(
+        json.dumps(
+            {
+                "rig": args.rig,
+                "clean_verdict": clean.verdict,
+                "limits": {name: dataclasses.asdict(limit) for name, limit in limits.items()},
+                "detected": counts,
+                "rows": rows,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
+    (args.out / "config.json").write_text(
+        json.dumps({"argv": sys.argv[1:] if argv is None else argv, "versions": versions()}, indent=2) + "\n"
+    )
     return 0
 
 

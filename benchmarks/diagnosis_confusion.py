@@ -3,7 +3,8 @@ held-out gap reduction where right, the coverage of the 95 % parameter intervals
 
 The suite (:mod:`furuta_drake.diagnosis.suite`): each vocabulary effect at two magnitudes on both rigs and the
 seeds asked for, plus ``none`` cases, an effect outside the vocabulary (cogging torque, expected
-``unexplained``) and cases with two and three effects acting together (all must be named). Its logs are simulated on Dask (the sweep's cluster, one case per task) into
+``unexplained``) and cases with two and three effects acting together (all must be named). Its logs are simulated on
+Dask (the sweep's cluster, one case per task) into
 ``OUT/suite/cases/<case>/`` and the answers go to ``OUT/suite/answers.json``; the diagnosis is then run on each
 case folder alone (rig.yaml, train_*.csv, heldout_*.csv), blind, and scored against the answers afterwards.
 
@@ -36,12 +37,21 @@ from furuta_drake.diagnosis.suite import CaseSpec, default_cases, verdict_is_rig
 from furuta_drake.sweep import dask_client, map_on_dask
 
 QUICK = (
-    CaseSpec("lund", (), 0, 1), CaseSpec("lund", ("input_delay",), 2, 1),
-    CaseSpec("lund", ("arm_coulomb_friction",), 2, 1), CaseSpec("qube_servo2", ("actuator_lag",), 2, 1),
-    CaseSpec("qube_servo2", ("arm_viscous_friction",), 2, 1), CaseSpec("lund", ("cogging_torque",), 2, 1),
+    CaseSpec("lund", (), 0, 1),
+    CaseSpec("lund", ("input_delay",), 2, 1),
+    CaseSpec("lund", ("arm_coulomb_friction",), 2, 1),
+    CaseSpec("qube_servo2", ("actuator_lag",), 2, 1),
+    CaseSpec("qube_servo2", ("arm_viscous_friction",), 2, 1),
+    CaseSpec("lund", ("cogging_torque",), 2, 1),
 )
-TARGETS = {"accuracy": 0.9, "false_alarm_rate": 0.0, "median_reduction_where_right": 0.5,
-           "several_effects_named": 0.8, "interval_coverage": (0.85, 0.99), "seconds_per_case": 60.0}
+TARGETS = {
+    "accuracy": 0.9,
+    "false_alarm_rate": 0.0,
+    "median_reduction_where_right": 0.5,
+    "several_effects_named": 0.8,
+    "interval_coverage": (0.85, 0.99),
+    "seconds_per_case": 60.0,
+}
 
 
 def _write_case(args):
@@ -49,13 +59,18 @@ def _write_case(args):
     return write_case(case, Path(directory), duration)
 
 
-def generate(cases: list[CaseSpec], suite: Path, duration: float, workers: int | None, scheduler: str | None
-             ) -> list[dict]:
+def generate(
+    cases: list[CaseSpec], suite: Path, duration: float, workers: int | None, scheduler: str | None
+) -> list[dict]:
     """Simulate every case's logs on Dask; write and return the answers (kept apart from the case folders)."""
     tasks = [(case, str(suite / "cases" / case.name), duration) for case in cases]
     with dask_client(scheduler, workers, len(tasks)) as client:
-        answers = map_on_dask(client, _write_case, tasks,
-                              progress=lambda done, total: print(f"\r  simulated {done}/{total} cases", end=""))
+        answers = map_on_dask(
+            client,
+            _write_case,
+            tasks,
+            progress=lambda done, total: print(f"\r  simulated {done}/{total} cases", end=""),
+        )
     print()
     (suite / "answers.json").write_text(json.dumps(answers, indent=2, sort_keys=True) + "\n")
     return answers
@@ -71,8 +86,12 @@ def diagnose_blind(case_dir: Path, out: Path, workers: int | None) -> tuple[dict
     (this process and its finished worker processes: on a shared machine, CPU / cores estimates the wall time
     the case would take with the cores to itself)."""
     start, cpu = time.perf_counter(), _cpu_seconds()
-    diagnosis = diagnose(rig=case_dir / "rig.yaml", train=sorted(case_dir.glob("train_*.csv")),
-                         heldout=sorted(case_dir.glob("heldout_*.csv")), workers=workers)
+    diagnosis = diagnose(
+        rig=case_dir / "rig.yaml",
+        train=sorted(case_dir.glob("train_*.csv")),
+        heldout=sorted(case_dir.glob("heldout_*.csv")),
+        workers=workers,
+    )
     seconds, cpu = time.perf_counter() - start, _cpu_seconds() - cpu
     write_report(out, diagnosis, force=True)
     return json.loads((out / "report.json").read_text()), seconds, cpu
@@ -131,8 +150,9 @@ def summarise(rows: list[dict]) -> dict:
         "cases": len(rows),
         "right": len(right),
         "accuracy": len(right) / len(rows) if rows else float("nan"),
-        "false_alarm_rate": (sum(row["found"] != "none" for row in none_rows) / len(none_rows)
-                             if none_rows else float("nan")),
+        "false_alarm_rate": (
+            sum(row["found"] != "none" for row in none_rows) / len(none_rows) if none_rows else float("nan")
+        ),
         "median_reduction_where_right": float(np.median(reductions)) if reductions else float("nan"),
         "seconds_per_case": float(np.mean([row["seconds"] for row in rows])) if rows else float("nan"),
         "max_seconds": float(np.max([row["seconds"] for row in rows])) if rows else float("nan"),
@@ -183,50 +203,93 @@ def main(argv: list[str] | None = None) -> int:
 
     rows = []
     for i, answer in enumerate(answers, start=1):
-        report, seconds, cpu = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"],
-                                         args.workers)
+        report, seconds, cpu = diagnose_blind(
+            suite / "cases" / answer["case"], out / "reports" / answer["case"], args.workers
+        )
         found = "+".join(sorted(report["effects"])) if "+" in answer["expected_verdict"] else report["verdict"]
         inside, with_interval = coverage(answer, report)
-        row = {"case": answer["case"], "rig": answer["rig"], "expected": answer["expected_verdict"],
-               "found": found, "right": verdict_is_right(answer, report), "several": "+" in answer["expected_verdict"],
-               "params_inside": inside, "params_with_interval": with_interval,
-               "confusable": json.dumps(report.get("confusable", [])),
-               "heldout_reduction": report["gap"]["heldout_reduction"],
-               "nominal_heldout_gap": report["gap"]["nominal"]["heldout"],
-               "runner_up": report["ranking"][0]["effect"] if report["ranking"] else "",
-               "fitted": json.dumps(next((r["params"] for r in report["ranking"] if r["effect"].split("+") == [
-                   step["effect"] for step in report["steps"]]), {}), sort_keys=True),
-               "seconds": seconds, "cpu_seconds": cpu}
+        row = {
+            "case": answer["case"],
+            "rig": answer["rig"],
+            "expected": answer["expected_verdict"],
+            "found": found,
+            "right": verdict_is_right(answer, report),
+            "several": "+" in answer["expected_verdict"],
+            "params_inside": inside,
+            "params_with_interval": with_interval,
+            "confusable": json.dumps(report.get("confusable", [])),
+            "heldout_reduction": report["gap"]["heldout_reduction"],
+            "nominal_heldout_gap": report["gap"]["nominal"]["heldout"],
+            "runner_up": report["ranking"][0]["effect"] if report["ranking"] else "",
+            "fitted": json.dumps(
+                next(
+                    (
+                        r["params"]
+                        for r in report["ranking"]
+                        if r["effect"].split("+") == [step["effect"] for step in report["steps"]]
+                    ),
+                    {},
+                ),
+                sort_keys=True,
+            ),
+            "seconds": seconds,
+            "cpu_seconds": cpu,
+        }
         rows.append(row)
         mark = "ok " if row["right"] else "BAD"
-        print(f"[{i}/{len(answers)}] {mark} {row['case']:<55} -> {found:<24} "
-              f"reduction {row['heldout_reduction']:6.1%}  {seconds:5.1f} s (CPU {cpu:5.1f} s)", flush=True)
+        print(
+            f"[{i}/{len(answers)}] {mark} {row['case']:<55} -> {found:<24} "
+            f"reduction {row['heldout_reduction']:6.1%}  {seconds:5.1f} s (CPU {cpu:5.1f} s)",
+            flush=True,
+        )
 
     expected, found, matrix = confusion(rows)
     print_confusion(expected, found, matrix)
     figures = summarise(rows)
-    print(f"\naccuracy {figures['accuracy']:.1%} ({figures['right']}/{figures['cases']}), "
-          f"false alarms on none {figures['false_alarm_rate']:.0%}, "
-          f"median held-out reduction where right {figures['median_reduction_where_right']:.1%}, "
-          f"all effects named in {figures['several_effects_named']:.0%} of the cases with several, "
-          f"interval coverage {figures['interval_coverage']:.1%} of {figures['parameters_with_interval']} true "
-          f"parameters, "
-          f"{figures['seconds_per_case']:.1f} s per case (max {figures['max_seconds']:.1f} s; "
-          f"{figures['cpu_seconds_per_case']:.1f} CPU s per case)")
+    print(
+        f"\naccuracy {figures['accuracy']:.1%} ({figures['right']}/{figures['cases']}), "
+        f"false alarms on none {figures['false_alarm_rate']:.0%}, "
+        f"median held-out reduction where right {figures['median_reduction_where_right']:.1%}, "
+        f"all effects named in {figures['several_effects_named']:.0%} of the cases with several, "
+        f"interval coverage {figures['interval_coverage']:.1%} of {figures['parameters_with_interval']} true "
+        f"parameters, "
+        f"{figures['seconds_per_case']:.1f} s per case (max {figures['max_seconds']:.1f} s; "
+        f"{figures['cpu_seconds_per_case']:.1f} CPU s per case)"
+    )
     print("targets: " + ", ".join(f"{k} {v}" for k, v in TARGETS.items()))
 
     with open(out / "results.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    (out / "results.json").write_text(json.dumps(
-        {"figures": figures, "targets": TARGETS, "confusion": {"expected": expected, "found": found,
-                                                                "matrix": matrix.tolist()},
-         "rows": rows}, indent=2) + "\n")
-    (out / "config.json").write_text(json.dumps(
-        {"argv": sys.argv[1:] if argv is None else argv, "suite": str(suite), "duration_s": args.duration,
-         "cases": [a["case"] for a in answers], "workers": args.workers, "python": platform.python_version(),
-         "numpy": np.__version__, "pydrake": _drake_version()}, indent=2) + "\n")
+    (out / "results.json").write_text(
+        json.dumps(
+            {
+                "figures": figures,
+                "targets": TARGETS,
+                "confusion": {"expected": expected, "found": found, "matrix": matrix.tolist()},
+                "rows": rows,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
+    (out / "config.json").write_text(
+        json.dumps(
+            {
+                "argv": sys.argv[1:] if argv is None else argv,
+                "suite": str(suite),
+                "duration_s": args.duration,
+                "cases": [a["case"] for a in answers],
+                "workers": args.workers,
+                "python": platform.python_version(),
+                "numpy": np.__version__,
+                "pydrake": _drake_version(),
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     return 0
 
 

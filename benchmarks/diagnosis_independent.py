@@ -75,6 +75,7 @@ class Case:
 
 # --- effects: each returns the world with the effect and its truth ---------------------------------------------
 
+
 def _mgl(world: sim.World) -> float:
     return world.rig.bodies.d
 
@@ -84,19 +85,38 @@ def _to_command(world: sim.World, torque: float) -> float:
     return torque / world.rig.torque_per_command
 
 
-def arm_friction(world, form: str, level: float, neg_level: float | None = None, smoothing: float = 0.02,
-                 breakaway: float = 1.0, static: float = 0.0, stribeck_velocity: float = 0.0):
+def arm_friction(
+    world,
+    form: str,
+    level: float,
+    neg_level: float | None = None,
+    smoothing: float = 0.02,
+    breakaway: float = 1.0,
+    static: float = 0.0,
+    stribeck_velocity: float = 0.0,
+):
     """Arm dry friction at ``level`` m g l (``neg_level`` for negative velocities: asymmetric), in ``form``."""
     mgl = _mgl(world)
     pos, neg = level * mgl, (level if neg_level is None else neg_level) * mgl
-    friction = sim.ArmFriction(form, pos, neg, smoothing=smoothing, breakaway=breakaway * pos,
-                               static=static * mgl, stribeck_velocity=stribeck_velocity)
-    own = {"karnopp": {"breakaway": breakaway * pos}, "tanh": {"v_eps": smoothing},
-           "sign_band": {"dead_band": smoothing},
-           "stribeck": {"v_eps": smoothing}}[form]
+    friction = sim.ArmFriction(
+        form,
+        pos,
+        neg,
+        smoothing=smoothing,
+        breakaway=breakaway * pos,
+        static=static * mgl,
+        stribeck_velocity=stribeck_velocity,
+    )
+    own = {
+        "karnopp": {"breakaway": breakaway * pos},
+        "tanh": {"v_eps": smoothing},
+        "sign_band": {"dead_band": smoothing},
+        "stribeck": {"v_eps": smoothing},
+    }[form]
     if static:
-        effect = Effect("arm_stribeck", form, {"coulomb": pos, "static": static * mgl,
-                                               "stribeck_velocity": stribeck_velocity}, own)
+        effect = Effect(
+            "arm_stribeck", form, {"coulomb": pos, "static": static * mgl, "stribeck_velocity": stribeck_velocity}, own
+        )
     elif neg_level is not None:
         effect = Effect("friction_asymmetry", form, {"coulomb_pos": pos, "coulomb_neg": neg}, own)
     else:
@@ -108,32 +128,39 @@ def arm_viscous(world, rate: float):
     """Viscous arm friction whose decay rate on the arm's inertia a is ``rate`` [1/s]."""
     viscous = rate * world.rig.bodies.a
     return dataclasses.replace(world, arm_viscous=viscous), Effect(
-        "arm_viscous_friction", "linear", {"viscous": viscous}, {"decay_rate": rate})
+        "arm_viscous_friction", "linear", {"viscous": viscous}, {"decay_rate": rate}
+    )
 
 
 def pendulum_friction(world, coulomb: float, rate: float):
     """Pendulum friction: tanh-smoothed Coulomb at ``coulomb`` m g l and viscous at decay rate ``rate`` [1/s]."""
     level, viscous = coulomb * _mgl(world), rate * world.rig.bodies.b
     return dataclasses.replace(world, pendulum_coulomb=level, pendulum_viscous=viscous), Effect(
-        "pendulum_friction", "tanh_coulomb+viscous", {"coulomb": level, "viscous": viscous},
-        {"v_eps": world.pendulum_smoothing})
+        "pendulum_friction",
+        "tanh_coulomb+viscous",
+        {"coulomb": level, "viscous": viscous},
+        {"v_eps": world.pendulum_smoothing},
+    )
 
 
 def coarse_encoder(world, counts: int):
     return dataclasses.replace(world, counts_per_rev=counts), Effect(
-        "encoder_quantization", "round", {"counts_per_rev": float(counts)}, {"nominal": world.rig.counts_per_rev})
+        "encoder_quantization", "round", {"counts_per_rev": float(counts)}, {"nominal": world.rig.counts_per_rev}
+    )
 
 
 def noise(world, counts: float):
     """Gaussian noise of ``counts`` encoder counts on both angles."""
     std = counts * 2 * np.pi / world.rig.counts_per_rev
-    return dataclasses.replace(world, noise_std=std), Effect("measurement_noise", "gaussian", {"noise_std": std},
-                                                             {"counts": counts})
+    return dataclasses.replace(world, noise_std=std), Effect(
+        "measurement_noise", "gaussian", {"noise_std": std}, {"counts": counts}
+    )
 
 
 def delay(world, samples: int):
     return dataclasses.replace(world, delay_samples=samples), Effect(
-        "input_delay", "fifo", {"delay": samples * world.rig.sample_period}, {"samples": samples})
+        "input_delay", "fifo", {"delay": samples * world.rig.sample_period}, {"samples": samples}
+    )
 
 
 def gain(world, value: float):
@@ -144,7 +171,8 @@ def deadzone(world, form: str, width: float):
     """Dead zone of ``width`` m g l (torque-equivalent) in ``form`` (subtract or threshold)."""
     torque = width * _mgl(world)
     return dataclasses.replace(world, deadzone=_to_command(world, torque), deadzone_form=form), Effect(
-        "actuator_deadzone", form, {"deadzone": torque}, {})
+        "actuator_deadzone", form, {"deadzone": torque}, {}
+    )
 
 
 def lag(world, form: str, seconds: float):
@@ -152,20 +180,24 @@ def lag(world, form: str, seconds: float):
     the back-EMF-compensated equivalent, a continuous first-order lag) or ``filter`` (discrete first order)."""
     if form == "filter":
         return dataclasses.replace(world, filter_time_constant=seconds), Effect(
-            "actuator_lag", "discrete_filter", {"time_constant": seconds}, {})
+            "actuator_lag", "discrete_filter", {"time_constant": seconds}, {}
+        )
     if world.rig.motor is None:
         return dataclasses.replace(world, lag_time_constant=seconds), Effect(
-            "actuator_lag", "armature_equivalent", {"time_constant": seconds}, {})
+            "actuator_lag", "armature_equivalent", {"time_constant": seconds}, {}
+        )
     inductance = seconds * world.rig.motor.resistance
     return dataclasses.replace(world, motor_inductance=inductance), Effect(
-        "actuator_lag", "armature_inductance", {"time_constant": seconds}, {"inductance_H": inductance})
+        "actuator_lag", "armature_inductance", {"time_constant": seconds}, {"inductance_H": inductance}
+    )
 
 
 def saturation(world, form: str, limit: float):
     """Saturation of the applied torque at ``limit`` m g l (torque-equivalent), ``hard`` or ``tanh``."""
     torque = limit * _mgl(world)
     return dataclasses.replace(world, saturation=_to_command(world, torque), saturation_form=form), Effect(
-        "actuator_saturation", form, {"limit": torque}, {})
+        "actuator_saturation", form, {"limit": torque}, {}
+    )
 
 
 def spring(world, linear: float, cubic: float = 0.0, offset: float = 0.0):
@@ -173,15 +205,18 @@ def spring(world, linear: float, cubic: float = 0.0, offset: float = 0.0):
     k1, k3 = linear * _mgl(world), cubic * _mgl(world)
     form = "cubic_cable" if cubic else "linear"
     return dataclasses.replace(world, spring_linear=k1, spring_cubic=k3, spring_offset=offset), Effect(
-        "arm_spring", form, {"stiffness": k1, "equilibrium": offset}, {"cubic": k3} if cubic else {})
+        "arm_spring", form, {"stiffness": k1, "equilibrium": offset}, {"cubic": k3} if cubic else {}
+    )
 
 
 def inertia(world, **factors: float):
     """True bodies with the rig file's fields scaled (e.g. pendulum_mass=1.15); truth as the scales of a, b, c, d."""
     nominal = world.rig.bodies
     true = nominal.scaled(**factors)
-    scales = {f"{k}_scale": getattr(true, c) / getattr(nominal, c) for k, c in
-              (("arm_inertia", "a"), ("pendulum_inertia", "b"), ("coupling", "c"), ("gravity", "d"))}
+    scales = {
+        f"{k}_scale": getattr(true, c) / getattr(nominal, c)
+        for k, c in (("arm_inertia", "a"), ("pendulum_inertia", "b"), ("coupling", "c"), ("gravity", "d"))
+    }
     return dataclasses.replace(world, bodies=true), Effect("inertia_mismatch", "bodies", scales, factors)
 
 
@@ -189,15 +224,18 @@ def cogging(world, amplitude: float, periods: int):
     """Cogging -A sin(N phi) with A = ``amplitude`` m g l."""
     torque = amplitude * _mgl(world)
     return dataclasses.replace(world, cogging_amplitude=torque, cogging_periods=periods), Effect(
-        "cogging_torque", "sine", {"amplitude": torque, "periods": periods}, {})
+        "cogging_torque", "sine", {"amplitude": torque, "periods": periods}, {}
+    )
 
 
 def backlash(world, half_gap: float, rotor_share: float):
     return dataclasses.replace(world, backlash=sim.Backlash(half_gap, rotor_share)), Effect(
-        "gear_backlash", "tooth_contact", {"half_gap": half_gap, "rotor_share": rotor_share}, {})
+        "gear_backlash", "tooth_contact", {"half_gap": half_gap, "rotor_share": rotor_share}, {}
+    )
 
 
 # --- the suite ------------------------------------------------------------------------------------------------
+
 
 def make_case(rig: str, *effects, seed: int = 1) -> Case:
     """A case on ``rig`` with ``effects``: (function, args...) tuples applied in turn."""
@@ -219,8 +257,9 @@ def all_cases() -> list[Case]:
         make_case("lund", (arm_friction, "tanh", 0.015, {"smoothing": 0.05}), seed=2),
         make_case("lund", (arm_viscous, 1.5)),
         make_case("qube", (arm_viscous, 0.5)),
-        make_case("lund", (arm_friction, "stribeck", 0.04, {"static": 0.1, "stribeck_velocity": 0.1,
-                                                            "smoothing": 0.01})),
+        make_case(
+            "lund", (arm_friction, "stribeck", 0.04, {"static": 0.1, "stribeck_velocity": 0.1, "smoothing": 0.01})
+        ),
         make_case("qube", (arm_friction, "tanh", 0.05, {"neg_level": 0.09, "smoothing": 0.02})),
         make_case("lund", (pendulum_friction, 0.004, 0.3)),
         make_case("lund", (coarse_encoder, 1024)),
@@ -248,18 +287,32 @@ def all_cases() -> list[Case]:
         make_case("qube", (arm_friction, "tanh", 0.08, {"smoothing": 0.02}), (lag, "inductance", 0.005)),
         make_case("lund", (arm_friction, "sign_band", 0.05, {"smoothing": 0.002}), (deadzone, "threshold", 0.03)),
         make_case("lund", (arm_viscous, 1.5), (lag, "filter", 0.008)),
-        make_case("qube", (arm_friction, "tanh", 0.08, {"smoothing": 0.02}), (delay, 2),
-                  (inertia, {"pendulum_mass": 1.1, "arm_inertia": 1.2})),
-        make_case("lund", (arm_friction, "stribeck", 0.04, {"static": 0.1, "stribeck_velocity": 0.1,
-                                                            "smoothing": 0.01}), (delay, 3)),
-        make_case("lund", (arm_friction, "tanh", 0.05, {"smoothing": 0.02}), (spring, 0.25, {"offset": 0.05}),
-                  (delay, 2)),
+        make_case(
+            "qube",
+            (arm_friction, "tanh", 0.08, {"smoothing": 0.02}),
+            (delay, 2),
+            (inertia, {"pendulum_mass": 1.1, "arm_inertia": 1.2}),
+        ),
+        make_case(
+            "lund",
+            (arm_friction, "stribeck", 0.04, {"static": 0.1, "stribeck_velocity": 0.1, "smoothing": 0.01}),
+            (delay, 3),
+        ),
+        make_case(
+            "lund", (arm_friction, "tanh", 0.05, {"smoothing": 0.02}), (spring, 0.25, {"offset": 0.05}), (delay, 2)
+        ),
         make_case("qube", (arm_viscous, 0.5), (delay, 2), (deadzone, "subtract", 0.03)),
     ]
 
 
-QUICK = ("lund__none", "lund__arm_coulomb_friction[karnopp]__", "qube__arm_coulomb_friction[tanh]__",
-         "lund__input_delay", "qube__actuator_lag[armature_inductance]__", "qube__cogging")
+QUICK = (
+    "lund__none",
+    "lund__arm_coulomb_friction[karnopp]__",
+    "qube__arm_coulomb_friction[tanh]__",
+    "lund__input_delay",
+    "qube__actuator_lag[armature_inductance]__",
+    "qube__cogging",
+)
 
 
 def select(cases: list[Case], quick: bool, only: list[str] | None) -> list[Case]:
@@ -285,9 +338,16 @@ def write_case(case: Case, folder: Path, duration: float) -> dict:
             if split == "train":
                 signal[run.kind] = sim.window_divergence(case.world.rig, log)
                 sensor[run.kind] = sim.sensor_error(case.world.rig, log)
-    return {"case": case.name, "rig": case.rig, "expected": case.expected, "seed": case.seed,
-            "effects": [dataclasses.asdict(e) for e in case.effects], "balance_fell": fell,
-            "signal_counts": signal, "sensor_counts": sensor}
+    return {
+        "case": case.name,
+        "rig": case.rig,
+        "expected": case.expected,
+        "seed": case.seed,
+        "effects": [dataclasses.asdict(e) for e in case.effects],
+        "balance_fell": fell,
+        "signal_counts": signal,
+        "sensor_counts": sensor,
+    }
 
 
 def generate(cases: list[Case], suite: Path, duration: float) -> list[dict]:
@@ -297,8 +357,11 @@ def generate(cases: list[Case], suite: Path, duration: float) -> list[dict]:
         start = time.perf_counter()
         answers.append(write_case(case, suite / "cases" / case.name, duration))
         fell = [k for k, v in answers[-1]["balance_fell"].items() if v]
-        print(f"  [{i}/{len(cases)}] {case.name}: {time.perf_counter() - start:.1f} s"
-              + (f"  BALANCE FELL in {', '.join(fell)}" if fell else ""), flush=True)
+        print(
+            f"  [{i}/{len(cases)}] {case.name}: {time.perf_counter() - start:.1f} s"
+            + (f"  BALANCE FELL in {', '.join(fell)}" if fell else ""),
+            flush=True,
+        )
         (suite / "answers.json").write_text(json.dumps(answers, indent=2) + "\n")
     return answers
 
@@ -310,8 +373,12 @@ def diagnose_blind(folder: Path, report_dir: Path, workers: int) -> tuple[dict, 
     from furuta_drake.diagnosis.report import write_report
 
     start = time.perf_counter()
-    diagnosis = diagnose(rig=folder / "rig.yaml", train=sorted(folder.glob("train_*.csv")),
-                         heldout=sorted(folder.glob("heldout_*.csv")), workers=workers)
+    diagnosis = diagnose(
+        rig=folder / "rig.yaml",
+        train=sorted(folder.glob("train_*.csv")),
+        heldout=sorted(folder.glob("heldout_*.csv")),
+        workers=workers,
+    )
     seconds = time.perf_counter() - start
     write_report(report_dir, diagnosis, force=True)
     return json.loads((report_dir / "report.json").read_text()), seconds
@@ -344,8 +411,7 @@ def fitted_vs_true(answer: dict, report: dict) -> list[dict]:
                 value = fitted.get(f"{effect['name']}.{param}" if len(steps) > 1 else param)
             else:
                 value = alone.get(effect["name"], {}).get(param)
-            out.append({"effect": effect["name"], "param": param, "true": truth, "fitted": value,
-                        "accepted": accepted})
+            out.append({"effect": effect["name"], "param": param, "true": truth, "fitted": value, "accepted": accepted})
     return out
 
 
@@ -353,30 +419,55 @@ def row_for(answer: dict, report: dict, seconds: float) -> dict:
     """One results row."""
     best = report["ranking"][0] if report["ranking"] else {}
     return {
-        "case": answer["case"], "rig": answer["rig"], "expected": answer["expected"],
+        "case": answer["case"],
+        "rig": answer["rig"],
+        "expected": answer["expected"],
         "truth": [f"{e['name']}[{e['form']}]" for e in answer["effects"]] or ["none"],
         "true_params": {e["name"]: {**e["params"], **e["form_params"]} for e in answer["effects"]},
-        "verdict": report["verdict"], "effects": report["effects"], "right": is_right(answer, report),
+        "verdict": report["verdict"],
+        "effects": report["effects"],
+        "right": is_right(answer, report),
         "confusable": [p["effects"] for p in report.get("confusable", [])],
         "steps": [[s["effect"], s["reduction_over_previous"]] for s in report.get("steps") or []],
-        "fitted": fitted_params(report), "fitted_vs_true": fitted_vs_true(answer, report),
-        "best": {"effect": best.get("effect", ""), "heldout_reduction": best.get("heldout_reduction"),
-                 "params": best.get("params", {})},
+        "fitted": fitted_params(report),
+        "fitted_vs_true": fitted_vs_true(answer, report),
+        "best": {
+            "effect": best.get("effect", ""),
+            "heldout_reduction": best.get("heldout_reduction"),
+            "params": best.get("params", {}),
+        },
         "heldout_reduction": report["gap"]["heldout_reduction"],
-        "nominal_heldout_gap": report["gap"]["nominal"]["heldout"], "choice": report.get("choice", ""),
-        "balance_fell": answer["balance_fell"], "signal_counts": answer["signal_counts"],
-        "sensor_counts": answer["sensor_counts"], "seconds": seconds,
+        "nominal_heldout_gap": report["gap"]["nominal"]["heldout"],
+        "choice": report.get("choice", ""),
+        "balance_fell": answer["balance_fell"],
+        "signal_counts": answer["signal_counts"],
+        "sensor_counts": answer["sensor_counts"],
+        "seconds": seconds,
     }
 
 
 def error_row(answer: dict, error: BaseException, seconds: float) -> dict:
-    return {"case": answer["case"], "rig": answer["rig"], "expected": answer["expected"],
-            "truth": [f"{e['name']}[{e['form']}]" for e in answer["effects"]] or ["none"],
-            "verdict": f"ERROR {type(error).__name__}: {error}"[:200], "effects": [], "right": False,
-            "confusable": [], "steps": [], "fitted": {}, "fitted_vs_true": [], "best": {},
-            "heldout_reduction": None, "nominal_heldout_gap": None, "choice": "",
-            "balance_fell": answer["balance_fell"], "signal_counts": answer["signal_counts"],
-            "sensor_counts": answer["sensor_counts"], "seconds": seconds}
+    return {
+        "case": answer["case"],
+        "rig": answer["rig"],
+        "expected": answer["expected"],
+        "truth": [f"{e['name']}[{e['form']}]" for e in answer["effects"]] or ["none"],
+        "verdict": f"ERROR {type(error).__name__}: {error}"[:200],
+        "effects": [],
+        "right": False,
+        "confusable": [],
+        "steps": [],
+        "fitted": {},
+        "fitted_vs_true": [],
+        "best": {},
+        "heldout_reduction": None,
+        "nominal_heldout_gap": None,
+        "choice": "",
+        "balance_fell": answer["balance_fell"],
+        "signal_counts": answer["signal_counts"],
+        "sensor_counts": answer["sensor_counts"],
+        "seconds": seconds,
+    }
 
 
 def _number(value) -> str:
@@ -386,10 +477,13 @@ def _number(value) -> str:
 def compare_text(row: dict) -> str:
     """'param fitted/true' for every true parameter ('*': the effect fitted alone, not accepted), and the form
     the accepted model chose where it has several."""
-    parts = [f"{c['param']} {_number(c['fitted'])}{'' if c['accepted'] else '*'}/{_number(c['true'])}"
-             for c in row["fitted_vs_true"]]
-    forms = [f"{k.split('.')[0] + ' ' if '.' in k else ''}form {v}" for k, v in row["fitted"].items()
-             if k.endswith("form")]
+    parts = [
+        f"{c['param']} {_number(c['fitted'])}{'' if c['accepted'] else '*'}/{_number(c['true'])}"
+        for c in row["fitted_vs_true"]
+    ]
+    forms = [
+        f"{k.split('.')[0] + ' ' if '.' in k else ''}form {v}" for k, v in row["fitted"].items() if k.endswith("form")
+    ]
     return "; ".join(parts + forms) or "-"
 
 
@@ -402,44 +496,57 @@ def other_text(row: dict) -> str:
         best = row["best"]
         if not best or not best["effect"]:
             return "-"
-        params = ", ".join(f"{k} {_number(v)}" for k, v in best["params"].items() if not k.endswith("_total")
-                           and k not in ("coupling", "gravity_torque"))
+        params = ", ".join(
+            f"{k} {_number(v)}"
+            for k, v in best["params"].items()
+            if not k.endswith("_total") and k not in ("coupling", "gravity_torque")
+        )
         return f"best {best['effect']} ({_number(best['heldout_reduction'])}): {params}"
     parts = []
     for name in steps:
         if name in true_names:
             continue
         prefix = f"{name}." if len(steps) > 1 else ""
-        values = ", ".join(f"{k[len(prefix):]} {_number(v)}" for k, v in row["fitted"].items()
-                           if k.startswith(prefix) and not k.endswith("_total")
-                           and k[len(prefix):] not in ("coupling", "gravity_torque"))
+        values = ", ".join(
+            f"{k[len(prefix) :]} {_number(v)}"
+            for k, v in row["fitted"].items()
+            if k.startswith(prefix)
+            and not k.endswith("_total")
+            and k[len(prefix) :] not in ("coupling", "gravity_torque")
+        )
         parts.append(f"{name}: {values}")
     return "; ".join(parts) or "-"
 
 
 def table(rows: list[dict]) -> str:
     """The results as a markdown table."""
-    head = ("| rig | truth (form) | signal bal/hang, sensor [counts] | verdict | effects | right | confusable | "
-            "fitted/true | wrong or best fitted | held-out red. | s |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|\n")
+    head = (
+        "| rig | truth (form) | signal bal/hang, sensor [counts] | verdict | effects | right | confusable | "
+        "fitted/true | wrong or best fitted | held-out red. | s |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|\n"
+    )
     lines = []
     for r in rows:
         reduction = "-" if r["heldout_reduction"] is None else f"{r['heldout_reduction']:.0%}"
         confusable = ", ".join("~".join(p) for p in r["confusable"]) or "-"
         signal, sensor = r["signal_counts"], r["sensor_counts"]
         size = f"{signal['balance']:.2f}/{signal['hanging']:.2f}, {max(sensor.values()):.2f}"
-        lines.append(f"| {r['rig']} | {' + '.join(r['truth'])} | {size} | {r['verdict']} | "
-                     f"{', '.join(r['effects']) or '-'} | {'yes' if r['right'] else 'NO'} | {confusable} | "
-                     f"{compare_text(r)} | {other_text(r)} | {reduction} | {r['seconds']:.0f} |")
+        lines.append(
+            f"| {r['rig']} | {' + '.join(r['truth'])} | {size} | {r['verdict']} | "
+            f"{', '.join(r['effects']) or '-'} | {'yes' if r['right'] else 'NO'} | {confusable} | "
+            f"{compare_text(r)} | {other_text(r)} | {reduction} | {r['seconds']:.0f} |"
+        )
     return head + "\n".join(lines) + "\n"
 
 
 def summary(rows: list[dict]) -> dict:
     """Share right overall and by kind of case (single, several, none, outside the vocabulary)."""
+
     def kind(row):
         if row["expected"] in ("none", "unexplained"):
             return row["expected"]
         return "several" if "+" in row["expected"] else "single"
+
     out = {"cases": len(rows), "right": sum(r["right"] for r in rows)}
     for name in ("single", "several", "none", "unexplained"):
         group = [r for r in rows if kind(r) == name]
@@ -469,8 +576,9 @@ def versions() -> dict:
 def write_results(out: Path, rows: list[dict], pending: int) -> None:
     """results.json and table.md as they stand (``pending`` cases still to run)."""
     figures = summary(rows)
-    (out / "results.json").write_text(json.dumps({"summary": figures, "pending": pending, "rows": rows},
-                                                 indent=2) + "\n")
+    (out / "results.json").write_text(
+        json.dumps({"summary": figures, "pending": pending, "rows": rows}, indent=2) + "\n"
+    )
     (out / "table.md").write_text(table(rows) + "\n" + json.dumps(figures) + "\n")
 
 
@@ -495,10 +603,21 @@ def main(argv: list[str] | None = None) -> int:
         suite = out / "suite"
         print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}", flush=True)
         answers = generate(cases, suite, args.duration)
-    (out / "config.json").write_text(json.dumps(
-        {"argv": sys.argv[1:] if argv is None else argv, "suite": str(suite), "duration_s": args.duration,
-         "workers": args.workers, "run_seeds": SEEDS, "cases": {c.name: c.seed for c in cases},
-         "versions": versions()}, indent=2) + "\n")
+    (out / "config.json").write_text(
+        json.dumps(
+            {
+                "argv": sys.argv[1:] if argv is None else argv,
+                "suite": str(suite),
+                "duration_s": args.duration,
+                "workers": args.workers,
+                "run_seeds": SEEDS,
+                "cases": {c.name: c.seed for c in cases},
+                "versions": versions(),
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     if args.generate_only:
         return 0
 
@@ -506,14 +625,18 @@ def main(argv: list[str] | None = None) -> int:
     for i, answer in enumerate(answers, start=1):
         start = time.perf_counter()
         try:
-            report, seconds = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"],
-                                             args.workers)
+            report, seconds = diagnose_blind(
+                suite / "cases" / answer["case"], out / "reports" / answer["case"], args.workers
+            )
             rows.append(row_for(answer, report, seconds))
         except Exception as error:  # a crash is this case's result, reported, not the benchmark's end
             rows.append(error_row(answer, error, time.perf_counter() - start))
         row = rows[-1]
-        print(f"[{i}/{len(answers)}] {'ok ' if row['right'] else 'BAD'} {row['case']:<70} -> {row['verdict']} "
-              f"{row['effects']} ({row['seconds']:.0f} s)", flush=True)
+        print(
+            f"[{i}/{len(answers)}] {'ok ' if row['right'] else 'BAD'} {row['case']:<70} -> {row['verdict']} "
+            f"{row['effects']} ({row['seconds']:.0f} s)",
+            flush=True,
+        )
         write_results(out, rows, len(answers) - i)
     print()
     print(table(rows))

@@ -5,7 +5,8 @@ multisine torque and a square-wave arm reference keeping the arm moving): the 10
 the 1-minute log its first minute. Both are diagnosed in this process, the short one first, with one worker
 (``--workers 1``: the candidate fits run in this process, so its memory figures cover all of the diagnosis).
 
-Per log and stage (load: ``load_log``; diagnose: ``diagnose`` and ``write_report``, which load again, fits, replays in Drake and
+Per log and stage (load: ``load_log``; diagnose: ``diagnose`` and ``write_report``, which load again, fits, replays
+in Drake and
 writes the report), printed: wall time; the peak resident memory during the stage (sampled from /proc every
 20 ms) and its rise over the resident memory before the stage; for the load stage also the tracemalloc peak of
 its Python and numpy allocations (tracemalloc slows the diagnosis' Python loops several-fold, so it is not used
@@ -51,10 +52,14 @@ def make_logs(data: Path) -> tuple[Path, Path, Path]:
     rig = lund_rig()
     base = SimulationConfig.from_rig(rig)
     config = dataclasses.replace(
-        base, duration=LONG_S, seed=3, initial_state=[0.02, 0.0, 0.0, 0.0],
+        base,
+        duration=LONG_S,
+        seed=3,
+        initial_state=[0.02, 0.0, 0.0, 0.0],
         friction=FrictionParameters(arm=JointFrictionParameters.coulomb(0.015, 1e-4, regularization_velocity=1e-2)),
         controller=dataclasses.replace(base.controller, velocity_source="true"),
-        excitation=ExcitationConfig(torque_rms=0.02, arm_reference_amplitude=0.3, arm_reference_period=4.0))
+        excitation=ExcitationConfig(torque_rms=0.02, arm_reference_amplitude=0.3, arm_reference_period=4.0),
+    )
     start = time.perf_counter()
     result = simulate(config)
     print(f"simulated the {LONG_S:.0f} s log in {time.perf_counter() - start:.0f} s")
@@ -108,8 +113,9 @@ def stages(rig_path: Path, log_path: Path, out: Path, workers: int) -> dict:
     rig = load_rig(rig_path)
     return {
         "load": lambda: load_log(log_path, rig),
-        "diagnose": lambda: write_report(out / log_path.stem, diagnose(rig=rig_path, train=[log_path], workers=workers),
-                                         force=True),
+        "diagnose": lambda: write_report(
+            out / log_path.stem, diagnose(rig=rig_path, train=[log_path], workers=workers), force=True
+        ),
     }
 
 
@@ -122,16 +128,21 @@ def main() -> None:
         rig_path, long_path, short_path = make_logs(args.data or Path(scratch) / "logs")
         logs = {"1 min": short_path, "10 min": long_path}
         rows = {name: sum(1 for _ in path.open()) - 1 for name, path in logs.items()}
-        print(f"logs: {rows['1 min']} and {rows['10 min']} rows ({short_path.stat().st_size / 2**20:.1f} and "
-              f"{long_path.stat().st_size / 2**20:.1f} MB of CSV); workers {args.workers}", flush=True)
+        print(
+            f"logs: {rows['1 min']} and {rows['10 min']} rows ({short_path.stat().st_size / 2**20:.1f} and "
+            f"{long_path.stat().st_size / 2**20:.1f} MB of CSV); workers {args.workers}",
+            flush=True,
+        )
         figures = {}
         for name, path in logs.items():
             runs = stages(rig_path, path, Path(scratch) / "reports", args.workers)
             figures[name] = {"load": measure(runs["load"], traced=True), "diagnose": measure(runs["diagnose"])}
             print(f"  {name}: {figures[name]}", flush=True)
         maxrss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # Linux: KiB
-    print(f"\n{'log':7} {'stage':9} {'time [s]':>9} {'peak RSS [MB]':>14} {'RSS rise [MB]':>14} "
-          f"{'tracemalloc peak [MB]':>22}")
+    print(
+        f"\n{'log':7} {'stage':9} {'time [s]':>9} {'peak RSS [MB]':>14} {'RSS rise [MB]':>14} "
+        f"{'tracemalloc peak [MB]':>22}"
+    )
     for name in logs:
         for stage in ("load", "diagnose"):
             f = figures[name][stage]
@@ -141,10 +152,15 @@ def main() -> None:
     print("\nratios 10 min / 1 min (10 would be linear in the log length):")
     for stage in ("load", "diagnose"):
         long, short = figures["10 min"][stage], figures["1 min"][stage]
-        traced = (f", tracemalloc peak {long['traced_peak_mb'] / short['traced_peak_mb']:.1f}x"
-                  if "traced_peak_mb" in long else "")
-        print(f"  {stage:9} time {long['seconds'] / short['seconds']:.1f}x, RSS rise "
-              f"{long['rss_rise_mb'] / max(short['rss_rise_mb'], 1.0):.1f}x{traced}")
+        traced = (
+            f", tracemalloc peak {long['traced_peak_mb'] / short['traced_peak_mb']:.1f}x"
+            if "traced_peak_mb" in long
+            else ""
+        )
+        print(
+            f"  {stage:9} time {long['seconds'] / short['seconds']:.1f}x, RSS rise "
+            f"{long['rss_rise_mb'] / max(short['rss_rise_mb'], 1.0):.1f}x{traced}"
+        )
     per_row = figures["10 min"]["diagnose"]["rss_rise_mb"] * 2**20 / rows["10 min"]
     print(f"  the diagnosis of the 10-minute log adds {per_row:.0f} bytes of resident memory per row")
 

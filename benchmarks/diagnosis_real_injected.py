@@ -31,9 +31,9 @@ import argparse
 import json
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -69,23 +69,32 @@ def _read(path: Path) -> dict[str, np.ndarray]:
 
 def _write(columns: dict[str, np.ndarray], path: Path) -> None:
     names = list(columns)
-    np.savetxt(path, np.column_stack([columns[n] for n in names]), delimiter=",", header=",".join(names),
-               comments="", fmt="%.9g")
+    np.savetxt(
+        path,
+        np.column_stack([columns[n] for n in names]),
+        delimiter=",",
+        header=",".join(names),
+        comments="",
+        fmt="%.9g",
+    )
 
 
 def _phi_and_rate(columns: dict, rig: RigParameters) -> tuple[np.ndarray, np.ndarray]:
     period = float(np.median(np.diff(columns["time"])))
     window = max(7, int(round(SMOOTHING_S / period)) | 1)
-    return (savgol_filter(columns["phi"], window, 3),
-            savgol_filter(columns["phi"], window, 3, deriv=1, delta=period))
+    return (savgol_filter(columns["phi"], window, 3), savgol_filter(columns["phi"], window, 3, deriv=1, delta=period))
 
 
 def torque_effect(g: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> Callable[[dict, RigParameters], dict]:
     """V' = V - (R / kt) g(phi, phi_dot): the data of a rig whose arm feels the extra torque g [N m]."""
+
     def inject(columns, rig):
         phi, rate = _phi_and_rate(columns, rig)
-        return {**columns, "voltage": columns["voltage"]
-                - rig.motor.resistance / rig.motor.torque_constant * g(phi, rate)}
+        return {
+            **columns,
+            "voltage": columns["voltage"] - rig.motor.resistance / rig.motor.torque_constant * g(phi, rate),
+        }
+
     return inject
 
 
@@ -94,6 +103,7 @@ def delay(samples: int) -> Callable[[dict, RigParameters], dict]:
         out = {name: values[:-samples] for name, values in columns.items()}
         out["voltage"] = columns["voltage"][samples:]
         return out
+
     return inject
 
 
@@ -104,14 +114,21 @@ def lag(time_constant: float) -> Callable[[dict, RigParameters], dict]:
         out = {name: values[:-1] for name, values in columns.items()}
         out["voltage"] = (voltage[1:] - decay * voltage[:-1]) / (1.0 - decay)
         return out
+
     return inject
 
 
 def requantise(factor: int) -> Callable[[dict, RigParameters], dict]:
     def inject(columns, rig):
         step = factor * 2 * np.pi / rig.counts_per_rev
-        return {**columns, **{name: columns[name][0] + np.round((columns[name] - columns[name][0]) / step) * step
-                              for name in ("theta", "phi")}}
+        return {
+            **columns,
+            **{
+                name: columns[name][0] + np.round((columns[name] - columns[name][0]) / step) * step
+                for name in ("theta", "phi")
+            },
+        }
+
     return inject
 
 
@@ -119,39 +136,74 @@ def noise(counts: float, seed: int = 0) -> Callable[[dict, RigParameters], dict]
     def inject(columns, rig):
         rng = np.random.default_rng(seed + len(columns["time"]))
         sigma = counts * 2 * np.pi / rig.counts_per_rev
-        return {**columns, **{name: columns[name] + rng.normal(0.0, sigma, columns[name].size)
-                              for name in ("theta", "phi")}}
+        return {
+            **columns,
+            **{name: columns[name] + rng.normal(0.0, sigma, columns[name].size) for name in ("theta", "phi")},
+        }
+
     return inject
 
 
 def injections(rig: RigParameters, scale: float) -> list[Injection]:
     """The cases: sizes scale with m g l, the arm's inertia and the sample period (times ``scale``)."""
-    mgl, arm, period, volts = rig.gravity_torque, rig.arm_inertia_total, rig.sample_period, \
-        rig.motor.resistance / rig.motor.torque_constant
+    mgl, arm, period, volts = (
+        rig.gravity_torque,
+        rig.arm_inertia_total,
+        rig.sample_period,
+        rig.motor.resistance / rig.motor.torque_constant,
+    )
     s = scale
     return [
         Injection("baseline", "-"),
-        Injection("arm_viscous_friction", f"b = {0.8 * s * arm:.3g} N m s/rad",
-                  torque_effect(lambda phi, rate: -0.8 * s * arm * rate)),
-        Injection("arm_coulomb_friction", f"Fc = {0.1 * s * mgl:.3g} N m",
-                  torque_effect(lambda phi, rate: -0.1 * s * mgl * np.tanh(rate / 0.05))),
-        Injection("arm_spring", f"k = {0.25 * s * mgl:.3g} N m/rad, phi0 = 0.1 rad",
-                  torque_effect(lambda phi, rate: -0.25 * s * mgl * (phi - 0.1))),
-        Injection("input_delay", f"{max(1, round(2 * s))} samples = {max(1, round(2 * s)) * period:.3g} s",
-                  delay(max(1, round(2 * s)))),
+        Injection(
+            "arm_viscous_friction",
+            f"b = {0.8 * s * arm:.3g} N m s/rad",
+            torque_effect(lambda phi, rate: -0.8 * s * arm * rate),
+        ),
+        Injection(
+            "arm_coulomb_friction",
+            f"Fc = {0.1 * s * mgl:.3g} N m",
+            torque_effect(lambda phi, rate: -0.1 * s * mgl * np.tanh(rate / 0.05)),
+        ),
+        Injection(
+            "arm_spring",
+            f"k = {0.25 * s * mgl:.3g} N m/rad, phi0 = 0.1 rad",
+            torque_effect(lambda phi, rate: -0.25 * s * mgl * (phi - 0.1)),
+        ),
+        Injection(
+            "input_delay",
+            f"{max(1, round(2 * s))} samples = {max(1, round(2 * s)) * period:.3g} s",
+            delay(max(1, round(2 * s))),
+        ),
         Injection("actuator_lag", f"tau = {3 * s * period:.3g} s", lag(3 * s * period)),
-        Injection("torque_gain_error", f"gain = {1 - 0.2 * s:.3g}",
-                  lambda c, r: {**c, "voltage": c["voltage"] / (1 - 0.2 * s)}),
-        Injection("actuator_deadzone", f"w = {0.3 * s:.3g} V = {0.3 * s / volts:.3g} N m (subtract)",
-                  lambda c, r: {**c, "voltage": c["voltage"] + 0.3 * s * np.sign(c["voltage"])}),
-        Injection("encoder_quantization", f"{rig.counts_per_rev // max(2, round(4 * s))} counts/rev",
-                  requantise(max(2, round(4 * s)))),
+        Injection(
+            "torque_gain_error",
+            f"gain = {1 - 0.2 * s:.3g}",
+            lambda c, r: {**c, "voltage": c["voltage"] / (1 - 0.2 * s)},
+        ),
+        Injection(
+            "actuator_deadzone",
+            f"w = {0.3 * s:.3g} V = {0.3 * s / volts:.3g} N m (subtract)",
+            lambda c, r: {**c, "voltage": c["voltage"] + 0.3 * s * np.sign(c["voltage"])},
+        ),
+        Injection(
+            "encoder_quantization",
+            f"{rig.counts_per_rev // max(2, round(4 * s))} counts/rev",
+            requantise(max(2, round(4 * s))),
+        ),
         Injection("measurement_noise", f"{1.5 * s:.3g} counts", noise(1.5 * s)),
-        Injection("inertia_mismatch", "rig file: pendulum mass x 1.25, arm inertia x 0.8",
-                  rig=lambda r: r.replace(pendulum_mass=r.pendulum_mass * (1 + 0.25 * s),
-                                          arm_inertia=r.arm_inertia * (1 - 0.2 * s))),
-        Injection("cogging_torque", f"A = {0.15 * s * mgl:.3g} N m, 12 per turn",
-                  torque_effect(lambda phi, rate: 0.15 * s * mgl * np.sin(12 * phi))),
+        Injection(
+            "inertia_mismatch",
+            "rig file: pendulum mass x 1.25, arm inertia x 0.8",
+            rig=lambda r: r.replace(
+                pendulum_mass=r.pendulum_mass * (1 + 0.25 * s), arm_inertia=r.arm_inertia * (1 - 0.2 * s)
+            ),
+        ),
+        Injection(
+            "cogging_torque",
+            f"A = {0.15 * s * mgl:.3g} N m, 12 per turn",
+            torque_effect(lambda phi, rate: 0.15 * s * mgl * np.sin(12 * phi)),
+        ),
     ]
 
 
@@ -194,22 +246,43 @@ def main(argv: list[str] | None = None) -> int:
         else:
             named = injection.name == "baseline" or injection.name in diagnosis.effects
         steps = {step.effect: step.params for step in diagnosis.steps}
-        row = {"case": injection.name, "size": injection.size, "verdict": diagnosis.verdict,
-               "effects": diagnosis.effects, "new_beside_baseline": sorted(set(diagnosis.effects) - set(baseline or [])),
-               "named": named, "heldout_reduction": diagnosis.gap.heldout_reduction,
-               "fitted": steps.get(injection.name), "confusable": diagnosis.confusable,
-               "seconds": time.perf_counter() - start}
+        row = {
+            "case": injection.name,
+            "size": injection.size,
+            "verdict": diagnosis.verdict,
+            "effects": diagnosis.effects,
+            "new_beside_baseline": sorted(set(diagnosis.effects) - set(baseline or [])),
+            "named": named,
+            "heldout_reduction": diagnosis.gap.heldout_reduction,
+            "fitted": steps.get(injection.name),
+            "confusable": diagnosis.confusable,
+            "seconds": time.perf_counter() - start,
+        }
         rows.append(row)
-        print(f"{injection.name:<22} {injection.size:<44} -> {diagnosis.verdict:<22} {','.join(diagnosis.effects):<60} "
-              f"{'named' if named else 'MISSED'} ({row['heldout_reduction']:.0%}, {row['seconds']:.0f} s)", flush=True)
+        print(
+            f"{injection.name:<22} {injection.size:<44} -> {diagnosis.verdict:<22} {','.join(diagnosis.effects):<60} "
+            f"{'named' if named else 'MISSED'} ({row['heldout_reduction']:.0%}, {row['seconds']:.0f} s)",
+            flush=True,
+        )
     scored = [row for row in rows if row["case"] != "baseline"]
     named = sum(row["named"] for row in scored)
     print(f"\nbaseline effects: {baseline}; injected effects named: {named}/{len(scored)}")
-    (args.out / "results.json").write_text(json.dumps({"baseline": baseline, "named": named, "cases": len(scored),
-                                                       "rows": rows}, indent=2, default=str) + "\n")
-    (args.out / "config.json").write_text(json.dumps({"argv": sys.argv[1:] if argv is None else argv,
-                                                      "train": TRAIN, "heldout": HELDOUT,
-                                                      "versions": versions()}, indent=2) + "\n")
+    (args.out / "results.json").write_text(
+        json.dumps({"baseline": baseline, "named": named, "cases": len(scored), "rows": rows}, indent=2, default=str)
+        + "\n"
+    )
+    (args.out / "config.json").write_text(
+        json.dumps(
+            {
+                "argv": sys.argv[1:] if argv is None else argv,
+                "train": TRAIN,
+                "heldout": HELDOUT,
+                "versions": versions(),
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     return 0
 
 

@@ -36,8 +36,12 @@ from furuta_drake.yamlio import dump_yaml_dataclass
 
 def draw_case(rng: np.random.Generator) -> dict:
     effects = list(rng.choice(VOCABULARY + (OUTSIDE_VOCABULARY,), size=rng.integers(0, 4), replace=False))
-    return {"rig": str(rng.choice(sorted(RIGS))), "effects": effects,
-            "levels": [float(v) for v in rng.uniform(0.2, 3.0, len(effects))], "seed": int(rng.integers(0, 10_000))}
+    return {
+        "rig": str(rng.choice(sorted(RIGS))),
+        "effects": effects,
+        "levels": [float(v) for v in rng.uniform(0.2, 3.0, len(effects))],
+        "seed": int(rng.integers(0, 10_000)),
+    }
 
 
 def write_logs(case: dict, folder: Path, duration: float) -> list[str]:
@@ -81,27 +85,46 @@ def main(argv: list[str] | None = None) -> int:
         start = time.perf_counter()
         row = {"case": i, **case, "replaced_runs": replaced}
         try:
-            diagnosis = diagnose(rig=folder / "rig.yaml", train=sorted(folder.glob("train_*.csv")),
-                                 heldout=sorted(folder.glob("heldout_*.csv")), workers=args.workers)
+            diagnosis = diagnose(
+                rig=folder / "rig.yaml",
+                train=sorted(folder.glob("train_*.csv")),
+                heldout=sorted(folder.glob("heldout_*.csv")),
+                workers=args.workers,
+            )
             write_report(args.out / "reports" / f"case_{i:03d}", diagnosis, force=True)
-            row.update(finished=True, verdict=diagnosis.verdict, effects=diagnosis.effects,
-                       failed=[(entry.effect, entry.reason) for entry in diagnosis.ranking if entry.status != "ok"])
+            row.update(
+                finished=True,
+                verdict=diagnosis.verdict,
+                effects=diagnosis.effects,
+                failed=[(entry.effect, entry.reason) for entry in diagnosis.ranking if entry.status != "ok"],
+            )
         except Exception as err:  # noqa: BLE001 - the benchmark counts what the diagnosis did not contain
             row.update(finished=False, error=traceback.format_exception_only(err)[-1].strip())
         row["seconds"] = time.perf_counter() - start
         rows.append(row)
-        print(f"[{i + 1}/{args.cases}] {case['rig']:<12} {'+'.join(case['effects']) or 'none':<60} -> "
-              f"{row.get('verdict', 'CRASH: ' + row.get('error', ''))} ({len(row.get('failed', []))} failed "
-              f"candidates, {row['seconds']:.0f} s)", flush=True)
+        print(
+            f"[{i + 1}/{args.cases}] {case['rig']:<12} {'+'.join(case['effects']) or 'none':<60} -> "
+            f"{row.get('verdict', 'CRASH: ' + row.get('error', ''))} ({len(row.get('failed', []))} failed "
+            f"candidates, {row['seconds']:.0f} s)",
+            flush=True,
+        )
     finished = sum(row["finished"] for row in rows)
     reasons = Counter(reason.split(":")[0] for row in rows for _, reason in row.get("failed", []))
-    figures = {"cases": len(rows), "finished": finished, "failed_candidates": sum(len(r.get("failed", [])) for r in rows),
-               "failure_kinds": dict(reasons), "seconds_per_case": float(np.mean([r["seconds"] for r in rows]))}
-    print(f"\nfinished {finished}/{len(rows)} (target: all); {figures['failed_candidates']} failed candidates "
-          f"{dict(reasons)}; {figures['seconds_per_case']:.0f} s per case")
+    figures = {
+        "cases": len(rows),
+        "finished": finished,
+        "failed_candidates": sum(len(r.get("failed", [])) for r in rows),
+        "failure_kinds": dict(reasons),
+        "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
+    }
+    print(
+        f"\nfinished {finished}/{len(rows)} (target: all); {figures['failed_candidates']} failed candidates "
+        f"{dict(reasons)}; {figures['seconds_per_case']:.0f} s per case"
+    )
     (args.out / "results.json").write_text(json.dumps({"figures": figures, "rows": rows}, indent=2) + "\n")
-    (args.out / "config.json").write_text(json.dumps({"argv": sys.argv[1:] if argv is None else argv,
-                                                      "versions": versions()}, indent=2) + "\n")
+    (args.out / "config.json").write_text(
+        json.dumps({"argv": sys.argv[1:] if argv is None else argv, "versions": versions()}, indent=2) + "\n"
+    )
     return 0 if finished == len(rows) else 1
 
 

@@ -86,7 +86,7 @@ class Bodies:
         """m g l [N m]."""
         return self.pendulum_mass * self.gravity * self.pendulum_com
 
-    def scaled(self, **factors: float) -> "Bodies":
+    def scaled(self, **factors: float) -> Bodies:
         """These bodies with fields multiplied by ``factors`` (e.g. pendulum_mass=1.2)."""
         return dataclasses.replace(self, **{k: getattr(self, k) * v for k, v in factors.items()})
 
@@ -131,8 +131,9 @@ class Rig:
 def lund_like() -> Rig:
     """The Lund pendulum (Lenain et al.; arm 1.274e-3 kg m^2 incl. rotor, r 0.25 m, pendulum 33.2 g with its
     centre of mass 0.30 m out and 9.0e-4 kg m^2 about it), 4096-count encoders at 1 kHz, 0.2 N m, torque logs."""
-    bodies = Bodies(arm_inertia=1.274e-3, arm_length=0.25, pendulum_mass=0.033172, pendulum_com=0.30,
-                    pendulum_inertia=8.997e-4)
+    bodies = Bodies(
+        arm_inertia=1.274e-3, arm_length=0.25, pendulum_mass=0.033172, pendulum_com=0.30, pendulum_inertia=8.997e-4
+    )
     return Rig("lund", bodies, counts_per_rev=4096, sample_period=0.001, torque_limit=0.2)
 
 
@@ -141,10 +142,16 @@ def qube_like() -> Rig:
     24 g / 129 mm), 2048-count encoders at 500 Hz, a 10 V amplifier, R 8.4 ohm, kt = ke = 0.042: voltage logs."""
     arm_mass, arm_length, rotor, rod_mass, rod_length = 0.095, 0.085, 4e-6, 0.024, 0.129
     motor = Motor(resistance=8.4, torque_constant=0.042, backemf_constant=0.042)
-    bodies = Bodies(arm_inertia=arm_mass * arm_length**2 / 12 + rotor, arm_length=arm_length,
-                    pendulum_mass=rod_mass, pendulum_com=rod_length / 2, pendulum_inertia=rod_mass * rod_length**2 / 12)
-    return Rig("qube", bodies, counts_per_rev=2048, sample_period=0.002, torque_limit=10.0 * motor.torque_per_volt,
-               motor=motor)
+    bodies = Bodies(
+        arm_inertia=arm_mass * arm_length**2 / 12 + rotor,
+        arm_length=arm_length,
+        pendulum_mass=rod_mass,
+        pendulum_com=rod_length / 2,
+        pendulum_inertia=rod_mass * rod_length**2 / 12,
+    )
+    return Rig(
+        "qube", bodies, counts_per_rev=2048, sample_period=0.002, torque_limit=10.0 * motor.torque_per_volt, motor=motor
+    )
 
 
 RIGS = {"lund": lund_like, "qube": qube_like}
@@ -193,7 +200,7 @@ class ArmFriction:
         if self.form == "tanh":
             return -level * math.tanh(v / self.smoothing)
         if self.form == "stribeck":
-            curve = level + (self.static - level) * math.exp(-(v / self.stribeck_velocity) ** 2)
+            curve = level + (self.static - level) * math.exp(-((v / self.stribeck_velocity) ** 2))
             return -curve * math.tanh(v / self.smoothing)
         raise ValueError(f"no smooth torque for form {self.form!r}")
 
@@ -284,6 +291,7 @@ class World:
 
 # --- command chain --------------------------------------------------------------------------------------------
 
+
 @dataclass
 class CommandChain:
     """The discrete part of the command chain, with its memory (the FIFO and the filter's last output)."""
@@ -330,8 +338,10 @@ def saturate(u: float, limit: float, form: str) -> float:
 
 # --- dynamics -------------------------------------------------------------------------------------------------
 
-def accelerations(bodies: Bodies, theta: float, theta_dot: float, phi_dot: float, tau_theta: float,
-                  tau_phi: float) -> tuple[float, float]:
+
+def accelerations(
+    bodies: Bodies, theta: float, theta_dot: float, phi_dot: float, tau_theta: float, tau_phi: float
+) -> tuple[float, float]:
     """(theta_ddot, phi_ddot) [rad/s^2] of the equations in the module docstring, for generalised torques on the
     pendulum and arm joints [N m]."""
     s, co = math.sin(theta), math.cos(theta)
@@ -343,8 +353,9 @@ def accelerations(bodies: Bodies, theta: float, theta_dot: float, phi_dot: float
     return (m22 * r1 - m12 * r2) / det, (b * r2 - m12 * r1) / det
 
 
-def holding_torque(bodies: Bodies, theta: float, theta_dot: float, phi_dot: float, tau_theta: float,
-                   tau_phi: float) -> tuple[float, float]:
+def holding_torque(
+    bodies: Bodies, theta: float, theta_dot: float, phi_dot: float, tau_theta: float, tau_phi: float
+) -> tuple[float, float]:
     """(friction torque [N m] that keeps the arm's velocity ``phi_dot`` constant, theta_ddot [rad/s^2]
     meanwhile) for the other arm torques ``tau_phi`` [N m]: with phi_ddot = 0 the pendulum row gives
     theta_ddot, the arm row the torque."""
@@ -359,8 +370,9 @@ def energy(bodies: Bodies, x: np.ndarray) -> float:
     joint's height)."""
     theta, _, theta_dot, phi_dot = x[:4]
     s, co = math.sin(theta), math.cos(theta)
-    kinetic = 0.5 * (bodies.b * theta_dot**2 + 2 * bodies.c * co * theta_dot * phi_dot
-                     + (bodies.a + bodies.b * s * s) * phi_dot**2)
+    kinetic = 0.5 * (
+        bodies.b * theta_dot**2 + 2 * bodies.c * co * theta_dot * phi_dot + (bodies.a + bodies.b * s * s) * phi_dot**2
+    )
     return kinetic + bodies.d * co
 
 
@@ -412,8 +424,9 @@ class Plant:
         twist = x[self.rotor] - x[1]
         if abs(twist) <= gap:
             return 0.0
-        return self.contact_stiffness * (twist - math.copysign(gap, twist)) + \
-            self.contact_damping * (x[self.rotor + 1] - x[3])
+        return self.contact_stiffness * (twist - math.copysign(gap, twist)) + self.contact_damping * (
+            x[self.rotor + 1] - x[3]
+        )
 
     def pendulum_torque(self, theta_dot: float) -> float:
         w = self.world
@@ -515,8 +528,10 @@ class Integrator:
         elif s == 0:  # stuck (Karnopp): the holding torque reaches the breakaway level
             events = [lambda t, y: self.dry.breakaway - abs(self.plant.holding(y, u))]
         else:  # creeping: the holding torque reaches the Coulomb level, or stops opposing the creep
-            events = [lambda t, y: self.dry.level(s) - abs(self.plant.holding(y, u)),
-                      lambda t, y: -s * self.plant.holding(y, u)]
+            events = [
+                lambda t, y: self.dry.level(s) - abs(self.plant.holding(y, u)),
+                lambda t, y: -s * self.plant.holding(y, u),
+            ]
         for event in events:
             event.terminal, event.direction = True, -1
         return events
@@ -557,6 +572,7 @@ class Integrator:
 
 
 # --- sensors, controller, excitation --------------------------------------------------------------------------
+
 
 def encoder(x: np.ndarray, counts_per_rev: int, noise_std: float, rng: np.random.Generator) -> np.ndarray:
     """Measured [theta, phi] [rad]: rounded to whole counts of 2 pi / counts_per_rev, plus Gaussian noise."""
@@ -619,8 +635,9 @@ class VelocityFilter:
         return self.rate
 
 
-def multisine(rms: float, f_min: float, f_max: float, times: np.ndarray, rng: np.random.Generator,
-              components: int = 14) -> np.ndarray:
+def multisine(
+    rms: float, f_min: float, f_max: float, times: np.ndarray, rng: np.random.Generator, components: int = 14
+) -> np.ndarray:
     """Sum of ``components`` sines on a log-spaced grid [f_min, f_max] [Hz], seeded random phases, at ``rms``."""
     freqs = np.geomspace(f_min, f_max, components)
     phases = rng.uniform(0, 2 * math.pi, components)
@@ -640,6 +657,7 @@ def square_reference(times: np.ndarray, amplitude: float, period: float) -> np.n
 
 
 # --- runs -----------------------------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class RunSpec:
@@ -742,17 +760,33 @@ def write_rig_file(rig: Rig, path: Path) -> None:
     from furuta_drake.yamlio import dump_yaml_dataclass
 
     bd = rig.bodies
-    motor = None if rig.motor is None else MotorParameters(
-        resistance=rig.motor.resistance, torque_constant=rig.motor.torque_constant,
-        backemf_constant=rig.motor.backemf_constant)
-    params = RigParameters(arm_inertia=bd.arm_inertia, arm_length=bd.arm_length, pendulum_mass=bd.pendulum_mass,
-                           pendulum_com=bd.pendulum_com, pendulum_inertia=bd.pendulum_inertia, gravity=bd.gravity,
-                           counts_per_rev=rig.counts_per_rev, sample_period=rig.sample_period,
-                           torque_limit=rig.torque_limit, theta_direction=1, motor=motor)
+    motor = (
+        None
+        if rig.motor is None
+        else MotorParameters(
+            resistance=rig.motor.resistance,
+            torque_constant=rig.motor.torque_constant,
+            backemf_constant=rig.motor.backemf_constant,
+        )
+    )
+    params = RigParameters(
+        arm_inertia=bd.arm_inertia,
+        arm_length=bd.arm_length,
+        pendulum_mass=bd.pendulum_mass,
+        pendulum_com=bd.pendulum_com,
+        pendulum_inertia=bd.pendulum_inertia,
+        gravity=bd.gravity,
+        counts_per_rev=rig.counts_per_rev,
+        sample_period=rig.sample_period,
+        torque_limit=rig.torque_limit,
+        theta_direction=1,
+        motor=motor,
+    )
     path.write_text(dump_yaml_dataclass(params))
 
 
 # --- self-checks ----------------------------------------------------------------------------------------------
+
 
 def check_energy(rig: Rig, seconds: float = 5.0) -> float:
     """Energy drift [m g l] of a free swing (no friction, no motor, no input) from a large angle over
@@ -770,9 +804,16 @@ def check_linearization(rig: Rig) -> float:
     from furuta_drake.rig import RigParameters, linearized_upright
 
     bd = rig.bodies
-    theirs_A, theirs_B = linearized_upright(RigParameters(
-        arm_inertia=bd.arm_inertia, arm_length=bd.arm_length, pendulum_mass=bd.pendulum_mass,
-        pendulum_com=bd.pendulum_com, pendulum_inertia=bd.pendulum_inertia, gravity=bd.gravity))
+    theirs_A, theirs_B = linearized_upright(
+        RigParameters(
+            arm_inertia=bd.arm_inertia,
+            arm_length=bd.arm_length,
+            pendulum_mass=bd.pendulum_mass,
+            pendulum_com=bd.pendulum_com,
+            pendulum_inertia=bd.pendulum_inertia,
+            gravity=bd.gravity,
+        )
+    )
     plant, eps = Plant(World(dataclasses.replace(rig, motor=None))), 1e-6
     ours = np.zeros((4, 5))
     for j in range(5):
@@ -799,8 +840,7 @@ def check_stick_slip(rig: Rig, form: str) -> tuple[float, float]:
     level of a hybrid friction law (Karnopp, breakaway 1.25 x Coulomb; or sign_band, breakaway = Coulomb): the
     first must stay (nearly: sign_band creeps at its band's edge), the second move."""
     level = 0.05 * rig.bodies.d
-    friction = ArmFriction(form, level, level, smoothing=0.002 if form == "sign_band" else 0.0,
-                           breakaway=1.25 * level)
+    friction = ArmFriction(form, level, level, smoothing=0.002 if form == "sign_band" else 0.0, breakaway=1.25 * level)
     limit = friction.breakaway if form == "karnopp" else level
     travel = []
     for factor in (0.9, 1.1):
@@ -823,8 +863,10 @@ def main(argv: list[str] | None = None) -> int:
     for name, make in RIGS.items():
         rig = make()
         upright, hanging = check_signs(rig)
-        print(f"{name}: energy drift {check_energy(rig):.2e} of m g l; linearisation vs furuta_drake "
-              f"{check_linearization(rig):.2e}; theta_ddot for +tau upright {upright:+.2f}, hanging {hanging:+.2f}")
+        print(
+            f"{name}: energy drift {check_energy(rig):.2e} of m g l; linearisation vs furuta_drake "
+            f"{check_linearization(rig):.2e}; theta_ddot for +tau upright {upright:+.2f}, hanging {hanging:+.2f}"
+        )
         for form in ("karnopp", "sign_band"):
             held, moved = check_stick_slip(rig, form)
             print(f"  {form}: arm travel in 0.5 s at 0.9 x breakaway {held:.2e} rad, at 1.1 x {moved:.2e} rad")
@@ -832,10 +874,12 @@ def main(argv: list[str] | None = None) -> int:
             start = time.perf_counter()
             log = simulate(World(rig), run)
             centre = 0.0 if run.kind == "balance" else math.pi
-            print(f"  {run.kind}: |theta - {centre:.2f}| max {np.max(np.abs(log.state[:, 0] - centre)):.3f} rad, "
-                  f"|phi| max {np.max(np.abs(log.state[:, 1])):.2f} rad, "
-                  f"command RMS {np.sqrt(np.mean(log.command**2)):.4f}"
-                  f"{', fell ' + str(log.fell) if run.kind == 'balance' else ''}, {time.perf_counter() - start:.1f} s")
+            print(
+                f"  {run.kind}: |theta - {centre:.2f}| max {np.max(np.abs(log.state[:, 0] - centre)):.3f} rad, "
+                f"|phi| max {np.max(np.abs(log.state[:, 1])):.2f} rad, "
+                f"command RMS {np.sqrt(np.mean(log.command**2)):.4f}"
+                f"{', fell ' + str(log.fell) if run.kind == 'balance' else ''}, {time.perf_counter() - start:.1f} s"
+            )
     return 0
 
 

@@ -56,15 +56,20 @@ def main() -> None:
     args = parser.parse_args()
 
     lund = SimulationConfig.from_rig("lund")
-    base = dataclasses.replace(lund, duration=args.duration,
-                               observers=dataclasses.replace(lund.observers, run=["hg", "vfe"]))
+    base = dataclasses.replace(
+        lund, duration=args.duration, observers=dataclasses.replace(lund.observers, run=["hg", "vfe"])
+    )
     friction_levels = [0.005 * (i + 1) for i in range(args.points)]  # [N m], arm Coulomb friction
     sweep = resolve_sweep(SweepConfig(base=base, parameters={"friction.arm.coulomb_pos": friction_levels}, seed=1))
 
     wall = {1: math.inf, 2: math.inf}
     loops = {1: math.inf, 2: math.inf}
-    with tempfile.TemporaryDirectory() as tmp, dask_client(workers=1) as one, dask_client(workers=2) as two, \
-            ProcessPoolExecutor(2) as pool:
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        dask_client(workers=1) as one,
+        dask_client(workers=2) as two,
+        ProcessPoolExecutor(2) as pool,
+    ):
         clients = {1: one, 2: two}
         for client in clients.values():
             client.run(warm_up)
@@ -78,21 +83,28 @@ def main() -> None:
                 wall[workers] = min(wall[workers], time.perf_counter() - start)
             for processes, seconds in time_busy_loops(pool).items():
                 loops[processes] = min(loops[processes], seconds)
-        csvs = {(Path(tmp) / f"workers_{w}_{r}" / "results.csv").read_bytes()
-                for w in clients for r in range(args.repeats)}
+        csvs = {
+            (Path(tmp) / f"workers_{w}_{r}" / "results.csv").read_bytes() for w in clients for r in range(args.repeats)
+        }
 
     ceiling = loops[1] / loops[2]
     simulated = args.points * args.duration
-    print(f"sweep of {args.points} points x {args.duration:g} s (HG and VFE observers running), "
-          f"{sum(r['diverged'] for r in rows)} diverged")
+    print(
+        f"sweep of {args.points} points x {args.duration:g} s (HG and VFE observers running), "
+        f"{sum(r['diverged'] for r in rows)} diverged"
+    )
     print(f"{'workers':>8} {'best wall [s]':>14} {'sim s / wall s':>15}")
     for workers, seconds in wall.items():
         print(f"{workers:>8} {seconds:>14.2f} {simulated / seconds:>15.2f}")
     speedup = wall[1] / wall[2]
-    print(f"speedup 2 vs 1 worker: {speedup:.2f}x (target >= {TARGET_SPEEDUP}x: "
-          f"{'met' if speedup >= TARGET_SPEEDUP else 'NOT met'})")
-    print(f"machine ceiling now (2 vs 1 CPU-bound processes): {ceiling:.2f}x; the sweep reaches "
-          f"{speedup / ceiling:.0%} of it")
+    print(
+        f"speedup 2 vs 1 worker: {speedup:.2f}x (target >= {TARGET_SPEEDUP}x: "
+        f"{'met' if speedup >= TARGET_SPEEDUP else 'NOT met'})"
+    )
+    print(
+        f"machine ceiling now (2 vs 1 CPU-bound processes): {ceiling:.2f}x; the sweep reaches "
+        f"{speedup / ceiling:.0%} of it"
+    )
     print(f"results.csv identical on 1 and 2 workers, every repeat: {'yes' if len(csvs) == 1 else 'NO'}")
 
 

@@ -16,8 +16,16 @@ from typing import Literal
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder, InputPort, LeafSystem, OutputPort
 from pydrake.systems.primitives import (
-    Adder, AffineSystem, DiscreteTimeDelay, FirstOrderLowPassFilter, Gain, MatrixGain, Multiplexer, PassThrough,
-    Saturation, ZeroOrderHold,
+    Adder,
+    AffineSystem,
+    DiscreteTimeDelay,
+    FirstOrderLowPassFilter,
+    Gain,
+    MatrixGain,
+    Multiplexer,
+    PassThrough,
+    Saturation,
+    ZeroOrderHold,
 )
 
 from furuta_drake.errors import ConfigError
@@ -48,8 +56,9 @@ class ActuatorParameters:
             _require_positive(self.saturation, f"{where}.saturation")
 
 
-def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
-                 delay_resolution: float) -> tuple[InputPort, OutputPort]:
+def add_actuator(
+    builder: DiagramBuilder, params: ActuatorParameters, delay_resolution: float
+) -> tuple[InputPort, OutputPort]:
     """Add the actuator chain to ``builder``; return its (input port, output port), torques in N m.
 
     The chain starts with a ``PassThrough`` (the one input port) followed by the blocks that are not an
@@ -88,8 +97,7 @@ def add_actuator(builder: DiagramBuilder, params: ActuatorParameters,
     if params.deadzone > 0 and params.deadzone_form == "threshold":
         then("actuator_deadzone", threshold_deadzone(params.deadzone))
     elif params.deadzone > 0:
-        clipped = builder.AddNamedSystem("actuator_deadzone_clip",
-                                         Saturation([-params.deadzone], [params.deadzone]))
+        clipped = builder.AddNamedSystem("actuator_deadzone_clip", Saturation([-params.deadzone], [params.deadzone]))
         negated = builder.AddNamedSystem("actuator_deadzone_negate", Gain(-1.0, 1))
         deadzone = builder.AddNamedSystem("actuator_deadzone", Adder(2, 1))
         builder.Connect(signal, clipped.get_input_port())
@@ -115,8 +123,9 @@ class ScalarMap(LeafSystem):
         super().__init__()
         self._function, self._index = function, index
         self._input = self.DeclareVectorInputPort(input_name, input_size)
-        self.DeclareVectorOutputPort(output_name, 1, self._calc, prerequisites_of_calc={
-            self.input_port_ticket(self._input.get_index())})
+        self.DeclareVectorOutputPort(
+            output_name, 1, self._calc, prerequisites_of_calc={self.input_port_ticket(self._input.get_index())}
+        )
 
     def _calc(self, context, output):
         output.SetAtIndex(0, self._function(self._input.Eval(context)[self._index]))
@@ -157,8 +166,9 @@ class DisturbanceParameters:
             raise ConfigError(f"{where}.cogging_periods must be >= 1 when cogging_amplitude > 0")
 
 
-def add_arm_disturbance(builder: DiagramBuilder, params: DisturbanceParameters,
-                        true_state_port: OutputPort) -> OutputPort | None:
+def add_arm_disturbance(
+    builder: DiagramBuilder, params: DisturbanceParameters, true_state_port: OutputPort
+) -> OutputPort | None:
     """Add the arm's spring -(k x + k3 x^3), x = phi - phi0, and cogging A sin(N phi + psi) fed by
     ``true_state_port`` (paper x); return the port of their sum, the torque on the arm [N m], or None when all are
     zero.
@@ -170,9 +180,17 @@ def add_arm_disturbance(builder: DiagramBuilder, params: DisturbanceParameters,
     torques = []
     if params.arm_spring_stiffness > 0:
         k = params.arm_spring_stiffness
-        spring = builder.AddNamedSystem("arm_spring", AffineSystem(
-            A=np.zeros((0, 0)), B=np.zeros((0, 4)), f0=np.zeros(0), C=np.zeros((1, 0)),
-            D=np.array([[0.0, -k, 0.0, 0.0]]), y0=np.array([k * params.arm_spring_equilibrium])))
+        spring = builder.AddNamedSystem(
+            "arm_spring",
+            AffineSystem(
+                A=np.zeros((0, 0)),
+                B=np.zeros((0, 4)),
+                f0=np.zeros(0),
+                C=np.zeros((1, 0)),
+                D=np.array([[0.0, -k, 0.0, 0.0]]),
+                y0=np.array([k * params.arm_spring_equilibrium]),
+            ),
+        )
         builder.Connect(true_state_port, spring.get_input_port())
         torques.append(spring.get_output_port())
     maps = {}
@@ -194,15 +212,17 @@ def add_arm_disturbance(builder: DiagramBuilder, params: DisturbanceParameters,
     return total.get_output_port()
 
 
-def add_dc_motor(builder: DiagramBuilder, motor: MotorParameters, voltage_port: OutputPort,
-                 true_state_port: OutputPort) -> OutputPort:
+def add_dc_motor(
+    builder: DiagramBuilder, motor: MotorParameters, voltage_port: OutputPort, true_state_port: OutputPort
+) -> OutputPort:
     """Add an armature-controlled DC motor, tau = kt (V - ke phi_dot) / R (inductance neglected): a C++
     ``MatrixGain`` on [V; x] (``Multiplexer``), x the paper's state. Returns the arm torque port [N m]."""
     motor.validate()
     stacked = builder.AddNamedSystem("motor_inputs", Multiplexer([1, 4]))
     kt_over_r = motor.torque_constant / motor.resistance
-    torque = builder.AddNamedSystem("motor_torque", MatrixGain(
-        np.array([[kt_over_r, 0.0, 0.0, 0.0, -kt_over_r * motor.backemf_constant]])))
+    torque = builder.AddNamedSystem(
+        "motor_torque", MatrixGain(np.array([[kt_over_r, 0.0, 0.0, 0.0, -kt_over_r * motor.backemf_constant]]))
+    )
     builder.Connect(voltage_port, stacked.get_input_port(0))
     builder.Connect(true_state_port, stacked.get_input_port(1))
     builder.Connect(stacked.get_output_port(), torque.get_input_port())
@@ -210,6 +230,12 @@ def add_dc_motor(builder: DiagramBuilder, motor: MotorParameters, voltage_port: 
 
 
 __all__ = [
-    "ActuatorParameters", "add_actuator", "ScalarMap", "threshold_deadzone", "smooth_saturation",
-    "DisturbanceParameters", "add_arm_disturbance", "add_dc_motor",
+    "ActuatorParameters",
+    "add_actuator",
+    "ScalarMap",
+    "threshold_deadzone",
+    "smooth_saturation",
+    "DisturbanceParameters",
+    "add_arm_disturbance",
+    "add_dc_motor",
 ]

@@ -13,7 +13,13 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (
-    ControllabilityMatrix, IsControllable, IsObservable, Linearize, LinearSystem, MatrixGain, Multiplexer,
+    ControllabilityMatrix,
+    IsControllable,
+    IsObservable,
+    Linearize,
+    LinearSystem,
+    MatrixGain,
+    Multiplexer,
     ObservabilityMatrix,
 )
 
@@ -32,16 +38,22 @@ def observability(A: np.ndarray, C: np.ndarray = ANGLES) -> dict:
     """Drake's ``IsObservable`` and the rank and condition number of its ``ObservabilityMatrix``."""
     system = linear_plant(A, np.zeros((4, 1)), C)
     matrix = ObservabilityMatrix(system)
-    return {"observable": bool(IsObservable(system)), "rank": int(np.linalg.matrix_rank(matrix)),
-            "condition": float(np.linalg.cond(matrix))}
+    return {
+        "observable": bool(IsObservable(system)),
+        "rank": int(np.linalg.matrix_rank(matrix)),
+        "condition": float(np.linalg.cond(matrix)),
+    }
 
 
 def controllability(A: np.ndarray, B: np.ndarray) -> dict:
     """Drake's ``IsControllable`` and the rank and condition number of its ``ControllabilityMatrix``."""
     system = linear_plant(A, B)
     matrix = ControllabilityMatrix(system)
-    return {"controllable": bool(IsControllable(system)), "rank": int(np.linalg.matrix_rank(matrix)),
-            "condition": float(np.linalg.cond(matrix))}
+    return {
+        "controllable": bool(IsControllable(system)),
+        "rank": int(np.linalg.matrix_rank(matrix)),
+        "condition": float(np.linalg.cond(matrix)),
+    }
 
 
 def observer_loop_eigenvalues(rig: RigParameters, K: np.ndarray, observer: LinearSystem) -> np.ndarray:
@@ -65,8 +77,9 @@ def observer_loop_eigenvalues(rig: RigParameters, K: np.ndarray, observer: Linea
     builder.Connect(lqr.get_output_port(), plant.get_actuation_input_port())
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
-    plant.get_applied_generalized_force_input_port().FixValue(plant.GetMyMutableContextFromRoot(context),
-                                                              np.zeros(plant.num_velocities()))
+    plant.get_applied_generalized_force_input_port().FixValue(
+        plant.GetMyMutableContextFromRoot(context), np.zeros(plant.num_velocities())
+    )
     linear = Linearize(diagram, context)  # the diagram has no free input; its first output is unused
     return np.linalg.eigvals(linear.A())
 

@@ -39,12 +39,16 @@ def _parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="simulate a Furuta rig in closed loop and write its log")
     sim.add_argument("--config", type=Path, help="simulate config YAML (default: the Lund rig balancing)")
-    sim.add_argument("--rig", help="shipped rig name (lund, qube_servo2) or a rig YAML (docs/diagnose.md); "
-                                   "ignored with --config")
+    sim.add_argument(
+        "--rig", help="shipped rig name (lund, qube_servo2) or a rig YAML (docs/diagnose.md); ignored with --config"
+    )
     sim.add_argument("--duration", type=float, help="override the config's duration [s]")
     sim.add_argument("--seed", type=int, help="override the config's seed")
-    sim.add_argument("--velocity-source", choices=["true", "derivative", "hg", "vfe"],
-                     help="override the state estimate the LQR uses")
+    sim.add_argument(
+        "--velocity-source",
+        choices=["true", "derivative", "hg", "vfe"],
+        help="override the state estimate the LQR uses",
+    )
     sim.add_argument("--out", type=Path, required=True, help="output directory")
     sim.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     sim.add_argument("--meshcat", action="store_true", help="animate live in Meshcat")
@@ -52,69 +56,129 @@ def _parser() -> argparse.ArgumentParser:
     sim.set_defaults(run=_run_simulate)
 
     diag = sub.add_parser("diagnose", help="diagnose the sim-to-real gap of a rig from its logs")
-    diag.add_argument("--rig", type=Path, required=True,
-                      help="rig YAML (docs/diagnose.md; `furuta-drake rig --template` writes one to start from)")
+    diag.add_argument(
+        "--rig",
+        type=Path,
+        required=True,
+        help="rig YAML (docs/diagnose.md; `furuta-drake rig --template` writes one to start from)",
+    )
     diag.add_argument("--train", type=Path, nargs="+", required=True, help="logs the candidates are fitted on")
     diag.add_argument("--heldout", type=Path, nargs="*", default=[], help="logs every held-out figure uses")
     diag.add_argument("--out", type=Path, required=True, help="output directory")
     diag.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     diag.add_argument("--workers", type=int, help="processes for the candidate fits (default: all cores)")
-    diag.add_argument("--scheduler", help="address of an existing Dask scheduler whose workers run the fits and "
-                                          "replays (same results as local processes)")
-    diag.add_argument("--folds", type=int, help="repeat the decision on K >= 2 splits of the logs into train and "
-                                                "held-out blocks and report its consistency")
-    diag.add_argument("--columns", metavar="NAME=COLUMN,...",
-                      help="the logs' own column names, e.g. time=t,theta=alpha,phi=theta,voltage=vm (names: time, "
-                           "theta, phi, torque, voltage; a name not mapped is read as itself; in an MCAP log an "
-                           "unmapped time is each message's log time)")
-    diag.add_argument("--angle-unit", help="unit of both logged angles: rad (default), deg or counts (the rig's "
-                                           "counts_per_rev)")
-    diag.add_argument("--topic", help="MCAP channel holding the run, JSON messages whose fields are the columns "
-                                      "(default: the file's only channel); logs are CSV, Parquet or MCAP by extension")
+    diag.add_argument(
+        "--scheduler",
+        help="address of an existing Dask scheduler whose workers run the fits and "
+        "replays (same results as local processes)",
+    )
+    diag.add_argument(
+        "--folds",
+        type=int,
+        help="repeat the decision on K >= 2 splits of the logs into train and "
+        "held-out blocks and report its consistency",
+    )
+    diag.add_argument(
+        "--columns",
+        metavar="NAME=COLUMN,...",
+        help="the logs' own column names, e.g. time=t,theta=alpha,phi=theta,voltage=vm (names: time, "
+        "theta, phi, torque, voltage; a name not mapped is read as itself; in an MCAP log an "
+        "unmapped time is each message's log time)",
+    )
+    diag.add_argument(
+        "--angle-unit", help="unit of both logged angles: rad (default), deg or counts (the rig's counts_per_rev)"
+    )
+    diag.add_argument(
+        "--topic",
+        help="MCAP channel holding the run, JSON messages whose fields are the columns "
+        "(default: the file's only channel); logs are CSV, Parquet or MCAP by extension",
+    )
     diag.set_defaults(run=_run_diagnose)
 
     des = sub.add_parser("design", help="design the experiment that settles what a diagnosis could not decide")
     des.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
     des.add_argument("--out", type=Path, required=True, help="output directory")
     des.add_argument("--force", action="store_true", help="replace a non-empty output directory")
-    des.add_argument("--duration", type=float,
-                     help="length of the experiment [s]; its first half trains, its second is held out (default: the "
-                          "shortest repeat of an 8 s experiment predicted to settle every pair, up to 64 s)")
+    des.add_argument(
+        "--duration",
+        type=float,
+        help="length of the experiment [s]; its first half trains, its second is held out (default: the "
+        "shortest repeat of an 8 s experiment predicted to settle every pair, up to 64 s)",
+    )
     mode = des.add_mutually_exclusive_group()
-    mode.add_argument("--hanging", dest="balancing", action="store_false",
-                      help="an open-loop command played from rest with the pendulum hanging (default)")
-    mode.add_argument("--balancing", dest="balancing", action="store_true",
-                      help="a dither added to the project's LQR balancing the pendulum upright")
-    des.add_argument("--target", nargs="+", default=[], metavar="EFFECT=VALUE",
-                     help="separate the accepted model from it plus EFFECT at VALUE (its main parameter, as the "
-                          "report's detection_limits state it) instead of from its rivals")
-    des.add_argument("--arm-bound", type=float, default=1.0,
-                     help="largest arm angle |phi| allowed under any hypothesis [rad] (default 1)")
+    mode.add_argument(
+        "--hanging",
+        dest="balancing",
+        action="store_false",
+        help="an open-loop command played from rest with the pendulum hanging (default)",
+    )
+    mode.add_argument(
+        "--balancing",
+        dest="balancing",
+        action="store_true",
+        help="a dither added to the project's LQR balancing the pendulum upright",
+    )
+    des.add_argument(
+        "--target",
+        nargs="+",
+        default=[],
+        metavar="EFFECT=VALUE",
+        help="separate the accepted model from it plus EFFECT at VALUE (its main parameter, as the "
+        "report's detection_limits state it) instead of from its rivals",
+    )
+    des.add_argument(
+        "--arm-bound",
+        type=float,
+        default=1.0,
+        help="largest arm angle |phi| allowed under any hypothesis [rad] (default 1)",
+    )
     des.add_argument("--seed", type=int, default=0, help="seed of the search and of the predicted noise (default 0)")
     des.set_defaults(run=_run_design, balancing=False)
 
     rig = sub.add_parser("rig", help="write an annotated rig file to start from, or check one")
     rig_action = rig.add_mutually_exclusive_group(required=True)
-    rig_action.add_argument("--template", choices=["lund", "qube_servo2"],
-                            help="print the shipped rig's file with every key explained (redirect it to a file)")
-    rig_action.add_argument("--check", type=Path, metavar="FILE",
-                            help="print the constants FILE implies: lumped constants, the paper's alpha1, alpha2, "
-                                 "beta3-beta5, the upright poles and the hanging natural frequency")
+    rig_action.add_argument(
+        "--template",
+        choices=["lund", "qube_servo2"],
+        help="print the shipped rig's file with every key explained (redirect it to a file)",
+    )
+    rig_action.add_argument(
+        "--check",
+        type=Path,
+        metavar="FILE",
+        help="print the constants FILE implies: lumped constants, the paper's alpha1, alpha2, "
+        "beta3-beta5, the upright poles and the hanging natural frequency",
+    )
     rig.set_defaults(run=_run_rig)
 
     rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
-    rep.add_argument("--only", nargs="+", metavar="EXPERIMENT",
-                     help="experiments to run among table1 table2 fig5 fig6 fig7 beyond real (default: the paper's, "
-                          "table1 ... fig7; beyond runs the studies of the paper's open problems, a few minutes; real "
-                          "runs the observers and the closed loop on the real QUBE-Servo 2 logs, before and after "
-                          "the diagnosis' correction, a few minutes)")
+    rep.add_argument(
+        "--only",
+        nargs="+",
+        metavar="EXPERIMENT",
+        help="experiments to run among table1 table2 fig5 fig6 fig7 beyond real (default: the paper's, "
+        "table1 ... fig7; beyond runs the studies of the paper's open problems, a few minutes; real "
+        "runs the observers and the closed loop on the real QUBE-Servo 2 logs, before and after "
+        "the diagnosis' correction, a few minutes)",
+    )
     rep.add_argument("--seed", type=int, default=0, help="seed of the excitation and encoder noise (default 0)")
-    rep.add_argument("--table-duration", type=float, default=20.0,
-                     help="length of the runs of Tables I-II and Fig. 5 [s] (default 20, as the paper)")
-    rep.add_argument("--adaptation-duration", type=float, default=40.0,
-                     help="length of the run of Figs. 6-7 [s] (default 40; adaptation starts at 7.8 s)")
-    rep.add_argument("--quick", action="store_true",
-                     help="short runs everywhere (4 s tables, 12 s adaptation, short studies): a smoke test")
+    rep.add_argument(
+        "--table-duration",
+        type=float,
+        default=20.0,
+        help="length of the runs of Tables I-II and Fig. 5 [s] (default 20, as the paper)",
+    )
+    rep.add_argument(
+        "--adaptation-duration",
+        type=float,
+        default=40.0,
+        help="length of the run of Figs. 6-7 [s] (default 40; adaptation starts at 7.8 s)",
+    )
+    rep.add_argument(
+        "--quick",
+        action="store_true",
+        help="short runs everywhere (4 s tables, 12 s adaptation, short studies): a smoke test",
+    )
     rep.add_argument("--out", type=Path, required=True, help="output directory")
     rep.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     rep.set_defaults(run=_run_reproduce)
@@ -189,8 +253,10 @@ def _run_simulate(args) -> int:
             staging.write_text(meshcat.StaticHtml())
             staging.replace(args.html)
     rate = config.duration / result.wall_time if result.wall_time > 0 else float("inf")
-    print(f"simulated {config.duration:g} s in {result.wall_time:.2f} s ({rate:.1f}x real time); "
-          f"max |theta| = {abs(result.state[:, 0]).max():.4f} rad; wrote {args.out}")
+    print(
+        f"simulated {config.duration:g} s in {result.wall_time:.2f} s ({rate:.1f}x real time); "
+        f"max |theta| = {abs(result.state[:, 0]).max():.4f} rad; wrote {args.out}"
+    )
     return 0
 
 
@@ -207,20 +273,32 @@ def _check_html_path(path: Path, force: bool) -> None:
 def _run_reproduce(args) -> int:
     from tqdm import tqdm
 
-    from furuta_drake.reproduction_report import (BEYOND_STUDIES, PAPER_EXPERIMENTS, ReproductionSettings,
-                                                  run_reproduction)
+    from furuta_drake.reproduction_report import (
+        BEYOND_STUDIES,
+        PAPER_EXPERIMENTS,
+        ReproductionSettings,
+        run_reproduction,
+    )
 
-    quick = {"table_duration": 4.0, "adaptation_duration": 12.0, "small_beyond": True,
-             "small_real": True} if args.quick else {
-        "table_duration": args.table_duration, "adaptation_duration": args.adaptation_duration}
+    quick = (
+        {"table_duration": 4.0, "adaptation_duration": 12.0, "small_beyond": True, "small_real": True}
+        if args.quick
+        else {"table_duration": args.table_duration, "adaptation_duration": args.adaptation_duration}
+    )
     settings = ReproductionSettings(only=args.only or list(PAPER_EXPERIMENTS), seed=args.seed, **quick)
     settings.validate()
     only = set(settings.only)
-    steps = (4 * bool(only & {"table1", "table2"}) + 2 * ("fig5" in only) + bool(only & {"fig6", "fig7"})
-             + len(BEYOND_STUDIES) * ("beyond" in only) + 20 * ("real" in only))
+    steps = (
+        4 * bool(only & {"table1", "table2"})
+        + 2 * ("fig5" in only)
+        + bool(only & {"fig6", "fig7"})
+        + len(BEYOND_STUDIES) * ("beyond" in only)
+        + 20 * ("real" in only)
+    )
     with tqdm(total=steps, desc="reproduce", unit="run", disable=not sys.stderr.isatty()) as bar:
-        figures = run_reproduction(settings, args.out, force=args.force,
-                                   progress=lambda message: (bar.set_postfix_str(message), bar.update(1)))
+        figures = run_reproduction(
+            settings, args.out, force=args.force, progress=lambda message: (bar.set_postfix_str(message), bar.update(1))
+        )
     print(f"reproduced {', '.join(settings.only)} in {figures['wall_time_s']:.0f} s; see {args.out / 'report.md'}")
     return 0
 
@@ -236,13 +314,18 @@ def _run_sweep(args) -> int:
     bar = tqdm(total=len(sweep.points), desc="sweep", unit="point", disable=not sys.stderr.isatty())
     start = time.perf_counter()
     try:
-        rows = run_sweep(sweep, args.out, force=args.force, scheduler=args.scheduler, workers=args.workers,
-                         progress=lambda done, total: bar.update(done - bar.n))
+        rows = run_sweep(
+            sweep,
+            args.out,
+            force=args.force,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=lambda done, total: bar.update(done - bar.n),
+        )
     finally:
         bar.close()
     diverged = sum(row["diverged"] for row in rows)
-    print(f"swept {len(rows)} points ({diverged} diverged) in {time.perf_counter() - start:.1f} s; "
-          f"wrote {args.out}")
+    print(f"swept {len(rows)} points ({diverged} diverged) in {time.perf_counter() - start:.1f} s; wrote {args.out}")
     return 0
 
 
@@ -277,19 +360,28 @@ def _run_diagnose(args) -> int:
     protect = [args.rig, *args.train, *args.heldout]
     prepare_output_dir(args.out, force=args.force, protect=protect)
     with tqdm(desc="fitting candidates", unit="fit", disable=not sys.stderr.isatty()) as bar:
-        diagnosis = diagnose(rig=args.rig, train=args.train, heldout=args.heldout, folds=args.folds,
-                             workers=args.workers, scheduler=args.scheduler, progress=lambda result: bar.update(1),
-                             log_format=log_format)
+        diagnosis = diagnose(
+            rig=args.rig,
+            train=args.train,
+            heldout=args.heldout,
+            folds=args.folds,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=lambda result: bar.update(1),
+            log_format=log_format,
+        )
     for note in diagnosis.notes:
         print(note)
     write_report(args.out, diagnosis, force=args.force, protect=protect)
     gap = diagnosis.gap
     failed = [entry.effect for entry in diagnosis.ranking if entry.status != "ok"]
-    print(f"verdict: {diagnosis.verdict} (effects: {', '.join(diagnosis.effects) or '-'}); held-out gap "
-          f"{gap.nominal['heldout']:.3g} -> {gap.with_effects['heldout']:.3g} counts "
-          f"({gap.heldout_reduction:.0%} reduction)"
-          + (f"; {len(failed)} candidate(s) failed, listed in the report" if failed else "")
-          + f"; report in {args.out}")
+    print(
+        f"verdict: {diagnosis.verdict} (effects: {', '.join(diagnosis.effects) or '-'}); held-out gap "
+        f"{gap.nominal['heldout']:.3g} -> {gap.with_effects['heldout']:.3g} counts "
+        f"({gap.heldout_reduction:.0%} reduction)"
+        + (f"; {len(failed)} candidate(s) failed, listed in the report" if failed else "")
+        + f"; report in {args.out}"
+    )
     return 0
 
 
@@ -300,9 +392,15 @@ def _run_design(args) -> int:
 
     prepare_output_dir(args.out, force=args.force, protect=[args.diagnosis])
     settings = dataclasses.replace(DesignSettings(), seed=args.seed)
-    design = design_experiment(args.diagnosis, duration=args.duration, balancing=args.balancing,
-                               targets=args.target, arm_bound=args.arm_bound, settings=settings,
-                               progress=lambda line: print(line, file=sys.stderr) if sys.stderr.isatty() else None)
+    design = design_experiment(
+        args.diagnosis,
+        duration=args.duration,
+        balancing=args.balancing,
+        targets=args.target,
+        arm_bound=args.arm_bound,
+        settings=settings,
+        progress=lambda line: print(line, file=sys.stderr) if sys.stderr.isatty() else None,
+    )
     for note in design.notes:
         print(note)
     write_design(args.out, design, force=args.force)
@@ -310,8 +408,10 @@ def _run_design(args) -> int:
         print(f"no experiment: {design.reason}; wrote {args.out}")
         return 0
     weakest = min(pair["detection_probability"] for pair in design.pairs)
-    print(f"designed a {design.duration:g} s experiment separating {len(design.pairs)} pair(s) of hypotheses "
-          f"(weakest predicted detection probability {weakest:.0%}); play {args.out / 'experiment.csv'}")
+    print(
+        f"designed a {design.duration:g} s experiment separating {len(design.pairs)} pair(s) of hypotheses "
+        f"(weakest predicted detection probability {weakest:.0%}); play {args.out / 'experiment.csv'}"
+    )
     return 0
 
 
@@ -327,8 +427,13 @@ class _Progress:
     def __init__(self, total: float, label: str):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=round(total, 3), desc=label, unit="sim s", disable=not sys.stderr.isatty(),
-                        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
+        self.bar = tqdm(
+            total=round(total, 3),
+            desc=label,
+            unit="sim s",
+            disable=not sys.stderr.isatty(),
+            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]",
+        )
 
     def update_to(self, t: float) -> None:
         self.bar.update(round(t, 3) - self.bar.n)

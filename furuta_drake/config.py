@@ -69,17 +69,24 @@ class ControllerConfig:
         self.quanser_swingup.validate(f"{where}.quanser_swingup")
         if self.gain is not None:
             if len(self.gain) != 4 or not all(math.isfinite(g) for g in self.gain):
-                raise ConfigError(f"{where}.gain must be 4 finite numbers [theta, phi, theta_dot, phi_dot], "
-                                  f"got {self.gain!r}")
+                raise ConfigError(
+                    f"{where}.gain must be 4 finite numbers [theta, phi, theta_dot, phi_dot], got {self.gain!r}"
+                )
         if self.friction_compensation and self.velocity_source not in ("hg", "vfe", "kinematic_hg"):
-            raise ConfigError(f"{where}.friction_compensation needs the Dahl observer, which reads an observer's "
-                              f"arm velocity: set {where}.velocity_source to 'hg' or 'vfe'")
+            raise ConfigError(
+                f"{where}.friction_compensation needs the Dahl observer, which reads an observer's "
+                f"arm velocity: set {where}.velocity_source to 'hg' or 'vfe'"
+            )
         if self.velocity_source == "kinematic_hg" and self.mode != "swingup":
-            raise ConfigError(f"{where}.velocity_source 'kinematic_hg' is the swing-up's observer: set {where}.mode "
-                              f"to 'swingup' or choose 'true', 'derivative', 'hg' or 'vfe'")
+            raise ConfigError(
+                f"{where}.velocity_source 'kinematic_hg' is the swing-up's observer: set {where}.mode "
+                f"to 'swingup' or choose 'true', 'derivative', 'hg' or 'vfe'"
+            )
         if self.mode == "quanser_swingup" and self.friction_compensation:
-            raise ConfigError(f"{where}.friction_compensation: the quanser_swingup controller compensates no "
-                              f"friction; set it to false")
+            raise ConfigError(
+                f"{where}.friction_compensation: the quanser_swingup controller compensates no "
+                f"friction; set it to false"
+            )
 
 
 @dataclass
@@ -102,8 +109,10 @@ class ObserverConfig:
         if self.pendulum_friction is not None:
             self.pendulum_friction.validate(f"{where}.pendulum_friction")
             if self.pendulum_friction.adaptation is not None:
-                raise ConfigError(f"{where}.pendulum_friction.adaptation must be null: nothing compensates the "
-                                  f"pendulum's friction, so its observer does not adapt")
+                raise ConfigError(
+                    f"{where}.pendulum_friction.adaptation must be null: nothing compensates the "
+                    f"pendulum's friction, so its observer does not adapt"
+                )
         self.vfe.validate(f"{where}.vfe")
         self.filtered_derivative.validate(f"{where}.filtered_derivative")
 
@@ -136,8 +145,9 @@ class ExcitationConfig:
         if self.torque_components < 1:
             raise ConfigError(f"{where}.torque_components must be >= 1, got {self.torque_components}")
         if not 0 < self.frequency_min < self.frequency_max:
-            raise ConfigError(f"{where}: need 0 < frequency_min < frequency_max, got "
-                              f"{self.frequency_min}, {self.frequency_max}")
+            raise ConfigError(
+                f"{where}: need 0 < frequency_min < frequency_max, got {self.frequency_min}, {self.frequency_max}"
+            )
         if self.arm_reference_period <= 0:
             raise ConfigError(f"{where}.arm_reference_period must be > 0, got {self.arm_reference_period}")
         if self.command is not None and (not self.command or not all(math.isfinite(v) for v in self.command)):
@@ -154,11 +164,22 @@ class IntegratorConfig:
     use_error_control: bool = True
 
     def validate(self, where: str = "simulator") -> None:
-        schemes = ("runge_kutta2", "runge_kutta3", "runge_kutta5", "implicit_euler", "radau1", "radau3",
-                   "bogacki_shampine3", "explicit_euler", "semi_explicit_euler", "velocity_implicit_euler")
+        schemes = (
+            "runge_kutta2",
+            "runge_kutta3",
+            "runge_kutta5",
+            "implicit_euler",
+            "radau1",
+            "radau3",
+            "bogacki_shampine3",
+            "explicit_euler",
+            "semi_explicit_euler",
+            "velocity_implicit_euler",
+        )
         if self.integration_scheme not in schemes:
-            raise ConfigError(f"{where}.integration_scheme must be one of {list(schemes)}, "
-                              f"got {self.integration_scheme!r}")
+            raise ConfigError(
+                f"{where}.integration_scheme must be one of {list(schemes)}, got {self.integration_scheme!r}"
+            )
         if not self.max_step_size > 0:
             raise ConfigError(f"{where}.max_step_size must be > 0, got {self.max_step_size}")
         if not 0 < self.accuracy < 1:
@@ -203,8 +224,10 @@ class SimulationConfig:
         self.rig.validate(f"{prefix}rig")
         for name in ("arm_coulomb", "arm_viscous", "pendulum_coulomb", "pendulum_viscous"):
             if getattr(self.rig, name) != 0:
-                raise ConfigError(f"{prefix}rig.{name}: in a simulate config, friction goes in the 'friction' "
-                                  f"section (SimulationConfig.from_rig converts a rig file)")
+                raise ConfigError(
+                    f"{prefix}rig.{name}: in a simulate config, friction goes in the 'friction' "
+                    f"section (SimulationConfig.from_rig converts a rig file)"
+                )
         self.friction.validate(f"{prefix}friction")
         self.actuator.validate(f"{prefix}actuator")
         self.disturbance.validate(f"{prefix}disturbance")
@@ -215,36 +238,52 @@ class SimulationConfig:
         self.simulator.validate(f"{prefix}simulator")
         self.monitor.validate(f"{prefix}monitor")
         if len(self.initial_state) != 4 or not all(math.isfinite(v) for v in self.initial_state):
-            raise ConfigError(f"{prefix}initial_state must be 4 finite numbers [theta, phi, theta_dot, phi_dot],"
-                              f" got {self.initial_state!r}")
-        if self.controller.mode == "open_loop" and self.excitation.torque_rms == 0 \
-                and self.excitation.command is None:
-            raise ConfigError(f"{prefix}controller.mode 'open_loop' needs an excitation: set "
-                              f"{prefix}excitation.torque_rms > 0 or {prefix}excitation.command")
-        if self.controller.friction_compensation and self.controller.velocity_source == "kinematic_hg" \
-                and "vfe" not in self.observers.run:
-            raise ConfigError(f"{prefix}controller.friction_compensation with the kinematic HG takes F_hat from the "
-                              f"VFE's Dahl observer: add 'vfe' to {prefix}observers.run")
+            raise ConfigError(
+                f"{prefix}initial_state must be 4 finite numbers [theta, phi, theta_dot, phi_dot],"
+                f" got {self.initial_state!r}"
+            )
+        if self.controller.mode == "open_loop" and self.excitation.torque_rms == 0 and self.excitation.command is None:
+            raise ConfigError(
+                f"{prefix}controller.mode 'open_loop' needs an excitation: set "
+                f"{prefix}excitation.torque_rms > 0 or {prefix}excitation.command"
+            )
+        if (
+            self.controller.friction_compensation
+            and self.controller.velocity_source == "kinematic_hg"
+            and "vfe" not in self.observers.run
+        ):
+            raise ConfigError(
+                f"{prefix}controller.friction_compensation with the kinematic HG takes F_hat from the "
+                f"VFE's Dahl observer: add 'vfe' to {prefix}observers.run"
+            )
         if self.controller.mode == "quanser_swingup" and self.rig.motor is None:
-            raise ConfigError(f"{prefix}rig.motor: controller.mode 'quanser_swingup' commands a voltage, which needs "
-                              f"the rig's DC motor (resistance, torque_constant, backemf_constant)")
+            raise ConfigError(
+                f"{prefix}rig.motor: controller.mode 'quanser_swingup' commands a voltage, which needs "
+                f"the rig's DC motor (resistance, torque_constant, backemf_constant)"
+            )
         if self.controller.mode in ("swingup", "quanser_swingup") and self.excitation.arm_reference_amplitude != 0:
-            raise ConfigError(f"{prefix}controller.mode '{self.controller.mode}' follows no arm reference: set "
-                              f"{prefix}excitation.arm_reference_amplitude to 0")
+            raise ConfigError(
+                f"{prefix}controller.mode '{self.controller.mode}' follows no arm reference: set "
+                f"{prefix}excitation.arm_reference_amplitude to 0"
+            )
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise ConfigError(f"{prefix}duration must be a positive number of seconds, got {self.duration!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise ConfigError(f"{prefix}seed must be an integer in [0, 2^32), got {self.seed!r}")
-        stated = {"encoder.sample_period": self.encoder.sample_period,
-                  "controller.lqr.period": self.controller.lqr.period, "observers.hg.period": self.observers.hg.period,
-                  "observers.dahl.period": self.observers.dahl.period,
-                  "observers.vfe.period": self.observers.vfe.period,
-                  "observers.filtered_derivative.period": self.observers.filtered_derivative.period}
+        stated = {
+            "encoder.sample_period": self.encoder.sample_period,
+            "controller.lqr.period": self.controller.lqr.period,
+            "observers.hg.period": self.observers.hg.period,
+            "observers.dahl.period": self.observers.dahl.period,
+            "observers.vfe.period": self.observers.vfe.period,
+            "observers.filtered_derivative.period": self.observers.filtered_derivative.period,
+        }
         if self.observers.pendulum_friction is not None:
             stated["observers.pendulum_friction.period"] = self.observers.pendulum_friction.period
         for key, period in stated.items():
-            require_control_period(period, self.control_period, f"{prefix}{key}",
-                                   f"the control period {prefix}rig.sample_period")
+            require_control_period(
+                period, self.control_period, f"{prefix}{key}", f"the control period {prefix}rig.sample_period"
+            )
 
     @property
     def control_period(self) -> float:
@@ -252,7 +291,7 @@ class SimulationConfig:
         return self.rig.sample_period
 
     @classmethod
-    def from_rig(cls, rig: RigParameters | str, **sections) -> "SimulationConfig":
+    def from_rig(cls, rig: RigParameters | str, **sections) -> SimulationConfig:
         """A config for ``rig`` (a RigParameters or a shipped name: 'lund', 'qube_servo2'): the rig file's
         nominal friction moves into the ``friction`` section, its encoder (counts and sample period) into
         ``encoder``, its torque limit into ``controller``; ``sections`` override whole sections."""
@@ -264,8 +303,9 @@ class SimulationConfig:
             arm=_static_friction(rig.arm_coulomb, rig.arm_viscous),
             pendulum=_static_friction(rig.pendulum_coulomb, rig.pendulum_viscous),
         )
-        nominal_rig = dataclasses.replace(rig, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
-                                          pendulum_viscous=0.0)
+        nominal_rig = dataclasses.replace(
+            rig, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0, pendulum_viscous=0.0
+        )
         lqr = dataclasses.replace(LqrParameters(), torque_limit=rig.torque_limit)
         config = cls(
             rig=nominal_rig,
@@ -276,37 +316,63 @@ class SimulationConfig:
         return dataclasses.replace(config, **sections)
 
 
-def swingup_config(config_or_rig: SimulationConfig | RigParameters | str, *, duration: float = 10.0,
-                   theta0: float = math.pi, velocity_source: str = "kinematic_hg",
-                   params: SwingUpParameters | None = None) -> SimulationConfig:
+def swingup_config(
+    config_or_rig: SimulationConfig | RigParameters | str,
+    *,
+    duration: float = 10.0,
+    theta0: float = math.pi,
+    velocity_source: str = "kinematic_hg",
+    params: SwingUpParameters | None = None,
+) -> SimulationConfig:
     """``config_or_rig`` (a config, a RigParameters or a shipped rig's name) swinging up from rest at ``theta0``
     [rad] (hanging: pi) for ``duration`` [s]: the swing-up controller (``params``, or the config's own) fed by
     ``velocity_source``, the linear observers started at that state (a rig's observer initialised from its first
     sample), and no theta bound in the envelope monitor."""
     config = config_or_rig if isinstance(config_or_rig, SimulationConfig) else SimulationConfig.from_rig(config_or_rig)
-    controller = dataclasses.replace(config.controller, mode="swingup", velocity_source=velocity_source,
-                                     swingup=params or config.controller.swingup)
-    return dataclasses.replace(config, controller=controller, initial_state=[theta0, 0.0, 0.0, 0.0],
-                               duration=duration, monitor=dataclasses.replace(config.monitor, theta_bound=None),
-                               observers=dataclasses.replace(config.observers, start_at_initial_state=True))
+    controller = dataclasses.replace(
+        config.controller, mode="swingup", velocity_source=velocity_source, swingup=params or config.controller.swingup
+    )
+    return dataclasses.replace(
+        config,
+        controller=controller,
+        initial_state=[theta0, 0.0, 0.0, 0.0],
+        duration=duration,
+        monitor=dataclasses.replace(config.monitor, theta_bound=None),
+        observers=dataclasses.replace(config.observers, start_at_initial_state=True),
+    )
 
 
-def quanser_swingup_config(config_or_rig: SimulationConfig | RigParameters | str, *, initial_state, duration: float,
-                           params: QuanserSwingUpParameters | None = None,
-                           velocity_filter: FilteredDerivativeParameters | None = None) -> SimulationConfig:
+def quanser_swingup_config(
+    config_or_rig: SimulationConfig | RigParameters | str,
+    *,
+    initial_state,
+    duration: float,
+    params: QuanserSwingUpParameters | None = None,
+    velocity_filter: FilteredDerivativeParameters | None = None,
+) -> SimulationConfig:
     """``config_or_rig`` (a config, a RigParameters or a shipped rig's name, with a ``motor``) run by Quanser's
     swing-up and balance controller (``params``, or the config's own) from ``initial_state`` (paper order) for
     ``duration`` [s], its velocities from the filtered derivative (``velocity_filter``, or the config's own), and
     no theta bound in the envelope monitor."""
     config = config_or_rig if isinstance(config_or_rig, SimulationConfig) else SimulationConfig.from_rig(config_or_rig)
-    controller = dataclasses.replace(config.controller, mode="quanser_swingup", velocity_source="filtered_derivative",
-                                     friction_compensation=False,
-                                     quanser_swingup=params or config.controller.quanser_swingup)
-    observers = dataclasses.replace(config.observers, filtered_derivative=velocity_filter
-                                    or config.observers.filtered_derivative)
-    return dataclasses.replace(config, controller=controller, observers=observers,
-                               initial_state=[float(v) for v in initial_state], duration=duration,
-                               monitor=dataclasses.replace(config.monitor, theta_bound=None))
+    controller = dataclasses.replace(
+        config.controller,
+        mode="quanser_swingup",
+        velocity_source="filtered_derivative",
+        friction_compensation=False,
+        quanser_swingup=params or config.controller.quanser_swingup,
+    )
+    observers = dataclasses.replace(
+        config.observers, filtered_derivative=velocity_filter or config.observers.filtered_derivative
+    )
+    return dataclasses.replace(
+        config,
+        controller=controller,
+        observers=observers,
+        initial_state=[float(v) for v in initial_state],
+        duration=duration,
+        monitor=dataclasses.replace(config.monitor, theta_bound=None),
+    )
 
 
 def _static_friction(coulomb: float, viscous: float) -> JointFrictionParameters:

@@ -22,7 +22,14 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
-    Adder, ConstantVectorSource, DiscreteDerivative, LogVectorOutput, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink,
+    Adder,
+    ConstantVectorSource,
+    DiscreteDerivative,
+    LogVectorOutput,
+    MatrixGain,
+    Multiplexer,
+    TrajectorySource,
+    VectorLogSink,
     ZeroOrderHold,
 )
 
@@ -58,23 +65,30 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
     config.validate()
     period = config.control_period
     builder = DiagramBuilder()
-    world = add_furuta_world(builder, rig=config.rig, friction=config.friction, actuator=config.actuator,
-                             disturbance=config.disturbance, control_period=period,
-                             with_scene_graph=meshcat is not None)
+    world = add_furuta_world(
+        builder,
+        rig=config.rig,
+        friction=config.friction,
+        actuator=config.actuator,
+        disturbance=config.disturbance,
+        control_period=period,
+        with_scene_graph=meshcat is not None,
+    )
     encoder = builder.AddNamedSystem("encoder", Encoder(config.encoder, period=period))
     builder.Connect(world.true_state, encoder.GetInputPort("true_state"))
     measured = encoder.GetOutputPort("measured_angles_rad")
     command = add_command(builder, config, world=world)
-    observers = add_observers(builder, config, true_state=world.true_state, measured=measured,
-                              command=command.torque)
+    observers = add_observers(builder, config, true_state=world.true_state, measured=measured, command=command.torque)
     if command.controller is not None:
-        builder.Connect(observers.estimates[config.controller.velocity_source],
-                        command.controller.GetInputPort("state_estimate"))
+        builder.Connect(
+            observers.estimates[config.controller.velocity_source], command.controller.GetInputPort("state_estimate")
+        )
         if config.controller.friction_compensation:
             builder.Connect(observers.compensation, command.controller.GetInputPort("friction_compensation_Nm"))
     loggers = add_loggers(builder, period, world=world, measured=measured, command=command, observers=observers)
     if meshcat is not None:
         from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
+
         # Published on control samples (every 16th, ~60 frames/s at 1 kHz): the integrator already stops there,
         # so drawing adds no step boundary and the run is bit-identical to one without Meshcat.
         params = MeshcatVisualizerParams()
@@ -111,10 +125,13 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
         torques.append(hold.get_output_port())
     controller = gain = None
     if controller_config.mode == "quanser_swingup":
-        controller = builder.AddNamedSystem("quanser_swingup", QuanserSwingUpController(controller_config.quanser_swingup))
+        controller = builder.AddNamedSystem(
+            "quanser_swingup", QuanserSwingUpController(controller_config.quanser_swingup)
+        )
         motor = config.rig.motor
-        volts_to_torque = builder.AddNamedSystem("motor_torque_per_volt", MatrixGain(
-            np.array([[motor.torque_constant / motor.resistance]])))
+        volts_to_torque = builder.AddNamedSystem(
+            "motor_torque_per_volt", MatrixGain(np.array([[motor.torque_constant / motor.resistance]]))
+        )
         builder.Connect(controller.GetOutputPort("voltage_V"), volts_to_torque.get_input_port())
         torques.append(volts_to_torque.get_output_port())
     elif controller_config.mode != "open_loop":
@@ -122,13 +139,28 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
         limit, compensation = controller_config.lqr.torque_limit, controller_config.friction_compensation
         reference = arm_reference_trajectory(config.excitation, config.duration)
         if controller_config.mode == "lqr":
-            controller = builder.AddNamedSystem("lqr", LqrController(
-                gain, period=period, torque_limit=limit, friction_compensation=compensation,
-                reference=reference is not None))
+            controller = builder.AddNamedSystem(
+                "lqr",
+                LqrController(
+                    gain,
+                    period=period,
+                    torque_limit=limit,
+                    friction_compensation=compensation,
+                    reference=reference is not None,
+                ),
+            )
         else:
-            controller = builder.AddNamedSystem("swingup", EnergySwingUpController(
-                config.rig, gain, controller_config.swingup, period=period, torque_limit=limit,
-                friction_compensation=compensation))
+            controller = builder.AddNamedSystem(
+                "swingup",
+                EnergySwingUpController(
+                    config.rig,
+                    gain,
+                    controller_config.swingup,
+                    period=period,
+                    torque_limit=limit,
+                    friction_compensation=compensation,
+                ),
+            )
         torques.append(controller.GetOutputPort("arm_torque_Nm"))
         if reference is not None:
             source = builder.AddNamedSystem("arm_reference", TrajectorySource(reference))
@@ -164,8 +196,14 @@ class Observers:
     signals: dict[str, OutputPort] = field(default_factory=dict)
 
 
-def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_state: OutputPort,
-                  measured: OutputPort, command: OutputPort) -> Observers:
+def add_observers(
+    builder: DiagramBuilder,
+    config: SimulationConfig,
+    *,
+    true_state: OutputPort,
+    measured: OutputPort,
+    command: OutputPort,
+) -> Observers:
     """The observers of ``config`` (Sec. III) on the ``measured`` angles [rad] and the commanded arm torque
     ``command`` [N m]: those of ``observers.run`` and the controller's velocity source, with the Dahl observer
     whose F_hat a compensating controller subtracts (Sec. IV-A: on the arm velocity of the observer it uses).
@@ -177,20 +215,33 @@ def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_sta
     A_model, B_F = linearized_upright(config.rig)
     out, linear = Observers(), []
     if "hg" in needed:
-        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg,
-                                                                    period=period))
+        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg, period=period))
         builder.Connect(measured, hg.GetInputPort("measured_angles_rad"))
         builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
         out.estimates["hg"] = hg.GetOutputPort("state_estimate")
         linear.append(hg)
         if compensate and source == "hg":
             # Adaptation reads the VFE's eps_hat_F: on the HG estimate the Dahl observer runs without it.
-            hg_dahl, _ = add_dahl_observer(builder, dataclasses.replace(config.observers.dahl, adaptation=None),
-                                           out.estimates["hg"], measured, "hg", period=period)
+            hg_dahl, _ = add_dahl_observer(
+                builder,
+                dataclasses.replace(config.observers.dahl, adaptation=None),
+                out.estimates["hg"],
+                measured,
+                "hg",
+                period=period,
+            )
             out.compensation = hg_dahl.GetOutputPort("friction_estimate_Nm")
     if "vfe" in needed:
-        vfe, dahl, _ = add_vfe_with_dahl(builder, (A_model, B_F), config.observers.vfe, config.observers.dahl,
-                                         measured, command, config.observers.pendulum_friction, period=period)
+        vfe, dahl, _ = add_vfe_with_dahl(
+            builder,
+            (A_model, B_F),
+            config.observers.vfe,
+            config.observers.dahl,
+            measured,
+            command,
+            config.observers.pendulum_friction,
+            period=period,
+        )
         out.estimates["vfe"] = vfe.GetOutputPort("state_estimate")
         linear.append(vfe)
         adaptation = config.observers.dahl.adaptation
@@ -209,18 +260,22 @@ def add_observers(builder: DiagramBuilder, config: SimulationConfig, *, true_sta
     if source == "true":
         velocities = builder.AddNamedSystem("true_velocities", MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
         builder.Connect(true_state, velocities.get_input_port())
-        out.estimates["true"] = _angles_and(builder, "angles_and_true_velocities", measured,
-                                            velocities.get_output_port())
+        out.estimates["true"] = _angles_and(
+            builder, "angles_and_true_velocities", measured, velocities.get_output_port()
+        )
     if source == "filtered_derivative":
-        filtered = builder.AddNamedSystem("filtered_derivative", FilteredDerivative(
-            config.observers.filtered_derivative, period=period))
+        filtered = builder.AddNamedSystem(
+            "filtered_derivative", FilteredDerivative(config.observers.filtered_derivative, period=period)
+        )
         builder.Connect(measured, filtered.GetInputPort("measured_angles_rad"))
         out.estimates["filtered_derivative"] = filtered.GetOutputPort("state_estimate")
     if source == "kinematic_hg":
         # The swing-up's velocities: the high-gain structure on the gravity-free kinematic model.
         eps = controller.swingup.velocity_eps
-        kinematic = builder.AddNamedSystem("kinematic_hg_observer", HighGainObserver(
-            kinematic_model(), HighGainParameters(eps_theta=eps, eps_phi=eps), period=period))
+        kinematic = builder.AddNamedSystem(
+            "kinematic_hg_observer",
+            HighGainObserver(kinematic_model(), HighGainParameters(eps_theta=eps, eps_phi=eps), period=period),
+        )
         builder.Connect(measured, kinematic.GetInputPort("measured_angles_rad"))
         builder.Connect(command, kinematic.GetInputPort("arm_torque_Nm"))
         out.estimates["kinematic_hg"] = kinematic.GetOutputPort("state_estimate")
@@ -247,16 +302,27 @@ def _angles_and(builder: DiagramBuilder, name: str, measured: OutputPort, veloci
     return mux.get_output_port()
 
 
-def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, measured: OutputPort,
-                      command: OutputPort, pendulum_params=None, *, period: float):
+def add_vfe_with_dahl(
+    builder: DiagramBuilder,
+    model,
+    vfe_params,
+    dahl_params,
+    measured: OutputPort,
+    command: OutputPort,
+    pendulum_params=None,
+    *,
+    period: float,
+):
     """The nested observers of Sec. III-B/C: the VFE observer (Eq. 11) fed by the Dahl observer's F_hat
     (Eq. 8, 16), which reads the VFE's arm velocity estimate and, when ``dahl_params.adaptation`` is given, its
     eps_hat_F (Eq. 18, or the Fc and sigma0 law of Sec. VII); with ``pendulum_params`` a second friction
     observer on the pendulum joint feeds F_hat_theta too. ``model`` is (A, B_F) of Eq. 1-2, ``period`` the
     control period [s]. ``dahl_params`` None: a model without arm friction, F_hat held at 0 (eps_hat_F carries
     all of it). Returns (vfe, dahl, arm_velocity), the last two None without a Dahl observer."""
-    vfe = builder.AddNamedSystem("vfe_observer", VfeObserver(
-        model, vfe_params, period=period, pendulum_friction_input=pendulum_params is not None))
+    vfe = builder.AddNamedSystem(
+        "vfe_observer",
+        VfeObserver(model, vfe_params, period=period, pendulum_friction_input=pendulum_params is not None),
+    )
     estimate = vfe.GetOutputPort("state_estimate")
     builder.Connect(measured, vfe.GetInputPort("measured_angles_rad"))
     builder.Connect(command, vfe.GetInputPort("arm_torque_Nm"))
@@ -267,10 +333,12 @@ def add_vfe_with_dahl(builder: DiagramBuilder, model, vfe_params, dahl_params, m
     else:
         dahl, arm_velocity = _add_arm_dahl(builder, vfe, dahl_params, model, measured, period)
     if pendulum_params is not None:
-        pendulum, _ = add_dahl_observer(builder, pendulum_params, estimate, measured, "vfe", period=period,
-                                        joint="pendulum")
-        builder.Connect(pendulum.GetOutputPort("friction_estimate_Nm"),
-                        vfe.GetInputPort("pendulum_friction_estimate_Nm"))
+        pendulum, _ = add_dahl_observer(
+            builder, pendulum_params, estimate, measured, "vfe", period=period, joint="pendulum"
+        )
+        builder.Connect(
+            pendulum.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("pendulum_friction_estimate_Nm")
+        )
     return vfe, dahl, arm_velocity
 
 
@@ -278,27 +346,43 @@ def _add_arm_dahl(builder: DiagramBuilder, vfe, dahl_params, model, measured: Ou
     """The arm's Dahl observer nested with ``vfe`` (:func:`add_vfe_with_dahl`): (dahl, arm_velocity)."""
     estimate = vfe.GetOutputPort("state_estimate")
     adaptation = dahl_params.adaptation
-    error_response = friction_error_response(*model, vfe.gains) if adaptation is not None \
-        and adaptation.parameters is not None else None
-    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe", period=period,
-                                           error_response=error_response)
+    error_response = (
+        friction_error_response(*model, vfe.gains)
+        if adaptation is not None and adaptation.parameters is not None
+        else None
+    )
+    dahl, arm_velocity = add_dahl_observer(
+        builder, dahl_params, estimate, measured, "vfe", period=period, error_response=error_response
+    )
     if adaptation is not None:
-        builder.Connect(vfe.GetOutputPort("friction_error_estimate_Nm"),
-                        dahl.GetInputPort("friction_error_estimate_Nm"))
+        builder.Connect(
+            vfe.GetOutputPort("friction_error_estimate_Nm"), dahl.GetInputPort("friction_error_estimate_Nm")
+        )
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
     return dahl, arm_velocity
 
 
-def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPort, measured: OutputPort, prefix: str,
-                      *, period: float, joint: str = "arm", error_response=None):
+def add_dahl_observer(
+    builder: DiagramBuilder,
+    params,
+    state_estimate: OutputPort,
+    measured: OutputPort,
+    prefix: str,
+    *,
+    period: float,
+    joint: str = "arm",
+    error_response=None,
+):
     """The Dahl (or LuGre) friction observer (Eq. 8, 16) of ``joint`` on that joint's velocity in an observer's
     ``state_estimate`` (paper order), adapting as ``params.adaptation`` says (``error_response``: its VFE's
     ``friction_error_response``, for the Fc and sigma0 law). Returns (observer, velocity selector), named
     ``{prefix}_dahl_observer`` and ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer``
     and ``{prefix}_pendulum_velocity`` for the pendulum."""
     label = prefix if joint == "arm" else f"{prefix}_pendulum"
-    dahl = builder.AddNamedSystem(f"{label}_dahl_observer", DahlFrictionObserver(
-        params, period=period, joint=joint, error_response=error_response))
+    dahl = builder.AddNamedSystem(
+        f"{label}_dahl_observer",
+        DahlFrictionObserver(params, period=period, joint=joint, error_response=error_response),
+    )
     row = np.array([[0.0, 0.0, 0.0, 1.0]]) if joint == "arm" else np.array([[0.0, 0.0, 1.0, 0.0]])
     velocity = builder.AddNamedSystem(f"{prefix}_{joint}_velocity", MatrixGain(row))
     builder.Connect(state_estimate, velocity.get_input_port())
@@ -307,8 +391,15 @@ def add_dahl_observer(builder: DiagramBuilder, params, state_estimate: OutputPor
     return dahl, velocity
 
 
-def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, measured: OutputPort,
-                command: Command, observers: Observers) -> dict[str, VectorLogSink]:
+def add_loggers(
+    builder: DiagramBuilder,
+    period: float,
+    *,
+    world: FurutaWorld,
+    measured: OutputPort,
+    command: Command,
+    observers: Observers,
+) -> dict[str, VectorLogSink]:
     """Loggers at the control ``period`` [s], sampled like the rig's data: ``state`` (the true state, held),
     ``measured_angles``, ``torque`` (the command), ``true_friction`` (held), ``estimate_{source}`` for each
     observer's estimate and ``signal_{name}`` for the observers' signals and the swing-up controllers'
@@ -331,14 +422,22 @@ def add_loggers(builder: DiagramBuilder, period: float, *, world: FurutaWorld, m
             log(f"estimate_{name}", port)
     signals = dict(observers.signals)
     if isinstance(command.controller, (EnergySwingUpController, QuanserSwingUpController)):
-        signals.update({name: command.controller.GetOutputPort(name) for name in ("swingup_mode",
-                                                                                  "pendulum_energy_J")})
+        signals.update({name: command.controller.GetOutputPort(name) for name in ("swingup_mode", "pendulum_energy_J")})
     for name, port in signals.items():
         log(f"signal_{name}", port)
     return loggers
 
 
 __all__ = [
-    "FurutaDiagram", "build_furuta_diagram", "Command", "add_command", "controller_gain", "Observers",
-    "add_observers", "start_at", "add_vfe_with_dahl", "add_dahl_observer", "add_loggers",
+    "FurutaDiagram",
+    "build_furuta_diagram",
+    "Command",
+    "add_command",
+    "controller_gain",
+    "Observers",
+    "add_observers",
+    "start_at",
+    "add_vfe_with_dahl",
+    "add_dahl_observer",
+    "add_loggers",
 ]

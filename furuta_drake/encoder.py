@@ -29,8 +29,13 @@ class EncoderParameters:
 
     def validate(self, where: str = "encoder") -> None:
         counts = self.counts_per_rev
-        if isinstance(counts, bool) or not isinstance(counts, (int, float)) or not math.isfinite(counts) \
-                or int(counts) != counts or counts < 4:
+        if (
+            isinstance(counts, bool)
+            or not isinstance(counts, (int, float))
+            or not math.isfinite(counts)
+            or int(counts) != counts
+            or counts < 4
+        ):
             raise ConfigError(f"{where}.counts_per_rev must be an integer >= 4, got {counts!r}")
         if self.sample_period is not None:
             _require_positive(self.sample_period, f"{where}.sample_period")

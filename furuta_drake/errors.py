@@ -38,10 +38,12 @@ def read_input_text(path, expected: str, error: type[FurutaError]) -> str:
         raise error(f"{path}: cannot read ({err})") from None
 
 
-def require_control_period(stated: float | None, period: float, where: str,
-                           control: str = "the control period") -> None:
+def require_control_period(
+    stated: float | None, period: float, where: str, control: str = "the control period"
+) -> None:
     """Raise :class:`ConfigError` when a sampled block's ``stated`` period [s] (None: not stated) differs from
     the control period ``period`` [s] it is built with; ``where`` names the stated key, ``control`` the period."""
     if stated is not None and stated != period:
-        raise ConfigError(f"{where} = {stated!r} differs from {control} = {period!r}; every sampled block runs "
-                          f"at the control period")
+        raise ConfigError(
+            f"{where} = {stated!r} differs from {control} = {period!r}; every sampled block runs at the control period"
+        )

@@ -9,8 +9,9 @@ from pydrake.trajectories import PiecewisePolynomial
 from furuta_drake.config import ExcitationConfig
 
 
-def multisine(excitation: ExcitationConfig, duration: float, sample_period: float,
-              rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def multisine(
+    excitation: ExcitationConfig, duration: float, sample_period: float, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
     """Times [s] and values [N m] of a multisine with ``torque_components`` sines, frequencies log-uniform in
     [frequency_min, frequency_max], random phases, total RMS ``torque_rms``."""
     n = excitation.torque_components
@@ -22,8 +23,9 @@ def multisine(excitation: ExcitationConfig, duration: float, sample_period: floa
     return times, values
 
 
-def torque_excitation_trajectory(excitation: ExcitationConfig, duration: float, sample_period: float,
-                                 seed: int) -> PiecewisePolynomial | None:
+def torque_excitation_trajectory(
+    excitation: ExcitationConfig, duration: float, sample_period: float, seed: int
+) -> PiecewisePolynomial | None:
     """The multisine plus the recorded ``command`` (zero after its end) as a zero-order-hold trajectory at the
     control period [N m], or None when there is neither."""
     if excitation.torque_rms == 0 and excitation.command is None:
@@ -33,8 +35,8 @@ def torque_excitation_trajectory(excitation: ExcitationConfig, duration: float, 
     if excitation.torque_rms > 0:
         values += multisine(excitation, duration, sample_period, np.random.default_rng([seed, 1]))[1]
     if excitation.command is not None:
-        played = np.asarray(excitation.command, dtype=float)[:times.size]
-        values[:played.size] += played
+        played = np.asarray(excitation.command, dtype=float)[: times.size]
+        values[: played.size] += played
     return PiecewisePolynomial.ZeroOrderHold(times, values.reshape(1, -1))
 
 

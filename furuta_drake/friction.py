@@ -58,15 +58,22 @@ class JointFrictionParameters:
     regularization_velocity: float = 1e-3  # v_reg of tanh(v / v_reg) [rad/s] (static)
 
     @classmethod
-    def coulomb(cls, level: float, viscous: float = 0.0, *,
-                regularization_velocity: float = 1e-3) -> "JointFrictionParameters":
+    def coulomb(
+        cls, level: float, viscous: float = 0.0, *, regularization_velocity: float = 1e-3
+    ) -> JointFrictionParameters:
         """Symmetric Coulomb plus viscous friction (static model)."""
-        return cls(model="static", coulomb_pos=level, coulomb_neg=level, viscous=viscous,
-                   regularization_velocity=regularization_velocity)
+        return cls(
+            model="static",
+            coulomb_pos=level,
+            coulomb_neg=level,
+            viscous=viscous,
+            regularization_velocity=regularization_velocity,
+        )
 
     @classmethod
-    def dahl(cls, coulomb_pos: float, coulomb_neg: float, sigma0: float,
-             viscous: float = 0.0) -> "JointFrictionParameters":
+    def dahl(
+        cls, coulomb_pos: float, coulomb_neg: float, sigma0: float, viscous: float = 0.0
+    ) -> JointFrictionParameters:
         """Dahl model (Eq. 7) with per-direction Coulomb levels."""
         return cls(model="dahl", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg, sigma0=sigma0, viscous=viscous)
 
@@ -84,8 +91,10 @@ class JointFrictionParameters:
     @property
     def static_levels(self) -> tuple[float, float]:
         """Breakaway levels (v > 0, v < 0) [N m]: the Coulomb levels where no Stribeck level is given."""
-        return (self.coulomb_pos if self.static_pos is None else self.static_pos,
-                self.coulomb_neg if self.static_neg is None else self.static_neg)
+        return (
+            self.coulomb_pos if self.static_pos is None else self.static_pos,
+            self.coulomb_neg if self.static_neg is None else self.static_neg,
+        )
 
     def validate(self, where: str = "friction.joint") -> None:
         """Raise :class:`ConfigError` naming the first non-physical field."""
@@ -123,6 +132,7 @@ class FrictionParameters:
 
 # --- The laws: the one place they are written. Scalars (float or AutoDiffXd) or numpy arrays of v. ---------------
 
+
 def _functions(v):
     """``math`` for a float (three to ten times cheaper on a scalar), ``numpy`` for arrays and AutoDiffXd."""
     return math if isinstance(v, float) else np
@@ -142,7 +152,7 @@ def stribeck_curve(v, p: JointFrictionParameters):
     if p.static_pos is None and p.static_neg is None:
         return coulomb
     static = _by_direction(v, *p.static_levels)
-    return coulomb + (static - coulomb) * _functions(v).exp(-(v / p.stribeck_velocity) ** 2)
+    return coulomb + (static - coulomb) * _functions(v).exp(-((v / p.stribeck_velocity) ** 2))
 
 
 def static_friction_torque(v, p: JointFrictionParameters):
@@ -205,6 +215,7 @@ def held_input_gain(rate: float, period: float) -> float:
 
 # --- The Drake system ------------------------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class _PlantLayout:
     """Where the two joints sit in a Furuta plant's state, read once so the system keeps no plant reference."""
@@ -215,10 +226,13 @@ class _PlantLayout:
     phi_velocity: int
 
     @classmethod
-    def of(cls, plant) -> "_PlantLayout":
-        return cls(plant.num_positions(), plant.num_velocities(),
-                   plant.GetJointByName(PENDULUM_JOINT).velocity_start(),
-                   plant.GetJointByName(ARM_JOINT).velocity_start())
+    def of(cls, plant) -> _PlantLayout:
+        return cls(
+            plant.num_positions(),
+            plant.num_velocities(),
+            plant.GetJointByName(PENDULUM_JOINT).velocity_start(),
+            plant.GetJointByName(ARM_JOINT).velocity_start(),
+        )
 
 
 @TemplateSystem.define("JointFriction_", T_list=(float, AutoDiffXd))
@@ -254,31 +268,38 @@ def JointFriction_(T):
             self._bounds = tuple(p.bristle_bound for _, _, p, k in joints if k is not None)
             self._joints = tuple(joints)
             self._bristle_joints = tuple(j for j in joints if j[3] is not None)
-            self._dtype = float if T == float else object
+            self._dtype = float if T is float else object
             self._state_port = self.DeclareVectorInputPort("plant_state", nq + layout.num_velocities)
             tickets = {self._state_port.ticket()}
             if bristles:
                 self.DeclareContinuousState(bristles)
                 tickets.add(self.xc_ticket())
-            self.DeclareVectorOutputPort("generalized_force_Nm", layout.num_velocities,
-                                         self._calc_generalized_force, prerequisites_of_calc=tickets)
-            self.DeclareVectorOutputPort("friction_torque_Nm", 2, self._calc_friction_torque,
-                                         prerequisites_of_calc=tickets)
+            self.DeclareVectorOutputPort(
+                "generalized_force_Nm",
+                layout.num_velocities,
+                self._calc_generalized_force,
+                prerequisites_of_calc=tickets,
+            )
+            self.DeclareVectorOutputPort(
+                "friction_torque_Nm", 2, self._calc_friction_torque, prerequisites_of_calc=tickets
+            )
 
         def _torques(self, context):
             """[F_theta, F_phi] [N m], from lists (Python floats for T = float: the laws then take math)."""
             x = self._state_port.Eval(context).tolist()
             z = context.get_continuous_state_vector().CopyToVector().tolist() if self._bristle_joints else None
-            return [joint_friction_torque(x[state], None if k is None else project_bristle(z[k], self._bounds[k]), p)
-                    for state, _, p, k in self._joints]
+            return [
+                joint_friction_torque(x[state], None if k is None else project_bristle(z[k], self._bounds[k]), p)
+                for state, _, p, k in self._joints
+            ]
 
         def _calc_generalized_force(self, context, output):
             # Evaluated at every integrator stage: for floats, written through the output's array view.
-            force = output.get_mutable_value() if T == float else np.empty(output.size(), dtype=object)
+            force = output.get_mutable_value() if T is float else np.empty(output.size(), dtype=object)
             force[:] = 0.0
             for (_, index, _, _), torque in zip(self._joints, self._torques(context)):
                 force[index] = torque
-            if T != float:
+            if T is not float:
                 output.SetFromVector(force)
 
         def _calc_friction_torque(self, context, output):
@@ -289,10 +310,15 @@ def JointFriction_(T):
                 return
             x = self._state_port.Eval(context).tolist()
             z = context.get_continuous_state_vector().CopyToVector().tolist()
-            derivatives.get_mutable_vector().SetFromVector(np.array(
-                [bristle_derivative(project_bristle(z[k], self._bounds[k]), x[state], p)
-                 for state, _, p, k in self._bristle_joints],
-                dtype=self._dtype))
+            derivatives.get_mutable_vector().SetFromVector(
+                np.array(
+                    [
+                        bristle_derivative(project_bristle(z[k], self._bounds[k]), x[state], p)
+                        for state, _, p, k in self._bristle_joints
+                    ],
+                    dtype=self._dtype,
+                )
+            )
 
     return Impl
 

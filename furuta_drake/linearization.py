@@ -46,16 +46,21 @@ def plant_linearization(rig: RigParameters, equilibrium: Equilibrium = "upright"
     plant.SetPositions(context, q)
     plant.get_actuation_input_port().FixValue(context, np.zeros(plant.num_actuated_dofs()))
     plant.get_applied_generalized_force_input_port().FixValue(context, np.zeros(plant.num_velocities()))
-    linear = Linearize(plant, context, plant.get_applied_generalized_force_input_port().get_index(),
-                       plant.get_state_output_port().get_index())
+    linear = Linearize(
+        plant,
+        context,
+        plant.get_applied_generalized_force_input_port().get_index(),
+        plant.get_state_output_port().get_index(),
+    )
     P = plant_to_paper_permutation(plant)
     # The input is the generalized force in the plant's velocity order; columns to [pendulum, arm].
-    to_joints = P[2:, plant.num_positions():]  # rows [theta_dot, phi_dot] of the plant's velocities
+    to_joints = P[2:, plant.num_positions() :]  # rows [theta_dot, phi_dot] of the plant's velocities
     return P @ linear.A() @ P.T, P @ linear.B() @ to_joints.T
 
 
-def observer_model(rig: RigParameters, equilibrium: Equilibrium = "upright",
-                   back_emf_damping: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def observer_model(
+    rig: RigParameters, equilibrium: Equilibrium = "upright", back_emf_damping: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(A, B_F) an observer carries at ``equilibrium``: :func:`plant_linearization` with the DC motor's back-EMF,
     the arm torque -b phi_dot, b = ``back_emf_damping`` [N m s/rad] (None: kt ke / R of ``rig.motor``, 0 without
     one), in A's phi_dot column: A[:, 3] -= b B_F[:, 1]."""

@@ -6,8 +6,9 @@ import numpy as np
 from scipy.signal import butter, filtfilt
 
 
-def butterworth_velocity_reference(measured: np.ndarray, sample_period: float, cutoff_hz: float = 5.0,
-                                   order: int = 2) -> np.ndarray:
+def butterworth_velocity_reference(
+    measured: np.ndarray, sample_period: float, cutoff_hz: float = 5.0, order: int = 2
+) -> np.ndarray:
     """Table II's reference velocity: the encoder angles' finite-difference derivative filtered forward and
     backward (zero phase, paper ref. [13]) by a Butterworth low-pass of ``cutoff_hz``.
 
@@ -16,8 +17,7 @@ def butterworth_velocity_reference(measured: np.ndarray, sample_period: float, c
     """
     derivative = np.gradient(measured, sample_period, axis=0)
     b, a = butter(order, cutoff_hz, btype="low", fs=1.0 / sample_period)
-    return filtfilt(b, a, derivative, axis=0, padtype="odd", padlen=min(3 * max(len(a), len(b)),
-                                                                         measured.shape[0] - 1))
+    return filtfilt(b, a, derivative, axis=0, padtype="odd", padlen=min(3 * max(len(a), len(b)), measured.shape[0] - 1))
 
 
 def squared_error_statistics(error: np.ndarray) -> dict[str, float]:
@@ -36,7 +36,7 @@ def steady_phases(velocity: np.ndarray, threshold: float, min_samples: int) -> d
     for i in range(1, sign.size + 1):
         if i == sign.size or sign[i] != sign[start]:
             if sign[start] != 0 and i - start >= min_samples:
-                masks[int(sign[start])][start + (i - start) // 2:i] = True
+                masks[int(sign[start])][start + (i - start) // 2 : i] = True
             start = i
     return masks
 
@@ -50,7 +50,11 @@ def observer_figures(result, start_time: float) -> dict[str, float]:
     true_arm = result.true_friction[keep, 1]
     f_hat = result.signals["friction_estimate"][keep, 0]
     eps = result.signals["friction_error_estimate"][keep, 1]
-    return {"theta_dot_mse": float(np.mean(error[:, 0] ** 2)), "phi_dot_mse": float(np.mean(error[:, 1] ** 2)),
-            "theta_sq": float(np.mean(result.state[keep, 0] ** 2)), "phi_sq": float(np.mean(result.state[keep, 1] ** 2)),
-            "F_hat_rms_error": float(np.sqrt(np.mean((f_hat - true_arm) ** 2))),
-            "F_hat_plus_eps_rms_error": float(np.sqrt(np.mean((f_hat + eps - true_arm) ** 2)))}
+    return {
+        "theta_dot_mse": float(np.mean(error[:, 0] ** 2)),
+        "phi_dot_mse": float(np.mean(error[:, 1] ** 2)),
+        "theta_sq": float(np.mean(result.state[keep, 0] ** 2)),
+        "phi_sq": float(np.mean(result.state[keep, 1] ** 2)),
+        "F_hat_rms_error": float(np.sqrt(np.mean((f_hat - true_arm) ** 2))),
+        "F_hat_plus_eps_rms_error": float(np.sqrt(np.mean((f_hat + eps - true_arm) ** 2))),
+    }

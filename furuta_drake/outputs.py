@@ -42,8 +42,9 @@ def prepare_output_dir(out: str | Path, force: bool = False, protect: Iterable[s
         resolved = out.resolve()
         for path in [Path.cwd(), *map(Path, protect)]:
             if path.resolve() == resolved or resolved in path.resolve().parents:
-                raise ConfigError(f"{out}: --force would delete {path}, which is inside it; choose another "
-                                  f"output directory")
+                raise ConfigError(
+                    f"{out}: --force would delete {path}, which is inside it; choose another output directory"
+                )
     return out
 
 
@@ -90,8 +91,13 @@ def versions() -> dict[str, str]:
 def _git_commit() -> str | None:
     """The commit of the source tree this package runs from, when it is a git checkout."""
     try:
-        result = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent,
-                                capture_output=True, text=True, timeout=10)
+        result = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=Path(__file__).resolve().parent,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
     except (OSError, subprocess.SubprocessError):
         return None
     return result.stdout.strip() if result.returncode == 0 else None

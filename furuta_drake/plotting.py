@@ -52,8 +52,9 @@ def plot_velocity_estimates(result, reference: np.ndarray | None = None, path: s
     return _save(fig, path)
 
 
-def plot_friction_estimates(result, path: str | Path | None = None, title: str = "",
-                            calibrated: tuple[float, float] | None = None):
+def plot_friction_estimates(
+    result, path: str | Path | None = None, title: str = "", calibrated: tuple[float, float] | None = None
+):
     """Arm friction: the Dahl estimate F_hat, F_hat + eps_hat_F (paper Fig. 5, 7) and the true friction."""
     fig, ax = plt.subplots(figsize=(9, 4))
     _draw_friction(ax, result, calibrated)
@@ -116,8 +117,15 @@ def plot_observer_sweep(rows: list[dict], path: str | Path | None = None):
         x = np.array([row["value"] for row in mine])
         for signal, color in (("phi_dot", "tab:blue"), ("theta_dot", "tab:orange")):
             for reference, style in (("true", "-"), ("butterworth", "--")):
-                ax.plot(x, [row[f"{signal}_mse_{reference}"] for row in mine], style, marker="o", ms=3,
-                        color=color, label=f"{signal} vs {reference}")
+                ax.plot(
+                    x,
+                    [row[f"{signal}_mse_{reference}"] for row in mine],
+                    style,
+                    marker="o",
+                    ms=3,
+                    color=color,
+                    label=f"{signal} vs {reference}",
+                )
             best = next(row for row in mine if row["best"])
             ax.plot(best["value"], best[f"{signal}_mse_true"], "o", ms=11, mfc="none", color="k")
         ax.set_xscale("log")
@@ -199,8 +207,9 @@ def plot_real_closed_loop(runs: dict, title: str, path: str | Path | None = None
     return _save(fig, path)
 
 
-def plot_controller_fit(time: np.ndarray, logged: np.ndarray, replayed: dict, title: str,
-                        path: str | Path | None = None):
+def plot_controller_fit(
+    time: np.ndarray, logged: np.ndarray, replayed: dict, title: str, path: str | Path | None = None
+):
     """The logged voltage against the controller's voltage from the logged angles with each velocity source
     ({label: voltage [V]})."""
     fig, ax = plt.subplots(figsize=(10, 3.8))
@@ -222,8 +231,9 @@ def plot_limit_cycle_spectra(spectra: dict, path: str | Path | None = None):
     fig, axes = plt.subplots(1, len(spectra), figsize=(4.2 * len(spectra), 3.6), squeeze=False, sharey=True)
     for ax, (log, sources) in zip(axes[0], spectra.items()):
         for source, (frequency, power) in sources.items():
-            ax.semilogy(frequency, power, **({"color": "k", "lw": 1.6} if source == "real" else {"lw": 0.9}),
-                        label=source)
+            ax.semilogy(
+                frequency, power, **({"color": "k", "lw": 1.6} if source == "real" else {"lw": 0.9}), label=source
+            )
         ax.set_title(log, fontsize=8)
         ax.set_xlabel("frequency [Hz]")
         ax.grid(alpha=0.3, which="both")

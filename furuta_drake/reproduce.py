@@ -32,10 +32,18 @@ from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import SimulationResult, simulate
 
 # The paper's values (Tables I-II, Fig. 6), squared errors in rad^2 and (rad/s)^2.
-PAPER_TABLE1 = {("phi", "mean"): (3.5e-3, 2.3e-3), ("phi", "std"): (3.4e-3, 2.5e-3),
-                ("theta", "mean"): (4.2e-5, 6.4e-5), ("theta", "std"): (4.7e-5, 7.7e-5)}
-PAPER_TABLE2 = {("phi_dot", "mean"): (31e-3, 9e-3), ("phi_dot", "std"): (48e-3, 13e-3),
-                ("theta_dot", "mean"): (4.1e-3, 1.1e-3), ("theta_dot", "std"): (6.4e-3, 1.6e-3)}
+PAPER_TABLE1 = {
+    ("phi", "mean"): (3.5e-3, 2.3e-3),
+    ("phi", "std"): (3.4e-3, 2.5e-3),
+    ("theta", "mean"): (4.2e-5, 6.4e-5),
+    ("theta", "std"): (4.7e-5, 7.7e-5),
+}
+PAPER_TABLE2 = {
+    ("phi_dot", "mean"): (31e-3, 9e-3),
+    ("phi_dot", "std"): (48e-3, 13e-3),
+    ("theta_dot", "mean"): (4.1e-3, 1.1e-3),
+    ("theta_dot", "std"): (6.4e-3, 1.6e-3),
+}
 PAPER_K_SIGMA_RANGE = (1.34, 2.05)
 ARM_COULOMB_POS, ARM_COULOMB_NEG = 0.012, 0.018  # [N m], Sec. V-D / Fig. 7
 ARM_SIGMA0 = 10.0  # [N m/rad]
@@ -52,16 +60,21 @@ def paper_rig_config(seed: int = 0, duration: float = 20.0) -> SimulationConfig:
     """The simulated Lund rig of the reproduction, LQR on the VFE estimate with friction compensation."""
     config = SimulationConfig.from_rig("lund")
     friction = FrictionParameters(
-        arm=JointFrictionParameters(model="dahl", coulomb_pos=ARM_COULOMB_POS, coulomb_neg=ARM_COULOMB_NEG,
-                                    sigma0=ARM_SIGMA0),
-        pendulum=JointFrictionParameters(model="static", coulomb_pos=PENDULUM_COULOMB,
-                                         coulomb_neg=PENDULUM_COULOMB))
-    dahl = dataclasses.replace(config.observers.dahl, coulomb_pos=ARM_COULOMB_POS,
-                               coulomb_neg=ARM_COULOMB_NEG, sigma0=ARM_SIGMA0)
+        arm=JointFrictionParameters(
+            model="dahl", coulomb_pos=ARM_COULOMB_POS, coulomb_neg=ARM_COULOMB_NEG, sigma0=ARM_SIGMA0
+        ),
+        pendulum=JointFrictionParameters(model="static", coulomb_pos=PENDULUM_COULOMB, coulomb_neg=PENDULUM_COULOMB),
+    )
+    dahl = dataclasses.replace(
+        config.observers.dahl, coulomb_pos=ARM_COULOMB_POS, coulomb_neg=ARM_COULOMB_NEG, sigma0=ARM_SIGMA0
+    )
     return dataclasses.replace(
-        config, friction=friction, duration=duration, seed=seed, initial_state=[0.02, 0.0, 0.0, 0.0],
-        excitation=ExcitationConfig(torque_rms=0.012, torque_components=10, frequency_min=0.2,
-                                    frequency_max=3.0),
+        config,
+        friction=friction,
+        duration=duration,
+        seed=seed,
+        initial_state=[0.02, 0.0, 0.0, 0.0],
+        excitation=ExcitationConfig(torque_rms=0.012, torque_components=10, frequency_min=0.2, frequency_max=3.0),
         observers=dataclasses.replace(config.observers, dahl=dahl, run=["hg", "vfe"]),
         controller=dataclasses.replace(config.controller, velocity_source="vfe", friction_compensation=True),
     )
@@ -92,12 +105,22 @@ def table1(runs: TableRuns) -> list[dict]:
     """Table I: mean and std of the squared measured angles under HG-based and VFE-based control."""
     rows = []
     for index, signal in ((1, "phi"), (0, "theta")):
-        stats = {name: squared_error_statistics(run.measured[_after_transient(run), index])
-                 for name, run in (("HG", runs.hg_run), ("VFE", runs.vfe_run))}
+        stats = {
+            name: squared_error_statistics(run.measured[_after_transient(run), index])
+            for name, run in (("HG", runs.hg_run), ("VFE", runs.vfe_run))
+        }
         for statistic in ("mean", "std"):
             paper_hg, paper_vfe = PAPER_TABLE1[(signal, statistic)]
-            rows.append({"signal": signal, "statistic": statistic, "HG": stats["HG"][statistic],
-                         "VFE": stats["VFE"][statistic], "paper_HG": paper_hg, "paper_VFE": paper_vfe})
+            rows.append(
+                {
+                    "signal": signal,
+                    "statistic": statistic,
+                    "HG": stats["HG"][statistic],
+                    "VFE": stats["VFE"][statistic],
+                    "paper_HG": paper_hg,
+                    "paper_VFE": paper_vfe,
+                }
+            )
     return rows
 
 
@@ -111,22 +134,33 @@ def table2(runs: TableRuns) -> list[dict]:
     rows = []
     for reference_name, reference in references.items():
         for index, signal in ((1, "phi_dot"), (0, "theta_dot")):
-            stats = {name.upper(): squared_error_statistics(run.estimates[name][keep, 2 + index]
-                                                            - reference[keep, index])
-                     for name in ("hg", "vfe")}
+            stats = {
+                name.upper(): squared_error_statistics(run.estimates[name][keep, 2 + index] - reference[keep, index])
+                for name in ("hg", "vfe")
+            }
             for statistic in ("mean", "std"):
                 paper_hg, paper_vfe = PAPER_TABLE2[(signal, statistic)]
-                rows.append({"reference": reference_name, "signal": signal, "statistic": statistic,
-                             "HG": stats["HG"][statistic], "VFE": stats["VFE"][statistic],
-                             "paper_HG": paper_hg, "paper_VFE": paper_vfe})
+                rows.append(
+                    {
+                        "reference": reference_name,
+                        "signal": signal,
+                        "statistic": statistic,
+                        "HG": stats["HG"][statistic],
+                        "VFE": stats["VFE"][statistic],
+                        "paper_HG": paper_hg,
+                        "paper_VFE": paper_vfe,
+                    }
+                )
     return rows
 
 
 def velocity_references(result: SimulationResult, config: SimulationConfig) -> dict[str, np.ndarray]:
     """Table II's two references for [theta_dot, phi_dot]: the paper's zero-phase 5 Hz Butterworth of the
     encoder angles' derivative, and the true velocity."""
-    return {"butterworth": butterworth_velocity_reference(result.measured, config.control_period),
-            "true": result.state[:, 2:]}
+    return {
+        "butterworth": butterworth_velocity_reference(result.measured, config.control_period),
+        "true": result.state[:, 2:],
+    }
 
 
 def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=None, vfe=None, model=None) -> dict:
@@ -146,8 +180,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     times = result.time + period / 2  # between two updates: immune to the rounding of the re-timed log
     builder = DiagramBuilder()
     angles = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, result.measured.T)))
-    torque = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
-        times, result.torque.reshape(1, -1))))
+    torque = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, result.torque.reshape(1, -1))))
     A, B_F = model if model is not None else linearized_upright(config.rig)
     loggers, linear = {}, []
     if hg is not None:
@@ -158,9 +191,16 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
         linear.append(hg_system)
     if vfe is not None:
         vfe_params, dahl_params = vfe
-        vfe_system, _, _ = add_vfe_with_dahl(builder, (A, B_F), vfe_params, dahl_params, angles.get_output_port(),
-                                             torque.get_output_port(), config.observers.pendulum_friction,
-                                             period=period)
+        vfe_system, _, _ = add_vfe_with_dahl(
+            builder,
+            (A, B_F),
+            vfe_params,
+            dahl_params,
+            angles.get_output_port(),
+            torque.get_output_port(),
+            config.observers.pendulum_friction,
+            period=period,
+        )
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
         linear.append(vfe_system)
     if config.observers.start_at_initial_state:
@@ -170,7 +210,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
     simulator.AdvanceTo(result.time[-1] + 1.5 * period)  # past the last sample's publish, whatever the rounding
     context = simulator.get_context()
     # Logged at t_k + period, the estimate of the state at t_k (see simulate._tape): drop the first sample.
-    return {name: logger.FindLog(context).data().T[1:1 + result.time.size] for name, logger in loggers.items()}
+    return {name: logger.FindLog(context).data().T[1 : 1 + result.time.size] for name, logger in loggers.items()}
 
 
 def sweep_candidates(config: SimulationConfig, dahl) -> list[tuple[str, str, float, dict]]:
@@ -178,10 +218,13 @@ def sweep_candidates(config: SimulationConfig, dahl) -> list[tuple[str, str, flo
     the HG observer for every eps in ``SWEEP_HG_EPS``, the VFE observer with the Dahl observer ``dahl``
     (DahlObserverParameters, or None for no friction model) for every scale of its eigenvalues in
     ``SWEEP_VFE_SCALES``."""
-    candidates = [("hg", "eps", eps, {"hg": dataclasses.replace(config.observers.hg, eps_theta=eps, eps_phi=eps)})
-                  for eps in SWEEP_HG_EPS]
-    candidates += [("vfe", "eigenvalue_scale", scale, {"vfe": (_scaled_vfe(config, scale), dahl)})
-                   for scale in SWEEP_VFE_SCALES]
+    candidates = [
+        ("hg", "eps", eps, {"hg": dataclasses.replace(config.observers.hg, eps_theta=eps, eps_phi=eps)})
+        for eps in SWEEP_HG_EPS
+    ]
+    candidates += [
+        ("vfe", "eigenvalue_scale", scale, {"vfe": (_scaled_vfe(config, scale), dahl)}) for scale in SWEEP_VFE_SCALES
+    ]
     return candidates
 
 
@@ -191,8 +234,9 @@ def velocity_errors(estimate: np.ndarray, references: dict[str, np.ndarray]) -> 
     row = {}
     for reference_name, reference in references.items():
         for index, signal in ((1, "phi_dot"), (0, "theta_dot")):
-            row[f"{signal}_mse_{reference_name}"] = squared_error_statistics(estimate[:, index]
-                                                                             - reference[:, index])["mean"]
+            row[f"{signal}_mse_{reference_name}"] = squared_error_statistics(estimate[:, index] - reference[:, index])[
+                "mean"
+            ]
     return row
 
 
@@ -215,8 +259,9 @@ def observer_sweep(pilot: SimulationResult, config: SimulationConfig) -> list[di
     rows = []
     for observer, parameter, value, kwargs in sweep_candidates(config, config.observers.dahl):
         estimate = replay_observers(pilot, config, **kwargs)[observer][keep, 2:]
-        rows.append({"observer": observer, "parameter": parameter, "value": value,
-                     **velocity_errors(estimate, references)})
+        rows.append(
+            {"observer": observer, "parameter": parameter, "value": value, **velocity_errors(estimate, references)}
+        )
     return mark_best(rows, "phi_dot_mse_true")
 
 
@@ -224,8 +269,9 @@ def tuned_config(config: SimulationConfig, sweep: list[dict]) -> SimulationConfi
     """``config`` with the HG eps and the VFE eigenvalue scale the sweep found best."""
     best = {row["observer"]: row["value"] for row in sweep if row["best"]}
     hg = dataclasses.replace(config.observers.hg, eps_theta=best["hg"], eps_phi=best["hg"])
-    return dataclasses.replace(config, observers=dataclasses.replace(
-        config.observers, hg=hg, vfe=_scaled_vfe(config, best["vfe"])))
+    return dataclasses.replace(
+        config, observers=dataclasses.replace(config.observers, hg=hg, vfe=_scaled_vfe(config, best["vfe"]))
+    )
 
 
 def _scaled_vfe(config: SimulationConfig, scale: float):
@@ -254,8 +300,13 @@ def report_progress(progress, message: str) -> None:
         progress(message)
 
 
-def steady_friction_values(result: SimulationResult, config: SimulationConfig, start_time: float = TRANSIENT,
-                           threshold: float = 0.05, min_duration: float = 0.1) -> dict:
+def steady_friction_values(
+    result: SimulationResult,
+    config: SimulationConfig,
+    start_time: float = TRANSIENT,
+    threshold: float = 0.05,
+    min_duration: float = 0.1,
+) -> dict:
     """Mean F_hat, F_hat + eps_hat_F (arm entry) and the true arm friction [N m] over steady sliding phases
     after ``start_time``, per direction of the true arm velocity ('pos': phi_dot > 0, 'neg': phi_dot < 0)."""
     keep = result.time >= start_time
@@ -275,22 +326,30 @@ def steady_friction_values(result: SimulationResult, config: SimulationConfig, s
     return values
 
 
-def fig5_experiment(config: SimulationConfig, factors=(("set1_low", 0.7), ("set2_high", 1.3)),
-                    progress=None) -> dict:
+def fig5_experiment(config: SimulationConfig, factors=(("set1_low", 0.7), ("set2_high", 1.3)), progress=None) -> dict:
     """Fig. 5: LQR on VFE without friction compensation (u = u_LQ), with Dahl observer parameters (Fc and
     sigma0) calibrated too low and too high; F_hat differs between the sets, F_hat + eps_hat_F should not."""
     outcome = {}
     for name, factor in factors:
-        dahl = dataclasses.replace(config.observers.dahl, coulomb_pos=factor * ARM_COULOMB_POS,
-                                   coulomb_neg=factor * ARM_COULOMB_NEG, sigma0=factor * ARM_SIGMA0)
+        dahl = dataclasses.replace(
+            config.observers.dahl,
+            coulomb_pos=factor * ARM_COULOMB_POS,
+            coulomb_neg=factor * ARM_COULOMB_NEG,
+            sigma0=factor * ARM_SIGMA0,
+        )
         run_config = dataclasses.replace(
             config,
             controller=dataclasses.replace(config.controller, velocity_source="vfe", friction_compensation=False),
-            observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]))
+            observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]),
+        )
         result = simulate(run_config)
         report_progress(progress, f"Fig. 5 run, {name}")
-        outcome[name] = {"factor": factor, "result": result, "config": run_config,
-                         "steady": steady_friction_values(result, run_config)}
+        outcome[name] = {
+            "factor": factor,
+            "result": result,
+            "config": run_config,
+            "steady": steady_friction_values(result, run_config),
+        }
     return outcome
 
 
@@ -298,14 +357,21 @@ def adaptation_config(config: SimulationConfig, duration: float = 40.0) -> Simul
     """Figs. 6-7: an underestimated Dahl observer (Fc_hat = 0.009 N m both ways, K_sigma = 1), LQR on VFE
     without compensation (Sec. V-C: the arm must move to excite the adaptation), K_sigma adaptation enabled
     at t = 7.8 s."""
-    adaptation = DahlAdaptation(k_sigma=KSigmaAdaptationParameters(enable_time=ADAPTATION_ENABLE_TIME,
-                                                                   gamma=ADAPTATION_GAMMA))
-    dahl = dataclasses.replace(config.observers.dahl, coulomb_pos=UNDERESTIMATED_COULOMB,
-                               coulomb_neg=UNDERESTIMATED_COULOMB, adaptation=adaptation)
+    adaptation = DahlAdaptation(
+        k_sigma=KSigmaAdaptationParameters(enable_time=ADAPTATION_ENABLE_TIME, gamma=ADAPTATION_GAMMA)
+    )
+    dahl = dataclasses.replace(
+        config.observers.dahl,
+        coulomb_pos=UNDERESTIMATED_COULOMB,
+        coulomb_neg=UNDERESTIMATED_COULOMB,
+        adaptation=adaptation,
+    )
     return dataclasses.replace(
-        config, duration=duration,
+        config,
+        duration=duration,
         controller=dataclasses.replace(config.controller, velocity_source="vfe", friction_compensation=False),
-        observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]))
+        observers=dataclasses.replace(config.observers, dahl=dahl, run=["vfe"]),
+    )
 
 
 def adaptation_experiment(config: SimulationConfig, duration: float = 40.0, progress=None) -> dict:
@@ -316,9 +382,14 @@ def adaptation_experiment(config: SimulationConfig, duration: float = 40.0, prog
     branches = result.signals["K_sigma"]
     steady = steady_friction_values(result, run_config, start_time=run_config.duration * 2.0 / 3.0)
     return {
-        "result": result, "config": run_config,
-        "summary": {"K_sigma_plus": float(branches[-1, 0]), "K_sigma_minus": float(branches[-1, 1]),
-                    "friction_pos": steady["pos"]["F_hat"], "friction_neg": steady["neg"]["F_hat"],
-                    "theta_abs_max": float(np.max(np.abs(result.state[:, 0]))),
-                    "enable_time": ADAPTATION_ENABLE_TIME},
+        "result": result,
+        "config": run_config,
+        "summary": {
+            "K_sigma_plus": float(branches[-1, 0]),
+            "K_sigma_minus": float(branches[-1, 1]),
+            "friction_pos": steady["pos"]["F_hat"],
+            "friction_neg": steady["neg"]["F_hat"],
+            "theta_abs_max": float(np.max(np.abs(result.state[:, 0]))),
+            "enable_time": ADAPTATION_ENABLE_TIME,
+        },
     }

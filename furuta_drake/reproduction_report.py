@@ -19,15 +19,26 @@ from furuta_drake import reproduce
 from furuta_drake.config import dump_config
 from furuta_drake.errors import ConfigError
 from furuta_drake.outputs import atomic_output_dir, versions
-from furuta_drake.plotting import (plot_control_signals, plot_fig5, plot_friction_estimates, plot_k_sigma,
-                                   plot_observer_sweep, plot_velocity_estimates)
+from furuta_drake.plotting import (
+    plot_control_signals,
+    plot_fig5,
+    plot_friction_estimates,
+    plot_k_sigma,
+    plot_observer_sweep,
+    plot_velocity_estimates,
+)
 from furuta_drake.results import config_yaml_with_provenance, write_json, write_log_csv, write_table_csv
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 EXPERIMENTS = ("table1", "table2", "fig5", "fig6", "fig7", "beyond", "real")
 PAPER_EXPERIMENTS = EXPERIMENTS[:5]
-BEYOND_STUDIES = ("pendulum_observer_study", "parameter_adaptation_study", "lugre_observer_study", "stability_study",
-                  "swingup_study")
+BEYOND_STUDIES = (
+    "pendulum_observer_study",
+    "parameter_adaptation_study",
+    "lugre_observer_study",
+    "stability_study",
+    "swingup_study",
+)
 
 
 @dataclass
@@ -46,16 +57,19 @@ class ReproductionSettings:
         if unknown or not self.only:
             raise ConfigError(f"--only: unknown experiment(s) {unknown}; choose among {', '.join(EXPERIMENTS)}")
         if not self.table_duration >= 2 * reproduce.TRANSIENT:
-            raise ConfigError(f"--table-duration must be >= {2 * reproduce.TRANSIENT:g} s (the first "
-                              f"{reproduce.TRANSIENT:g} s are a transient), got {self.table_duration!r}")
+            raise ConfigError(
+                f"--table-duration must be >= {2 * reproduce.TRANSIENT:g} s (the first "
+                f"{reproduce.TRANSIENT:g} s are a transient), got {self.table_duration!r}"
+            )
         if not self.adaptation_duration > reproduce.ADAPTATION_ENABLE_TIME + 3.0:
-            raise ConfigError(f"--adaptation-duration must exceed {reproduce.ADAPTATION_ENABLE_TIME + 3.0:g} s "
-                              f"(adaptation starts at {reproduce.ADAPTATION_ENABLE_TIME:g} s), got "
-                              f"{self.adaptation_duration!r}")
+            raise ConfigError(
+                f"--adaptation-duration must exceed {reproduce.ADAPTATION_ENABLE_TIME + 3.0:g} s "
+                f"(adaptation starts at {reproduce.ADAPTATION_ENABLE_TIME:g} s), got "
+                f"{self.adaptation_duration!r}"
+            )
 
 
-def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: bool = False,
-                     progress=None) -> dict:
+def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: bool = False, progress=None) -> dict:
     """Run the selected experiments and write their files into ``out``; returns the figures of report.md.
 
     ``progress(message)`` is called after each simulation or sweep."""
@@ -81,8 +95,11 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
         if "fig5" in only:
             outcome = reproduce.fig5_experiment(base, progress=progress)
             figures["fig5"] = {name: run["steady"] for name, run in outcome.items()}
-            plot_fig5({f"{name}: Fc and sigma0 x {run['factor']:g}": run["result"] for name, run in outcome.items()},
-                      (reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG), staging / "fig5.png")
+            plot_fig5(
+                {f"{name}: Fc and sigma0 x {run['factor']:g}": run["result"] for name, run in outcome.items()},
+                (reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG),
+                staging / "fig5.png",
+            )
             for name, run in outcome.items():
                 _write_run(logs, f"fig5_{name}", run["result"], run["config"])
         if only & {"fig6", "fig7"}:
@@ -90,12 +107,16 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
             figures["adaptation"] = adaptation["summary"]
             result = adaptation["result"]
             if "fig6" in only:
-                plot_k_sigma(result, reproduce.ADAPTATION_ENABLE_TIME, reproduce.PAPER_K_SIGMA_RANGE,
-                             staging / "fig6.png")
+                plot_k_sigma(
+                    result, reproduce.ADAPTATION_ENABLE_TIME, reproduce.PAPER_K_SIGMA_RANGE, staging / "fig6.png"
+                )
             if "fig7" in only:
-                plot_friction_estimates(result, staging / "fig7.png",
-                                        title="Fig. 7: adapted friction estimate (adaptation on at 7.8 s)",
-                                        calibrated=(reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG))
+                plot_friction_estimates(
+                    result,
+                    staging / "fig7.png",
+                    title="Fig. 7: adapted friction estimate (adaptation on at 7.8 s)",
+                    calibrated=(reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG),
+                )
             _write_run(logs, "adaptation", result, adaptation["config"])
         if only & {"fig5", "fig6", "fig7"}:
             write_json(staging / "adaptation.json", _adaptation_json(figures))
@@ -107,16 +128,18 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
                     figure.savefig(staging / f"beyond_{stem}.png", dpi=110)
                 for name, result in study.logs.items():
                     write_log_csv(result, logs / f"beyond_{name}.csv")
-            write_table_csv([{"study": study.title, **row} for study in studies for row in study.rows],
-                            staging / "beyond.csv")
+            write_table_csv(
+                [{"study": study.title, **row} for study in studies for row in study.rows], staging / "beyond.csv"
+            )
         if "real" in only:
             from furuta_drake import real_rig_report
 
             outcome = real_rig_report.run_real_rig(staging, small=settings.small_real, progress=progress)
             figures["real"] = real_rig_report.write_real_rig(staging, outcome)
             if only == {"real"}:
-                (staging / "config.yaml").write_text(config_yaml_with_provenance(
-                    real_rig_report.nominal_run_config(outcome)))
+                (staging / "config.yaml").write_text(
+                    config_yaml_with_provenance(real_rig_report.nominal_run_config(outcome))
+                )
         (staging / "reproduction.yaml").write_text(_settings_yaml(settings, tuned))
         figures["wall_time_s"] = time.perf_counter() - started
         text = reproduction_markdown(figures, settings) if only - {"real"} else ""
@@ -141,18 +164,30 @@ def run_beyond(seed: int, small: bool, progress=None) -> list:
 
 def studies_markdown(studies: list, settings: ReproductionSettings) -> str:
     """beyond.md: each study's table (the paper's method next to the extension) and what it shows."""
-    lines = ["# Beyond the paper: the open problems of its Sections VI-VII", "",
-             f"Each study runs the paper's method and the extension on the same simulated rig and seed "
-             f"({settings.seed}){' in its short form' if settings.small_beyond else ''}; `beyond.csv` has the "
-             f"numbers, `beyond_*.png` the plots, `logs/beyond_*.csv` the raw logs.", ""]
+    lines = [
+        "# Beyond the paper: the open problems of its Sections VI-VII",
+        "",
+        f"Each study runs the paper's method and the extension on the same simulated rig and seed "
+        f"({settings.seed}){' in its short form' if settings.small_beyond else ''}; `beyond.csv` has the "
+        f"numbers, `beyond_*.png` the plots, `logs/beyond_*.csv` the raw logs.",
+        "",
+    ]
     for study in studies:
-        lines += [f"## {study.title}", "", study.summary, "",
-                  "| metric | paper's method | extension | unit | paper / extension | note |", "|---|---|---|---|---|---|"]
+        lines += [
+            f"## {study.title}",
+            "",
+            study.summary,
+            "",
+            "| metric | paper's method | extension | unit | paper / extension | note |",
+            "|---|---|---|---|---|---|",
+        ]
         for row in study.rows:
             paper, extension = row["paper"], row["extension"]
             ratio = f"{paper / extension:.2f}" if paper is not None and extension else ""
-            lines.append(f"| {row['metric']} | {_number(paper)} | {_number(extension)} | {row['unit']} | {ratio} | "
-                         f"{row['note']} |")
+            lines.append(
+                f"| {row['metric']} | {_number(paper)} | {_number(extension)} | {row['unit']} | {ratio} | "
+                f"{row['note']} |"
+            )
         lines.append("")
     return "\n".join(lines) + "\n"
 
@@ -181,9 +216,10 @@ def _adaptation_json(figures: dict) -> dict:
     adaptation = figures.get("adaptation", {})
     keys = ("K_sigma_plus", "K_sigma_minus", "friction_pos", "friction_neg", "theta_abs_max", "enable_time")
     out = {key: adaptation.get(key) for key in keys}
-    out["fig5"] = {name: {quantity: steady_values(steady, quantity)
-                          for quantity in ("F_hat", "F_hat_plus_eps", "true")}
-                   for name, steady in figures.get("fig5", {}).items()}
+    out["fig5"] = {
+        name: {quantity: steady_values(steady, quantity) for quantity in ("F_hat", "F_hat_plus_eps", "true")}
+        for name, steady in figures.get("fig5", {}).items()
+    }
     return out
 
 
@@ -195,73 +231,111 @@ def steady_values(steady: dict, quantity: str) -> dict:
 def _settings_yaml(settings: ReproductionSettings, tuned) -> str:
     """reproduction.yaml: the settings and the observers the fairness sweep chose, headed by the versions."""
     header = "".join(f"# {name} {version}\n" for name, version in versions().items())
-    return header + dump_yaml_dataclass({"settings": settings, "tuned_observers": {
-        "hg": tuned.observers.hg, "vfe": tuned.observers.vfe}})
+    return header + dump_yaml_dataclass(
+        {"settings": settings, "tuned_observers": {"hg": tuned.observers.hg, "vfe": tuned.observers.vfe}}
+    )
 
 
 def reproduction_markdown(figures: dict, settings: ReproductionSettings) -> str:
     """report.md: every figure next to the paper's, with the ratio, and the targets of the reproduction."""
-    lines = ["# Reproduction of Lenain et al., *A Velocity Observer Based on Friction Adaptation*", "",
-             f"Simulated Lund rig (`config.yaml`), seed {settings.seed}; Tables I-II and Fig. 5 from "
-             f"{settings.table_duration:g} s runs, Figs. 6-7 from a {settings.adaptation_duration:g} s run; the "
-             f"first {reproduce.TRANSIENT:g} s of every run are dropped from the statistics. Wall time "
-             f"{figures['wall_time_s']:.0f} s.", ""]
+    lines = [
+        "# Reproduction of Lenain et al., *A Velocity Observer Based on Friction Adaptation*",
+        "",
+        f"Simulated Lund rig (`config.yaml`), seed {settings.seed}; Tables I-II and Fig. 5 from "
+        f"{settings.table_duration:g} s runs, Figs. 6-7 from a {settings.adaptation_duration:g} s run; the "
+        f"first {reproduce.TRANSIENT:g} s of every run are dropped from the statistics. Wall time "
+        f"{figures['wall_time_s']:.0f} s.",
+        "",
+    ]
     if "table1" in figures:
-        lines += _table_section(
-            "Table I: squared control error [rad^2]", figures["table1"], ("signal", "statistic"))
+        lines += _table_section("Table I: squared control error [rad^2]", figures["table1"], ("signal", "statistic"))
         hg, vfe = (_pick(figures["table1"], "phi", "mean")[key] for key in ("HG", "VFE"))
-        lines += [f"Similar control accuracy (paper's point): mean phi^2 with HG / with VFE = {hg / vfe:.2f} "
-                  f"(target within a factor 2).", ""]
+        lines += [
+            f"Similar control accuracy (paper's point): mean phi^2 with HG / with VFE = {hg / vfe:.2f} "
+            f"(target within a factor 2).",
+            "",
+        ]
     if "table2" in figures:
-        lines += _table_section("Table II: squared velocity error [(rad/s)^2]", figures["table2"],
-                                ("reference", "signal", "statistic"))
+        lines += _table_section(
+            "Table II: squared velocity error [(rad/s)^2]", figures["table2"], ("reference", "signal", "statistic")
+        )
         for reference in ("butterworth", "true"):
             for signal, paper_cut in (("phi_dot", 31 / 9), ("theta_dot", 4.1 / 1.1)):
                 row = _pick(figures["table2"], signal, "mean", reference)
-                lines.append(f"- {signal} vs {reference}: VFE cuts the mean squared error {row['HG'] / row['VFE']:.1f}x "
-                             f"(paper {paper_cut:.1f}x).")
-        lines += ["", "Fair comparison (`observer_sweep.csv`, `observer_sweep.png`): each observer replayed on the "
-                  "pilot run's measurements over its tuning parameter; the lowest arm velocity error vs the "
-                  "true velocity is kept.", "",
-                  "| observer | parameter | value | phi_dot MSE vs true | phi_dot MSE vs Butterworth | chosen |",
-                  "|---|---|---|---|---|---|"]
-        lines += [f"| {row['observer'].upper()} | {row['parameter']} | {row['value']:g} | "
-                  f"{row['phi_dot_mse_true']:.3g} | {row['phi_dot_mse_butterworth']:.3g} | "
-                  f"{'yes' if row['best'] else ''} |" for row in figures["observer_sweep"]]
+                lines.append(
+                    f"- {signal} vs {reference}: VFE cuts the mean squared error {row['HG'] / row['VFE']:.1f}x "
+                    f"(paper {paper_cut:.1f}x)."
+                )
+        lines += [
+            "",
+            "Fair comparison (`observer_sweep.csv`, `observer_sweep.png`): each observer replayed on the "
+            "pilot run's measurements over its tuning parameter; the lowest arm velocity error vs the "
+            "true velocity is kept.",
+            "",
+            "| observer | parameter | value | phi_dot MSE vs true | phi_dot MSE vs Butterworth | chosen |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [
+            f"| {row['observer'].upper()} | {row['parameter']} | {row['value']:g} | "
+            f"{row['phi_dot_mse_true']:.3g} | {row['phi_dot_mse_butterworth']:.3g} | "
+            f"{'yes' if row['best'] else ''} |"
+            for row in figures["observer_sweep"]
+        ]
         lines.append("")
     if "fig5" in figures:
-        lines += ["## Fig. 5: friction observed with two Dahl sets (no compensation, u = u_LQ) [N m]", "",
-                  "| set | direction | F_hat | F_hat + eps_hat_F | true | error of F_hat + eps_hat_F |",
-                  "|---|---|---|---|---|---|"]
+        lines += [
+            "## Fig. 5: friction observed with two Dahl sets (no compensation, u = u_LQ) [N m]",
+            "",
+            "| set | direction | F_hat | F_hat + eps_hat_F | true | error of F_hat + eps_hat_F |",
+            "|---|---|---|---|---|---|",
+        ]
         for name, steady in figures["fig5"].items():
             for direction in ("pos", "neg"):
                 value = steady[direction]
                 error = abs(value["F_hat_plus_eps"] - value["true"]) / abs(value["true"])
-                lines.append(f"| {name} | phi_dot {'>' if direction == 'pos' else '<'} 0 | {value['F_hat']:.4f} | "
-                             f"{value['F_hat_plus_eps']:.4f} | {value['true']:.4f} | {error:.1%} |")
+                lines.append(
+                    f"| {name} | phi_dot {'>' if direction == 'pos' else '<'} 0 | {value['F_hat']:.4f} | "
+                    f"{value['F_hat_plus_eps']:.4f} | {value['true']:.4f} | {error:.1%} |"
+                )
         lines.append("")
     if "adaptation" in figures:
         a = figures["adaptation"]
-        lines += ["## Figs. 6-7: K_sigma adaptation from Fc_hat = 0.009 N m, enabled at t = 7.8 s", "",
-                  "| quantity | simulation | target (paper / true rig) | ratio |", "|---|---|---|---|",
-                  _ratio_row("K_sigma+ (final)", a["K_sigma_plus"], reproduce.ARM_COULOMB_POS
-                             / reproduce.UNDERESTIMATED_COULOMB),
-                  _ratio_row("K_sigma- (final)", a["K_sigma_minus"], reproduce.ARM_COULOMB_NEG
-                             / reproduce.UNDERESTIMATED_COULOMB),
-                  _ratio_row("adapted F_hat, phi_dot > 0 [N m]", a["friction_pos"], -reproduce.ARM_COULOMB_POS),
-                  _ratio_row("adapted F_hat, phi_dot < 0 [N m]", a["friction_neg"], reproduce.ARM_COULOMB_NEG),
-                  f"| max abs(theta) [rad] | {a['theta_abs_max']:.4f} | < 0.1 | |",
-                  "", f"The paper reports K_sigma settling in {reproduce.PAPER_K_SIGMA_RANGE[0]:g}-"
-                      f"{reproduce.PAPER_K_SIGMA_RANGE[1]:g}.", ""]
+        lines += [
+            "## Figs. 6-7: K_sigma adaptation from Fc_hat = 0.009 N m, enabled at t = 7.8 s",
+            "",
+            "| quantity | simulation | target (paper / true rig) | ratio |",
+            "|---|---|---|---|",
+            _ratio_row(
+                "K_sigma+ (final)", a["K_sigma_plus"], reproduce.ARM_COULOMB_POS / reproduce.UNDERESTIMATED_COULOMB
+            ),
+            _ratio_row(
+                "K_sigma- (final)", a["K_sigma_minus"], reproduce.ARM_COULOMB_NEG / reproduce.UNDERESTIMATED_COULOMB
+            ),
+            _ratio_row("adapted F_hat, phi_dot > 0 [N m]", a["friction_pos"], -reproduce.ARM_COULOMB_POS),
+            _ratio_row("adapted F_hat, phi_dot < 0 [N m]", a["friction_neg"], reproduce.ARM_COULOMB_NEG),
+            f"| max abs(theta) [rad] | {a['theta_abs_max']:.4f} | < 0.1 | |",
+            "",
+            f"The paper reports K_sigma settling in {reproduce.PAPER_K_SIGMA_RANGE[0]:g}-"
+            f"{reproduce.PAPER_K_SIGMA_RANGE[1]:g}.",
+            "",
+        ]
     if "beyond" in figures:
-        lines += ["## Beyond the paper", "", "The studies of the paper's open problems (Sec. VI-VII) are in `beyond.md`.",
-                  ""]
+        lines += [
+            "## Beyond the paper",
+            "",
+            "The studies of the paper's open problems (Sec. VI-VII) are in `beyond.md`.",
+            "",
+        ]
     return "\n".join(lines) + "\n"
 
 
 def _table_section(title: str, rows: list[dict], keys: tuple[str, ...]) -> list[str]:
-    lines = [f"## {title}", "", "| " + " | ".join(keys) + " | HG | paper HG | ratio | VFE | paper VFE | ratio |",
-             "|" + "---|" * (len(keys) + 6)]
+    lines = [
+        f"## {title}",
+        "",
+        "| " + " | ".join(keys) + " | HG | paper HG | ratio | VFE | paper VFE | ratio |",
+        "|" + "---|" * (len(keys) + 6),
+    ]
     for row in rows:
         cells = [str(row[key]) for key in keys]
         for name in ("HG", "VFE"):
@@ -271,10 +345,14 @@ def _table_section(title: str, rows: list[dict], keys: tuple[str, ...]) -> list[
 
 
 def _pick(rows: list[dict], signal: str, statistic: str, reference: str | None = None) -> dict:
-    return next(row for row in rows if row["signal"] == signal and row["statistic"] == statistic
-                and (reference is None or row["reference"] == reference))
+    return next(
+        row
+        for row in rows
+        if row["signal"] == signal
+        and row["statistic"] == statistic
+        and (reference is None or row["reference"] == reference)
+    )
 
 
 def _ratio_row(label: str, value: float, target: float) -> str:
     return f"| {label} | {value:.4g} | {target:.4g} | {value / target:.2f} |"
-

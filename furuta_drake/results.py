@@ -1,4 +1,5 @@
-"""Result files of a simulation: the log CSV of ``furuta-drake diagnose`` (``docs/diagnose.md``), the summary and the config.
+"""Result files of a simulation: the log CSV of ``furuta-drake diagnose`` (``docs/diagnose.md``), the summary and the
+config.
 
 Everything written here is deterministic (fixed float formatting, sorted keys, no wall-clock figures), so
 the same config and seed give byte-identical files.
@@ -54,8 +55,10 @@ def summary(result, config: SimulationConfig) -> dict:
     }
     for name, estimate in result.estimates.items():
         err = estimate[:, 2:] - result.state[:, 2:]
-        out[f"{name}_velocity_mse"] = {"theta_dot": float(np.mean(err[:, 0] ** 2)),
-                                       "phi_dot": float(np.mean(err[:, 1] ** 2))}
+        out[f"{name}_velocity_mse"] = {
+            "theta_dot": float(np.mean(err[:, 0] ** 2)),
+            "phi_dot": float(np.mean(err[:, 1] ** 2)),
+        }
     return out
 
 

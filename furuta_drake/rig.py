@@ -28,16 +28,28 @@ class MotorParameters:
     """Armature-controlled DC motor driving the arm: tau = kt (V - ke phi_dot) / R (inductance neglected)."""
 
     resistance: float = documented_field(
-        8.4, "armature resistance R", "ohm", required=True,
+        8.4,
+        "armature resistance R",
+        "ohm",
+        required=True,
         measure="ohmmeter across the motor terminals with the rotor held (turn it a little between readings and "
-                "take the typical value), or the motor's datasheet")
+        "take the typical value), or the motor's datasheet",
+    )
     torque_constant: float = documented_field(
-        0.042, "torque constant kt", "N m/A", required=True,
-        measure="the motor's datasheet; in SI units it equals the back-EMF constant")
+        0.042,
+        "torque constant kt",
+        "N m/A",
+        required=True,
+        measure="the motor's datasheet; in SI units it equals the back-EMF constant",
+    )
     backemf_constant: float = documented_field(
-        0.042, "back-EMF constant ke", "V s/rad", required=True,
+        0.042,
+        "back-EMF constant ke",
+        "V s/rad",
+        required=True,
         measure="spin the arm by hand or with a second motor and divide the open-circuit terminal voltage by the "
-                "arm speed, or the datasheet")
+        "arm speed, or the datasheet",
+    )
 
     def validate(self, where: str = "motor") -> None:
         for name in ("resistance", "torque_constant", "backemf_constant"):
@@ -63,63 +75,121 @@ class RigParameters:
     """
 
     arm_inertia: float = documented_field(
-        1.274e-3, "arm with everything it carries except the pendulum (hub, encoder, motor rotor) about the "
-                  "vertical axis", "kg m^2", required=True,
+        1.274e-3,
+        "arm with everything it carries except the pendulum (hub, encoder, motor rotor) about the vertical axis",
+        "kg m^2",
+        required=True,
         measure="CAD, or the rotor's datasheet inertia plus m_arm L^2/3 for a rod pivoted at its end "
-                "(m_arm L^2/12 for one spun about its centre), or a torsion-pendulum test of the arm")
+        "(m_arm L^2/12 for one spun about its centre), or a torsion-pendulum test of the arm",
+    )
     arm_length: float = documented_field(
-        0.25, "arm pivot axis to pendulum joint axis", "m", required=True,
-        measure="calliper between the two axes")
+        0.25, "arm pivot axis to pendulum joint axis", "m", required=True, measure="calliper between the two axes"
+    )
     pendulum_mass: float = documented_field(
-        0.033172, "pendulum link with everything that swings with it", "kg", required=True,
-        measure="kitchen or lab scale")
+        0.033172,
+        "pendulum link with everything that swings with it",
+        "kg",
+        required=True,
+        measure="kitchen or lab scale",
+    )
     pendulum_com: float = documented_field(
-        0.30, "pendulum joint axis to the pendulum's centre of mass", "m", required=True,
-        measure="balance the link on a knife edge and measure from the joint axis to the balance point")
+        0.30,
+        "pendulum joint axis to the pendulum's centre of mass",
+        "m",
+        required=True,
+        measure="balance the link on a knife edge and measure from the joint axis to the balance point",
+    )
     pendulum_inertia: float = documented_field(
-        8.997e-4, "pendulum inertia about its centre of mass, about an axis parallel to the joint", "kg m^2",
+        8.997e-4,
+        "pendulum inertia about its centre of mass, about an axis parallel to the joint",
+        "kg m^2",
         required=True,
         measure="hold the arm, time small free swings of the hanging pendulum: period T gives J_p + m l^2 = m g l "
-                "(T / 2 pi)^2, subtract m l^2 (m pendulum_mass, l pendulum_com); m L^2/12 for a uniform rod of "
-                "length L")
-    gravity: float = documented_field(9.81, "gravitational acceleration", "m/s^2", required=True,
-                                      measure="the local value; 9.81 anywhere on Earth to 0.3 %")
+        "(T / 2 pi)^2, subtract m l^2 (m pendulum_mass, l pendulum_com); m L^2/12 for a uniform rod of "
+        "length L",
+    )
+    gravity: float = documented_field(
+        9.81,
+        "gravitational acceleration",
+        "m/s^2",
+        required=True,
+        measure="the local value; 9.81 anywhere on Earth to 0.3 %",
+    )
     counts_per_rev: int = documented_field(
-        4096, "encoder resolution the nominal model assumes, after quadrature decoding", "counts/rev",
-        required=True, measure="encoder lines x 4 for quadrature, or count the change over one full turn by hand")
+        4096,
+        "encoder resolution the nominal model assumes, after quadrature decoding",
+        "counts/rev",
+        required=True,
+        measure="encoder lines x 4 for quadrature, or count the change over one full turn by hand",
+    )
     sample_period: float = documented_field(
-        0.001, "control and logging period", "s", required=True,
-        measure="the controller's fixed step; the logs' median time step")
+        0.001,
+        "control and logging period",
+        "s",
+        required=True,
+        measure="the controller's fixed step; the logs' median time step",
+    )
     torque_limit: float = documented_field(
-        0.2, "largest arm torque the actuator gives", "N m", required=True,
-        measure="voltage limit x kt / R at stall for a voltage-driven DC motor, or current limit x kt")
+        0.2,
+        "largest arm torque the actuator gives",
+        "N m",
+        required=True,
+        measure="voltage limit x kt / R at stall for a voltage-driven DC motor, or current limit x kt",
+    )
     theta_direction: int = documented_field(
-        1, "1 when the logs count theta as furuta-drake does, -1 when they count it the other way", "",
+        1,
+        "1 when the logs count theta as furuta-drake does, -1 when they count it the other way",
+        "",
         measure="with the pendulum hanging, push the arm towards +phi: 1 when the pendulum swings towards +theta; "
-                "furuta-drake diagnose checks it on the logs and names this key when it disagrees")
+        "furuta-drake diagnose checks it on the logs and names this key when it disagrees",
+    )
     arm_coulomb: float = documented_field(
-        0.0, "arm Coulomb friction the nominal model already has", "N m",
-        measure="the smallest steady torque that keeps the arm turning slowly; 0 lets the diagnosis find it")
+        0.0,
+        "arm Coulomb friction the nominal model already has",
+        "N m",
+        measure="the smallest steady torque that keeps the arm turning slowly; 0 lets the diagnosis find it",
+    )
     arm_viscous: float = documented_field(
-        0.0, "arm viscous friction the nominal model already has (not the motor's back-EMF)", "N m s/rad",
-        measure="slope of the steady torque against the arm speed at a few speeds")
+        0.0,
+        "arm viscous friction the nominal model already has (not the motor's back-EMF)",
+        "N m s/rad",
+        measure="slope of the steady torque against the arm speed at a few speeds",
+    )
     pendulum_coulomb: float = documented_field(
-        0.0, "pendulum joint Coulomb friction the nominal model already has", "N m",
-        measure="linear (not exponential) decay of the hanging pendulum's free swings with the arm held")
+        0.0,
+        "pendulum joint Coulomb friction the nominal model already has",
+        "N m",
+        measure="linear (not exponential) decay of the hanging pendulum's free swings with the arm held",
+    )
     pendulum_viscous: float = documented_field(
-        0.0, "pendulum joint viscous friction the nominal model already has", "N m s/rad",
-        measure="exponential decay rate of the hanging pendulum's free swings times 2 (J_p + m l^2)")
+        0.0,
+        "pendulum joint viscous friction the nominal model already has",
+        "N m s/rad",
+        measure="exponential decay rate of the hanging pendulum's free swings times 2 (J_p + m l^2)",
+    )
     motor: MotorParameters | None = documented_field(
-        None, "DC motor driving the arm; required when the logs give the input as a voltage",
-        measure="see its three keys")
+        None,
+        "DC motor driving the arm; required when the logs give the input as a voltage",
+        measure="see its three keys",
+    )
     effects: dict[str, dict[str, Any]] | None = documented_field(
-        None, "effects the nominal model already includes: vocabulary names -> parameters (docs/diagnose.md)",
-        measure="leave it out at first; a diagnosis writes fitted_rig.yaml with the effects it accepted")
+        None,
+        "effects the nominal model already includes: vocabulary names -> parameters (docs/diagnose.md)",
+        measure="leave it out at first; a diagnosis writes fitted_rig.yaml with the effects it accepted",
+    )
 
     def validate(self, where: str = "rig") -> None:
         """Raise :class:`ConfigError` naming the first non-physical value."""
-        for name in ("arm_inertia", "arm_length", "pendulum_mass", "pendulum_com", "pendulum_inertia",
-                     "gravity", "sample_period", "torque_limit"):
+        for name in (
+            "arm_inertia",
+            "arm_length",
+            "pendulum_mass",
+            "pendulum_com",
+            "pendulum_inertia",
+            "gravity",
+            "sample_period",
+            "torque_limit",
+        ):
             _require_positive(getattr(self, name), f"{where}.{name}")
         if int(self.counts_per_rev) != self.counts_per_rev or self.counts_per_rev < 4:
             raise ConfigError(f"{where}.counts_per_rev must be an integer >= 4, got {self.counts_per_rev!r}")
@@ -163,7 +233,7 @@ class RigParameters:
         """One encoder count [rad]."""
         return 2.0 * math.pi / self.counts_per_rev
 
-    def replace(self, **changes) -> "RigParameters":
+    def replace(self, **changes) -> RigParameters:
         return dataclasses.replace(self, **changes)
 
 
@@ -238,5 +308,11 @@ def _require_nonnegative(value, where: str) -> None:
 
 
 __all__ = [
-    "MotorParameters", "RigParameters", "RIGS", "lund_rig", "qube_servo2_rig", "linearized_upright", "linearized_hanging",
+    "MotorParameters",
+    "RigParameters",
+    "RIGS",
+    "lund_rig",
+    "qube_servo2_rig",
+    "linearized_upright",
+    "linearized_hanging",
 ]

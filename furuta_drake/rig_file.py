@@ -27,9 +27,12 @@ def rig_template(rig: RigParameters, title: str) -> str:
     """YAML text of ``rig`` in which every key is preceded by comments giving its meaning and unit, whether it
     is optional, and how to measure it; it loads back to ``rig`` exactly. A rig without a motor gets the motor
     block commented out."""
-    lines = [f"# furuta-drake rig file: {title}.",
-             "# SI units. Every key not marked optional is required. Check the constants it implies with",
-             "# `furuta-drake rig --check THIS_FILE` against a pendulum-swing test on the bench.", ""]
+    lines = [
+        f"# furuta-drake rig file: {title}.",
+        "# SI units. Every key not marked optional is required. Check the constants it implies with",
+        "# `furuta-drake rig --check THIS_FILE` against a pendulum-swing test on the bench.",
+        "",
+    ]
     for field in dataclasses.fields(RigParameters):
         if field.name == "motor":
             lines += _motor_lines(field, rig.motor)
@@ -48,8 +51,11 @@ def _key_lines(field: dataclasses.Field, value, indent: str, comment_out: bool =
 
 
 def _motor_lines(field: dataclasses.Field, motor: MotorParameters | None) -> list[str]:
-    lines = _comment(f"motor: {field_description(field)}; optional otherwise." + (
-        "" if motor is not None else " This rig's logs are torques; for voltage logs uncomment and fill in:"), "")
+    lines = _comment(
+        f"motor: {field_description(field)}; optional otherwise."
+        + ("" if motor is not None else " This rig's logs are torques; for voltage logs uncomment and fill in:"),
+        "",
+    )
     lines.append("motor:" if motor is not None else "# motor:")
     example = motor if motor is not None else MotorParameters()
     for sub in dataclasses.fields(MotorParameters):
@@ -61,8 +67,12 @@ def _comment(text: str, indent: str) -> list[str]:
     """``text`` as wrapped comment lines (a unit in brackets stays on one line)."""
     lead = " " * (len(text) - len(text.lstrip()))
     unbroken = re.sub(r"\[[^\]]*\]", lambda unit: unit.group().replace(" ", "\xa0"), text.lstrip())
-    return [line.replace("\xa0", " ") for line in textwrap.wrap(
-        unbroken, WIDTH, initial_indent=f"{indent}# {lead}", subsequent_indent=f"{indent}#   {lead}")]
+    return [
+        line.replace("\xa0", " ")
+        for line in textwrap.wrap(
+            unbroken, WIDTH, initial_indent=f"{indent}# {lead}", subsequent_indent=f"{indent}#   {lead}"
+        )
+    ]
 
 
 def rig_check(rig: RigParameters) -> dict[str, float | list[float]]:
@@ -84,8 +94,11 @@ def rig_check(rig: RigParameters) -> dict[str, float | list[float]]:
         "pendulum_inertia_total": rig.pendulum_inertia_total,
         "coupling": rig.coupling,
         "gravity_torque": rig.gravity_torque,
-        "alpha1": float(A[2, 0]), "alpha2": float(A[3, 0]),
-        "beta3": float(B_F[2, 0]), "beta4": float(B_F[2, 1]), "beta5": float(B_F[3, 1]),
+        "alpha1": float(A[2, 0]),
+        "alpha2": float(A[3, 0]),
+        "beta3": float(B_F[2, 0]),
+        "beta4": float(B_F[2, 1]),
+        "beta5": float(B_F[3, 1]),
         "upright_poles": sorted(float(p) for p in np.linalg.eigvals(A).real.round(12)),
         "hanging_arm_held": math.sqrt(rig.gravity_torque / rig.pendulum_inertia_total),
         "hanging_arm_free": float(np.abs(np.linalg.eigvals(A_hanging).imag).max()),
@@ -107,7 +120,8 @@ def format_rig_check(rig: RigParameters, source: str) -> str:
         "linearization at the upright (Eq. 2):",
         f"  alpha1 = {c['alpha1']:.5g} 1/s^2, alpha2 = {c['alpha2']:.5g} 1/s^2",
         f"  beta3 = {c['beta3']:.5g}, beta4 = {c['beta4']:.5g}, beta5 = {c['beta5']:.5g} 1/(kg m^2)",
-        f"  open-loop poles: {', '.join(f'{p:+.4g}' if p else '0' for p in c['upright_poles'])} rad/s (an upright error grows "
+        f"  open-loop poles: {', '.join(f'{p:+.4g}' if p else '0' for p in c['upright_poles'])} rad/s "
+        f"(an upright error grows "
         f"e-fold every {1 / unstable:.3g} s without control)",
         "hanging pendulum, small free swings (compare with a swing test on the bench):",
     ]

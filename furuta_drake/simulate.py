@@ -8,8 +8,8 @@ monitor stops a run that leaves its envelope (NaN, a fallen pendulum, a runaway 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 from pydrake.common import RandomGenerator
@@ -45,8 +45,13 @@ class SimulationResult:
     wall_time: float = 0.0
 
 
-def simulate(config: SimulationConfig, *, meshcat=None, progress: Callable[[float], None] | None = None,
-             built: FurutaDiagram | None = None) -> SimulationResult:
+def simulate(
+    config: SimulationConfig,
+    *,
+    meshcat=None,
+    progress: Callable[[float], None] | None = None,
+    built: FurutaDiagram | None = None,
+) -> SimulationResult:
     """Simulate ``config`` for ``config.duration`` seconds; ``progress(t)`` is called about every 0.5 s.
 
     Raises SimulationDiverged when the monitor stops the run.
@@ -56,12 +61,15 @@ def simulate(config: SimulationConfig, *, meshcat=None, progress: Callable[[floa
     built = built or build_furuta_diagram(config, meshcat=meshcat)
     diagram, plant = built.diagram, built.plant
     simulator = Simulator(diagram)
-    ApplySimulatorConfig(SimulatorConfig(
-        integration_scheme=config.simulator.integration_scheme,
-        max_step_size=config.simulator.max_step_size,
-        accuracy=config.simulator.accuracy,
-        use_error_control=config.simulator.use_error_control,
-    ), simulator)
+    ApplySimulatorConfig(
+        SimulatorConfig(
+            integration_scheme=config.simulator.integration_scheme,
+            max_step_size=config.simulator.max_step_size,
+            accuracy=config.simulator.accuracy,
+            use_error_control=config.simulator.use_error_control,
+        ),
+        simulator,
+    )
     context = simulator.get_mutable_context()
     diagram.SetRandomContext(context, RandomGenerator(config.seed))
     plant_context = plant.GetMyMutableContextFromRoot(context)
@@ -84,7 +92,8 @@ def simulate(config: SimulationConfig, *, meshcat=None, progress: Callable[[floa
         simulator.AdvanceTo(t)
         if monitor.reason is not None:
             raise SimulationDiverged(
-                f"simulation diverged at t = {monitor.time:.4f} s: {monitor.reason}", monitor.time, monitor.reason)
+                f"simulation diverged at t = {monitor.time:.4f} s: {monitor.reason}", monitor.time, monitor.reason
+            )
         if progress is not None:
             progress(t)
     wall = _time.perf_counter() - start
@@ -112,18 +121,22 @@ class _EnvelopeMonitor:
         if self._plant_context is None:
             self._plant_context = self.plant.GetMyContextFromRoot(root_context)
         x = self._plant_context.get_continuous_state_vector().CopyToVector().tolist()
-        velocities = x[self.nq:]
-        if math.isfinite(sum(x)) and abs(x[self.theta_index]) <= self.theta_bound \
-                and -self.speed_bound <= min(velocities) and max(velocities) <= self.speed_bound:
+        velocities = x[self.nq :]
+        if (
+            math.isfinite(sum(x))
+            and abs(x[self.theta_index]) <= self.theta_bound
+            and -self.speed_bound <= min(velocities)
+            and max(velocities) <= self.speed_bound
+        ):
             return self._succeeded
         if not all(math.isfinite(value) for value in x):
             reason = "non-finite state (NaN or inf)"
         elif abs(x[self.theta_index]) > self.theta_bound:
-            reason = (f"pendulum fell: |theta| = {abs(x[self.theta_index]):.3f} rad exceeds the bound "
-                      f"{self.theta_bound} rad")
+            reason = (
+                f"pendulum fell: |theta| = {abs(x[self.theta_index]):.3f} rad exceeds the bound {self.theta_bound} rad"
+            )
         elif max(abs(v) for v in velocities) > self.speed_bound:
-            reason = (f"runaway joint speed {max(abs(v) for v in velocities):.1f} rad/s exceeds "
-                      f"{self.speed_bound} rad/s")
+            reason = f"runaway joint speed {max(abs(v) for v in velocities):.1f} rad/s exceeds {self.speed_bound} rad/s"
         else:  # finite values whose sum overflowed
             return self._succeeded
         self.reason, self.time = reason, root_context.get_time()
@@ -141,9 +154,16 @@ def _tape(built: FurutaDiagram, context, config: SimulationConfig, wall: float) 
         return logs[name].data().T[1:]
 
     time = logs["state"].sample_times()[1:] - period
-    estimates = {name[len("estimate_"):]: data(name) for name in logs if name.startswith("estimate_")}
-    signals = {name[len("signal_"):]: data(name) for name in logs if name.startswith("signal_")}
+    estimates = {name[len("estimate_") :]: data(name) for name in logs if name.startswith("estimate_")}
+    signals = {name[len("signal_") :]: data(name) for name in logs if name.startswith("signal_")}
     return SimulationResult(
-        time=time, state=data("state"), measured=data("measured_angles"), torque=data("torque")[:, 0],
-        true_friction=data("true_friction"), estimates=estimates, signals=signals, lqr_gain=built.lqr_gain,
-        wall_time=wall)
+        time=time,
+        state=data("state"),
+        measured=data("measured_angles"),
+        torque=data("torque")[:, 0],
+        true_friction=data("true_friction"),
+        estimates=estimates,
+        signals=signals,
+        lqr_gain=built.lqr_gain,
+        wall_time=wall,
+    )

@@ -55,8 +55,8 @@ from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.observers.hg import continuous_high_gain_observer
 from furuta_drake.observers.vfe import continuous_vfe_observer
 from furuta_drake.plant import make_furuta_plant, plant_to_paper_permutation
-from furuta_drake.world import add_furuta_world
 from furuta_drake.rig import linearized_upright
+from furuta_drake.world import add_furuta_world
 
 OBSERVERS = ("vfe", "hg")
 
@@ -77,11 +77,14 @@ def presliding_plant(config: SimulationConfig) -> PreslidingPlant:
     with its bristle friction (Dahl/LuGre joints; static Coulomb friction has no linearization at rest and is
     left out) and the rig's back-EMF, permuted to paper order. The actuator chain, spring and cogging are left
     out."""
-    keep = {joint: p if p.has_bristles else JointFrictionParameters()
-            for joint, p in (("arm", config.friction.arm), ("pendulum", config.friction.pendulum))}
+    keep = {
+        joint: p if p.has_bristles else JointFrictionParameters()
+        for joint, p in (("arm", config.friction.arm), ("pendulum", config.friction.pendulum))
+    }
     builder = DiagramBuilder()
-    world = add_furuta_world(builder, rig=config.rig, friction=FrictionParameters(**keep),
-                             control_period=config.control_period)
+    world = add_furuta_world(
+        builder, rig=config.rig, friction=FrictionParameters(**keep), control_period=config.control_period
+    )
     builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
@@ -128,7 +131,7 @@ class LinearLoop:
                 self._Q = np.eye(n)
             else:
                 _, _, Vt = np.linalg.svd(self.conserved)
-                self._Q = Vt[self.conserved.shape[0]:].T
+                self._Q = Vt[self.conserved.shape[0] :].T
         return self._Q
 
     def eigenvalues(self, k_sigma: float) -> np.ndarray:
@@ -144,8 +147,13 @@ class LinearLoop:
         return float(np.log(np.max(np.abs(eigenvalues))) / self.period)
 
 
-def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool = False,
-                friction_compensation: bool = True, injection_sign: int = 1) -> LinearLoop:
+def linear_loop(
+    config: SimulationConfig,
+    observer: str = "vfe",
+    discrete: bool = False,
+    friction_compensation: bool = True,
+    injection_sign: int = 1,
+) -> LinearLoop:
     """The loop of ``config`` (its rig, bristle friction, LQR design, observer gains, Dahl observer) linearized
     at the upright with ``observer`` feeding the LQR and the Dahl observer (module docstring); ``discrete``: at
     the control period. The LQR is ``config``'s gain or its design, as in :func:`furuta_drake.diagram`.
@@ -215,8 +223,9 @@ def linear_loop(config: SimulationConfig, observer: str = "vfe", discrete: bool 
     return LinearLoop(A0, A1, W, s, period if discrete else None)
 
 
-def stable_intervals(loop: LinearLoop, k_min: float = 0.05, k_max: float = 6.0, points: int = 240,
-                     tolerance: float = 1e-4) -> list[tuple[float, float]]:
+def stable_intervals(
+    loop: LinearLoop, k_min: float = 0.05, k_max: float = 6.0, points: int = 240, tolerance: float = 1e-4
+) -> list[tuple[float, float]]:
     """The intervals of frozen K_sigma in [k_min, k_max] where the loop is exponentially stable (decay rate < 0),
     each end refined by bisection to ``tolerance``; an end at k_min or k_max means the stable range goes on."""
     grid = np.geomspace(k_min, k_max, points)
@@ -263,8 +272,9 @@ def common_lyapunov(loop: LinearLoop, k_low: float, k_high: float, rate: float =
         if loop.period is None:
             prog.AddPositiveSemidefiniteConstraint(-(A.T @ P + P @ A) - 2.0 * rate * P)
         else:
-            prog.AddPositiveSemidefiniteConstraint(np.block([[(1.0 - 2.0 * rate * loop.period) * P, A.T @ P],
-                                                             [P @ A, P]]))
+            prog.AddPositiveSemidefiniteConstraint(
+                np.block([[(1.0 - 2.0 * rate * loop.period) * P, A.T @ P], [P @ A, P]])
+            )
     result = ClarabelSolver().Solve(prog)
     if not result.is_success():
         return None
@@ -279,8 +289,9 @@ def common_lyapunov(loop: LinearLoop, k_low: float, k_high: float, rate: float =
     return P_value
 
 
-def widest_common_lyapunov(loop: LinearLoop, interval: tuple[float, float], anchor: float = 1.0,
-                           steps: int = 8) -> tuple[float, float] | None:
+def widest_common_lyapunov(
+    loop: LinearLoop, interval: tuple[float, float], anchor: float = 1.0, steps: int = 8
+) -> tuple[float, float] | None:
     """The widest [anchor + s (a - anchor), anchor + s (b - anchor)], s in (0, 1], of the frozen-stable
     ``interval`` = (a, b) with a common quadratic Lyapunov function (bisection on s, ``steps`` SDPs), or None
     when not even the anchor alone has one."""
@@ -321,8 +332,7 @@ class LyapunovRegion:
         return float(np.sqrt(self.level / self.P[0, 0]))
 
 
-def lyapunov_region(config: SimulationConfig, directions: int = 2000, radii: int = 40, seed: int = 0
-                    ) -> LyapunovRegion:
+def lyapunov_region(config: SimulationConfig, directions: int = 2000, radii: int = 40, seed: int = 0) -> LyapunovRegion:
     """A region-of-attraction estimate of the balancing loop with the true state: V = x^T P x from the
     Lyapunov equation of the linearized loop with the LQ design's stage cost, (A - B K)^T P + P (A - B K) =
     -(Q + K^T R K) (about the LQ cost-to-go), and the largest level set on
@@ -356,8 +366,7 @@ def lyapunov_region(config: SimulationConfig, directions: int = 2000, radii: int
             if 2.0 * x @ P @ xdot >= 0.0:
                 level = v
                 break
-    return LyapunovRegion(P, float(levels[levels < level][-1]) if np.any(levels < level) else 0.0,
-                          directions * radii)
+    return LyapunovRegion(P, float(levels[levels < level][-1]) if np.any(levels < level) else 0.0, directions * radii)
 
 
 CAUGHT_THETA = 0.05  # [rad] |theta| over the last CAUGHT_WINDOW of a run below this: caught
@@ -385,19 +394,26 @@ def basin_configs(config: SimulationConfig, thetas, theta_dots, duration: float)
     FALLEN_THETA."""
     from furuta_drake.config import ExcitationConfig
 
-    base = dataclasses.replace(config, duration=duration, excitation=ExcitationConfig(),
-                               monitor=dataclasses.replace(config.monitor, theta_bound=FALLEN_THETA))
-    return [dataclasses.replace(base, initial_state=[float(theta), 0.0, float(theta_dot), 0.0])
-            for theta_dot in theta_dots for theta in thetas]
+    base = dataclasses.replace(
+        config,
+        duration=duration,
+        excitation=ExcitationConfig(),
+        monitor=dataclasses.replace(config.monitor, theta_bound=FALLEN_THETA),
+    )
+    return [
+        dataclasses.replace(base, initial_state=[float(theta), 0.0, float(theta_dot), 0.0])
+        for theta_dot in theta_dots
+        for theta in thetas
+    ]
 
 
-def basin_map(config: SimulationConfig, thetas, theta_dots, duration: float = 2.0, workers: int = 1
-              ) -> np.ndarray:
+def basin_map(config: SimulationConfig, thetas, theta_dots, duration: float = 2.0, workers: int = 1) -> np.ndarray:
     """Caught (True) or fallen for each initial (theta0, theta_dot0): shape (len(theta_dots), len(thetas)).
     ``workers`` > 1 runs the simulations on a local Dask cluster of that many processes."""
     configs = basin_configs(config, thetas, theta_dots, duration)
     if workers > 1:
         from furuta_drake.sweep import dask_client, map_on_dask
+
         with dask_client(workers=workers, tasks=len(configs)) as client:
             outcome = map_on_dask(client, catches, configs)
     else:

@@ -35,10 +35,11 @@ import os
 import re
 import types
 import typing
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Literal
+from typing import Any, Literal
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -53,13 +54,25 @@ from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import convert_node, dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass
 
 VELOCITY_MSE = "velocity_mse"
-METRICS = (VELOCITY_MSE, "mean_theta_sq_rad2", "std_theta_sq_rad2", "mean_phi_sq_rad2", "std_phi_sq_rad2",
-           "theta_abs_max_rad", "phi_abs_max_rad", "torque_rms_Nm")
+METRICS = (
+    VELOCITY_MSE,
+    "mean_theta_sq_rad2",
+    "std_theta_sq_rad2",
+    "mean_phi_sq_rad2",
+    "std_phi_sq_rad2",
+    "theta_abs_max_rad",
+    "phi_abs_max_rad",
+    "torque_rms_Nm",
+)
 METRIC_LABELS = {
-    "mean_theta_sq_rad2": r"mean $\theta^2$ [rad$^2$]", "std_theta_sq_rad2": r"std $\theta^2$ [rad$^2$]",
-    "mean_phi_sq_rad2": r"mean $\phi^2$ [rad$^2$]", "std_phi_sq_rad2": r"std $\phi^2$ [rad$^2$]",
-    "theta_abs_max_rad": r"max $|\theta|$ [rad]", "phi_abs_max_rad": r"max $|\phi|$ [rad]",
-    "torque_rms_Nm": "torque RMS [N m]", "diverged": "diverged (1 = yes)",
+    "mean_theta_sq_rad2": r"mean $\theta^2$ [rad$^2$]",
+    "std_theta_sq_rad2": r"std $\theta^2$ [rad$^2$]",
+    "mean_phi_sq_rad2": r"mean $\phi^2$ [rad$^2$]",
+    "std_phi_sq_rad2": r"std $\phi^2$ [rad$^2$]",
+    "theta_abs_max_rad": r"max $|\theta|$ [rad]",
+    "phi_abs_max_rad": r"max $|\phi|$ [rad]",
+    "torque_rms_Nm": "torque RMS [N m]",
+    "diverged": "diverged (1 = yes)",
 }
 SEED_PATHS = ("seed", "encoder.seed")
 _SEGMENT = re.compile(r"^([A-Za-z_]\w*)(?:\[(\d+)\])?$")
@@ -80,8 +93,9 @@ class SweepConfig:
     ranges: dict[str, list[float]] = field(default_factory=dict)  # random: dotted path -> [low, high]
     samples: int = 0  # random: number of points
     seed: int = 0
-    metrics: list[str] = field(default_factory=lambda: [VELOCITY_MSE, "mean_theta_sq_rad2", "mean_phi_sq_rad2",
-                                                        "theta_abs_max_rad"])
+    metrics: list[str] = field(
+        default_factory=lambda: [VELOCITY_MSE, "mean_theta_sq_rad2", "mean_phi_sq_rad2", "theta_abs_max_rad"]
+    )
 
     def validate(self, where: str = "") -> None:
         prefix = f"{where}." if where else ""
@@ -156,12 +170,16 @@ def _resolve(config: SweepConfig, text: str, source: str, base_dir: Path) -> Swe
         except ConfigError as err:
             raise ConfigError(f"{source}: base_file: {err}") from None
     if config.mode == "grid":
-        axes = {path: _typed_values(base, path, key_node, values_node, source)
-                for path, key_node, values_node in _entries(root, "parameters", source)}
+        axes = {
+            path: _typed_values(base, path, key_node, values_node, source)
+            for path, key_node, values_node in _entries(root, "parameters", source)
+        }
         values = [dict(zip(axes, combination)) for combination in itertools.product(*axes.values())]
     else:
-        samplers = {path: _sampler(base, path, key_node, config.ranges[path], source)
-                    for path, key_node, _ in _entries(root, "ranges", source)}
+        samplers = {
+            path: _sampler(base, path, key_node, config.ranges[path], source)
+            for path, key_node, _ in _entries(root, "ranges", source)
+        }
         values = []
         for index in range(config.samples):
             rng = np.random.default_rng(np.random.SeedSequence(config.seed, spawn_key=(index, 1)))
@@ -193,8 +211,9 @@ def _segments(path: str, where: str) -> list[tuple[str, int | None]]:
     for part in path.split("."):
         match = _SEGMENT.match(part)
         if match is None:
-            raise ConfigError(f"{where} {path!r} is not a dotted path (fields separated by '.', an optional "
-                              f"[index] for a list item)")
+            raise ConfigError(
+                f"{where} {path!r} is not a dotted path (fields separated by '.', an optional [index] for a list item)"
+            )
         segments.append((match[1], None if match[2] is None else int(match[2])))
     return segments
 
@@ -320,8 +339,10 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, tasks:
     single-threaded processes (default: one per core, at most one per task), closed on exit."""
     if scheduler is not None:
         if workers is not None:
-            raise ConfigError("workers (--workers) sizes a local cluster; with a scheduler (--scheduler) the "
-                              "cluster's own workers run the sweep")
+            raise ConfigError(
+                "workers (--workers) sizes a local cluster; with a scheduler (--scheduler) the "
+                "cluster's own workers run the sweep"
+            )
         try:
             client = Client(scheduler, timeout=10)
         except (OSError, ValueError) as err:
@@ -333,13 +354,18 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, tasks:
         raise ConfigError(f"workers (--workers) must be >= 1, got {workers}")
     cores = os.cpu_count() or 1
     count = workers or max(1, min(cores, tasks or cores))
-    with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.CRITICAL
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         yield client
 
 
-def map_on_dask(client: Client, function: Callable, items: list, progress: Callable[[int, int], None] | None = None
-                ) -> list:
+def map_on_dask(
+    client: Client, function: Callable, items: list, progress: Callable[[int, int], None] | None = None
+) -> list:
     """``[function(item) for item in items]`` computed on ``client``'s workers, in the order of ``items``;
     ``progress(done, total)`` after each completion. The first exception a call raises cancels the others and
     propagates."""
@@ -356,8 +382,15 @@ def map_on_dask(client: Client, function: Callable, items: list, progress: Calla
     return results
 
 
-def run_sweep(sweep: Sweep | SweepConfig, out_dir: str | Path, *, force: bool = False, scheduler: str | None = None,
-              workers: int | None = None, progress: Callable[[int, int], None] | None = None) -> list[dict]:
+def run_sweep(
+    sweep: Sweep | SweepConfig,
+    out_dir: str | Path,
+    *,
+    force: bool = False,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[dict]:
     """Run every point of ``sweep`` on Dask and write ``out_dir`` atomically: ``results.csv`` (one row per point
     in index order: ``point``, ``point_seed``, the swept values, the metrics, ``diverged``, ``diverged_time``
     [s], ``cause``), ``sweep.yaml`` (the resolved sweep, loadable again) and one plot of the metrics against
@@ -371,16 +404,28 @@ def run_sweep(sweep: Sweep | SweepConfig, out_dir: str | Path, *, force: bool = 
         except ConfigError as err:
             raise ConfigError(f"{sweep.source}: {err}") from None
     metric_columns = _metric_columns(sweep.config.metrics, outcomes)
-    rows = [{"point": point.index, "point_seed": point.seed, **point.values,
-             **{name: outcome["metrics"].get(name) for name in metric_columns},
-             "diverged": outcome["diverged"], "diverged_time": outcome["diverged_time"], "cause": outcome["cause"]}
-            for point, outcome in zip(sweep.points, outcomes)]
+    rows = [
+        {
+            "point": point.index,
+            "point_seed": point.seed,
+            **point.values,
+            **{name: outcome["metrics"].get(name) for name in metric_columns},
+            "diverged": outcome["diverged"],
+            "diverged_time": outcome["diverged_time"],
+            "cause": outcome["cause"],
+        }
+        for point, outcome in zip(sweep.points, outcomes)
+    ]
     with atomic_output_dir(out_dir, force) as out:
         write_table_csv(rows, out / "results.csv")
         (out / "sweep.yaml").write_text(config_yaml_with_provenance(sweep.config))
         for parameter in sweep.points[0].values:
-            plot_metrics_vs_parameter(rows, parameter, metric_columns,
-                                      out / f"metrics_vs_{re.sub(r'[^A-Za-z0-9]+', '_', parameter).strip('_')}.png")
+            plot_metrics_vs_parameter(
+                rows,
+                parameter,
+                metric_columns,
+                out / f"metrics_vs_{re.sub(r'[^A-Za-z0-9]+', '_', parameter).strip('_')}.png",
+            )
     return rows
 
 
@@ -388,13 +433,15 @@ def _metric_columns(metrics: list[str], outcomes: list[dict]) -> list[str]:
     """The metric columns in the order of ``metrics``; ``velocity_mse`` expands to the theta_dot and phi_dot
     errors of every observer that ran in some point, sorted by observer name."""
     suffix = "_velocity_mse_theta_dot"
-    observers = sorted({key[:-len(suffix)] for outcome in outcomes for key in outcome["metrics"]
-                        if key.endswith(suffix)})
+    observers = sorted(
+        {key[: -len(suffix)] for outcome in outcomes for key in outcome["metrics"] if key.endswith(suffix)}
+    )
     columns = []
     for name in metrics:
         if name == VELOCITY_MSE:
-            columns += [f"{observer}_velocity_mse_{part}" for observer in observers
-                        for part in ("theta_dot", "phi_dot")]
+            columns += [
+                f"{observer}_velocity_mse_{part}" for observer in observers for part in ("theta_dot", "phi_dot")
+            ]
         else:
             columns.append(name)
     return columns
@@ -407,8 +454,9 @@ def _metric_label(name: str) -> str:
     return METRIC_LABELS[name]
 
 
-def plot_metrics_vs_parameter(rows: list[dict], parameter: str, metric_columns: list[str],
-                              path: str | Path | None = None):
+def plot_metrics_vs_parameter(
+    rows: list[dict], parameter: str, metric_columns: list[str], path: str | Path | None = None
+):
     """Each metric (and the diverged flag) against one swept parameter, one marker per point; a parameter
     whose values are not all numbers is shown by category. Returns the Figure (saved and closed with a path)."""
     names = [*metric_columns, "diverged"]

@@ -46,10 +46,17 @@ class FurutaWorld:
     to_paper: np.ndarray = field(repr=False)
 
 
-def add_furuta_world(builder: DiagramBuilder, *, rig: RigParameters, control_period: float,
-                     friction: FrictionParameters | None = None, actuator: ActuatorParameters | None = None,
-                     disturbance: DisturbanceParameters | None = None, back_emf_damping: float | None = None,
-                     with_scene_graph: bool = False) -> FurutaWorld:
+def add_furuta_world(
+    builder: DiagramBuilder,
+    *,
+    rig: RigParameters,
+    control_period: float,
+    friction: FrictionParameters | None = None,
+    actuator: ActuatorParameters | None = None,
+    disturbance: DisturbanceParameters | None = None,
+    back_emf_damping: float | None = None,
+    with_scene_graph: bool = False,
+) -> FurutaWorld:
     """Add the continuous Furuta plant of ``rig`` with ``friction`` on its joints, the arm ``disturbance``
     (spring, cogging), the back-EMF damping torque -``back_emf_damping`` phi_dot [N m s/rad] (None: kt ke / R of
     ``rig.motor``, 0 without one) and the ``actuator`` chain (its delays resolved to half the
@@ -85,8 +92,9 @@ def add_furuta_world(builder: DiagramBuilder, *, rig: RigParameters, control_per
         forces.append(to_force.get_output_port())
     if back_emf_damping != 0.0:
         # The DC motor's back-EMF: a torque -kt ke / R phi_dot on the arm (commands are torque-equivalent).
-        back_emf = builder.AddNamedSystem("motor_back_emf", MatrixGain(
-            -back_emf_damping * arm @ np.array([[0.0, 0.0, 0.0, 1.0]])))
+        back_emf = builder.AddNamedSystem(
+            "motor_back_emf", MatrixGain(-back_emf_damping * arm @ np.array([[0.0, 0.0, 0.0, 1.0]]))
+        )
         builder.Connect(true_state, back_emf.get_input_port())
         forces.append(back_emf.get_output_port())
     if len(forces) == 1:
@@ -97,8 +105,9 @@ def add_furuta_world(builder: DiagramBuilder, *, rig: RigParameters, control_per
             builder.Connect(force, total.get_input_port(i))
         builder.Connect(total.get_output_port(), plant.get_applied_generalized_force_input_port())
 
-    actuator_input, actuator_output = add_actuator(builder, actuator or ActuatorParameters(),
-                                                   delay_resolution=control_period / 2.0)
+    actuator_input, actuator_output = add_actuator(
+        builder, actuator or ActuatorParameters(), delay_resolution=control_period / 2.0
+    )
     builder.Connect(actuator_output, plant.get_actuation_input_port())
     return FurutaWorld(plant, scene_graph, joint_friction, true_state, actuator_input, friction_torque, P)
 

@@ -21,7 +21,6 @@ import yaml
 
 from furuta_drake.errors import ConfigError, read_input_text
 
-
 YAML12_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
 
 
@@ -29,12 +28,13 @@ def documented_field(default, meaning: str, unit: str = "", *, required: bool = 
     """A dataclass field that a YAML file documents: ``meaning`` and ``unit`` name it in errors and templates,
     ``measure`` says how to obtain its value, and a ``required`` field must be in every file (a missing one is a
     ConfigError naming the key, what it is and its unit; the ``default`` then serves Python callers only)."""
-    return dataclasses.field(default=default, metadata={"meaning": meaning, "unit": unit, "required": required,
-                                                        "measure": measure})
+    return dataclasses.field(
+        default=default, metadata={"meaning": meaning, "unit": unit, "required": required, "measure": measure}
+    )
 
 
 def field_description(field: dataclasses.Field) -> str:
-    """"meaning [unit]" of a :func:`documented_field` ("" for another field)."""
+    """ "meaning [unit]" of a :func:`documented_field` ("" for another field)."""
     meaning, unit = field.metadata.get("meaning", ""), field.metadata.get("unit", "")
     return f"{meaning} [{unit}]" if unit else meaning
 
@@ -88,8 +88,9 @@ def locate(message: str, source: str, lines: dict[str, int]) -> str:
     """``message``, which starts with the key path it is about (as ``validate`` messages do), as
     ``"source:line: message"`` at the line of the longest key path of ``lines`` it starts with; as
     ``"source: message"`` when it starts with none (a key the file leaves at its default)."""
+
     def starts_with(path: str) -> bool:
-        following = message[len(path):len(path) + 1]
+        following = message[len(path) : len(path) + 1]
         return message.startswith(path) and not (following.isalnum() or following == "_")
 
     path = max(filter(starts_with, lines), key=len, default=None)
@@ -111,7 +112,7 @@ def _relative_to_file(message: str, validate) -> str:
     but a rig file's key is ``pendulum_mass``)."""
     where = inspect.signature(validate).parameters.get("where")
     root = where.default if where is not None and isinstance(where.default, str) else ""
-    return message[len(root) + 1:] if root and message.startswith(f"{root}.") else message
+    return message[len(root) + 1 :] if root and message.startswith(f"{root}.") else message
 
 
 def dump_yaml_dataclass(obj) -> str:
@@ -163,7 +164,8 @@ def convert_node(node, tp, source: str, key_path: str):
             if key not in fields:
                 raise ConfigError(
                     f"{_where(source, key_node, sub_path)} unknown key {key!r} in {tp.__name__} "
-                    f"(known keys: {', '.join(sorted(fields))})")
+                    f"(known keys: {', '.join(sorted(fields))})"
+                )
             if key in values:
                 raise ConfigError(f"{_where(source, key_node, sub_path)} duplicate key {key!r}")
             values[key] = convert_node(value_node, hints[key], source, sub_path)
@@ -200,8 +202,12 @@ def convert_node(node, tp, source: str, key_path: str):
             raise ConfigError(f"{_where(source, node, key_path)} must be finite, got {value!r}")
         return float(value)
     if tp is int:
-        if (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
-                or value != int(value)):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+            or value != int(value)
+        ):
             raise ConfigError(f"{_where(source, node, key_path)} expected an integer, got {value!r}")
         return int(value)
     if tp is bool:

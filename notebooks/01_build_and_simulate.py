@@ -33,10 +33,12 @@ DURATION = 1.0 if os.environ.get("FURUTA_NOTEBOOK_SMALL") else 10.0
 # %%
 config = SimulationConfig.from_rig("lund")
 config = dataclasses.replace(
-    config, duration=DURATION,
+    config,
+    duration=DURATION,
     friction=FrictionParameters(arm=JointFrictionParameters.dahl(0.012, 0.018, sigma0=10.0)),
     controller=dataclasses.replace(config.controller, velocity_source="vfe"),
-    observers=dataclasses.replace(config.observers, run=["hg", "vfe"]))
+    observers=dataclasses.replace(config.observers, run=["hg", "vfe"]),
+)
 built = build_furuta_diagram(config)
 print(built.diagram.GetGraphvizString(max_depth=1)[:300], "...")
 
@@ -48,10 +50,10 @@ for name, estimate in result.estimates.items():
     print(f"{name.upper()} arm velocity RMS error: {np.sqrt(np.mean(error**2)):.4f} rad/s")
 
 # %%
-plot_states(result);
+plot_states(result)
 
 # %%
-plot_velocity_estimates(result);
+plot_velocity_estimates(result)
 
 # %% [markdown]
 # ## Meshcat

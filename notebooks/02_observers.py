@@ -46,14 +46,19 @@ DURATION = 1.0 if os.environ.get("FURUTA_NOTEBOOK_SMALL") else 10.0
 rig = lund_rig()
 config = SimulationConfig.from_rig(rig)
 config = dataclasses.replace(
-    config, duration=DURATION, seed=1,
+    config,
+    duration=DURATION,
+    seed=1,
     friction=FrictionParameters(arm=JointFrictionParameters.dahl(0.012, 0.018, sigma0=10.0)),
     excitation=ExcitationConfig(torque_rms=0.01, arm_reference_amplitude=0.2, arm_reference_period=2.0),
     controller=dataclasses.replace(config.controller, velocity_source="true"),
-    observers=dataclasses.replace(config.observers, run=["hg", "vfe"]))
+    observers=dataclasses.replace(config.observers, run=["hg", "vfe"]),
+)
 built = build_furuta_diagram(config)
-print("observer blocks:", sorted(s.get_name() for s in built.diagram.GetSystems()
-                                 if any(k in s.get_name() for k in ("hg", "vfe", "dahl"))))
+print(
+    "observer blocks:",
+    sorted(s.get_name() for s in built.diagram.GetSystems() if any(k in s.get_name() for k in ("hg", "vfe", "dahl"))),
+)
 result = simulate(config, built=built)
 print(f"{DURATION} s simulated in {result.wall_time:.2f} s")
 
@@ -70,14 +75,14 @@ for name, estimate in result.estimates.items():
     print(f"{name.upper():8} {np.mean(error[:, 0] ** 2):26.3e} {np.mean(error[:, 1] ** 2):24.3e}")
 
 # %%
-plot_velocity_estimates(result);
+plot_velocity_estimates(result)
 
 # %% [markdown]
 # The Dahl observer's friction estimate F_hat, the VFE correction F_hat + eps_hat_F and the friction the
 # simulation applied (paper Fig. 5).
 
 # %%
-plot_friction_estimates(result, title="arm friction: estimates and truth");
+plot_friction_estimates(result, title="arm friction: estimates and truth")
 
 # %% [markdown]
 # ## Observability from the encoders

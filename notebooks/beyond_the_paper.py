@@ -20,7 +20,11 @@
 import os
 
 from furuta_drake.studies import (
-    lugre_observer_study, parameter_adaptation_study, pendulum_observer_study, stability_study, swingup_study,
+    lugre_observer_study,
+    parameter_adaptation_study,
+    pendulum_observer_study,
+    stability_study,
+    swingup_study,
 )
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))

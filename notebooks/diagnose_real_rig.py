@@ -26,7 +26,9 @@ import tempfile
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-from furuta_drake.data import QUBE_REAL_DIR as DATA, QUBE_REAL_RIG as RIG
+
+from furuta_drake.data import QUBE_REAL_DIR as DATA
+from furuta_drake.data import QUBE_REAL_RIG as RIG
 from furuta_drake.diagnosis.logs import load_logs, load_rig
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
@@ -35,8 +37,7 @@ SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
 TRAIN = [DATA / "swingup_250Hz_10s_a.csv", DATA / "chirp_10to0Hz_pos1p5V_250Hz_10s.csv"]
 HELDOUT = [DATA / "swingup_250Hz_7s_negdir.csv", DATA / "swingup_250Hz_5s_0414.csv"]
 # The small run tries the strongest candidates of the full run and a few that compete with them.
-CANDIDATES = (("inertia_mismatch", "torque_gain_error", "actuator_lag", "arm_viscous_friction") if SMALL
-              else None)
+CANDIDATES = ("inertia_mismatch", "torque_gain_error", "actuator_lag", "arm_viscous_friction") if SMALL else None
 
 # %% [markdown]
 # ## The logs
@@ -71,8 +72,10 @@ diagnosis = diagnose(rig=RIG, train=TRAIN, heldout=HELDOUT, candidates=CANDIDATE
 write_report(out, diagnosis)
 gap = diagnosis.gap
 print(gap.metric)
-print(f"nominal held-out gap {gap.nominal['heldout']:.2f} counts "
-      f"(theta {gap.per_signal_nominal_heldout['theta']:.2f}, phi {gap.per_signal_nominal_heldout['phi']:.2f})")
+print(
+    f"nominal held-out gap {gap.nominal['heldout']:.2f} counts "
+    f"(theta {gap.per_signal_nominal_heldout['theta']:.2f}, phi {gap.per_signal_nominal_heldout['phi']:.2f})"
+)
 
 # %% [markdown]
 # ## Where the gap is
@@ -97,28 +100,38 @@ for b in loc["frequency_bands"]:
 
 # %%
 for row in diagnosis.ranking[:6]:
-    params = ", ".join(f"{k} {v:.4g}" + (" [{:.3g}, {:.3g}]".format(*row.params_ci[k]) if k in row.params_ci else "")
-                       for k, v in row.params.items() if not isinstance(v, str))
+    params = ", ".join(
+        f"{k} {v:.4g}" + (" [{:.3g}, {:.3g}]".format(*row.params_ci[k]) if k in row.params_ci else "")
+        for k, v in row.params.items()
+        if not isinstance(v, str)
+    )
     print(f"{row.effect:44s} held-out reduction {row.heldout_reduction:6.1%} (5 % bound {row.evidence:6.1%})  {params}")
 print(f"\nverdict: {diagnosis.verdict}  effects: {diagnosis.effects}")
 for step in diagnosis.steps:
-    print(f"  + {step.effect}: held-out gap {step.heldout_gap:.2f} counts ({step.reduction_over_previous:.0%} of what "
-          "the earlier effects left)")
-print(f"held-out gap {gap.nominal['heldout']:.2f} -> {gap.with_effects['heldout']:.2f} counts "
-      f"({gap.heldout_reduction:.0%} reduction, {gap.evaluated_by})")
+    print(
+        f"  + {step.effect}: held-out gap {step.heldout_gap:.2f} counts ({step.reduction_over_previous:.0%} of what "
+        "the earlier effects left)"
+    )
+print(
+    f"held-out gap {gap.nominal['heldout']:.2f} -> {gap.with_effects['heldout']:.2f} counts "
+    f"({gap.heldout_reduction:.0%} reduction, {gap.evaluated_by})"
+)
 print(diagnosis.choice)
 
 # %%
-accepted = next((row for row in diagnosis.ranking if row.effect.split("+") == [s.effect for s in diagnosis.steps]),
-                None)
+accepted = next(
+    (row for row in diagnosis.ranking if row.effect.split("+") == [s.effect for s in diagnosis.steps]), None
+)
 # A model of several effects prefixes its parameters with their effect's name: "inertia_mismatch.arm_inertia_scale".
 params = {} if accepted is None else {k.split(".")[-1]: v for k, v in accepted.params.items()}
 if "arm_inertia_scale" in params:
     scales = {k: params[k] for k in ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale")}
     print("lumped constants relative to the rig file:", {k: round(v, 3) for k, v in scales.items()})
-    print(f"arm inertia a = J_arm + m r^2: {rig.arm_inertia_total:.3g} -> {params['arm_inertia_total']:.3g} "
-          "kg m^2 (the nominal arm is a bare rod plus the rotor; the real arm also carries its hub and the "
-          "pendulum encoder)")
+    print(
+        f"arm inertia a = J_arm + m r^2: {rig.arm_inertia_total:.3g} -> {params['arm_inertia_total']:.3g} "
+        "kg m^2 (the nominal arm is a bare rod plus the rotor; the real arm also carries its hub and the "
+        "pendulum encoder)"
+    )
 
 # %% [markdown]
 # ## Residuals before and after

@@ -45,12 +45,17 @@ WORK = Path(tempfile.mkdtemp(prefix="your_rig_"))
 # ## 1. Your logs, as your lab writes them
 # One run per file. Here: two swing-ups to fit on, and a third swing-up plus the hanging chirp to judge on.
 
+
 # %%
 def lab_log(name: str) -> Path:
     """One of the project's QUBE logs, written the way the lab's software writes it: its names, degrees."""
     table = np.genfromtxt(QUBE_REAL_DIR / name, delimiter=",", names=True)
-    columns = {"t": table["time"], "vm": table["voltage"], "alpha": np.degrees(table["theta"]),
-               "theta": np.degrees(table["phi"])}
+    columns = {
+        "t": table["time"],
+        "vm": table["voltage"],
+        "alpha": np.degrees(table["theta"]),
+        "theta": np.degrees(table["phi"]),
+    }
     return write_log(WORK / name, columns)
 
 
@@ -75,8 +80,9 @@ log_format = LogFormat.parse("time=t,theta=alpha,phi=theta,voltage=vm", "deg")
 # %%
 template = rig_template(qube_servo2_rig(), "my QUBE-Servo 2")
 print("\n".join(template.splitlines()[:14]))
-rig_text = template.replace("theta_direction: 1", "theta_direction: -1").replace("sample_period: 0.002",
-                                                                                 "sample_period: 0.004")
+rig_text = template.replace("theta_direction: 1", "theta_direction: -1").replace(
+    "sample_period: 0.002", "sample_period: 0.004"
+)
 rig_path = WORK / "my_rig.yaml"
 rig_path.write_text(rig_text)
 
@@ -97,8 +103,9 @@ print(format_rig_check(load_rig(rig_path), str(rig_path)))
 # %%
 settings = FAST if SMALL else DiagnosisSettings()
 candidates = ["inertia_mismatch", "input_delay", "actuator_lag", "arm_viscous_friction"] if SMALL else None
-diagnosis = diagnose(rig=rig_path, train=train, heldout=heldout, log_format=log_format, candidates=candidates,
-                     settings=settings)
+diagnosis = diagnose(
+    rig=rig_path, train=train, heldout=heldout, log_format=log_format, candidates=candidates, settings=settings
+)
 write_report(WORK / "report", diagnosis)
 print(f"verdict: {diagnosis.verdict}; effects: {diagnosis.effects}")
 print(diagnosis.choice)
@@ -110,11 +117,15 @@ print(diagnosis.choice)
 
 # %%
 gap = diagnosis.gap
-print(f"held-out gap: nominal {gap.nominal['heldout']:.2f} counts -> with the effects "
-      f"{gap.with_effects['heldout']:.2f} counts ({gap.heldout_reduction:.0%} less; {gap.evaluated_by})")
+print(
+    f"held-out gap: nominal {gap.nominal['heldout']:.2f} counts -> with the effects "
+    f"{gap.with_effects['heldout']:.2f} counts ({gap.heldout_reduction:.0%} less; {gap.evaluated_by})"
+)
 for step in diagnosis.steps:
-    print(f"  + {step.effect}: {step.heldout_gap:.2f} counts; without it the others' model is "
-          f"{step.reduction_over_others:.0%} worse")
+    print(
+        f"  + {step.effect}: {step.heldout_gap:.2f} counts; without it the others' model is "
+        f"{step.reduction_over_others:.0%} worse"
+    )
 
 # %% [markdown]
 # Each fitted parameter with its 95 % interval: how precisely these logs pin it.
@@ -132,8 +143,10 @@ for key, value in final.params.items():
 
 # %%
 for limit in diagnosis.detection_limits:
-    print(f"  {limit.effect:22s} {limit.param:20s} "
-          + ("beyond its range" if limit.value is None else f"{limit.value:.3g} {limit.unit}"))
+    print(
+        f"  {limit.effect:22s} {limit.param:20s} "
+        + ("beyond its range" if limit.value is None else f"{limit.value:.3g} {limit.unit}")
+    )
 
 # %% [markdown]
 # Where the gap sat, before and after: the regimes and frequency bands that carry it.
@@ -142,8 +155,10 @@ for limit in diagnosis.detection_limits:
 loc = diagnosis.localization
 for regime in loc["regimes"]:
     after = next(r for r in loc["after"]["regimes"] if r["regime"] == regime["regime"]) if "after" in loc else None
-    print(f"  {regime['regime']:24s} {regime['share_of_gap']:6.1%}"
-          + (f" -> {after['share_of_gap']:6.1%}" if after else ""))
+    print(
+        f"  {regime['regime']:24s} {regime['share_of_gap']:6.1%}"
+        + (f" -> {after['share_of_gap']:6.1%}" if after else "")
+    )
 
 # %% [markdown]
 # ## 6. Simulate the corrected model
@@ -161,11 +176,15 @@ fitted = diagnosis.artifacts.fitted_config
 nominal = SimulationConfig.from_rig(load_rig(rig_path))
 runs = {}
 for label, config in (("nominal", nominal), ("corrected", fitted)):
-    config = dataclasses.replace(config, duration=2.0 if SMALL else 6.0, initial_state=[np.pi, 0.0, 0.0, 0.0],
-                                 controller=dataclasses.replace(config.controller, mode="open_loop"),
-                                 excitation=ExcitationConfig(torque_rms=0.3 * config.rig.gravity_torque,
-                                                             frequency_min=0.3, frequency_max=4.0),
-                                 monitor=MonitorConfig(theta_bound=None), seed=3)
+    config = dataclasses.replace(
+        config,
+        duration=2.0 if SMALL else 6.0,
+        initial_state=[np.pi, 0.0, 0.0, 0.0],
+        controller=dataclasses.replace(config.controller, mode="open_loop"),
+        excitation=ExcitationConfig(torque_rms=0.3 * config.rig.gravity_torque, frequency_min=0.3, frequency_max=4.0),
+        monitor=MonitorConfig(theta_bound=None),
+        seed=3,
+    )
     runs[label] = simulate(config)
 fig, ax = plt.subplots(figsize=(9, 3))
 for label, result in runs.items():

@@ -39,14 +39,17 @@ config = reproduce.paper_rig_config(seed=0, duration=TABLE_DURATION)
 
 # %%
 runs = reproduce.run_table_experiments(config, progress=print)
-plot_observer_sweep(runs.sweep);
+plot_observer_sweep(runs.sweep)
+
 
 # %%
 def show(rows, keys):
     for row in rows:
         label = " ".join(str(row[k]) for k in keys)
-        print(f"{label:32s} HG {row['HG']:.3g} (paper {row['paper_HG']:.3g})   "
-              f"VFE {row['VFE']:.3g} (paper {row['paper_VFE']:.3g})")
+        print(
+            f"{label:32s} HG {row['HG']:.3g} (paper {row['paper_HG']:.3g})   "
+            f"VFE {row['VFE']:.3g} (paper {row['paper_VFE']:.3g})"
+        )
 
 
 print("Table I, squared angles [rad^2]")
@@ -62,11 +65,16 @@ show(reproduce.table2(runs), ("reference", "signal", "statistic"))
 # %%
 fig5 = reproduce.fig5_experiment(config)
 for name, run in fig5.items():
-    print(name, "F_hat", steady_values(run["steady"], "F_hat"),
-          "F_hat + eps", steady_values(run["steady"], "F_hat_plus_eps"),
-          "true", steady_values(run["steady"], "true"))
-plot_fig5({name: run["result"] for name, run in fig5.items()},
-          (reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG));
+    print(
+        name,
+        "F_hat",
+        steady_values(run["steady"], "F_hat"),
+        "F_hat + eps",
+        steady_values(run["steady"], "F_hat_plus_eps"),
+        "true",
+        steady_values(run["steady"], "true"),
+    )
+plot_fig5({name: run["result"] for name, run in fig5.items()}, (reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG))
 
 # %% [markdown]
 # ## Figs. 6-7: K_sigma adaptation from an underestimated set (Fc_hat = 0.009 N m)
@@ -74,8 +82,11 @@ plot_fig5({name: run["result"] for name, run in fig5.items()},
 # %%
 adaptation = reproduce.adaptation_experiment(config, ADAPTATION_DURATION)
 print(adaptation["summary"])
-plot_k_sigma(adaptation["result"], reproduce.ADAPTATION_ENABLE_TIME, reproduce.PAPER_K_SIGMA_RANGE);
+plot_k_sigma(adaptation["result"], reproduce.ADAPTATION_ENABLE_TIME, reproduce.PAPER_K_SIGMA_RANGE)
 
 # %%
-plot_friction_estimates(adaptation["result"], title="Fig. 7: adapted friction estimate",
-                        calibrated=(reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG));
+plot_friction_estimates(
+    adaptation["result"],
+    title="Fig. 7: adapted friction estimate",
+    calibrated=(reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG),
+)

@@ -11,7 +11,7 @@
 # ---
 
 # %% [markdown]
-# # The two halves meet on real data: the paper's observers on a real QUBE, and the closed loop before and after the diagnosis' correction
+# # Real data: the paper's observers on a real QUBE, and the closed loop before and after the correction
 # The diagnosis corrects a model and measures the correction as a k-step prediction error. A user asks the next
 # question: with the corrected model, do the model-based observer and the controller behave in simulation as they
 # do on the rig? This notebook answers it on the real QUBE-Servo 2 runs of `data/qube-servo2-real` (SimuRLacra,
@@ -30,8 +30,12 @@ from IPython.display import Markdown, display
 from furuta_drake import real_rig_report
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.observers.filtered_derivative import filtered_derivative
-from furuta_drake.plotting import (plot_controller_fit, plot_limit_cycle_spectra, plot_real_closed_loop,
-                                   plot_real_observers)
+from furuta_drake.plotting import (
+    plot_controller_fit,
+    plot_limit_cycle_spectra,
+    plot_real_closed_loop,
+    plot_real_observers,
+)
 from furuta_drake.studies.real_closed_loop_study import balancing_spectrum, rest_direction
 from furuta_drake.studies.real_data import CHIRP, HELDOUT_SWINGUPS, TRAIN_SWINGUP, reference_velocity
 
@@ -62,11 +66,13 @@ log = outcome.runs.logs[TRAIN_SWINGUP]
 params = QuanserSwingUpParameters(rest_direction=rest_direction(log, QuanserSwingUpParameters()))
 angles = np.column_stack([log.theta, log.phi])
 corner = outcome.closed_loop.corner
-replayed = {"zero-phase Butterworth velocities": quanser_command(params, np.column_stack(
-                [angles, reference_velocity(log)]))[0],
-            f"server's filter, {corner:.1f} rad/s": quanser_command(params, np.column_stack(
-                [angles, filtered_derivative(angles, log.sample_period, corner)]))[0]}
-plot_controller_fit(log.time, log.input, replayed, TRAIN_SWINGUP);
+replayed = {
+    "zero-phase Butterworth velocities": quanser_command(params, np.column_stack([angles, reference_velocity(log)]))[0],
+    f"server's filter, {corner:.1f} rad/s": quanser_command(
+        params, np.column_stack([angles, filtered_derivative(angles, log.sample_period, corner)])
+    )[0],
+}
+plot_controller_fit(log.time, log.input, replayed, TRAIN_SWINGUP)
 
 # %% [markdown]
 # ## The paper's observers on measured data
@@ -78,7 +84,7 @@ plot_controller_fit(log.time, log.input, replayed, TRAIN_SWINGUP);
 # %%
 display(Markdown("\n".join(real_rig_report.observer_section(outcome))))
 shown = {key: value for key, value in outcome.observers.estimates.items() if key[1] in (HELDOUT_SWINGUPS[0], CHIRP)}
-plot_real_observers(shown);
+plot_real_observers(shown)
 
 # %% [markdown]
 # ## The closed loop, real and simulated
@@ -100,8 +106,14 @@ for name in dict.fromkeys(log_name for _, log_name in runs):
 
 # %%
 display(Markdown("\n".join(real_rig_report.open_part_section(outcome))))
-spectra = {name: {source: spectrum for source, log_name in runs if log_name == name
-                  if (spectrum := balancing_spectrum(runs[(source, log_name)][0])) is not None}
-           for name in dict.fromkeys(log_name for _, log_name in runs)}
-plot_limit_cycle_spectra(spectra);
+spectra = {
+    name: {
+        source: spectrum
+        for source, log_name in runs
+        if log_name == name
+        if (spectrum := balancing_spectrum(runs[(source, log_name)][0])) is not None
+    }
+    for name in dict.fromkeys(log_name for _, log_name in runs)
+}
+plot_limit_cycle_spectra(spectra)
 plt.show()

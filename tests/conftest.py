@@ -25,10 +25,20 @@ QUBE_DATA = QUBE_REAL_DIR
 OUTSIDE_READS: list[str] = []  # paths opened outside the repository, in the order opened
 _GUARDED = str(REPO.parent) + os.sep
 _INSIDE = str(REPO) + os.sep
-_ALLOWED: list[str] = sorted({
-    os.path.realpath(p) + os.sep for p in (
-        sys.prefix, sys.base_prefix, sys.exec_prefix, tempfile.gettempdir(), *site.getsitepackages(),
-        *sysconfig.get_paths().values()) if p})
+_ALLOWED: list[str] = sorted(
+    {
+        os.path.realpath(p) + os.sep
+        for p in (
+            sys.prefix,
+            sys.base_prefix,
+            sys.exec_prefix,
+            tempfile.gettempdir(),
+            *site.getsitepackages(),
+            *sysconfig.get_paths().values(),
+        )
+        if p
+    }
+)
 
 
 def _is_outside_read(path) -> bool:
@@ -39,8 +49,11 @@ def _is_outside_read(path) -> bool:
     if not path.startswith(os.sep):
         path = os.path.join(os.getcwd(), path)
     path = os.path.normpath(path)
-    return (path.startswith(_GUARDED) and not (path + os.sep).startswith(_INSIDE)
-            and not any((path + os.sep).startswith(allowed) for allowed in _ALLOWED))
+    return (
+        path.startswith(_GUARDED)
+        and not (path + os.sep).startswith(_INSIDE)
+        and not any((path + os.sep).startswith(allowed) for allowed in _ALLOWED)
+    )
 
 
 def _audit(event: str, args) -> None:
@@ -79,6 +92,8 @@ def no_reads_outside_the_repository(tmp_path_factory):
 
 def pytest_sessionfinish(session, exitstatus) -> None:
     if OUTSIDE_READS:
-        print(f"\nfiles read outside the repository {REPO} outside any test: "
-              f"{', '.join(sorted(set(OUTSIDE_READS)))}", file=sys.stderr)
+        print(
+            f"\nfiles read outside the repository {REPO} outside any test: {', '.join(sorted(set(OUTSIDE_READS)))}",
+            file=sys.stderr,
+        )
         session.exitstatus = pytest.ExitCode.TESTS_FAILED

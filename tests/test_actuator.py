@@ -9,12 +9,20 @@ from hypothesis import strategies as st
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (
-    ConstantVectorSource, LogVectorOutput, PassThrough, TrajectorySource, ZeroOrderHold,
+    ConstantVectorSource,
+    LogVectorOutput,
+    PassThrough,
+    TrajectorySource,
+    ZeroOrderHold,
 )
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.actuator import (
-    ActuatorParameters, DisturbanceParameters, add_actuator, add_arm_disturbance, add_dc_motor,
+    ActuatorParameters,
+    DisturbanceParameters,
+    add_actuator,
+    add_arm_disturbance,
+    add_dc_motor,
 )
 from furuta_drake.errors import ConfigError
 from furuta_drake.rig import MotorParameters
@@ -86,8 +94,9 @@ def run_chain(params, command, duration, log_period, accuracy=1e-4):
 def held_staircase(builder):
     """A new command k at every t_k = k * CONTROL_PERIOD, held like the controller's output."""
     times = np.arange(0.0, 0.3, CONTROL_PERIOD)
-    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
-        times, np.arange(len(times), dtype=float)[None, :])))
+    source = builder.AddSystem(
+        TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, np.arange(len(times), dtype=float)[None, :]))
+    )
     hold = builder.AddSystem(ZeroOrderHold(CONTROL_PERIOD, 1))
     builder.Connect(source.get_output_port(), hold.get_input_port())
     return hold.get_output_port()
@@ -110,10 +119,8 @@ def test_lag_reaches_63_percent_of_a_step_at_the_time_constant():
     def unit_step(builder):
         return builder.AddSystem(ConstantVectorSource([1.0])).get_output_port()
 
-    times, values = run_chain(ActuatorParameters(lag_time_constant=tau), unit_step, 3 * tau, tau / 2,
-                              accuracy=1e-8)
-    np.testing.assert_allclose(values[[2, 4, 6]], [1 - math.exp(-1), 1 - math.exp(-2), 1 - math.exp(-3)],
-                               rtol=1e-5)
+    times, values = run_chain(ActuatorParameters(lag_time_constant=tau), unit_step, 3 * tau, tau / 2, accuracy=1e-8)
+    np.testing.assert_allclose(values[[2, 4, 6]], [1 - math.exp(-1), 1 - math.exp(-2), 1 - math.exp(-3)], rtol=1e-5)
     assert values[0] == 0.0
 
 
@@ -123,8 +130,9 @@ def test_dead_zone_acts_on_the_lagged_command():
     tau, delay = 0.02, 2e-3
 
     def held_step(builder):
-        source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold([0.0, 0.005, 1.0],
-                                                                                        [[0.0, 1.0, 1.0]])))
+        source = builder.AddSystem(
+            TrajectorySource(PiecewisePolynomial.ZeroOrderHold([0.0, 0.005, 1.0], [[0.0, 1.0, 1.0]]))
+        )
         hold = builder.AddSystem(ZeroOrderHold(CONTROL_PERIOD, 1))
         builder.Connect(source.get_output_port(), hold.get_input_port())
         return hold.get_output_port()
@@ -183,26 +191,36 @@ def test_dc_motor_stall_torque_and_no_load_speed():
     assert motor_torque(motor, 5.0, 0.0) == pytest.approx(0.042 * 5.0 / 8.4)  # stall: kt V / R = 0.025 N m
     assert motor_torque(motor, 5.0, 5.0 / 0.042) == pytest.approx(0.0, abs=1e-15)  # no-load speed V / ke
     assert motor_torque(motor, 5.0, 2.5 / 0.042) == pytest.approx(0.0125)  # linear torque-speed line
-    assert motor_torque(motor, 0.0, 10.0) == pytest.approx(-0.042**2 / 8.4 * 10.0)  # back-EMF braking
+    assert motor_torque(motor, 0.0, 10.0) == pytest.approx(-(0.042**2) / 8.4 * 10.0)  # back-EMF braking
 
 
-@pytest.mark.parametrize("params, field", [
-    (ActuatorParameters(gain=0.0), "actuator.gain"), (ActuatorParameters(gain=math.nan), "actuator.gain"),
-    (ActuatorParameters(deadzone=-0.01), "actuator.deadzone"), (ActuatorParameters(delay=-1e-3), "actuator.delay"),
-    (ActuatorParameters(lag_time_constant=math.inf), "actuator.lag_time_constant"),
-    (ActuatorParameters(saturation=0.0), "actuator.saturation"),
-])
+@pytest.mark.parametrize(
+    "params, field",
+    [
+        (ActuatorParameters(gain=0.0), "actuator.gain"),
+        (ActuatorParameters(gain=math.nan), "actuator.gain"),
+        (ActuatorParameters(deadzone=-0.01), "actuator.deadzone"),
+        (ActuatorParameters(delay=-1e-3), "actuator.delay"),
+        (ActuatorParameters(lag_time_constant=math.inf), "actuator.lag_time_constant"),
+        (ActuatorParameters(saturation=0.0), "actuator.saturation"),
+    ],
+)
 def test_invalid_actuator_parameters_are_rejected_with_the_field_named(params, field):
     with pytest.raises(ConfigError, match=field):
         add_actuator(DiagramBuilder(), params, RESOLUTION)
 
 
-@pytest.mark.parametrize("changes, field", [
-    ({"arm_spring_stiffness": -0.1}, "arm_spring_stiffness"), ({"arm_spring_equilibrium": math.nan},
-                                                                 "arm_spring_equilibrium"),
-    ({"cogging_amplitude": -1e-3}, "cogging_amplitude"), ({"cogging_periods": 1.5}, "cogging_periods"),
-    ({"cogging_amplitude": 1e-3}, "cogging_periods"), ({"cogging_phase": math.inf}, "cogging_phase"),
-])
+@pytest.mark.parametrize(
+    "changes, field",
+    [
+        ({"arm_spring_stiffness": -0.1}, "arm_spring_stiffness"),
+        ({"arm_spring_equilibrium": math.nan}, "arm_spring_equilibrium"),
+        ({"cogging_amplitude": -1e-3}, "cogging_amplitude"),
+        ({"cogging_periods": 1.5}, "cogging_periods"),
+        ({"cogging_amplitude": 1e-3}, "cogging_periods"),
+        ({"cogging_phase": math.inf}, "cogging_phase"),
+    ],
+)
 def test_invalid_disturbance_parameters_are_rejected_with_the_field_named(changes, field):
     with pytest.raises(ConfigError, match=f"disturbance.{field}"):
         DisturbanceParameters(**changes).validate()

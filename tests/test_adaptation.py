@@ -19,13 +19,15 @@ PERIOD = 1e-3
 SIGMA0 = 10.0  # [N m/rad]
 
 
-def k_sigma_observer(params: KSigmaAdaptationParameters, *, velocity: float, friction_error: float,
-                     observer_level: float):
+def k_sigma_observer(
+    params: KSigmaAdaptationParameters, *, velocity: float, friction_error: float, observer_level: float
+):
     """A Dahl observer adapting K_sigma, its bristle settled at z_ss = Fc sign(v) / sigma0 for its own level
     ``observer_level`` and held there (v constant and no tracking error: the exact step keeps z_ss, K_z = 0),
     with a fixed eps_hat_F; returns it, its context, z_ss and a function advancing n periods to the branches."""
-    dahl = DahlObserverParameters(coulomb_pos=observer_level, coulomb_neg=observer_level, sigma0=SIGMA0,
-                                  adaptation=DahlAdaptation(k_sigma=params))
+    dahl = DahlObserverParameters(
+        coulomb_pos=observer_level, coulomb_neg=observer_level, sigma0=SIGMA0, adaptation=DahlAdaptation(k_sigma=params)
+    )
     observer = DahlFrictionObserver(dahl, period=PERIOD)
     context = observer.CreateDefaultContext()
     observer.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
@@ -41,6 +43,7 @@ def k_sigma_observer(params: KSigmaAdaptationParameters, *, velocity: float, fri
             context.SetTime(context.get_time() + PERIOD)
         assert observer.GetOutputPort("bristle_state_rad").Eval(context)[0] == z_ss
         return observer.GetOutputPort("K_sigma_branches").Eval(context).copy()
+
     return observer, context, z_ss, advance
 
 
@@ -89,8 +92,9 @@ def test_frozen_before_the_enable_time_and_adapting_after():
 @pytest.mark.parametrize("v, branch", [(0.3, 0), (-0.3, 1)])
 def test_the_estimate_uses_the_k_sigma_of_the_velocity_sign(v, branch):
     """F_hat = -K_sigma sigma0 z_hat (Eq. 16) with K_sigma+ while v > 0 and K_sigma- otherwise."""
-    observer, context, z_hat, _ = k_sigma_observer(KSigmaAdaptationParameters(), velocity=v, friction_error=0.0,
-                                                   observer_level=0.012)
+    observer, context, z_hat, _ = k_sigma_observer(
+        KSigmaAdaptationParameters(), velocity=v, friction_error=0.0, observer_level=0.012
+    )
     context.SetDiscreteState([z_hat, 1.3, 1.8])
     assert observer.GetOutputPort("friction_estimate_Nm").Eval(context)[0] == -[1.3, 1.8][branch] * SIGMA0 * z_hat
 
@@ -109,12 +113,28 @@ def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
     velocity = builder.AddSystem(ConstantVectorSource([v]))
     angles = builder.AddSystem(ConstantVectorSource([0.0, 0.0]))
     reference = builder.AddSystem(ConstantVectorSource([0.0, v]))  # no tracking error: K_z = 0
-    truth = builder.AddSystem(DahlFrictionObserver(DahlObserverParameters(
-        coulomb_pos=0.012, coulomb_neg=0.018, sigma0=SIGMA0,
-        adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_true))), period=PERIOD))
-    observer = builder.AddSystem(DahlFrictionObserver(DahlObserverParameters(
-        coulomb_pos=0.012, coulomb_neg=0.018, sigma0=SIGMA0,
-        adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=gamma))), period=PERIOD))
+    truth = builder.AddSystem(
+        DahlFrictionObserver(
+            DahlObserverParameters(
+                coulomb_pos=0.012,
+                coulomb_neg=0.018,
+                sigma0=SIGMA0,
+                adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_true)),
+            ),
+            period=PERIOD,
+        )
+    )
+    observer = builder.AddSystem(
+        DahlFrictionObserver(
+            DahlObserverParameters(
+                coulomb_pos=0.012,
+                coulomb_neg=0.018,
+                sigma0=SIGMA0,
+                adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=gamma)),
+            ),
+            period=PERIOD,
+        )
+    )
     negate = builder.AddSystem(Gain(-1.0, 1))
     error = builder.AddSystem(Adder(2, 1))
     no_error = builder.AddSystem(ConstantVectorSource([0.0, 0.0]))
@@ -144,19 +164,30 @@ def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
     assert abs(k_sigma[-1] - k_true) < 0.2 * (k_true - 1.0)
 
 
-@pytest.mark.parametrize("field, value", [
-    ("gamma", -1.0), ("velocity_threshold", -0.1), ("enable_time", -1.0), ("initial", 0.0), ("gamma", float("nan")),
-])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("gamma", -1.0),
+        ("velocity_threshold", -0.1),
+        ("enable_time", -1.0),
+        ("initial", 0.0),
+        ("gamma", float("nan")),
+    ],
+)
 def test_invalid_parameters_are_rejected_naming_the_field(field, value):
     adaptation = DahlAdaptation(k_sigma=KSigmaAdaptationParameters(**{field: value}))
     with pytest.raises(ConfigError, match=rf"observers\.dahl\.adaptation\.k_sigma\.{field}"):
         DahlFrictionObserver(DahlObserverParameters(adaptation=adaptation), period=PERIOD)
 
 
-@pytest.mark.parametrize("adaptation", [
-    DahlAdaptation(),
-    DahlAdaptation(k_sigma=KSigmaAdaptationParameters(), parameters=ParameterAdaptationParameters()),
-], ids=["neither law", "both laws"])
+@pytest.mark.parametrize(
+    "adaptation",
+    [
+        DahlAdaptation(),
+        DahlAdaptation(k_sigma=KSigmaAdaptationParameters(), parameters=ParameterAdaptationParameters()),
+    ],
+    ids=["neither law", "both laws"],
+)
 def test_adaptation_section_takes_exactly_one_law(adaptation):
     with pytest.raises(ConfigError, match=r"observers\.dahl\.adaptation must give exactly one"):
         DahlObserverParameters(adaptation=adaptation).validate()

@@ -6,7 +6,11 @@ import pytest
 from scipy.linalg import solve_continuous_are
 
 from furuta_drake.analysis import (
-    controllability, observability, observer_for_analysis, observer_loop_eigenvalues, separation_error,
+    controllability,
+    observability,
+    observer_for_analysis,
+    observer_loop_eigenvalues,
+    separation_error,
 )
 from furuta_drake.observers.hg import HighGainParameters
 from furuta_drake.observers.linear import ANGLES
@@ -34,8 +38,7 @@ def test_closed_loop_eigenvalues_are_controller_and_observer_eigenvalues(kind, p
     observer, observer_eigenvalues = observer_for_analysis(kind, A, B_F, params)
     closed = observer_loop_eigenvalues(rig, K, observer)
     assert closed.size == 4 + observer_eigenvalues.size
-    assert separation_error(closed, np.linalg.eigvals(A - B @ K), observer_eigenvalues) < 1e-6 * np.max(
-        np.abs(closed))
+    assert separation_error(closed, np.linalg.eigvals(A - B @ K), observer_eigenvalues) < 1e-6 * np.max(np.abs(closed))
     assert np.all(closed.real < 0)
 
 

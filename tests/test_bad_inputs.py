@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from hypothesis import given, settings, strategies as st
-
 from conftest import REPO
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from furuta_drake.diagnosis.logs import load_log
 from furuta_drake.errors import LogError
 from furuta_drake.rig import lund_rig
@@ -57,10 +58,14 @@ def prepare(case: dict, root: Path) -> tuple[list[str], Path]:
 
 
 def run_cli(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    env = dict(os.environ, MPLBACKEND="Agg",
-               PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
-    return subprocess.run([sys.executable, "-m", "furuta_drake.cli", *argv], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=120)
+    env = dict(
+        os.environ,
+        MPLBACKEND="Agg",
+        PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
+    )
+    return subprocess.run(
+        [sys.executable, "-m", "furuta_drake.cli", *argv], cwd=cwd, env=env, capture_output=True, text=True, timeout=120
+    )
 
 
 def test_manifest_is_well_formed_and_uses_every_corpus_file():
@@ -75,8 +80,11 @@ def test_manifest_is_well_formed_and_uses_every_corpus_file():
             used.update(re.findall(r"\{case_dir\}/([^/\s]+)", arg))
     for name in used:
         assert (CORPUS / name).exists(), name  # a file, or a directory (a diagnosis' output)
-    inputs = {p.name for p in CORPUS.iterdir()
-              if (p.suffix in (".csv", ".yaml", ".parquet", ".mcap") and p.name != "manifest.yaml") or p.is_dir()}
+    inputs = {
+        p.name
+        for p in CORPUS.iterdir()
+        if (p.suffix in (".csv", ".yaml", ".parquet", ".mcap") and p.name != "manifest.yaml") or p.is_dir()
+    }
     assert inputs == used, f"corpus files no case uses: {sorted(inputs - used)}; missing: {sorted(used - inputs)}"
 
 
@@ -97,15 +105,35 @@ def test_bad_input_exits_2_with_one_clear_line_and_writes_nothing(case, tmp_path
 
 # --- The CSV log loader on random variations of a valid log (in-process, hypothesis) -----------------------
 
-GARBAGE = ["", " ", "nan", "-inf", "1e999", "0x10", "1,5", "#VALUE!", "\"0.1\"", "1.2.3", "١٢", "--1", "0.1 0.2",
-           "\x00", "é", "1e-400", "+.5", "TRUE"]
+GARBAGE = [
+    "",
+    " ",
+    "nan",
+    "-inf",
+    "1e999",
+    "0x10",
+    "1,5",
+    "#VALUE!",
+    '"0.1"',
+    "1.2.3",
+    "١٢",
+    "--1",
+    "0.1 0.2",
+    "\x00",
+    "é",
+    "1e-400",
+    "+.5",
+    "TRUE",
+]
 
 
 def valid_log_lines(n: int) -> list[str]:
     """Header and n rows of a quiet 1 kHz torque log."""
     return ["time,theta,phi,torque"] + [
         f"{k * 1e-3:.3f},{0.02 * np.sin(9.4 * k * 1e-3):.6f},{0.1 * np.sin(3.1 * k * 1e-3):.6f},"
-        f"{0.01 * np.cos(6.3 * k * 1e-3):.6f}" for k in range(n)]
+        f"{0.01 * np.cos(6.3 * k * 1e-3):.6f}"
+        for k in range(n)
+    ]
 
 
 @st.composite
@@ -137,7 +165,7 @@ def mangled_logs(draw) -> bytes:
     text = draw(st.sampled_from(["\n", "\r\n"])).join(lines) + draw(st.sampled_from(["", "\n"]))
     data = draw(st.sampled_from([b"", "\ufeff".encode()])) + text.encode()
     if draw(st.booleans()):
-        data = data[:draw(st.integers(0, len(data)))]
+        data = data[: draw(st.integers(0, len(data)))]
     if draw(st.booleans()):
         at = draw(st.integers(0, len(data)))
         data = data[:at] + draw(st.binary(max_size=4)) + data[at:]

@@ -16,18 +16,34 @@ def test_effect_free_logs_give_none_with_every_output_and_identical_reruns(tmp_p
     (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
     for name, seed in (("train.csv", 11), ("heldout.csv", 12)):
         write_log_csv(simulate(run_configs(rig, seed, 2.0)["hanging"]), tmp_path / name)
-    args = ["diagnose", "--rig", str(tmp_path / "rig.yaml"), "--train", str(tmp_path / "train.csv"),
-            "--heldout", str(tmp_path / "heldout.csv"), "--workers", "2"]
+    args = [
+        "diagnose",
+        "--rig",
+        str(tmp_path / "rig.yaml"),
+        "--train",
+        str(tmp_path / "train.csv"),
+        "--heldout",
+        str(tmp_path / "heldout.csv"),
+        "--workers",
+        "2",
+    ]
     assert main(args + ["--out", str(tmp_path / "a")]) == 0
     report = json.loads((tmp_path / "a" / "report.json").read_text())
-    assert list(report)[:len(SPEC_KEYS)] == list(SPEC_KEYS)
+    assert list(report)[: len(SPEC_KEYS)] == list(SPEC_KEYS)
     assert report["verdict"] == "none" and report["effects"] == []
     assert len(report["ranking"]) >= 14
     assert report["gap"]["nominal"]["heldout"] < 0.25  # counts: the exact model sits at the encoder's floor
     # A none verdict states what these logs could not have missed: a detection limit for every effect.
     assert report["steps"] == [] and [limit["effect"] for limit in report["detection_limits"]] == list(VOCABULARY)
-    for name in ("report.md", "report.html", "config.yaml", "fitted_model.yaml", "fitted_rig.yaml", "residuals.png",
-                 "residual_spectra.png"):
+    for name in (
+        "report.md",
+        "report.html",
+        "config.yaml",
+        "fitted_model.yaml",
+        "fitted_rig.yaml",
+        "residuals.png",
+        "residual_spectra.png",
+    ):
         assert (tmp_path / "a" / name).stat().st_size > 0
     assert main(args + ["--out", str(tmp_path / "b")]) == 0
     assert (tmp_path / "a" / "report.json").read_bytes() == (tmp_path / "b" / "report.json").read_bytes()
@@ -47,9 +63,25 @@ def test_ctrl_c_leaves_no_output_and_says_so(tmp_path):
     (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
     write_log_csv(simulate(run_configs(rig, 21, 4.0)["hanging"]), tmp_path / "train.csv")
     process = subprocess.Popen(
-        [sys.executable, "-m", "furuta_drake.cli", "diagnose", "--rig", str(tmp_path / "rig.yaml"), "--train",
-         str(tmp_path / "train.csv"), "--out", str(tmp_path / "out"), "--workers", "2"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        [
+            sys.executable,
+            "-m",
+            "furuta_drake.cli",
+            "diagnose",
+            "--rig",
+            str(tmp_path / "rig.yaml"),
+            "--train",
+            str(tmp_path / "train.csv"),
+            "--out",
+            str(tmp_path / "out"),
+            "--workers",
+            "2",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     time.sleep(6.0)  # imports, loading and the first fits
     assert process.poll() is None, process.communicate()
     os.killpg(process.pid, signal.SIGINT)

@@ -26,8 +26,16 @@ def two_runs(tmp_path_factory):
 
 def test_writes_every_table_figure_log_and_config(two_runs):
     out = two_runs[0]
-    for name in ("table1.csv", "table2.csv", "observer_sweep.csv", "adaptation.json", "report.md", "config.yaml",
-                 "reproduction.yaml", *(f"fig{i}.png" for i in range(3, 8))):
+    for name in (
+        "table1.csv",
+        "table2.csv",
+        "observer_sweep.csv",
+        "adaptation.json",
+        "report.md",
+        "config.yaml",
+        "reproduction.yaml",
+        *(f"fig{i}.png" for i in range(3, 8)),
+    ):
         assert (out / name).stat().st_size > 0, name
     logs = sorted(p.stem for p in (out / "logs").glob("*.csv"))
     assert logs == ["adaptation", "fig5_set1_low", "fig5_set2_high", "table_lqr_on_hg", "table_lqr_on_vfe"]
@@ -51,8 +59,15 @@ def test_tables_have_their_stable_columns_and_the_papers_values(two_runs):
 
 def test_adaptation_json_keys(two_runs):
     data = json.loads((two_runs[0] / "adaptation.json").read_text())
-    assert set(data) == {"K_sigma_plus", "K_sigma_minus", "friction_pos", "friction_neg", "theta_abs_max",
-                         "enable_time", "fig5"}
+    assert set(data) == {
+        "K_sigma_plus",
+        "K_sigma_minus",
+        "friction_pos",
+        "friction_neg",
+        "theta_abs_max",
+        "enable_time",
+        "fig5",
+    }
     assert data["enable_time"] == 7.8
     assert data["friction_pos"] < 0 < data["friction_neg"]  # friction opposes the arm velocity
     for steady in data["fig5"].values():
@@ -63,8 +78,13 @@ def test_adaptation_json_keys(two_runs):
 
 def test_same_seed_gives_byte_identical_results(two_runs):
     first, second = two_runs
-    files = ["table1.csv", "table2.csv", "observer_sweep.csv", "adaptation.json",
-             *(f"logs/{p.name}" for p in (first / "logs").glob("*.csv"))]
+    files = [
+        "table1.csv",
+        "table2.csv",
+        "observer_sweep.csv",
+        "adaptation.json",
+        *(f"logs/{p.name}" for p in (first / "logs").glob("*.csv")),
+    ]
     for name in files:
         assert (first / name).read_bytes() == (second / name).read_bytes(), name
 

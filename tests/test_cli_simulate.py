@@ -1,4 +1,6 @@
-"""``furuta-drake simulate``: files in the diagnosis' log format, safe output directories (reruns: test_determinism.py)."""
+"""``furuta-drake simulate``: files in the diagnosis' log format, safe output directories.
+
+Reruns are checked in test_determinism.py."""
 
 import base64
 import json
@@ -49,8 +51,9 @@ def test_refuses_a_non_empty_directory_without_force(tmp_path, capsys):
 
 def test_a_diverging_run_exits_3_with_time_and_cause_and_writes_nothing(tmp_path, capsys):
     config = tmp_path / "fall.yaml"
-    config.write_text("controller: {mode: open_loop}\nexcitation: {torque_rms: 0.001}\n"
-                      "initial_state: [0.2, 0, 0, 0]\nduration: 3.0\n")
+    config.write_text(
+        "controller: {mode: open_loop}\nexcitation: {torque_rms: 0.001}\ninitial_state: [0.2, 0, 0, 0]\nduration: 3.0\n"
+    )
     out = tmp_path / "run"
     assert main(["simulate", "--config", str(config), "--out", str(out)]) == 3
     err = capsys.readouterr().err
@@ -67,8 +70,10 @@ def test_qube_rig_simulates_with_its_motor_back_emf(tmp_path):
 
 def recorded_animation(html: str) -> dict:
     """The Meshcat animation a static HTML page embeds (msgpack commands as base64 data URIs), by path."""
-    commands = [msgpack.unpackb(base64.b64decode(blob))
-                for blob in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)]
+    commands = [
+        msgpack.unpackb(base64.b64decode(blob))
+        for blob in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)
+    ]
     (animation,) = [command for command in commands if command["type"] == "set_animation"]
     return {entry["path"].rsplit("/", 1)[-1]: entry["clip"] for entry in animation["animations"]}
 

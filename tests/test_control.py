@@ -10,7 +10,12 @@ from pydrake.systems.primitives import Linearize, MatrixGain
 from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
 
 from furuta_drake.controllers.lqr import (
-    LqrController, LqrParameters, check_stabilizing, design_lqr, lqr_gain, state_feedback_eigenvalues,
+    LqrController,
+    LqrParameters,
+    check_stabilizing,
+    design_lqr,
+    lqr_gain,
+    state_feedback_eigenvalues,
     upright_linearization,
 )
 from furuta_drake.errors import ConfigError
@@ -130,11 +135,11 @@ def test_continuous_closed_loop_eigenvalues_are_those_of_the_linearized_drake_lo
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     diagram.get_input_port(0).FixValue(context, np.zeros(2))
-    loop = Linearize(diagram, context, input_port_index=InputPortSelection.kNoInput,
-                     output_port_index=OutputPortSelection.kNoOutput)
+    loop = Linearize(
+        diagram, context, input_port_index=InputPortSelection.kNoInput, output_port_index=OutputPortSelection.kNoOutput
+    )
     eigenvalues = state_feedback_eigenvalues(A, B, K, discrete=False, period=1e-3)
-    np.testing.assert_allclose(np.sort_complex(eigenvalues), np.sort_complex(np.linalg.eigvals(loop.A())),
-                               rtol=1e-6)
+    np.testing.assert_allclose(np.sort_complex(eigenvalues), np.sort_complex(np.linalg.eigvals(loop.A())), rtol=1e-6)
     assert np.all(eigenvalues.real < 0)
     # The discrete eigenvalues of the same gain sampled fast tend to exp(lambda T).
     fine = state_feedback_eigenvalues(A, B, K, discrete=True, period=1e-5)
@@ -181,8 +186,9 @@ def test_check_stabilizing_rejects_unstable_and_non_finite_gains(lund_plant):
 
 def test_lqr_gain_is_the_design_or_the_given_gain_checked_at_the_control_period(lund_plant):
     params = LqrParameters()
-    np.testing.assert_array_equal(lqr_gain(lund_plant, params, period=2e-3),
-                                  design_lqr(lund_plant, params, period=2e-3))
+    np.testing.assert_array_equal(
+        lqr_gain(lund_plant, params, period=2e-3), design_lqr(lund_plant, params, period=2e-3)
+    )
     given = design_lqr(lund_plant, LqrParameters(discrete=False), period=PERIOD)
     np.testing.assert_array_equal(lqr_gain(lund_plant, params, period=PERIOD, gain=given.ravel().tolist()), given)
     with pytest.raises(ConfigError, match="controller.gain .*does not stabilise the upright at a 0.2 s period"):
@@ -191,11 +197,16 @@ def test_lqr_gain_is_the_design_or_the_given_gain_checked_at_the_control_period(
         design_lqr(lund_plant, LqrParameters(period=1e-3), period=2e-3)
 
 
-@pytest.mark.parametrize("changes, field", [
-    ({"state_weights": [1.0, 1.0, 1.0]}, "state_weights"), ({"state_weights": [1, -1, 0, 0]}, "state_weights"),
-    ({"input_weight": 0.0}, "input_weight"), ({"period": math.nan}, "period"),
-    ({"torque_limit": -0.2}, "torque_limit"),
-])
+@pytest.mark.parametrize(
+    "changes, field",
+    [
+        ({"state_weights": [1.0, 1.0, 1.0]}, "state_weights"),
+        ({"state_weights": [1, -1, 0, 0]}, "state_weights"),
+        ({"input_weight": 0.0}, "input_weight"),
+        ({"period": math.nan}, "period"),
+        ({"torque_limit": -0.2}, "torque_limit"),
+    ],
+)
 def test_invalid_lqr_parameters_are_rejected_with_the_field_named(lund_plant, changes, field):
     with pytest.raises(ConfigError, match=f"controller.lqr.{field}"):
         design_lqr(lund_plant, LqrParameters(**changes), period=PERIOD)
@@ -204,8 +215,7 @@ def test_invalid_lqr_parameters_are_rejected_with_the_field_named(lund_plant, ch
 def test_weights_that_leave_the_arm_unregulated_are_rejected(lund_plant):
     for discrete in (True, False):
         with pytest.raises(ConfigError, match=r"controller.lqr.state_weights .* out of the cost"):
-            design_lqr(lund_plant, LqrParameters(state_weights=[10.0, 0.0, 0.1, 0.0], discrete=discrete),
-                       period=PERIOD)
+            design_lqr(lund_plant, LqrParameters(state_weights=[10.0, 0.0, 0.1, 0.0], discrete=discrete), period=PERIOD)
 
 
 def controller_update(controller, estimate, friction=None, reference=None):

@@ -15,10 +15,12 @@ from furuta_drake.yamlio import loads_yaml_dataclass
 
 def qube_with_every_observer() -> SimulationConfig:
     config = SimulationConfig.from_rig("qube_servo2")
-    return dataclasses.replace(config, duration=0.2,
-                               observers=dataclasses.replace(config.observers, run=["hg", "vfe"]),
-                               controller=dataclasses.replace(config.controller, velocity_source="hg",
-                                                              friction_compensation=True))
+    return dataclasses.replace(
+        config,
+        duration=0.2,
+        observers=dataclasses.replace(config.observers, run=["hg", "vfe"]),
+        controller=dataclasses.replace(config.controller, velocity_source="hg", friction_compensation=True),
+    )
 
 
 def test_every_sampled_block_of_the_qube_diagram_runs_at_its_2_ms_period():
@@ -29,20 +31,33 @@ def test_every_sampled_block_of_the_qube_diagram_runs_at_its_2_ms_period():
     assert unique is not None and unique.period_sec() == 0.002
 
 
-@pytest.mark.parametrize("key, line", [("encoder:\n  sample_period", 4), ("controller:\n  lqr:\n    period", 5),
-                                       ("observers:\n  hg:\n    period", 5), ("observers:\n  vfe:\n    period", 5),
-                                       ("observers:\n  dahl:\n    period", 5)])
+@pytest.mark.parametrize(
+    "key, line",
+    [
+        ("encoder:\n  sample_period", 4),
+        ("controller:\n  lqr:\n    period", 5),
+        ("observers:\n  hg:\n    period", 5),
+        ("observers:\n  vfe:\n    period", 5),
+        ("observers:\n  dahl:\n    period", 5),
+    ],
+)
 def test_a_config_stating_another_period_is_an_error_naming_both_keys(key, line):
     from furuta_drake.rig import qube_servo2_rig
     from furuta_drake.yamlio import dump_yaml_dataclass
 
-    rig = "".join(f"  {row}\n" for row in dump_yaml_dataclass(qube_servo2_rig()).splitlines()
-                  if not row.startswith("sample_period"))  # every required key of the rig, at the top
+    rig = "".join(
+        f"  {row}\n"
+        for row in dump_yaml_dataclass(qube_servo2_rig()).splitlines()
+        if not row.startswith("sample_period")
+    )  # every required key of the rig, at the top
     line += len(rig.splitlines())
     text = f"rig:\n{rig}  sample_period: 0.002\n{key}: 0.001\n"
     dotted = ".".join(part.strip().rstrip(":") for part in key.split("\n"))
-    with pytest.raises(ConfigError, match=rf"config.yaml:{line}: {dotted} = 0.001 differs from the control period "
-                                          rf"rig.sample_period = 0.002"):
+    with pytest.raises(
+        ConfigError,
+        match=rf"config.yaml:{line}: {dotted} = 0.001 differs from the control period "
+        rf"rig.sample_period = 0.002",
+    ):
         loads_yaml_dataclass(text, SimulationConfig, source="config.yaml")
 
 
@@ -50,12 +65,17 @@ def test_a_config_stating_the_control_period_everywhere_runs_as_one_stating_it_n
     """A config written out with every period stated (as earlier configs were) loads and gives the same run."""
     config = qube_with_every_observer()
     stated = dataclasses.replace(
-        config, encoder=dataclasses.replace(config.encoder, sample_period=0.002),
-        controller=dataclasses.replace(config.controller, lqr=dataclasses.replace(config.controller.lqr,
-                                                                                  period=0.002)),
-        observers=dataclasses.replace(config.observers, **{
-            name: dataclasses.replace(getattr(config.observers, name), period=0.002)
-            for name in ("hg", "vfe", "dahl")}))
+        config,
+        encoder=dataclasses.replace(config.encoder, sample_period=0.002),
+        controller=dataclasses.replace(config.controller, lqr=dataclasses.replace(config.controller.lqr, period=0.002)),
+        observers=dataclasses.replace(
+            config.observers,
+            **{
+                name: dataclasses.replace(getattr(config.observers, name), period=0.002)
+                for name in ("hg", "vfe", "dahl")
+            },
+        ),
+    )
     loaded = loads_yaml_dataclass(dump_config(stated), SimulationConfig)
     assert loaded == stated
     first, second = simulate(config), simulate(loaded)

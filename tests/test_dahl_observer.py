@@ -16,13 +16,21 @@ from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 PERIOD = 1e-3
 
 
-def stepper(params: DahlObserverParameters, *, velocity: float, phi: float = 0.0, reference=None,
-            k_sigma: float | None = None, z0: float = 0.0):
+def stepper(
+    params: DahlObserverParameters,
+    *,
+    velocity: float,
+    phi: float = 0.0,
+    reference=None,
+    k_sigma: float | None = None,
+    z0: float = 0.0,
+):
     """The observer with fixed inputs; returns a function advancing n periods and returning (z_hat, F_hat).
     ``k_sigma``: K_sigma held at that value (the one-gain law with gamma = 0); None: no adaptation (K_sigma = 1)."""
     if k_sigma is not None:
-        params = dataclasses.replace(params, adaptation=DahlAdaptation(
-            k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_sigma)))
+        params = dataclasses.replace(
+            params, adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_sigma))
+        )
     system = DahlFrictionObserver(params, period=PERIOD)
     context = system.CreateDefaultContext()
     system.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
@@ -38,16 +46,17 @@ def stepper(params: DahlObserverParameters, *, velocity: float, phi: float = 0.0
     def advance(steps: int):
         for _ in range(steps):
             context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context).value())
-        return (system.GetOutputPort("bristle_state_rad").Eval(context)[0],
-                system.GetOutputPort("friction_estimate_Nm").Eval(context)[0])
+        return (
+            system.GetOutputPort("bristle_state_rad").Eval(context)[0],
+            system.GetOutputPort("friction_estimate_Nm").Eval(context)[0],
+        )
+
     return advance
 
 
 @settings(max_examples=25, deadline=None)
-@given(speed=st.floats(0.1, 10.0), positive=st.booleans(), sigma0=st.floats(5.0, 1000.0),
-       k_sigma=st.floats(0.5, 3.0))
-def test_constant_velocity_follows_the_dahl_solution_and_settles_to_minus_k_sigma_fc(speed, positive, sigma0,
-                                                                                     k_sigma):
+@given(speed=st.floats(0.1, 10.0), positive=st.booleans(), sigma0=st.floats(5.0, 1000.0), k_sigma=st.floats(0.5, 3.0))
+def test_constant_velocity_follows_the_dahl_solution_and_settles_to_minus_k_sigma_fc(speed, positive, sigma0, k_sigma):
     """With no tracking error (phi = phi_ref, v = v_ref, so K_z = 0) Eq. 8 at constant v is linear:
     z(t) = z_ss (1 - exp(-sigma0 |v| t / Fc)), z_ss = Fc sign(v) / sigma0, so F_hat = -K_sigma sigma0 z tends to
     -K_sigma Fc sign(v), with the level of v's direction (0.012 N m for v > 0, 0.018 for v < 0)."""
@@ -115,10 +124,20 @@ def test_exact_step_is_stable_and_monotone_at_stiff_settings():
     np.testing.assert_allclose(estimates, -0.012, rtol=1e-12)
 
 
-@pytest.mark.parametrize("field, value", [
-    ("coulomb_pos", 0.0), ("coulomb_neg", -0.01), ("sigma0", 0.0), ("sigma0", float("nan")), ("rho", 0.0),
-    ("sigma1", -1.0), ("rho2", -0.1), ("sigma1_sign", 0), ("period", 0.0),
-])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("coulomb_pos", 0.0),
+        ("coulomb_neg", -0.01),
+        ("sigma0", 0.0),
+        ("sigma0", float("nan")),
+        ("rho", 0.0),
+        ("sigma1", -1.0),
+        ("rho2", -0.1),
+        ("sigma1_sign", 0),
+        ("period", 0.0),
+    ],
+)
 def test_invalid_parameters_are_rejected_naming_the_field(field, value):
     with pytest.raises(ConfigError, match=rf"observers\.dahl\.{field}"):
         DahlFrictionObserver(DahlObserverParameters(**{field: value}), period=PERIOD)

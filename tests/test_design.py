@@ -46,16 +46,42 @@ def write_diagnosis(directory, case, rival: dict) -> None:
     def entry(path):
         return {"path": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
 
-    ranking = [{"effect": "input_delay", "params": {"delay": DELAY}, "step": 1, "status": "ok",
-                "heldout_reduction": 0.9, "reduction_over_previous": 0.9},
-               {"effect": "actuator_lag", "params": rival, "step": 1, "status": "ok",
-                "heldout_reduction": 0.9, "reduction_over_previous": 0.9}]
-    report = {"verdict": "input_delay", "effects": ["input_delay"], "ranking": ranking,
-              "steps": [{"effect": "input_delay"}], "detection_limits": [],
-              "confusable": [{"effects": ["input_delay", "actuator_lag"], "why": "built to be"}]}
+    ranking = [
+        {
+            "effect": "input_delay",
+            "params": {"delay": DELAY},
+            "step": 1,
+            "status": "ok",
+            "heldout_reduction": 0.9,
+            "reduction_over_previous": 0.9,
+        },
+        {
+            "effect": "actuator_lag",
+            "params": rival,
+            "step": 1,
+            "status": "ok",
+            "heldout_reduction": 0.9,
+            "reduction_over_previous": 0.9,
+        },
+    ]
+    report = {
+        "verdict": "input_delay",
+        "effects": ["input_delay"],
+        "ranking": ranking,
+        "steps": [{"effect": "input_delay"}],
+        "detection_limits": [],
+        "confusable": [{"effects": ["input_delay", "actuator_lag"], "why": "built to be"}],
+    }
     (directory / "report.json").write_text(json.dumps(report))
-    (directory / "config.yaml").write_text(yaml.safe_dump({
-        "rig": entry(case / "rig.yaml"), "train": [entry(case / "train.csv")], "heldout": [entry(case / "heldout.csv")]}))
+    (directory / "config.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "rig": entry(case / "rig.yaml"),
+                "train": [entry(case / "train.csv")],
+                "heldout": [entry(case / "heldout.csv")],
+            }
+        )
+    )
 
 
 def noncentrality(truth_effects: dict, rival_effects: dict, amplitudes) -> float:
@@ -65,12 +91,25 @@ def noncentrality(truth_effects: dict, rival_effects: dict, amplitudes) -> float
     truth = apply_effects(nominal, truth_effects)
     family = Family(2.0, rig.sample_period, nominal.a, 0.0)
     command = family.feedforward(np.array([amplitudes]))
-    train, heldout = experiment_windows(surrogate_runs(truth, command, rig.sample_period), command,
-                                        rig.sample_period, rig)
-    scales = Scales(torque=nominal.d, command=rig.torque_limit, arm_inertia=nominal.a, pendulum_inertia=nominal.b,
-                    period=rig.sample_period)
-    return float(linearised_noncentrality(Parametrised(nominal, rival_effects, scales), train, heldout,
-                                          rig.counts_per_rev, sensor_variance(truth, rig.counts_per_rev))[0])
+    train, heldout = experiment_windows(
+        surrogate_runs(truth, command, rig.sample_period), command, rig.sample_period, rig
+    )
+    scales = Scales(
+        torque=nominal.d,
+        command=rig.torque_limit,
+        arm_inertia=nominal.a,
+        pendulum_inertia=nominal.b,
+        period=rig.sample_period,
+    )
+    return float(
+        linearised_noncentrality(
+            Parametrised(nominal, rival_effects, scales),
+            train,
+            heldout,
+            rig.counts_per_rev,
+            sensor_variance(truth, rig.counts_per_rev),
+        )[0]
+    )
 
 
 AMPLITUDES = [0.02, 0.02, 0.01, 0.004, 0.0]  # [rad] per band: arm motion up to 10 Hz
@@ -98,8 +137,22 @@ def test_the_design_respects_its_bounds_under_every_hypothesis(case, tmp_path, m
     write_diagnosis(tmp_path / "diagnosis", case, {"time_constant": DELAY})
     monkeypatch.setattr(pipeline, "DesignSettings", lambda **_: pipeline.FAST)
     out = tmp_path / "design"
-    assert main(["design", "--diagnosis", str(tmp_path / "diagnosis"), "--out", str(out), "--duration", "2",
-                 "--arm-bound", "0.3"]) == 0
+    assert (
+        main(
+            [
+                "design",
+                "--diagnosis",
+                str(tmp_path / "diagnosis"),
+                "--out",
+                str(out),
+                "--duration",
+                "2",
+                "--arm-bound",
+                "0.3",
+            ]
+        )
+        == 0
+    )
     for name in ("experiment.csv", "design.json", "design.md", "design.png", "config.yaml"):
         assert (out / name).stat().st_size > 0
     lines = (out / "experiment.csv").read_text().splitlines()
@@ -135,10 +188,12 @@ def test_equal_hypotheses_get_no_experiment_separates_them(case, tmp_path):
 def test_design_refuses_bad_input_with_one_line(case, tmp_path, capsys):
     write_diagnosis(tmp_path / "diagnosis", case, {"time_constant": DELAY})
     base = ["design", "--diagnosis", str(tmp_path / "diagnosis"), "--out", str(tmp_path / "out")]
-    for extra, fragment in ((["--target", "cogging=0.1"], "unknown effect 'cogging'"),
-                            (["--target", "measurement_noise=0.001"], "sensor effect"),
-                            (["--duration", "-1"], "--duration must be a positive"),
-                            (["--duration", "0.1"], "too short")):
+    for extra, fragment in (
+        (["--target", "cogging=0.1"], "unknown effect 'cogging'"),
+        (["--target", "measurement_noise=0.001"], "sensor effect"),
+        (["--duration", "-1"], "--duration must be a positive"),
+        (["--duration", "0.1"], "too short"),
+    ):
         assert main(base + extra) == 2
         assert fragment in capsys.readouterr().err
     assert main(["design", "--diagnosis", str(tmp_path / "missing"), "--out", str(tmp_path / "out")]) == 2
@@ -152,15 +207,17 @@ def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
     from furuta_drake.diagnosis.design.rollout import drake_run, nominal_lqr_gain, surrogate_closed_loop
 
     rig = lund_rig()
-    model = apply_effects(rig_model(rig), {"actuator_lag": Effect("", (0.004,)),
-                                           "arm_coulomb_friction": Effect("presliding", (0.005, 0.002))})
+    model = apply_effects(
+        rig_model(rig),
+        {"actuator_lag": Effect("", (0.004,)), "arm_coulomb_friction": Effect("presliding", (0.005, 0.002))},
+    )
     gain = nominal_lqr_gain(rig)
     dither = Family(2.0, rig.sample_period, model.a, 0.0).torque_dither(np.full((1, 5), 0.02))
     angles, _ = surrogate_closed_loop(model, gain, dither, rig.sample_period, rig.torque_limit, rig.counts_per_rev)
     result = drake_run(rig, model, dither[0], 2.0, True, 0, gain)
     assert np.max(np.abs(result.state[:, 0])) > 0.01  # the dither moves the pendulum
     count = 2 * np.pi / rig.counts_per_rev
-    assert np.max(np.abs(angles[:result.time.size, :, 0] - result.state[:, :2])) < count
+    assert np.max(np.abs(angles[: result.time.size, :, 0] - result.state[:, :2])) < count
 
 
 def test_a_target_below_the_detection_limit_is_a_hypothesis_and_one_above_it_is_settled(case):
@@ -171,10 +228,20 @@ def test_a_target_below_the_detection_limit_is_a_hypothesis_and_one_above_it_is_
 
     rig = lund_rig()
     logs = load_logs([case / "train.csv"], rig)
-    report = {"ranking": [{"effect": "input_delay", "params": {"delay": DELAY}, "step": 1, "status": "ok",
-                           "heldout_reduction": 0.9, "reduction_over_previous": 0.9}],
-              "steps": [{"effect": "input_delay"}],
-              "detection_limits": [{"effect": "actuator_lag", "param": "time_constant", "value": 0.002}]}
+    report = {
+        "ranking": [
+            {
+                "effect": "input_delay",
+                "params": {"delay": DELAY},
+                "step": 1,
+                "status": "ok",
+                "heldout_reduction": 0.9,
+                "reduction_over_previous": 0.9,
+            }
+        ],
+        "steps": [{"effect": "input_delay"}],
+        "detection_limits": [{"effect": "actuator_lag", "param": "time_constant", "value": 0.002}],
+    }
     found = read_hypotheses(report, rig, logs, [parse_target("actuator_lag=0.001")])
     assert [h.name for h in found.hypotheses] == ["input_delay", "input_delay+actuator_lag"]
     assert found.hypotheses[1].effects["actuator_lag"].values == (0.001,)

@@ -12,8 +12,8 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import REPO
+
 from furuta_drake.cli import main
 
 CONFIG = """\
@@ -34,12 +34,25 @@ def runs(tmp_path_factory):
     root = tmp_path_factory.mktemp("determinism")
     config = root / "config.yaml"
     config.write_text(CONFIG)
-    argv = lambda seed, name: ["simulate", "--config", str(config), "--seed", str(seed), "--out", str(root / name)]
+
+    def argv(seed, name):
+        return ["simulate", "--config", str(config), "--seed", str(seed), "--out", str(root / name)]
+
     assert main(argv(1, "first")) == 0
-    env = dict(os.environ, PYTHONHASHSEED="12345", MPLBACKEND="Agg",
-               PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
-    subprocess.run([sys.executable, "-m", "furuta_drake.cli", *argv(1, "again")], cwd=root, env=env,
-                   check=True, capture_output=True, timeout=120)
+    env = dict(
+        os.environ,
+        PYTHONHASHSEED="12345",
+        MPLBACKEND="Agg",
+        PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
+    )
+    subprocess.run(
+        [sys.executable, "-m", "furuta_drake.cli", *argv(1, "again")],
+        cwd=root,
+        env=env,
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
     assert main(argv(2, "other")) == 0
     return {name: {file: (root / name / file).read_bytes() for file in FILES} for name in ("first", "again", "other")}
 
@@ -50,8 +63,10 @@ def test_same_config_and_seed_give_byte_identical_files_across_processes(runs, f
 
 
 def test_another_seed_gives_another_excitation_and_another_run(runs):
-    first, other = (np.loadtxt(runs[name]["log.csv"].decode().splitlines(), delimiter=",", skiprows=1)
-                    for name in ("first", "other"))
+    first, other = (
+        np.loadtxt(runs[name]["log.csv"].decode().splitlines(), delimiter=",", skiprows=1)
+        for name in ("first", "other")
+    )
     assert first.shape == other.shape == (400, 8)
     # Same start (initial state, encoder noise seed) ...
     np.testing.assert_array_equal(first[0, 2:], other[0, 2:])

@@ -28,8 +28,12 @@ def outcomes(tmp_path_factory):
         answer = write_case(case, root / "cases" / case.name, DURATION)
         folder = root / "cases" / case.name
         assert "answer" not in " ".join(p.name for p in folder.iterdir())  # nothing in the folder gives it away
-        diagnosis = diagnose(rig=folder / "rig.yaml", train=sorted(folder.glob("train_*.csv")),
-                             heldout=sorted(folder.glob("heldout_*.csv")), workers=2)
+        diagnosis = diagnose(
+            rig=folder / "rig.yaml",
+            train=sorted(folder.glob("train_*.csv")),
+            heldout=sorted(folder.glob("heldout_*.csv")),
+            workers=2,
+        )
         write_report(root / "reports" / case.name, diagnosis)
         report = json.loads((root / "reports" / case.name / "report.json").read_text())
         assert report["verdict"] == diagnosis.verdict

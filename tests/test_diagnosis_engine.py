@@ -10,15 +10,15 @@ from hypothesis import strategies as st
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, apply_effects
+from furuta_drake.diagnosis.corrected import model_rig
 from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quantization_estimate
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.corrected import model_rig
 from furuta_drake.diagnosis.replay import replay_gap
 from furuta_drake.diagnosis.select import MARGIN, Bootstrap, at_floor, choose, confusable
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.surrogate import Model, _accelerations
 from furuta_drake.diagnosis.suite import run_configs, with_effect
+from furuta_drake.diagnosis.surrogate import Model, _accelerations
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate
@@ -60,8 +60,16 @@ def hanging_log(seed: int, effect: str | None = None, level: int = 2, duration: 
     if effect is not None:
         config = with_effect(config, effect, level)
     result = simulate(config)
-    return RunLog(name=f"hanging_{seed}.csv", path="", time=result.time, theta=result.measured[:, 0],
-                  phi=result.measured[:, 1], input_kind="torque", input=result.torque, sample_period=1e-3)
+    return RunLog(
+        name=f"hanging_{seed}.csv",
+        path="",
+        time=result.time,
+        theta=result.measured[:, 0],
+        phi=result.measured[:, 1],
+        input_kind="torque",
+        input=result.torque,
+        sample_period=1e-3,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -84,8 +92,11 @@ def test_a_hidden_delay_is_fitted_and_the_gap_closes():
     train = [hanging_log(3, "input_delay")]
     windows = make_windows(train, rig)
     nominal = evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev)
-    fit = fit_task(FitTask("input_delay", {}, Model.from_rig(rig), windows, None, tuple(train), rig.counts_per_rev,
-                           DiagnosisSettings()))
+    fit = fit_task(
+        FitTask(
+            "input_delay", {}, Model.from_rig(rig), windows, None, tuple(train), rig.counts_per_rev, DiagnosisSettings()
+        )
+    )
     assert fit.effects["input_delay"].values[0] == pytest.approx(4.5e-3, abs=0.5e-3)
     assert fit.train_gap < 0.5 * nominal.gap
     low, high = np.percentile(fit.samples["input_delay"][:, 0], [2.5, 97.5])
@@ -143,8 +154,10 @@ def test_the_rule_none_at_the_floor_an_effect_when_supported_nothing_otherwise()
 def test_the_rule_prefers_the_simpler_of_two_equal_explanations():
     nominal = np.full(40, 9.0) + np.random.default_rng(1).normal(0, 0.2, 40)
     _, evidence = _evidence(nominal, {"arm_stribeck": 0.04 * nominal, "arm_coulomb_friction": 0.05 * nominal})
-    assert choose(evidence, {"arm_stribeck": "arm_stribeck", "arm_coulomb_friction": "arm_coulomb_friction"}) \
+    assert (
+        choose(evidence, {"arm_stribeck": "arm_stribeck", "arm_coulomb_friction": "arm_coulomb_friction"})
         == "arm_coulomb_friction"
+    )
 
 
 def test_a_second_effect_is_judged_against_the_model_holding_the_first():
@@ -166,8 +179,11 @@ def test_two_laws_that_explain_the_data_alike_are_confusable_and_a_clear_winner_
     rng = np.random.default_rng(4)
     nominal = 9.0 + rng.normal(0.0, 1.0, 60)
     noise = rng.normal(0.0, 0.05, (2, 60))
-    candidates = {"input_delay": 0.1 * nominal + noise[0], "actuator_lag": 0.1 * nominal + noise[1],
-                  "arm_spring": 0.5 * nominal}
+    candidates = {
+        "input_delay": 0.1 * nominal + noise[0],
+        "actuator_lag": 0.1 * nominal + noise[1],
+        "arm_spring": 0.5 * nominal,
+    }
     added = {name: name for name in candidates}
     bootstrap, evidence = _evidence(nominal, candidates)
     chosen = choose(evidence, added)
@@ -180,13 +196,21 @@ def balancing_log(rig_name: str, seed: int, effect: str, level: int, duration: f
     """A balancing run under LQR with the suite's excitation and one hidden effect, as a diagnosis log."""
     config = with_effect(run_configs(RIGS[rig_name](), seed, duration)["balance"], effect, level)
     result = simulate(config)
-    return RunLog(name=f"balance_{seed}.csv", path="", time=result.time, theta=result.measured[:, 0],
-                  phi=result.measured[:, 1], input_kind="torque", input=result.torque,
-                  sample_period=config.control_period)
+    return RunLog(
+        name=f"balance_{seed}.csv",
+        path="",
+        time=result.time,
+        theta=result.measured[:, 0],
+        phi=result.measured[:, 1],
+        input_kind="torque",
+        input=result.torque,
+        sample_period=config.control_period,
+    )
 
 
-@pytest.mark.parametrize("rig_name, effect, law", [("lund", "arm_stribeck", "arm"),
-                                                    ("qube_servo2", "pendulum_friction", "pendulum")])
+@pytest.mark.parametrize(
+    "rig_name, effect, law", [("lund", "arm_stribeck", "arm"), ("qube_servo2", "pendulum_friction", "pendulum")]
+)
 def test_the_true_model_of_a_balancing_run_with_stiction_predicts_it(rig_name, effect, law):
     """While balancing, joints stick and slip: a window's prediction hinges on its initial velocity (and, for
     LuGre, its bristle state), which the smoother gets wrong at a stick. With its states refined by the damped
@@ -197,8 +221,9 @@ def test_the_true_model_of_a_balancing_run_with_stiction_predicts_it(rig_name, e
     windows = make_windows([balancing_log(rig_name, 11, effect, 2, 8.0)], rig)
     nominal = Model.from_rig(rig)
     if effect == "arm_stribeck":
-        params = Effect("presliding", (truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity,
-                                       truth.bristle_bound))
+        params = Effect(
+            "presliding", (truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity, truth.bristle_bound)
+        )
     else:
         params = Effect("", (truth.coulomb_pos, truth.viscous))
     true_gap = evaluate_gap(apply_effects(nominal, {effect: params}), windows, rig.counts_per_rev).gap
@@ -217,6 +242,7 @@ def test_two_models_at_the_floor_are_told_apart_by_the_residual_below_it():
 
 def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model():
     from furuta_drake.diagnosis.suite import VOCABULARY
+
     assert set(CANDIDATES) == set(VOCABULARY)
     model = Model.from_rig(RIGS["qube_servo2"]())
     for name, candidate in CANDIDATES.items():
@@ -228,14 +254,18 @@ def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model
 
 def _scales(model):
     from furuta_drake.diagnosis.candidates import Scales
+
     return Scales(torque=model.d, command=0.05, arm_inertia=model.a, pendulum_inertia=model.b, period=2e-3)
 
 
 def test_fitted_model_is_a_simulate_config_that_runs():
     from furuta_drake.diagnosis.corrected import model_config
+
     rig = RIGS["lund"]()
-    model = apply_effects(Model.from_rig(rig), {"arm_coulomb_friction": Effect("presliding", (0.01, 2e-3)),
-                                                "input_delay": Effect("", (0.003,))})
+    model = apply_effects(
+        Model.from_rig(rig),
+        {"arm_coulomb_friction": Effect("presliding", (0.01, 2e-3)), "input_delay": Effect("", (0.003,))},
+    )
     config = model_config(rig, model)
     config.validate()
     config = dataclasses.replace(config, duration=0.5)
@@ -247,12 +277,25 @@ def test_fitted_model_is_a_simulate_config_that_runs():
 COMMANDS = np.array([-0.03, -0.01, 0.0, 0.005, 0.02])
 
 
-@pytest.mark.parametrize("effect, form, actuator, values", [
-    ("actuator_deadzone", "subtract", dict(deadzone=0.01), [-0.02, 0.0, 0.0, 0.0, 0.01]),
-    ("actuator_deadzone", "threshold", dict(deadzone=0.01, deadzone_form="threshold"), [-0.03, 0.0, 0.0, 0.0, 0.02]),
-    ("actuator_saturation", "hard", dict(saturation=0.01), [-0.01, -0.01, 0.0, 0.005, 0.01]),
-    ("actuator_saturation", "smooth", dict(saturation=0.01, saturation_form="smooth"), 0.01 * np.tanh(COMMANDS / 0.01)),
-])
+@pytest.mark.parametrize(
+    "effect, form, actuator, values",
+    [
+        ("actuator_deadzone", "subtract", dict(deadzone=0.01), [-0.02, 0.0, 0.0, 0.0, 0.01]),
+        (
+            "actuator_deadzone",
+            "threshold",
+            dict(deadzone=0.01, deadzone_form="threshold"),
+            [-0.03, 0.0, 0.0, 0.0, 0.02],
+        ),
+        ("actuator_saturation", "hard", dict(saturation=0.01), [-0.01, -0.01, 0.0, 0.005, 0.01]),
+        (
+            "actuator_saturation",
+            "smooth",
+            dict(saturation=0.01, saturation_form="smooth"),
+            0.01 * np.tanh(COMMANDS / 0.01),
+        ),
+    ],
+)
 def test_the_forms_of_an_actuator_effect_map_commands_as_their_names_say(effect, form, actuator, values):
     """Dead zone, subtract: the width is taken off larger commands; threshold: smaller commands are dropped,
     larger ones pass whole. Saturation, hard: a clip; smooth: L tanh(u / L). In the surrogate and in Drake's
@@ -261,6 +304,7 @@ def test_the_forms_of_an_actuator_effect_map_commands_as_their_names_say(effect,
 
     from furuta_drake.actuator import ActuatorParameters, add_actuator
     from furuta_drake.diagnosis.surrogate import applied_torque
+
     commands = COMMANDS
     model = apply_effects(Model.from_rig(RIGS["lund"]()), {effect: Effect(form, (0.01,))})
     np.testing.assert_allclose(applied_torque(model, commands), values, atol=1e-15)
@@ -276,17 +320,21 @@ def test_the_forms_of_an_actuator_effect_map_commands_as_their_names_say(effect,
 
 
 @settings(max_examples=25, deadline=None)
-@given(level=st.floats(1e-3, 0.1), presliding=st.floats(1e-4, 1e-2), travel=st.floats(1e-4, 0.05),
-       pieces=st.integers(1, 50))
+@given(
+    level=st.floats(1e-3, 0.1),
+    presliding=st.floats(1e-4, 1e-2),
+    travel=st.floats(1e-4, 0.05),
+    pieces=st.integers(1, 50),
+)
 def test_dahl_bristle_follows_the_path_alone(level, presliding, travel, pieces):
     """Dahl (Eq. 7) from z = 0 over a monotone travel D: z = z_max (1 - exp(-D / z_max)), z_max = Fc / sigma0,
     however the travel is cut into samples (the law is rate independent)."""
     from furuta_drake.diagnosis.surrogate import bristle_path
     from furuta_drake.friction import JointFrictionParameters
+
     p = JointFrictionParameters.dahl(level, level, level / presliding)
     path = np.concatenate([[0.0], np.sort(np.random.default_rng(pieces).uniform(0, travel, pieces)), [travel]])
-    assert bristle_path(path, p, 1e-3)[-1] == pytest.approx(presliding * (1 - np.exp(-travel / presliding)),
-                                                            rel=1e-9)
+    assert bristle_path(path, p, 1e-3)[-1] == pytest.approx(presliding * (1 - np.exp(-travel / presliding)), rel=1e-9)
 
 
 @settings(max_examples=25, deadline=None)
@@ -296,11 +344,19 @@ def test_lugre_bristle_saturates_at_the_stribeck_level_of_its_speed(speed, ratio
     over a travel D, z = z_max (1 - exp(-D / z_max)) with z_max = g(v) / sigma0."""
     from furuta_drake.diagnosis.surrogate import bristle_path
     from furuta_drake.friction import JointFrictionParameters
+
     coulomb, sigma0, vs, period = 0.01, 4.0, 0.1, 1e-3
-    p = JointFrictionParameters(model="lugre", coulomb_pos=coulomb, coulomb_neg=coulomb, static_pos=ratio * coulomb,
-                                static_neg=ratio * coulomb, stribeck_velocity=vs, sigma0=sigma0)
+    p = JointFrictionParameters(
+        model="lugre",
+        coulomb_pos=coulomb,
+        coulomb_neg=coulomb,
+        static_pos=ratio * coulomb,
+        static_neg=ratio * coulomb,
+        stribeck_velocity=vs,
+        sigma0=sigma0,
+    )
     path = np.arange(0.0, travel + speed * period, speed * period)
-    z_max = (coulomb + (ratio - 1.0) * coulomb * np.exp(-(speed / vs) ** 2)) / sigma0
+    z_max = (coulomb + (ratio - 1.0) * coulomb * np.exp(-((speed / vs) ** 2))) / sigma0
     assert bristle_path(path, p, period)[-1] == pytest.approx(z_max * (1 - np.exp(-path[-1] / z_max)), rel=1e-6)
 
 
@@ -312,10 +368,13 @@ def test_hidden_lugre_stribeck_friction_is_the_stribeck_candidate_at_its_true_le
     truth = with_effect(SimulationConfig.from_rig(rig), "arm_stribeck", 2).friction.arm
     logs = [hanging_log(6, "arm_stribeck")]
     windows = make_windows(logs, rig)
-    params = Effect("presliding", (truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity,
-                                   truth.bristle_bound))
-    model = apply_effects(Model.from_rig(rig).replace(arm_friction=dataclasses.replace(
-        Model.from_rig(rig).arm_friction, viscous=truth.viscous)), {"arm_stribeck": params})
+    params = Effect("presliding", (truth.coulomb_pos, truth.static_pos, truth.stribeck_velocity, truth.bristle_bound))
+    model = apply_effects(
+        Model.from_rig(rig).replace(
+            arm_friction=dataclasses.replace(Model.from_rig(rig).arm_friction, viscous=truth.viscous)
+        ),
+        {"arm_stribeck": params},
+    )
     nominal = evaluate_gap(Model.from_rig(rig), windows, rig.counts_per_rev).gap
     surrogate = evaluate_gap(model, windows, rig.counts_per_rev)
     assert nominal > 1.0 and surrogate.gap < 0.3  # counts
@@ -330,11 +389,13 @@ def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_i
 
     from furuta_drake.diagnosis.corrected import model_disturbance, model_rig
     from furuta_drake.world import add_furuta_world
+
     rig = RIGS["qube_servo2"]().replace(motor=None)
     model = apply_effects(Model.from_rig(rig), {"arm_spring": Effect("cubic", (0.004, 0.02, 0.1))})
     builder = DiagramBuilder()
-    world = add_furuta_world(builder, rig=model_rig(model, rig), control_period=rig.sample_period,
-                             disturbance=model_disturbance(model))
+    world = add_furuta_world(
+        builder, rig=model_rig(model, rig), control_period=rig.sample_period, disturbance=model_disturbance(model)
+    )
     builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
@@ -346,12 +407,14 @@ def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_i
         drake = world.to_paper @ diagram.EvalTimeDerivatives(context).CopyToVector()[:4]
         stretch = x[1] - 0.1
         assert model.spring_stiffness * stretch + model.spring_cubic * stretch**3 == pytest.approx(
-            0.004 * stretch + 0.02 * stretch**3)
+            0.004 * stretch + 0.02 * stretch**3
+        )
         np.testing.assert_allclose(_accelerations(model, x, np.array(0.0)), drake, rtol=1e-9, atol=1e-12)
 
 
 def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
     from furuta_drake.diagnosis.stepwise import _vocabulary_name
+
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.0105, 0.1, 1e-3))) == "arm_coulomb_friction"
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.02, 0.1, 1e-3))) == "arm_stribeck"
 
@@ -363,10 +426,19 @@ def test_the_automatic_holdout_partitions_every_log_and_spreads_over_it(duration
     """Without --heldout no sample is lost or used twice, about 30 % is held out, and on a log of three or more
     1 s blocks the held-out part is not just its tail (a swing-up log's tail is only balancing)."""
     from furuta_drake.diagnosis.split import MIN_BLOCK_S, split_heldout
+
     n = int(duration / period)
     time = np.arange(n) * period
-    log = RunLog(name="run.csv", path="", time=time, theta=0 * time, phi=0 * time, input_kind="torque",
-                 input=0 * time, sample_period=period)
+    log = RunLog(
+        name="run.csv",
+        path="",
+        time=time,
+        theta=0 * time,
+        phi=0 * time,
+        input_kind="torque",
+        input=0 * time,
+        sample_period=period,
+    )
     train, heldout, note = split_heldout([log])
     parts = sorted(train + heldout, key=lambda part: part.time[0])
     np.testing.assert_array_equal(np.concatenate([part.time for part in parts]), time)
@@ -383,8 +455,11 @@ def test_the_automatic_holdout_partitions_every_log_and_spreads_over_it(duration
 
 def test_parameters_fitted_at_a_bound_of_their_range_are_named():
     from furuta_drake.diagnosis.fit import at_bounds
+
     low, high = np.array([0.0, 0.0, 0.01, 1e-4]), np.array([0.05, 1.0, 1.0, 0.05])
     x = np.array([0.0, 0.5, 1.0 - 1e-6, 0.01])
     assert at_bounds(("arm_stribeck",), ["presliding"], x, low, high) == [
-        "arm_stribeck.coulomb (lower)", "arm_stribeck.stribeck_velocity (upper)"]
+        "arm_stribeck.coulomb (lower)",
+        "arm_stribeck.stribeck_velocity (upper)",
+    ]
     assert at_bounds(("arm_stribeck",), ["presliding"], np.array([0.01, 0.5, 0.1, 0.01]), low, high) == []

@@ -58,21 +58,38 @@ def small_report(**extra) -> dict:
     report = {
         "verdict": "arm_coulomb_friction",
         "effects": ["arm_coulomb_friction"],
-        "gap": {"metric": "k-step output error <RMS> & counts", "nominal": {"train": 2.5, "heldout": 2.6},
-                "with_effects": {"train": 0.7, "heldout": 0.8}, "heldout_reduction": 0.6923},
+        "gap": {
+            "metric": "k-step output error <RMS> & counts",
+            "nominal": {"train": 2.5, "heldout": 2.6},
+            "with_effects": {"train": 0.7, "heldout": 0.8},
+            "heldout_reduction": 0.6923,
+        },
         "ranking": [
-            {"effect": "arm_coulomb_friction", "params": {"coulomb": 0.0151}, "heldout_gap": 0.8,
-             "heldout_reduction": 0.6923, "evidence": 0.61, "train_gap": 0.7, "at_bounds": []},
-            {"effect": "input_delay", "params": {"delay": 0.004}, "heldout_gap": 2.4, "heldout_reduction": 0.077,
-             "evidence": -0.01},
+            {
+                "effect": "arm_coulomb_friction",
+                "params": {"coulomb": 0.0151},
+                "heldout_gap": 0.8,
+                "heldout_reduction": 0.6923,
+                "evidence": 0.61,
+                "train_gap": 0.7,
+                "at_bounds": [],
+            },
+            {
+                "effect": "input_delay",
+                "params": {"delay": 0.004},
+                "heldout_gap": 2.4,
+                "heldout_reduction": 0.077,
+                "evidence": -0.01,
+            },
         ],
         "localization": {
             "signals": {"theta": 0.25, "phi": 0.75},
-            "windows": [{"log": "balance_1.csv", "start": 1.2, "end": 1.5, "why": "phi error, arm velocity "
-                                                                                   "reversal"}],
+            "windows": [{"log": "balance_1.csv", "start": 1.2, "end": 1.5, "why": "phi error, arm velocity reversal"}],
             "regimes": [{"regime": "arm velocity reversal", "share_of_gap": 0.8}],
-            "frequency_bands": [{"low_hz": 0.0, "high_hz": 1.0, "share_of_gap": 0.3},
-                                {"low_hz": 1.0, "high_hz": 3.0, "share_of_gap": 0.7}],
+            "frequency_bands": [
+                {"low_hz": 0.0, "high_hz": 1.0, "share_of_gap": 0.3},
+                {"low_hz": 1.0, "high_hz": 3.0, "share_of_gap": 0.7},
+            ],
         },
         **extra,
     }
@@ -81,9 +98,13 @@ def small_report(**extra) -> dict:
 
 @pytest.fixture
 def figures(tmp_path):
-    images = {"residuals.png": ("Prediction residuals over time", png(tmp_path / "residuals.png", "C0")),
-              "effect_arm_coulomb_friction.png": ("Fitted arm friction",
-                                                  png(tmp_path / "effect_arm_coulomb_friction.png", "C1"))}
+    images = {
+        "residuals.png": ("Prediction residuals over time", png(tmp_path / "residuals.png", "C0")),
+        "effect_arm_coulomb_friction.png": (
+            "Fitted arm friction",
+            png(tmp_path / "effect_arm_coulomb_friction.png", "C1"),
+        ),
+    }
     return {name: caption for name, (caption, _) in images.items()}, {n: b for n, (_, b) in images.items()}
 
 
@@ -111,22 +132,35 @@ def test_every_ranking_key_and_the_localisation_tables_are_shown(tmp_path, figur
     for key in ("effect", "params", "heldout_gap", "heldout_reduction", "evidence", "train_gap", "at_bounds"):
         assert key in page.cells
     assert "coulomb = 0.0151" in page.cells and "69.2 %" in page.cells  # the reduction as a percentage
-    for heading in ("Gap", "Ranking of the candidates", "Where the gap is", "Signals",
-                    "Worst time windows (nominal model)", "Regimes", "Frequency bands [Hz]", "Figures"):
+    for heading in (
+        "Gap",
+        "Ranking of the candidates",
+        "Where the gap is",
+        "Signals",
+        "Worst time windows (nominal model)",
+        "Regimes",
+        "Frequency bands [Hz]",
+        "Figures",
+    ):
         assert heading in page.headings
     assert "phi error, arm velocity reversal" in page.cells and "75.0 %" in page.cells
-    assert "Metric: k-step output error <RMS> & counts" in report_html(small_report(), tmp_path, {}) \
-        .replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&")
+    assert "Metric: k-step output error <RMS> & counts" in report_html(small_report(), tmp_path, {}).replace(
+        "&lt;", "<"
+    ).replace("&gt;", ">").replace("&amp;", "&")
 
 
 def test_optional_keys_are_shown_when_present(tmp_path):
-    report = small_report(uncertainty="bootstrap over windows", steps=[
-        {"effect": "arm_coulomb_friction", "heldout_gap": 0.8, "heldout_reduction": 0.6923}])
+    report = small_report(
+        uncertainty="bootstrap over windows",
+        steps=[{"effect": "arm_coulomb_friction", "heldout_gap": 0.8, "heldout_reduction": 0.6923}],
+    )
     report["ranking"][0]["params_ci"] = {"coulomb": [0.0142, 0.0160]}
     report["ranking"][1].update(status="refused", reason="held-out bound below 5 %")
-    report["localization"]["after"] = {"signals": {"theta": 0.5, "phi": 0.5},
-                                       "regimes": [{"regime": "arm velocity reversal", "share_of_gap": 0.1}],
-                                       "frequency_bands": [{"low_hz": 0.0, "high_hz": 1.0, "share_of_gap": 0.2}]}
+    report["localization"]["after"] = {
+        "signals": {"theta": 0.5, "phi": 0.5},
+        "regimes": [{"regime": "arm velocity reversal", "share_of_gap": 0.1}],
+        "frequency_bands": [{"low_hz": 0.0, "high_hz": 1.0, "share_of_gap": 0.2}],
+    }
     text = report_html(report, tmp_path, {})
     page = Page(text)
     assert "coulomb = 0.0151 [0.0142, 0.016]" in page.cells

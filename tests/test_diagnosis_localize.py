@@ -13,9 +13,18 @@ from furuta_drake.diagnosis.logs import WindowResiduals
 DT = 0.001
 
 
-def make_windows(residual_fn, *, n_windows=20, length=0.25, theta_fn=lambda t: 0.0 * t,
-                 phi_dot_fn=lambda t: np.sin(2 * math.pi * 0.5 * t), saturated_fn=None, log="run.csv",
-                 noise=0.0, seed=0):
+def make_windows(
+    residual_fn,
+    *,
+    n_windows=20,
+    length=0.25,
+    theta_fn=lambda t: 0.0 * t,
+    phi_dot_fn=lambda t: np.sin(2 * math.pi * 0.5 * t),
+    saturated_fn=None,
+    log="run.csv",
+    noise=0.0,
+    seed=0,
+):
     """Contiguous windows over one log; the residual (counts) and the predicted state are functions of time."""
     rng = np.random.default_rng(seed)
     samples = int(round(length / DT))
@@ -25,8 +34,11 @@ def make_windows(residual_fn, *, n_windows=20, length=0.25, theta_fn=lambda t: 0
         residual = np.asarray(residual_fn(t), float) + noise * rng.uniform(-0.5, 0.5, (samples, 2))
         state = np.column_stack([theta_fn(t), np.zeros_like(t), np.zeros_like(t), phi_dot_fn(t)])
         saturated = np.zeros(samples, bool) if saturated_fn is None else saturated_fn(t)
-        windows.append(WindowResiduals(log_name=log, time=t, residual=residual, state=state,
-                                       torque=np.zeros(samples), saturated=saturated))
+        windows.append(
+            WindowResiduals(
+                log_name=log, time=t, residual=residual, state=state, torque=np.zeros(samples), saturated=saturated
+            )
+        )
     return windows
 
 
@@ -67,8 +79,13 @@ def test_a_20_hz_residual_falls_in_the_10_30_hz_band():
 def test_sensor_noise_is_not_counted_as_gap():
     # A 2 Hz error of 0.3 count amplitude under encoder noise of the expected variance (1/12 count^2, which is
     # twice the sinusoid's power): after removing the expected noise the 1-3 Hz band holds the gap.
-    windows = make_windows(lambda t: np.column_stack([0.3 * np.sin(2 * math.pi * 2 * t + 0.3)] * 2),
-                           n_windows=40, length=2.0, noise=1.0, seed=3)
+    windows = make_windows(
+        lambda t: np.column_stack([0.3 * np.sin(2 * math.pi * 2 * t + 0.3)] * 2),
+        n_windows=40,
+        length=2.0,
+        noise=1.0,
+        seed=3,
+    )
     result = localize(windows)
     assert band(result, 1.0)["share_of_gap"] > 0.8
     raw = localize(windows, noise_variance=0.0)
@@ -96,8 +113,9 @@ def test_saturation_and_pose_regimes():
     def residual(t):
         return np.column_stack([np.zeros_like(t), np.where((t % 1.0) < 0.2, 4.0, 0.0)])
 
-    windows = make_windows(residual, theta_fn=lambda t: 0.05 * np.sin(3 * t),
-                           saturated_fn=lambda t: (t % 1.0) < 0.2, noise=1.0)
+    windows = make_windows(
+        residual, theta_fn=lambda t: 0.05 * np.sin(3 * t), saturated_fn=lambda t: (t % 1.0) < 0.2, noise=1.0
+    )
     result = localize(windows)
     saturation = regime(result, "torque saturation")
     assert saturation["share_of_gap"] > 0.97 and saturation["share_of_samples"] == pytest.approx(0.2, abs=1e-3)
@@ -125,8 +143,9 @@ def test_no_excess_over_the_sensor_floor_falls_back_to_raw_shares():
 
 
 @settings(max_examples=25, deadline=None)
-@given(n=st.integers(8, 400), period=st.sampled_from([0.001, 0.004]), noise=st.floats(0.0, 0.5),
-       seed=st.integers(0, 1000))
+@given(
+    n=st.integers(8, 400), period=st.sampled_from([0.001, 0.004]), noise=st.floats(0.0, 0.5), seed=st.integers(0, 1000)
+)
 def test_band_powers_add_up_to_the_excess_squared_residual(n, period, noise, seed):
     # Parseval: the bands split the window's sum of r^2 minus n times the sensor variance, per signal.
     rng = np.random.default_rng(seed)

@@ -5,12 +5,18 @@ import shutil
 
 import numpy as np
 import pytest
+from conftest import QUBE_DATA
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import QUBE_DATA
-from furuta_drake.diagnosis.logs import (check_input_direction, check_theta_direction, ignored_columns_note,
-                                         load_log, load_logs, load_rig)
+from furuta_drake.diagnosis.logs import (
+    check_input_direction,
+    check_theta_direction,
+    ignored_columns_note,
+    load_log,
+    load_logs,
+    load_rig,
+)
 from furuta_drake.errors import ConfigError, LogError
 from furuta_drake.rig import lund_rig
 
@@ -45,28 +51,55 @@ def write_qube(path, columns, rows=slice(None)):
 HEADER = ["time", "theta", "phi", "torque"]
 
 
-@pytest.mark.parametrize("case, header, edit, expected", [
-    ("empty", None, None, ":1: empty file"),
-    ("header only", HEADER, lambda rows: [], ":1: header only"),
-    ("missing theta", ["time", "phi", "torque", "x"], None, "missing column 'theta'"),
-    ("no input", ["time", "theta", "phi", "current"], None, "no input column"),
-    ("both inputs", ["time", "theta", "phi", "torque", "voltage"], lambda rows: [r + ["1"] for r in rows],
-     "both 'torque' and 'voltage'"),
-    ("nan", HEADER, lambda rows: rows[:3] + [rows[3][:1] + ["nan"] + rows[3][2:]] + rows[4:],
-     ":5: column 'theta' is nan"),
-    ("inf", HEADER, lambda rows: rows[:7] + [rows[7][:3] + ["inf"]] + rows[8:], ":9: column 'torque' is inf"),
-    ("text", HEADER, lambda rows: rows[:2] + [rows[2][:2] + ["abc", rows[2][3]]] + rows[3:],
-     ":4: column 'phi': 'abc' is not a number"),
-    ("empty field", HEADER, lambda rows: rows[:10] + [[""] + rows[10][1:]] + rows[11:],
-     ":12: column 'time': '' is not a number"),
-    ("short row", HEADER, lambda rows: rows[:20] + [rows[20][:3]] + rows[21:], ":22: 3 fields, the header has 4"),
-    ("duplicate time", HEADER, lambda rows: rows[:6] + [[rows[5][0]] + rows[6][1:]] + rows[7:],
-     ":8: column 'time': 0.005 duplicates"),
-    ("backwards", HEADER, lambda rows: rows[:6] + [["0.001"] + rows[6][1:]] + rows[7:], ":8: column 'time'"),
-    ("gap", HEADER, lambda rows: rows[:30] + rows[35:], ":32: column 'time': gap of 0.006 s from t = 0.029"),
-    ("irregular", HEADER, lambda rows: rows[:40] + [["0.04002"] + rows[40][1:]] + rows[41:],
-     ":42: column 'time': step 0.00102 s deviates by 2.0%"),
-])
+@pytest.mark.parametrize(
+    "case, header, edit, expected",
+    [
+        ("empty", None, None, ":1: empty file"),
+        ("header only", HEADER, lambda rows: [], ":1: header only"),
+        ("missing theta", ["time", "phi", "torque", "x"], None, "missing column 'theta'"),
+        ("no input", ["time", "theta", "phi", "current"], None, "no input column"),
+        (
+            "both inputs",
+            ["time", "theta", "phi", "torque", "voltage"],
+            lambda rows: [r + ["1"] for r in rows],
+            "both 'torque' and 'voltage'",
+        ),
+        (
+            "nan",
+            HEADER,
+            lambda rows: rows[:3] + [rows[3][:1] + ["nan"] + rows[3][2:]] + rows[4:],
+            ":5: column 'theta' is nan",
+        ),
+        ("inf", HEADER, lambda rows: rows[:7] + [rows[7][:3] + ["inf"]] + rows[8:], ":9: column 'torque' is inf"),
+        (
+            "text",
+            HEADER,
+            lambda rows: rows[:2] + [rows[2][:2] + ["abc", rows[2][3]]] + rows[3:],
+            ":4: column 'phi': 'abc' is not a number",
+        ),
+        (
+            "empty field",
+            HEADER,
+            lambda rows: rows[:10] + [[""] + rows[10][1:]] + rows[11:],
+            ":12: column 'time': '' is not a number",
+        ),
+        ("short row", HEADER, lambda rows: rows[:20] + [rows[20][:3]] + rows[21:], ":22: 3 fields, the header has 4"),
+        (
+            "duplicate time",
+            HEADER,
+            lambda rows: rows[:6] + [[rows[5][0]] + rows[6][1:]] + rows[7:],
+            ":8: column 'time': 0.005 duplicates",
+        ),
+        ("backwards", HEADER, lambda rows: rows[:6] + [["0.001"] + rows[6][1:]] + rows[7:], ":8: column 'time'"),
+        ("gap", HEADER, lambda rows: rows[:30] + rows[35:], ":32: column 'time': gap of 0.006 s from t = 0.029"),
+        (
+            "irregular",
+            HEADER,
+            lambda rows: rows[:40] + [["0.04002"] + rows[40][1:]] + rows[41:],
+            ":42: column 'time': step 0.00102 s deviates by 2.0%",
+        ),
+    ],
+)
 def test_bad_logs_name_file_line_and_column(tmp_path, case, header, edit, expected):
     path = tmp_path / "run.csv"
     if header is None:
@@ -127,8 +160,11 @@ def test_wrapped_angles_are_refused_with_the_line(tmp_path):
     wrapped = dict(raw, theta=np.angle(np.exp(1j * raw["theta"])))  # into (-pi, pi]
     first_wrap = int(np.flatnonzero(np.abs(np.diff(wrapped["theta"])) > math.pi)[0]) + 1
     path = write_qube(tmp_path / "wrapped.csv", wrapped)
-    with pytest.raises(LogError, match=rf"wrapped\.csv:{first_wrap + 2}: column 'theta' .* wrapped; the diagnosis "
-                                       r"wants unwrapped"):
+    with pytest.raises(
+        LogError,
+        match=rf"wrapped\.csv:{first_wrap + 2}: column 'theta' .* wrapped; the diagnosis "
+        r"wants unwrapped",
+    ):
         load_log(path, load_rig(QUBE_RIG))
 
 
@@ -209,8 +245,14 @@ def test_a_ten_minute_1khz_log_loads_whole(tmp_path):
     n = 600_000
     t = np.arange(n) * 1e-3
     path = tmp_path / "long.csv"
-    np.savetxt(path, np.column_stack([t, 0.01 * np.sin(t), 0.1 * np.sin(3 * t), np.sin(t)]), delimiter=",",
-               header="time,torque,theta,phi", comments="", fmt="%.9g")
+    np.savetxt(
+        path,
+        np.column_stack([t, 0.01 * np.sin(t), 0.1 * np.sin(3 * t), np.sin(t)]),
+        delimiter=",",
+        header="time,torque,theta,phi",
+        comments="",
+        fmt="%.9g",
+    )
     log = load_log(path, lund_rig())
     assert len(log.time) == n and log.time[-1] == pytest.approx(599.999)
 
@@ -234,8 +276,14 @@ def test_valid_logs_round_trip(tmp_path_factory, period, n):
     t = np.arange(n) * period
     theta, phi, torque = 0.3 * np.sin(5 * t), np.cumsum(np.full(n, 0.001)), 0.05 * np.cos(t)
     path = tmp_path_factory.mktemp("log") / "run.csv"
-    np.savetxt(path, np.column_stack([t, theta, phi, torque]), delimiter=",", header="time,theta,phi,torque",
-               comments="", fmt="%.12g")
+    np.savetxt(
+        path,
+        np.column_stack([t, theta, phi, torque]),
+        delimiter=",",
+        header="time,theta,phi,torque",
+        comments="",
+        fmt="%.12g",
+    )
     log = load_log(path, lund_rig())
     assert log.sample_period == pytest.approx(period)
     np.testing.assert_allclose(log.theta, theta, atol=1e-11)

@@ -12,8 +12,14 @@ from furuta_drake.diagnosis.gap import make_windows, projected_residuals, subste
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import WindowReplayer
 from furuta_drake.diagnosis.suite import run_configs, with_effect
-from furuta_drake.diagnosis.surrogate import (REGULARIZATION_VELOCITY, Model, _accelerations,
-                                              bristle_friction_torque, bristle_step, predict_windows)
+from furuta_drake.diagnosis.surrogate import (
+    REGULARIZATION_VELOCITY,
+    Model,
+    _accelerations,
+    bristle_friction_torque,
+    bristle_step,
+    predict_windows,
+)
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate
@@ -28,8 +34,16 @@ def hanging_windows():
     not explain it, so each window's residual is well away from zero)."""
     config = with_effect(run_configs(LUND, 3, 2.0)["hanging"], "arm_viscous_friction", 2)
     result = simulate(config)
-    log = RunLog(name="hanging.csv", path="", time=result.time, theta=result.measured[:, 0],
-                 phi=result.measured[:, 1], input_kind="torque", input=result.torque, sample_period=1e-3)
+    log = RunLog(
+        name="hanging.csv",
+        path="",
+        time=result.time,
+        theta=result.measured[:, 0],
+        phi=result.measured[:, 1],
+        input_kind="torque",
+        input=result.torque,
+        sample_period=1e-3,
+    )
     return make_windows([log], LUND).subset(4, seed=1)
 
 
@@ -42,14 +56,23 @@ def test_levenberg_marquardt_reaches_the_least_squares_minimum_of_every_window(h
     batch = hanging_windows.batches()[0]
     count = 2 * np.pi / LUND.counts_per_rev
     for w in range(batch.starts.size):
-        def window_residuals(x):
-            predicted = predict_windows(model, x[:, None], batch.command, batch.starts[[w]], batch.horizon,
-                                        batch.period, substeps_for(batch.period))
+
+        def window_residuals(x, w=w):
+            predicted = predict_windows(
+                model,
+                x[:, None],
+                batch.command,
+                batch.starts[[w]],
+                batch.horizon,
+                batch.period,
+                substeps_for(batch.period),
+            )
             return ((batch.measured[:, :, [w]] - predicted) / count).ravel()
 
         start = batch.initial_states[:, w]
-        scipy = least_squares(window_residuals, start, method="lm", x_scale=[1e-4, 1e-4, 1e-3, 1e-3], xtol=1e-12,
-                              ftol=1e-12)
+        scipy = least_squares(
+            window_residuals, start, method="lm", x_scale=[1e-4, 1e-4, 1e-3, 1e-3], xtol=1e-12, ftol=1e-12
+        )
         ours = np.sum(residuals[0][:, :, w] ** 2)
         assert np.sum(window_residuals(start) ** 2) > 1.5 * ours  # the refinement had work to do
         assert ours == pytest.approx(2 * scipy.cost, rel=1e-8)
@@ -63,8 +86,10 @@ def test_rk4_error_falls_sixteenfold_when_the_step_halves():
     period, horizon = 4e-3, 60
     command = 0.05 * np.sin(2 * np.pi * 2.0 * period * np.arange(400))
     x0 = np.array([[2.5, 0.3, 1.0], [0.1, -0.2, 0.5], [-3.0, 5.0, 2.0], [2.0, -4.0, 8.0]])
-    angles = [predict_windows(model, x0, command, np.array([10, 100, 200]), horizon, period, substeps)
-              for substeps in (1, 2, 4, 8)]
+    angles = [
+        predict_windows(model, x0, command, np.array([10, 100, 200]), horizon, period, substeps)
+        for substeps in (1, 2, 4, 8)
+    ]
     differences = [np.max(np.abs(coarse - fine)) for coarse, fine in zip(angles, angles[1:])]
     for coarse, fine in zip(differences, differences[1:]):
         assert 14.0 < coarse / fine < 18.0
@@ -76,8 +101,10 @@ def friction_and_motor(rig) -> Model:
     mgl = rig.gravity_torque
     return Model.from_rig(rig).replace(
         arm_friction=JointFrictionParameters.dahl(0.10 * mgl, 0.15 * mgl, sigma0=0.10 * mgl / 3e-3),
-        pendulum_friction=JointFrictionParameters.coulomb(0.004 * mgl, viscous=1e-6,
-                                                          regularization_velocity=REGULARIZATION_VELOCITY))
+        pendulum_friction=JointFrictionParameters.coulomb(
+            0.004 * mgl, viscous=1e-6, regularization_velocity=REGULARIZATION_VELOCITY
+        ),
+    )
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -90,8 +117,12 @@ def test_surrogate_dynamics_with_friction_and_motor_equal_the_multibody_plant(se
     assert model.back_emf_damping > 0
     rng = np.random.default_rng(seed)
     builder = DiagramBuilder()
-    world = add_furuta_world(builder, rig=QUBE, control_period=QUBE.sample_period,
-                             friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction))
+    world = add_furuta_world(
+        builder,
+        rig=QUBE,
+        control_period=QUBE.sample_period,
+        friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
+    )
     builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
@@ -121,17 +152,22 @@ def test_surrogate_windows_converge_to_the_multibody_plant_with_friction_and_mot
     model = friction_and_motor(QUBE)
     period = QUBE.sample_period
     time = period * np.arange(600)
-    command = 0.6 * QUBE.gravity_torque * np.sin(2 * np.pi * 1.5 * time) \
-        + 0.1 * QUBE.gravity_torque * np.random.default_rng(1).standard_normal(time.size)
+    command = 0.6 * QUBE.gravity_torque * np.sin(
+        2 * np.pi * 1.5 * time
+    ) + 0.1 * QUBE.gravity_torque * np.random.default_rng(1).standard_normal(time.size)
     starts, horizon = np.array([50, 200, 350]), 100
     x0 = np.array([[2.8, 3.0, 3.3], [0.0, 0.2, -0.3], [1.0, -2.0, 0.5], [0.5, 0.0, -1.0]])
     z0 = np.array([0.0, 0.5, -0.5]) * 0.10 * QUBE.gravity_torque / model.arm_friction.sigma0
     replayer = WindowReplayer(model, QUBE, time, command)
     replayer.integrator = SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-10, max_step_size=1e-4)
-    drake = np.stack([replayer.replay(time[s], x0[:, w], command[s], time[s:s + horizon], z0[w])
-                      for w, s in enumerate(starts)], axis=-1)
+    drake = np.stack(
+        [replayer.replay(time[s], x0[:, w], command[s], time[s : s + horizon], z0[w]) for w, s in enumerate(starts)],
+        axis=-1,
+    )
     count = 2 * np.pi / QUBE.counts_per_rev
-    errors = [np.max(np.abs(predict_windows(model, x0, command, starts, horizon, period, substeps, z0) - drake))
-              / count for substeps in (1, 2, 4, 8, 16)]
+    errors = [
+        np.max(np.abs(predict_windows(model, x0, command, starts, horizon, period, substeps, z0) - drake)) / count
+        for substeps in (1, 2, 4, 8, 16)
+    ]
     assert substeps_for(period) == 2 and errors[1] < 0.02
     assert errors[-1] < errors[0] / 100 and all(fine <= 1.2 * coarse for coarse, fine in zip(errors, errors[1:]))

@@ -13,8 +13,14 @@ import yaml
 import furuta_drake.diagnosis.report as report_module
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.logs import WindowResiduals
-from furuta_drake.diagnosis.report import (check_report, effect_curve, input_record, report_json, residual_psd,
-                                           write_report)
+from furuta_drake.diagnosis.report import (
+    check_report,
+    effect_curve,
+    input_record,
+    report_json,
+    residual_psd,
+    write_report,
+)
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis
 from furuta_drake.errors import ConfigError
 from furuta_drake.outputs import atomic_output_dir
@@ -42,15 +48,27 @@ def inputs(tmp_path):
     report = {
         "verdict": "arm_coulomb_friction",
         "effects": ["arm_coulomb_friction"],
-        "gap": {"metric": "rms 0.2 s-ahead prediction error beyond the encoder noise [counts]",
-                "nominal": {"train": 3.1, "heldout": np.float64(3.3)},
-                "with_effects": {"train": 0.4, "heldout": 0.5},
-                "heldout_reduction": 1 - 0.5 / 3.3},
+        "gap": {
+            "metric": "rms 0.2 s-ahead prediction error beyond the encoder noise [counts]",
+            "nominal": {"train": 3.1, "heldout": np.float64(3.3)},
+            "with_effects": {"train": 0.4, "heldout": 0.5},
+            "heldout_reduction": 1 - 0.5 / 3.3,
+        },
         "ranking": [
-            {"effect": "arm_coulomb_friction", "params": {"coulomb": np.float64(0.0151234567)},
-             "heldout_gap": 0.5, "heldout_reduction": 0.848, "evidence": 12.0},
-            {"effect": "input_delay", "params": {"delay": 0.004}, "heldout_gap": float("inf"),
-             "heldout_reduction": -0.2, "evidence": 0.1},
+            {
+                "effect": "arm_coulomb_friction",
+                "params": {"coulomb": np.float64(0.0151234567)},
+                "heldout_gap": 0.5,
+                "heldout_reduction": 0.848,
+                "evidence": 12.0,
+            },
+            {
+                "effect": "input_delay",
+                "params": {"delay": 0.004},
+                "heldout_gap": float("inf"),
+                "heldout_reduction": -0.2,
+                "evidence": 0.1,
+            },
         ],
         "localization": localize(before, after),
     }
@@ -62,16 +80,26 @@ def inputs(tmp_path):
         logs.append(path)
     rig_path = tmp_path / "inputs" / "rig.yaml"
     rig_path.write_text("arm_length: 0.25\n")
-    record = input_record(rig_path=rig_path, train=logs[:1], heldout=logs[1:], seeds={"fit": 7},
-                          options={"horizon_s": 0.2})
+    record = input_record(
+        rig_path=rig_path, train=logs[:1], heldout=logs[1:], seeds={"fit": 7}, options={"horizon_s": 0.2}
+    )
     rig = lund_rig()
-    artifacts = Artifacts(before, after, 1.0 / 12.0, [effect_curve("arm_coulomb_friction", {"coulomb": 0.0151}, rig)],
-                          fitted_config=rig.replace(arm_coulomb=0.0151),
-                          fitted_rig=rig.replace(effects={"arm_coulomb_friction": {"coulomb": 0.0151,
-                                                                                   "presliding": 0.002}}),
-                          record=record)
-    diagnosis = Diagnosis.from_json({**report, "rule": "lower 95 % bootstrap bound of the held-out reduction above 5 %",
-                                     "holdout": "the --heldout logs"})
+    artifacts = Artifacts(
+        before,
+        after,
+        1.0 / 12.0,
+        [effect_curve("arm_coulomb_friction", {"coulomb": 0.0151}, rig)],
+        fitted_config=rig.replace(arm_coulomb=0.0151),
+        fitted_rig=rig.replace(effects={"arm_coulomb_friction": {"coulomb": 0.0151, "presliding": 0.002}}),
+        record=record,
+    )
+    diagnosis = Diagnosis.from_json(
+        {
+            **report,
+            "rule": "lower 95 % bootstrap bound of the held-out reduction above 5 %",
+            "holdout": "the --heldout logs",
+        }
+    )
     diagnosis.artifacts = artifacts
     return dict(report=report, diagnosis=diagnosis), logs + [rig_path]
 
@@ -80,6 +108,7 @@ def test_report_json_round_trips_through_the_diagnosis_and_reads_an_old_report(i
     """report.json is Diagnosis.to_json; from_json gives the same Diagnosis back; a report written before the
     later keys (steps, params_ci, detection_limits, ...) reads with those empty and every old key intact."""
     from pathlib import Path
+
     kwargs, _ = inputs
     text = report_json(kwargs["diagnosis"].to_json())
     again = report_json(Diagnosis.from_json(json.loads(text)).to_json())
@@ -103,8 +132,9 @@ def test_report_json_has_the_spec_keys_and_types(inputs):
     assert set(data) == {"verdict", "effects", "gap", "ranking", "localization"}
     assert set(data["gap"]) == {"metric", "nominal", "with_effects", "heldout_reduction"}
     assert set(data["gap"]["nominal"]) == set(data["gap"]["with_effects"]) == {"train", "heldout"}
-    assert all(set(entry) == {"effect", "params", "heldout_gap", "heldout_reduction", "evidence"}
-               for entry in data["ranking"])
+    assert all(
+        set(entry) == {"effect", "params", "heldout_gap", "heldout_reduction", "evidence"} for entry in data["ranking"]
+    )
     loc = data["localization"]
     assert {"signals", "windows", "regimes", "frequency_bands"} <= set(loc)
     assert set(loc["signals"]) == {"theta", "phi"}
@@ -116,14 +146,17 @@ def test_report_json_has_the_spec_keys_and_types(inputs):
     assert data["ranking"][1]["heldout_gap"] is None  # a non-finite figure is null, never NaN/Infinity
 
 
-@pytest.mark.parametrize("damage, message", [
-    (lambda r: r.pop("verdict"), "missing 'verdict'"),
-    (lambda r: r["gap"].pop("with_effects"), "missing 'with_effects'"),
-    (lambda r: r["gap"]["nominal"].update(train="3.1"), "gap.nominal.train must be a number"),
-    (lambda r: r["ranking"][0]["params"].update(coulomb="big"), "params.coulomb must be a number"),
-    (lambda r: r["localization"]["windows"][0].pop("why"), "missing 'why'"),
-    (lambda r: r["localization"].update(regimes={}), "localization.regimes must be a list"),
-])
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda r: r.pop("verdict"), "missing 'verdict'"),
+        (lambda r: r["gap"].pop("with_effects"), "missing 'with_effects'"),
+        (lambda r: r["gap"]["nominal"].update(train="3.1"), "gap.nominal.train must be a number"),
+        (lambda r: r["ranking"][0]["params"].update(coulomb="big"), "params.coulomb must be a number"),
+        (lambda r: r["localization"]["windows"][0].pop("why"), "missing 'why'"),
+        (lambda r: r["localization"].update(regimes={}), "localization.regimes must be a list"),
+    ],
+)
 def test_check_report_names_what_is_wrong(inputs, damage, message):
     report = copy.deepcopy(inputs[0]["report"])
     damage(report)
@@ -145,15 +178,31 @@ def test_directory_contents_plots_and_provenance(inputs, tmp_path):
     kwargs, protect = inputs
     out = write_report(tmp_path / "out", kwargs["diagnosis"], protect=protect)
     assert sorted(p.name for p in out.iterdir()) == [
-        "config.yaml", "effect_arm_coulomb_friction.png", "fitted_model.yaml", "fitted_rig.yaml", "report.html",
-        "report.json", "report.md", "residual_spectra.png", "residuals.png"]
+        "config.yaml",
+        "effect_arm_coulomb_friction.png",
+        "fitted_model.yaml",
+        "fitted_rig.yaml",
+        "report.html",
+        "report.json",
+        "report.md",
+        "residual_spectra.png",
+        "residuals.png",
+    ]
     for png in out.glob("*.png"):
         data = png.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
     markdown = (out / "report.md").read_text()
-    for needle in ("`arm_coulomb_friction`", "](residuals.png)", "](residual_spectra.png)",
-                   "](effect_arm_coulomb_friction.png)", "lower 95 % bootstrap bound", "rms 0.2 s-ahead",
-                   "| 1 | 1 | `arm_coulomb_friction` | coulomb = 0.01512 N m |", "arm velocity reversal", "84.8 %"):
+    for needle in (
+        "`arm_coulomb_friction`",
+        "](residuals.png)",
+        "](residual_spectra.png)",
+        "](effect_arm_coulomb_friction.png)",
+        "lower 95 % bootstrap bound",
+        "rms 0.2 s-ahead",
+        "| 1 | 1 | `arm_coulomb_friction` | coulomb = 0.01512 N m |",
+        "arm velocity reversal",
+        "84.8 %",
+    ):
         assert needle in markdown
     record = yaml.safe_load((out / "config.yaml").read_text())
     for entry in record["train"] + record["heldout"] + [record["rig"]]:
@@ -218,8 +267,11 @@ def test_white_residual_psd_is_twice_the_variance_times_the_period():
     ws = []
     for k in range(200):
         t = (k * 250 + np.arange(250)) * DT
-        ws.append(WindowResiduals("w.csv", t, rng.normal(0, sigma, (250, 2)), np.zeros((250, 4)), np.zeros(250),
-                                  np.zeros(250, bool)))
+        ws.append(
+            WindowResiduals(
+                "w.csv", t, rng.normal(0, sigma, (250, 2)), np.zeros((250, 4)), np.zeros(250), np.zeros(250, bool)
+            )
+        )
     centers, density = residual_psd(ws)
     assert centers[0] > 0 and centers[-1] < 500 and np.all(np.diff(centers) > 0)
     np.testing.assert_allclose(density[4:], 2 * sigma**2 * DT, rtol=0.25)  # bins wide enough to average

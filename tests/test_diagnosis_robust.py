@@ -22,9 +22,12 @@ DURATION = 1.5  # [s] per log: a train and a held-out hanging run
 
 
 @settings(max_examples=16, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
-@given(rig_name=st.sampled_from(sorted(RIGS)),
-       effects=st.lists(st.sampled_from(VOCABULARY + (OUTSIDE_VOCABULARY,)), max_size=3, unique=True),
-       levels=st.lists(st.floats(0.2, 3.0), min_size=3, max_size=3), seed=st.integers(0, 10_000))
+@given(
+    rig_name=st.sampled_from(sorted(RIGS)),
+    effects=st.lists(st.sampled_from(VOCABULARY + (OUTSIDE_VOCABULARY,)), max_size=3, unique=True),
+    levels=st.lists(st.floats(0.2, 3.0), min_size=3, max_size=3),
+    seed=st.integers(0, 10_000),
+)
 def test_diagnose_writes_a_report_whatever_the_mix_of_effects(rig_name, effects, levels, seed):
     rig = RIGS[rig_name]()
     with tempfile.TemporaryDirectory() as folder:
@@ -35,8 +38,13 @@ def test_diagnose_writes_a_report_whatever_the_mix_of_effects(rig_name, effects,
             for effect, level in zip(effects, levels):
                 config = with_effect(config, effect, level)
             write_log_csv(simulate(config), folder / f"{split}.csv")
-        diagnosis = diagnose(rig=folder / "rig.yaml", train=[folder / "train.csv"], heldout=[folder / "heldout.csv"],
-                             settings=FAST, workers=1)
+        diagnosis = diagnose(
+            rig=folder / "rig.yaml",
+            train=[folder / "train.csv"],
+            heldout=[folder / "heldout.csv"],
+            settings=FAST,
+            workers=1,
+        )
         write_report(folder / "out", diagnosis)
         report = json.loads((folder / "out" / "report.json").read_text())
     check_report(report)

@@ -52,10 +52,14 @@ def test_each_paper_diagram_balances_for_five_seconds(source):
 def test_adaptive_diagram_runs_and_logs_k_sigma():
     """Diagram (iii): VFE + Dahl + K_sigma adapter; K_sigma starts at 1 and stays finite and positive."""
     config = lund(friction=coulomb_arm(0.015), duration=3.0)
-    dahl = dataclasses.replace(config.observers.dahl, adaptation=DahlAdaptation(
-        k_sigma=KSigmaAdaptationParameters(enable_time=1.0)))
-    config = dataclasses.replace(config, observers=dataclasses.replace(config.observers, dahl=dahl),
-                                 controller=dataclasses.replace(config.controller, velocity_source="vfe"))
+    dahl = dataclasses.replace(
+        config.observers.dahl, adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(enable_time=1.0))
+    )
+    config = dataclasses.replace(
+        config,
+        observers=dataclasses.replace(config.observers, dahl=dahl),
+        controller=dataclasses.replace(config.controller, velocity_source="vfe"),
+    )
     result = simulate(config)
     k_sigma = result.signals["K_sigma"]
     np.testing.assert_allclose(k_sigma[0], [1.0, 1.0])
@@ -66,8 +70,7 @@ def test_rows_are_aligned_torque_applied_from_the_row_time():
     """Row k: the encoder sample at time[k] equals the true angle at time[k] rounded to a count."""
     result = simulate(lund(duration=1.0))
     resolution = 2 * np.pi / 4096
-    np.testing.assert_allclose(result.measured, np.round(result.state[:, :2] / resolution) * resolution,
-                               atol=1e-9)
+    np.testing.assert_allclose(result.measured, np.round(result.state[:, :2] / resolution) * resolution, atol=1e-9)
     np.testing.assert_allclose(np.diff(result.time), 1e-3, rtol=1e-9)
     assert result.time[0] == pytest.approx(0.0)
 
@@ -85,8 +88,11 @@ def test_same_seed_same_run_and_config_round_trips(tmp_path):
 
 def test_a_falling_pendulum_is_stopped_with_its_time_and_cause():
     config = lund(duration=5.0, initial_state=[0.1, 0.0, 0.0, 0.0])
-    config = dataclasses.replace(config, controller=dataclasses.replace(config.controller, mode="open_loop"),
-                                 excitation=dataclasses.replace(config.excitation, torque_rms=1e-3))
+    config = dataclasses.replace(
+        config,
+        controller=dataclasses.replace(config.controller, mode="open_loop"),
+        excitation=dataclasses.replace(config.excitation, torque_rms=1e-3),
+    )
     with pytest.raises(SimulationDiverged) as caught:
         simulate(config)
     # Free fall from 0.1 rad past the 1 rad bound: theta ~ 0.1 cosh(6.92 t) reaches 1 rad at ~0.43 s.
@@ -103,7 +109,6 @@ def test_non_stabilising_user_gain_is_rejected():
 
 def test_friction_compensation_needs_the_dahl_observer():
     config = lund()
-    config = dataclasses.replace(config, controller=dataclasses.replace(config.controller,
-                                                                        friction_compensation=True))
+    config = dataclasses.replace(config, controller=dataclasses.replace(config.controller, friction_compensation=True))
     with pytest.raises(ConfigError, match="velocity_source"):
         config.validate()

@@ -23,8 +23,7 @@ def measured_after_first_sample(encoder, x):
 
 
 @settings(max_examples=25, deadline=None)
-@given(theta=st.floats(-50.0, 50.0), phi=st.floats(-50.0, 50.0),
-       counts=st.sampled_from([4, 500, 2048, 4096, 10000]))
+@given(theta=st.floats(-50.0, 50.0), phi=st.floats(-50.0, 50.0), counts=st.sampled_from([4, 500, 2048, 4096, 10000]))
 def test_measurement_is_a_whole_count_within_half_a_count_of_the_angle(theta, phi, counts):
     encoder = Encoder(EncoderParameters(counts_per_rev=counts), period=1e-3)
     y = measured_after_first_sample(encoder, [theta, phi, 3.0, -2.0])
@@ -39,8 +38,9 @@ def ramp_run(params, period, duration, log_period, slope=(10.0, -7.0), seed_cont
     builder = DiagramBuilder()
     start, end = np.array([0.3, -1.0, 0, 0]), np.array([0.3, -1.0, 0, 0])
     end[:2] += duration * np.asarray(slope)
-    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(
-        [0.0, duration], np.column_stack([start, end]))))
+    source = builder.AddSystem(
+        TrajectorySource(PiecewisePolynomial.FirstOrderHold([0.0, duration], np.column_stack([start, end])))
+    )
     encoder = builder.AddSystem(Encoder(params, period=period))
     builder.Connect(source.get_output_port(), encoder.GetInputPort("true_state"))
     logger = LogVectorOutput(encoder.GetOutputPort("measured_angles_rad"), builder, publish_period=log_period)
@@ -92,11 +92,20 @@ def test_noise_has_the_requested_std_is_white_and_is_reproducible_by_seed():
     assert np.mean(other_seed == y) < 0.5
 
 
-@pytest.mark.parametrize("field, value", [
-    ("counts_per_rev", 3), ("counts_per_rev", 100.5), ("counts_per_rev", math.inf),
-    ("sample_period", 0.0), ("sample_period", math.nan), ("noise_std", -0.1), ("noise_std", math.inf),
-    ("seed", -1), ("seed", 1.5),
-])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("counts_per_rev", 3),
+        ("counts_per_rev", 100.5),
+        ("counts_per_rev", math.inf),
+        ("sample_period", 0.0),
+        ("sample_period", math.nan),
+        ("noise_std", -0.1),
+        ("noise_std", math.inf),
+        ("seed", -1),
+        ("seed", 1.5),
+    ],
+)
 def test_non_physical_parameters_are_rejected_with_the_field_named(field, value):
     with pytest.raises(ConfigError, match=f"encoder.{field}"):
         Encoder(EncoderParameters(**{field: value}), period=1e-3)

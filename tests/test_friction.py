@@ -15,8 +15,14 @@ from pydrake.systems.primitives import Linearize
 
 from furuta_drake.errors import ConfigError
 from furuta_drake.friction import (
-    FrictionParameters, JointFriction, JointFrictionParameters, bristle_derivative, bristle_friction_torque,
-    dahl_exact_step, static_friction_torque, stribeck_curve,
+    FrictionParameters,
+    JointFriction,
+    JointFrictionParameters,
+    bristle_derivative,
+    bristle_friction_torque,
+    dahl_exact_step,
+    static_friction_torque,
+    stribeck_curve,
 )
 from furuta_drake.plant import add_furuta_plant, make_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright, lund_rig
@@ -34,8 +40,9 @@ class Furuta:
         self.plant, _ = add_furuta_plant(builder, "lund", with_scene_graph=False)
         self.friction = builder.AddSystem(JointFriction(self.plant, friction))
         builder.Connect(self.plant.get_state_output_port(), self.friction.get_input_port())
-        builder.Connect(self.friction.GetOutputPort("generalized_force_Nm"),
-                        self.plant.get_applied_generalized_force_input_port())
+        builder.Connect(
+            self.friction.GetOutputPort("generalized_force_Nm"), self.plant.get_applied_generalized_force_input_port()
+        )
         builder.ExportInput(self.plant.get_actuation_input_port(), "arm_torque_Nm")
         self.diagram = builder.Build()
 
@@ -59,9 +66,16 @@ class Furuta:
             simulator.AdvanceTo(t)
             energy = self.plant.CalcKineticEnergy(plant_context) + self.plant.CalcPotentialEnergy(plant_context)
             bristles = friction_context.get_continuous_state_vector().CopyToVector()
-            rows.append([arm.get_angle(plant_context), pendulum.get_angle(plant_context),
-                         arm.get_angular_rate(plant_context), pendulum.get_angular_rate(plant_context),
-                         energy, *bristles])
+            rows.append(
+                [
+                    arm.get_angle(plant_context),
+                    pendulum.get_angle(plant_context),
+                    arm.get_angular_rate(plant_context),
+                    pendulum.get_angular_rate(plant_context),
+                    energy,
+                    *bristles,
+                ]
+            )
         return np.array(rows)
 
 
@@ -128,8 +142,10 @@ def test_dahl_friction_settles_to_the_coulomb_level_of_each_direction(direction)
     """At constant v, Eq. 7 drives z to Fc(v) sign(v) / sigma0 at the rate sigma0 |v| / Fc: the exerted torque
     tends to -Fc(v) sign(v), with Fc+ = 0.012 N m and Fc- = 0.018 N m on the arm (the paper's Sec. V-D) and another pair
     on the pendulum moving the other way."""
-    params = FrictionParameters(arm=JointFrictionParameters.dahl(0.012, 0.018, sigma0=10.0),
-                                pendulum=JointFrictionParameters.dahl(0.002, 0.003, sigma0=5.0))
+    params = FrictionParameters(
+        arm=JointFrictionParameters.dahl(0.012, 0.018, sigma0=10.0),
+        pendulum=JointFrictionParameters.dahl(0.002, 0.003, sigma0=5.0),
+    )
     # 0.5 rad/s for 0.2 s: 83 arm and 417 pendulum time constants (slowest: Fc- of the arm, 0.018/(10*0.5) s).
     torque, _ = run_friction_alone(params, theta_dot=-0.5 * direction, phi_dot=0.5 * direction, duration=0.2)
     arm_level, pendulum_level = (0.012, 0.003) if direction > 0 else (0.018, 0.002)
@@ -159,12 +175,30 @@ def test_lugre_and_static_models_settle_on_the_stribeck_curve(direction):
     fc, fs, vs, b = 0.01, 0.02, 0.05, 1e-3
     v = direction * vs / 2
     expected = -direction * (fc + (fs - fc) * math.exp(-0.25)) - b * v
-    lugre = JointFrictionParameters(model="lugre", coulomb_pos=fc, coulomb_neg=fc, static_pos=fs, static_neg=fs,
-                                    stribeck_velocity=vs, viscous=b, sigma0=10.0, sigma1=0.01)
-    static = JointFrictionParameters(model="static", coulomb_pos=fc, coulomb_neg=fc, static_pos=fs, static_neg=fs,
-                                     stribeck_velocity=vs, viscous=b, regularization_velocity=1e-4)
-    torque, _ = run_friction_alone(FrictionParameters(arm=lugre, pendulum=static), theta_dot=v, phi_dot=v,
-                                   duration=1.0)  # LuGre time constant g / (sigma0 |v|) < 0.07 s
+    lugre = JointFrictionParameters(
+        model="lugre",
+        coulomb_pos=fc,
+        coulomb_neg=fc,
+        static_pos=fs,
+        static_neg=fs,
+        stribeck_velocity=vs,
+        viscous=b,
+        sigma0=10.0,
+        sigma1=0.01,
+    )
+    static = JointFrictionParameters(
+        model="static",
+        coulomb_pos=fc,
+        coulomb_neg=fc,
+        static_pos=fs,
+        static_neg=fs,
+        stribeck_velocity=vs,
+        viscous=b,
+        regularization_velocity=1e-4,
+    )
+    torque, _ = run_friction_alone(
+        FrictionParameters(arm=lugre, pendulum=static), theta_dot=v, phi_dot=v, duration=1.0
+    )  # LuGre time constant g / (sigma0 |v|) < 0.07 s
     np.testing.assert_allclose(torque, [expected, expected], rtol=1e-6)
 
 
@@ -172,21 +206,31 @@ def test_without_friction_energy_is_conserved_over_ten_seconds():
     """Pendulum released horizontal (theta = pi/2) with the arm turning: no friction, no input, so the plant's
     kinetic plus potential energy is constant; drift below 1e-6 of m g l over 10 s."""
     furuta = Furuta(FrictionParameters())
-    rows = furuta.simulate(np.linspace(0.5, 10.0, 20), theta=math.pi / 2, phi_dot=1.0, accuracy=1e-10,
-                           integrator="runge_kutta5")
+    rows = furuta.simulate(
+        np.linspace(0.5, 10.0, 20), theta=math.pi / 2, phi_dot=1.0, accuracy=1e-10, integrator="runge_kutta5"
+    )
     assert np.ptp(rows[:, 1]) > 1.0  # it does swing
     drift = np.abs(rows[:, 4] - rows[0, 4]) / ENERGY_SCALE
     assert drift.max() < 1e-6
 
 
 FRICTION_MODELS = {
-    "static": JointFrictionParameters(model="static", coulomb_pos=0.004, coulomb_neg=0.006, static_pos=0.008,
-                                      static_neg=0.008, viscous=1e-4),
+    "static": JointFrictionParameters(
+        model="static", coulomb_pos=0.004, coulomb_neg=0.006, static_pos=0.008, static_neg=0.008, viscous=1e-4
+    ),
     "dahl": JointFrictionParameters.dahl(0.012, 0.018, sigma0=10.0, viscous=1e-4),
     # Passive with the storage sigma0 z^2 / 2 while |v| <= 4 g (sigma1 + sigma2) / sigma1^2: 38 rad/s on the arm,
     # 19 rad/s on the pendulum (half the levels); the swing stays below 10 rad/s.
-    "lugre": JointFrictionParameters(model="lugre", coulomb_pos=0.004, coulomb_neg=0.006, static_pos=0.008,
-                                     static_neg=0.008, viscous=1e-4, sigma0=10.0, sigma1=5e-4),
+    "lugre": JointFrictionParameters(
+        model="lugre",
+        coulomb_pos=0.004,
+        coulomb_neg=0.006,
+        static_pos=0.008,
+        static_neg=0.008,
+        viscous=1e-4,
+        sigma0=10.0,
+        sigma1=5e-4,
+    ),
 }
 
 
@@ -196,8 +240,9 @@ def test_friction_never_adds_energy(model):
     the plant energy plus the bristle energy sigma0 z^2 / 2 (none for the static model) never rises between
     2 ms samples over 1.5 s, and friction removes a clear share of it."""
     arm = FRICTION_MODELS[model]
-    pendulum = dataclasses.replace(arm, coulomb_pos=arm.coulomb_pos / 2, coulomb_neg=arm.coulomb_neg / 2,
-                                   static_pos=None, static_neg=None)
+    pendulum = dataclasses.replace(
+        arm, coulomb_pos=arm.coulomb_pos / 2, coulomb_neg=arm.coulomb_neg / 2, static_pos=None, static_neg=None
+    )
     furuta = Furuta(FrictionParameters(arm=arm, pendulum=pendulum))
     rows = furuta.simulate(np.arange(1, 751) * 2e-3, theta=math.pi / 2, phi_dot=1.0, accuracy=1e-7)
     bristle_energy = 0.5 * arm.sigma0 * np.sum(rows[:, 5:] ** 2, axis=1)  # pendulum and arm share sigma0
@@ -206,18 +251,21 @@ def test_friction_never_adds_energy(model):
     assert stored[-1] < stored[0] - 0.1 * ENERGY_SCALE
 
 
-@pytest.mark.parametrize(("field", "value", "message"), [
-    ("coulomb_pos", -0.01, "friction.arm.coulomb_pos"),
-    ("coulomb_neg", float("nan"), "friction.arm.coulomb_neg"),
-    ("viscous", -1e-3, "friction.arm.viscous"),
-    ("sigma0", 0.0, "friction.arm.sigma0 must be > 0"),
-    ("sigma0", -10.0, "friction.arm.sigma0 must be > 0"),
-    ("sigma1", -1.0, "friction.arm.sigma1"),
-    ("static_pos", 0.005, "friction.arm.static_pos must be >= the Coulomb level"),
-    ("stribeck_velocity", 0.0, "friction.arm.stribeck_velocity"),
-    ("regularization_velocity", -1e-3, "friction.arm.regularization_velocity"),
-    ("model", "coulomb", "friction.arm.model"),
-])
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("coulomb_pos", -0.01, "friction.arm.coulomb_pos"),
+        ("coulomb_neg", float("nan"), "friction.arm.coulomb_neg"),
+        ("viscous", -1e-3, "friction.arm.viscous"),
+        ("sigma0", 0.0, "friction.arm.sigma0 must be > 0"),
+        ("sigma0", -10.0, "friction.arm.sigma0 must be > 0"),
+        ("sigma1", -1.0, "friction.arm.sigma1"),
+        ("static_pos", 0.005, "friction.arm.static_pos must be >= the Coulomb level"),
+        ("stribeck_velocity", 0.0, "friction.arm.stribeck_velocity"),
+        ("regularization_velocity", -1e-3, "friction.arm.regularization_velocity"),
+        ("model", "coulomb", "friction.arm.model"),
+    ],
+)
 def test_validate_names_the_non_physical_field(field, value, message):
     arm = JointFrictionParameters(**{"model": "lugre", "coulomb_pos": 0.012, "coulomb_neg": 0.018, field: value})
     with pytest.raises(ConfigError, match=message.replace(".", r"\.")):
@@ -229,8 +277,10 @@ def test_validate_names_the_non_physical_field(field, value, message):
 def test_dahl_needs_positive_coulomb_levels_but_static_friction_may_be_purely_viscous():
     with pytest.raises(ConfigError, match=r"friction\.pendulum\.coulomb_neg must be > 0 for the dahl model"):
         FrictionParameters(pendulum=JointFrictionParameters.dahl(0.01, 0.0, sigma0=10.0)).validate()
-    FrictionParameters(arm=JointFrictionParameters(model="static", viscous=1e-3),
-                       pendulum=JointFrictionParameters(model="static", sigma0=-1.0)).validate()
+    FrictionParameters(
+        arm=JointFrictionParameters(model="static", viscous=1e-3),
+        pendulum=JointFrictionParameters(model="static", sigma0=-1.0),
+    ).validate()
 
 
 def linearize_upright(friction: FrictionParameters):
@@ -254,7 +304,8 @@ def test_linearize_through_static_friction_adds_damping_on_the_velocity_columns(
     b_theta, b_phi, v_reg = 2e-4, 3e-3, 0.5
     friction = FrictionParameters(
         arm=JointFrictionParameters.coulomb(coulomb, b_phi, regularization_velocity=v_reg),
-        pendulum=JointFrictionParameters.coulomb(coulomb / 2, b_theta, regularization_velocity=v_reg))
+        pendulum=JointFrictionParameters.coulomb(coulomb / 2, b_theta, regularization_velocity=v_reg),
+    )
     A, B = linearize_upright(friction)
     A0, B_F = linearized_upright(RIG)
     damping = np.diag([b_theta + coulomb / 2 / v_reg, b_phi + coulomb / v_reg])
@@ -270,8 +321,9 @@ def test_linearize_through_bristle_friction_sees_the_presliding_spring(model):
     spring of stiffness sigma0 and a damper sigma1 + sigma2 (zero sigma1 for Dahl) on the arm, acting through
     the arm-torque column of B_F."""
     sigma0, sigma1, sigma2 = 10.0, 2e-3, 1e-4
-    arm = JointFrictionParameters(model=model, coulomb_pos=0.012, coulomb_neg=0.018, sigma0=sigma0,
-                                  sigma1=sigma1, viscous=sigma2)
+    arm = JointFrictionParameters(
+        model=model, coulomb_pos=0.012, coulomb_neg=0.018, sigma0=sigma0, sigma1=sigma1, viscous=sigma2
+    )
     A, _ = linearize_upright(FrictionParameters(arm=arm))
     A0, B_F = linearized_upright(RIG)
     expected = np.zeros((5, 5))
@@ -287,15 +339,29 @@ velocities = st.floats(-100.0, 100.0, allow_nan=False)
 
 
 @settings(max_examples=25, deadline=None)
-@given(coulomb_pos=levels, coulomb_neg=levels, stribeck_extra=st.tuples(levels, levels),
-       stribeck_velocity=st.floats(1e-3, 1.0), viscous=levels, regularization_velocity=st.floats(1e-5, 0.1),
-       v=velocities, v_array=st.lists(velocities, min_size=1, max_size=8))
-def test_static_friction_never_injects_energy(coulomb_pos, coulomb_neg, stribeck_extra, stribeck_velocity, viscous,
-                                               regularization_velocity, v, v_array):
-    p = JointFrictionParameters(model="static", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg,
-                                static_pos=coulomb_pos + stribeck_extra[0], static_neg=coulomb_neg + stribeck_extra[1],
-                                stribeck_velocity=stribeck_velocity, viscous=viscous,
-                                regularization_velocity=regularization_velocity)
+@given(
+    coulomb_pos=levels,
+    coulomb_neg=levels,
+    stribeck_extra=st.tuples(levels, levels),
+    stribeck_velocity=st.floats(1e-3, 1.0),
+    viscous=levels,
+    regularization_velocity=st.floats(1e-5, 0.1),
+    v=velocities,
+    v_array=st.lists(velocities, min_size=1, max_size=8),
+)
+def test_static_friction_never_injects_energy(
+    coulomb_pos, coulomb_neg, stribeck_extra, stribeck_velocity, viscous, regularization_velocity, v, v_array
+):
+    p = JointFrictionParameters(
+        model="static",
+        coulomb_pos=coulomb_pos,
+        coulomb_neg=coulomb_neg,
+        static_pos=coulomb_pos + stribeck_extra[0],
+        static_neg=coulomb_neg + stribeck_extra[1],
+        stribeck_velocity=stribeck_velocity,
+        viscous=viscous,
+        regularization_velocity=regularization_velocity,
+    )
     p.validate()
     assert static_friction_torque(v, p) * v <= 0.0
     v_array = np.array(v_array)
@@ -303,18 +369,37 @@ def test_static_friction_never_injects_energy(coulomb_pos, coulomb_neg, stribeck
     bound = max(p.static_levels) + viscous * np.abs(v_array)
     assert np.all(np.abs(static_friction_torque(v_array, p)) <= bound + 1e-15)
     # The array path (used by the diagnosis surrogate) agrees with the scalar path (used by the Drake system).
-    np.testing.assert_allclose(static_friction_torque(v_array, p),
-                               [static_friction_torque(float(u), p) for u in v_array], rtol=1e-12, atol=1e-300)
-    lugre = dataclasses.replace(p, model="lugre", coulomb_pos=coulomb_pos + 1e-3, coulomb_neg=coulomb_neg + 2e-3,
-                                static_pos=None, static_neg=None, sigma1=1e-3)
+    np.testing.assert_allclose(
+        static_friction_torque(v_array, p),
+        [static_friction_torque(float(u), p) for u in v_array],
+        rtol=1e-12,
+        atol=1e-300,
+    )
+    lugre = dataclasses.replace(
+        p,
+        model="lugre",
+        coulomb_pos=coulomb_pos + 1e-3,
+        coulomb_neg=coulomb_neg + 2e-3,
+        static_pos=None,
+        static_neg=None,
+        sigma1=1e-3,
+    )
     z = 0.5 * v_array * 1e-3
-    np.testing.assert_allclose(bristle_derivative(z, v_array, lugre),
-                               [bristle_derivative(zi, float(u), lugre) for zi, u in zip(z, v_array)], rtol=1e-12)
+    np.testing.assert_allclose(
+        bristle_derivative(z, v_array, lugre),
+        [bristle_derivative(zi, float(u), lugre) for zi, u in zip(z, v_array)],
+        rtol=1e-12,
+    )
 
 
 @settings(max_examples=25, deadline=None)
-@given(z0=st.floats(-1.0, 1.0), v=velocities, dt=st.tuples(st.floats(0.0, 1.0), st.floats(0.0, 1.0)),
-       sigma0=st.floats(0.1, 1e4), coulomb_level=st.floats(1e-4, 1.0))
+@given(
+    z0=st.floats(-1.0, 1.0),
+    v=velocities,
+    dt=st.tuples(st.floats(0.0, 1.0), st.floats(0.0, 1.0)),
+    sigma0=st.floats(0.1, 1e4),
+    coulomb_level=st.floats(1e-4, 1.0),
+)
 def test_dahl_exact_step_is_bounded_and_is_a_flow(z0, v, dt, sigma0, coulomb_level):
     """|z| never exceeds max(|z0|, Fc / sigma0) at any step size, and two steps equal one step over their sum
     (an exact solution composes)."""
@@ -335,8 +420,14 @@ def bristle_dissipation(z, v, p: JointFrictionParameters) -> float:
 
 
 @settings(max_examples=25, deadline=None)
-@given(coulomb_pos=positive_levels, coulomb_neg=positive_levels, sigma0=st.floats(0.1, 1e4), viscous=levels,
-       z=st.floats(-1.0, 1.0, allow_subnormal=False), v=normal_velocities)
+@given(
+    coulomb_pos=positive_levels,
+    coulomb_neg=positive_levels,
+    sigma0=st.floats(0.1, 1e4),
+    viscous=levels,
+    z=st.floats(-1.0, 1.0, allow_subnormal=False),
+    v=normal_velocities,
+)
 def test_dahl_friction_never_injects_energy_at_any_bristle_state(coulomb_pos, coulomb_neg, sigma0, viscous, z, v):
     """Dahl (Eq. 7): F v + sigma0 z dz/dt = -b v^2 - sigma0^2 |v| z^2 / Fc <= 0 for every z and v."""
     p = JointFrictionParameters.dahl(coulomb_pos, coulomb_neg, sigma0=sigma0, viscous=viscous)
@@ -349,19 +440,35 @@ def test_dahl_friction_never_injects_energy_at_any_bristle_state(coulomb_pos, co
 
 
 @settings(max_examples=25, deadline=None)
-@given(coulomb=st.tuples(positive_levels, positive_levels), stribeck_extra=st.tuples(levels, levels),
-       stribeck_velocity=st.floats(1e-3, 1.0), sigma0=st.floats(0.1, 1e4), sigma1=st.floats(1e-6, 1e-1),
-       viscous=levels, speed=st.floats(1e-3, 100.0), direction=st.sampled_from([1.0, -1.0]), z_share=st.floats(-1, 1))
-def test_lugre_friction_never_injects_energy_within_its_velocity_bound(coulomb, stribeck_extra, stribeck_velocity,
-                                                                       sigma0, sigma1, viscous, speed, direction,
-                                                                       z_share):
+@given(
+    coulomb=st.tuples(positive_levels, positive_levels),
+    stribeck_extra=st.tuples(levels, levels),
+    stribeck_velocity=st.floats(1e-3, 1.0),
+    sigma0=st.floats(0.1, 1e4),
+    sigma1=st.floats(1e-6, 1e-1),
+    viscous=levels,
+    speed=st.floats(1e-3, 100.0),
+    direction=st.sampled_from([1.0, -1.0]),
+    z_share=st.floats(-1, 1),
+)
+def test_lugre_friction_never_injects_energy_within_its_velocity_bound(
+    coulomb, stribeck_extra, stribeck_velocity, sigma0, sigma1, viscous, speed, direction, z_share
+):
     """LuGre: F v + sigma0 z dz/dt = -(sigma1 + sigma2) v^2 + sigma1 sigma0 |v| v z / g - sigma0^2 |v| z^2 / g, a
     concave quadratic in z whose maximum sigma1^2 |v|^3 / (4 g) - (sigma1 + sigma2) v^2 is <= 0 exactly when
     |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2 (the bound friction.py states). Checked at the maximising z (an
     energy-injecting bristle state exists beyond the bound) and at a random z (none within it)."""
-    p = JointFrictionParameters(model="lugre", coulomb_pos=coulomb[0], coulomb_neg=coulomb[1],
-                                static_pos=coulomb[0] + stribeck_extra[0], static_neg=coulomb[1] + stribeck_extra[1],
-                                stribeck_velocity=stribeck_velocity, sigma0=sigma0, sigma1=sigma1, viscous=viscous)
+    p = JointFrictionParameters(
+        model="lugre",
+        coulomb_pos=coulomb[0],
+        coulomb_neg=coulomb[1],
+        static_pos=coulomb[0] + stribeck_extra[0],
+        static_neg=coulomb[1] + stribeck_extra[1],
+        stribeck_velocity=stribeck_velocity,
+        sigma0=sigma0,
+        sigma1=sigma1,
+        viscous=viscous,
+    )
     p.validate()
     v = direction * speed
     g = float(stribeck_curve(v, p))
@@ -389,14 +496,18 @@ def test_a_stiff_bristle_reversing_under_a_coarse_first_step_stays_in_its_range(
     builder = DiagramBuilder()
     plant, _ = add_furuta_plant(builder, "qube_servo2", with_scene_graph=False)
     level = 1.5e-3
-    friction = builder.AddSystem(JointFriction(plant, FrictionParameters(
-        arm=JointFrictionParameters.dahl(level, level, sigma0=level / presliding))))
+    friction = builder.AddSystem(
+        JointFriction(
+            plant, FrictionParameters(arm=JointFrictionParameters.dahl(level, level, sigma0=level / presliding))
+        )
+    )
     builder.Connect(plant.get_state_output_port(), friction.get_input_port())
     builder.Connect(friction.GetOutputPort("generalized_force_Nm"), plant.get_applied_generalized_force_input_port())
     diagram = builder.Build()
     simulator = Simulator(diagram)
-    ApplySimulatorConfig(SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3),
-                         simulator)
+    ApplySimulatorConfig(
+        SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3), simulator
+    )
     simulator.get_mutable_integrator().request_initial_step_size_target(1e-3)
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)

@@ -30,16 +30,26 @@ def model_with_every_effect() -> Model:
     a dead zone and a torque gain error (all but the delay, which the replay applies as a time shift)."""
     return Model.from_rig(RIG).replace(
         arm_friction=JointFrictionParameters.dahl(0.10 * MGL, 0.15 * MGL, sigma0=0.10 * MGL / 2e-3),
-        pendulum_friction=JointFrictionParameters.coulomb(0.004 * MGL, viscous=2e-6,
-                                                          regularization_velocity=REGULARIZATION_VELOCITY),
-        spring_stiffness=0.25 * MGL, spring_equilibrium=0.05, lag=0.006, deadzone=0.001, gain=1.2)
+        pendulum_friction=JointFrictionParameters.coulomb(
+            0.004 * MGL, viscous=2e-6, regularization_velocity=REGULARIZATION_VELOCITY
+        ),
+        spring_stiffness=0.25 * MGL,
+        spring_equilibrium=0.05,
+        lag=0.006,
+        deadzone=0.001,
+        gain=1.2,
+    )
 
 
 def simulate_world_config(model: Model):
     """The simulate config the diagnosis writes for ``model``, open loop under an excitation torque."""
     config = model_config(RIG, model)
-    return dataclasses.replace(config, duration=0.5, excitation=ExcitationConfig(torque_rms=0.3 * MGL),
-                               controller=dataclasses.replace(config.controller, mode="open_loop"))
+    return dataclasses.replace(
+        config,
+        duration=0.5,
+        excitation=ExcitationConfig(torque_rms=0.3 * MGL),
+        controller=dataclasses.replace(config.controller, mode="open_loop"),
+    )
 
 
 def test_the_fitted_config_states_the_models_effects():
@@ -61,14 +71,18 @@ def test_the_replay_and_the_simulate_diagram_have_the_same_dynamics(seed):
 
     built = build_furuta_diagram(config)
     simulated = built.diagram.CreateDefaultContext()
-    built.plant.SetPositionsAndVelocities(built.plant.GetMyMutableContextFromRoot(simulated),
-                                          plant_to_paper_permutation(built.plant).T @ x)
-    built.diagram.GetSubsystemByName("friction").GetMyMutableContextFromRoot(simulated) \
-        .get_mutable_continuous_state_vector().SetFromVector([z])
-    built.diagram.GetSubsystemByName("actuator_lag").GetMyMutableContextFromRoot(simulated) \
-        .get_mutable_continuous_state_vector().SetFromVector([lag])
-    built.diagram.GetSubsystemByName("torque_excitation_hold").GetMyMutableContextFromRoot(simulated) \
-        .SetDiscreteState([command])
+    built.plant.SetPositionsAndVelocities(
+        built.plant.GetMyMutableContextFromRoot(simulated), plant_to_paper_permutation(built.plant).T @ x
+    )
+    built.diagram.GetSubsystemByName("friction").GetMyMutableContextFromRoot(
+        simulated
+    ).get_mutable_continuous_state_vector().SetFromVector([z])
+    built.diagram.GetSubsystemByName("actuator_lag").GetMyMutableContextFromRoot(
+        simulated
+    ).get_mutable_continuous_state_vector().SetFromVector([lag])
+    built.diagram.GetSubsystemByName("torque_excitation_hold").GetMyMutableContextFromRoot(simulated).SetDiscreteState(
+        [command]
+    )
 
     time = np.arange(100) * PERIOD
     replayer = WindowReplayer(model, RIG, time, np.full(time.size, command))
@@ -98,10 +112,21 @@ def test_the_replay_follows_the_simulate_world_on_the_same_torque_sequence():
     replayed_final = replayer.P @ replayer.plant.GetPositionsAndVelocities(replayer.plant_context)
 
     builder = DiagramBuilder()
-    world = add_furuta_world(builder, rig=config.rig, friction=config.friction, actuator=config.actuator,
-                             disturbance=config.disturbance, control_period=config.control_period)
-    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
-        np.append(time, time[-1] + PERIOD), np.append(command, command[-1]).reshape(1, -1))))
+    world = add_furuta_world(
+        builder,
+        rig=config.rig,
+        friction=config.friction,
+        actuator=config.actuator,
+        disturbance=config.disturbance,
+        control_period=config.control_period,
+    )
+    source = builder.AddSystem(
+        TrajectorySource(
+            PiecewisePolynomial.ZeroOrderHold(
+                np.append(time, time[-1] + PERIOD), np.append(command, command[-1]).reshape(1, -1)
+            )
+        )
+    )
     builder.Connect(source.get_output_port(), world.arm_torque_input)
     diagram = builder.Build()
     simulator = Simulator(diagram)
@@ -109,8 +134,9 @@ def test_the_replay_follows_the_simulate_world_on_the_same_torque_sequence():
     context = simulator.get_mutable_context()
     world.plant.SetPositionsAndVelocities(world.plant.GetMyMutableContextFromRoot(context), world.to_paper.T @ x0)
     world.friction.GetMyMutableContextFromRoot(context).get_mutable_continuous_state_vector().SetFromVector([z0])
-    diagram.GetSubsystemByName("actuator_lag").GetMyMutableContextFromRoot(context) \
-        .get_mutable_continuous_state_vector().SetFromVector([command[0]])
+    diagram.GetSubsystemByName("actuator_lag").GetMyMutableContextFromRoot(
+        context
+    ).get_mutable_continuous_state_vector().SetFromVector([command[0]])
     plant_context = world.plant.GetMyContextFromRoot(context)
     simulated = [x0[:2]]
     for t in time[1:]:
@@ -119,5 +145,6 @@ def test_the_replay_follows_the_simulate_world_on_the_same_torque_sequence():
 
     assert np.ptp(np.asarray(simulated)[:, 0]) > 0.1  # a real swing, not a rest
     np.testing.assert_allclose(replayed, simulated, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(replayed_final, world.to_paper @ world.plant.GetPositionsAndVelocities(plant_context),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        replayed_final, world.to_paper @ world.plant.GetPositionsAndVelocities(plant_context), rtol=0, atol=1e-12
+    )

@@ -11,14 +11,23 @@ from pydrake.common import RandomDistribution
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (
-    ConstantVectorSource, Gain, LinearSystem, LogVectorOutput, MatrixGain, RandomSource,
+    ConstantVectorSource,
+    Gain,
+    LinearSystem,
+    LogVectorOutput,
+    MatrixGain,
+    RandomSource,
 )
 from scipy.linalg import expm
 from scipy.signal import place_poles
 
 from furuta_drake.errors import ConfigError
 from furuta_drake.observers.hg import (
-    HighGainObserver, HighGainParameters, high_gain_eigenvalues, high_gain_error_matrix, high_gain_matrix,
+    HighGainObserver,
+    HighGainParameters,
+    high_gain_eigenvalues,
+    high_gain_error_matrix,
+    high_gain_matrix,
 )
 from furuta_drake.rig import linearized_upright, lund_rig
 
@@ -51,8 +60,11 @@ def observe_closed_loop(params: HighGainParameters, x0, x_hat0, duration: float)
     plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
     hg.discrete.GetMyMutableContextFromRoot(context).SetDiscreteState(x_hat0)
     Simulator(diagram, context).AdvanceTo(duration)
-    return (state_log.FindLog(context).sample_times(), state_log.FindLog(context).data().T,
-            estimate_log.FindLog(context).data().T)
+    return (
+        state_log.FindLog(context).sample_times(),
+        state_log.FindLog(context).data().T,
+        estimate_log.FindLog(context).data().T,
+    )
 
 
 @settings(max_examples=10, deadline=None)
@@ -129,9 +141,17 @@ def test_discretisation_is_the_exact_zero_order_hold_of_eq_4():
     assert hg.get_output_port(0).get_name() == "state_estimate"
 
 
-@pytest.mark.parametrize("field, value", [
-    ("a1", 0.0), ("a2", -1.0), ("a1", float("nan")), ("eps_theta", 0.0), ("eps_phi", -0.01), ("period", 0.0),
-])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("a1", 0.0),
+        ("a2", -1.0),
+        ("a1", float("nan")),
+        ("eps_theta", 0.0),
+        ("eps_phi", -0.01),
+        ("period", 0.0),
+    ],
+)
 def test_invalid_parameters_are_rejected_naming_the_field(field, value):
     params = HighGainParameters(**{field: value})
     with pytest.raises(ConfigError, match=rf"observers\.hg\.{field}"):

@@ -7,9 +7,10 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
-
 from conftest import QUBE_DATA
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_writers import write_log
 from furuta_drake.diagnosis.logs import load_log, load_logs, load_rig
@@ -27,8 +28,13 @@ def read_csv(path) -> dict[str, np.ndarray]:
 
 def quanser_columns(raw: dict[str, np.ndarray], unit=np.degrees) -> dict[str, np.ndarray]:
     """The run with Quanser's column names (arm 'theta', pendulum 'alpha'), the angles through ``unit``."""
-    return {"t": raw["time"], "vm": raw["voltage"], "alpha": unit(raw["theta"]), "theta": unit(raw["phi"]),
-            "current": np.zeros_like(raw["time"])}
+    return {
+        "t": raw["time"],
+        "vm": raw["voltage"],
+        "alpha": unit(raw["theta"]),
+        "theta": unit(raw["phi"]),
+        "current": np.zeros_like(raw["time"]),
+    }
 
 
 def arrays(log) -> list[np.ndarray]:
@@ -54,14 +60,18 @@ def test_renamed_degrees_csv_reads_the_same_run(tmp_path, rig, original):
     assert log.ignored_columns == ("current",)
 
 
-@pytest.mark.parametrize("suffix, log_format", [
-    (".parquet", LogFormat.parse("time=t,theta=alpha,phi=theta,voltage=vm")),
-    (".mcap", LogFormat.parse("theta=alpha,phi=theta,voltage=vm", topic="/qube/log")),  # time: log_time
-    (".mcap", LogFormat.parse("time=t,theta=alpha,phi=theta,voltage=vm")),  # time: a field; the only channel
-])
+@pytest.mark.parametrize(
+    "suffix, log_format",
+    [
+        (".parquet", LogFormat.parse("time=t,theta=alpha,phi=theta,voltage=vm")),
+        (".mcap", LogFormat.parse("theta=alpha,phi=theta,voltage=vm", topic="/qube/log")),  # time: log_time
+        (".mcap", LogFormat.parse("time=t,theta=alpha,phi=theta,voltage=vm")),  # time: a field; the only channel
+    ],
+)
 def test_parquet_and_mcap_read_the_same_run_exactly(tmp_path, rig, original, suffix, log_format):
-    path = write_log(tmp_path / f"run{suffix}", quanser_columns(read_csv(SWINGUP), unit=lambda a: a),
-                     topic="/qube/log", time="t")
+    path = write_log(
+        tmp_path / f"run{suffix}", quanser_columns(read_csv(SWINGUP), unit=lambda a: a), topic="/qube/log", time="t"
+    )
     log = load_log(path, rig, QUBE_RIG, log_format)
     for got, want in zip(arrays(log), arrays(original)):
         np.testing.assert_array_equal(got, want)
@@ -107,23 +117,37 @@ def test_a_log_that_matches_no_mapping_lists_its_columns_and_the_expected_ones(t
     assert str(err.value) == (
         f"{path}:1: missing column 'time' (the file has: t, vm, alpha, theta, current; expected 'time', "
         f"'alpha' (theta), 'theta' (phi) and 'torque' or 'vm' (voltage); mapping in force: --columns "
-        f"theta=alpha,phi=theta,voltage=vm --angle-unit deg; --columns maps other names)")
-    with pytest.raises(LogError, match=r"no input column: expected 'torque' \[N m\] or 'voltage' \[V\] \(the file "
-                                       r"has: t, vm, alpha, theta, current; mapping in force: --columns time=t"):
+        f"theta=alpha,phi=theta,voltage=vm --angle-unit deg; --columns maps other names)"
+    )
+    with pytest.raises(
+        LogError,
+        match=r"no input column: expected 'torque' \[N m\] or 'voltage' \[V\] \(the file "
+        r"has: t, vm, alpha, theta, current; mapping in force: --columns time=t",
+    ):
         load_log(path, rig, QUBE_RIG, LogFormat.parse("time=t,theta=alpha,phi=theta"))
 
 
-@pytest.mark.parametrize("columns, unit, message", [
-    ("thta=alpha", None, "--columns: unknown column name 'thta' (furuta-drake's names: time, theta, phi, torque, "
-                         "voltage; write NAME=FILE_COLUMN)"),
-    ("theta=alpha,theta=a2", None, "--columns: 'theta' is mapped twice ('alpha' and 'a2')"),
-    ("theta=alpha,phi=alpha", None, "--columns: the file's column 'alpha' is mapped to both 'theta' and 'phi'"),
-    ("phi=theta", None, "--columns: the file's column 'theta' is read as 'phi', so 'theta' needs a column of its "
-                        "own (theta=...)"),
-    ("theta", None, "--columns: 'theta' is not NAME=FILE_COLUMN (e.g. theta=alpha)"),
-    ("theta=", None, "--columns: theta= names no file column"),
-    (None, "grad", "--angle-unit: unknown unit 'grad' (rad, deg or counts)"),
-])
+@pytest.mark.parametrize(
+    "columns, unit, message",
+    [
+        (
+            "thta=alpha",
+            None,
+            "--columns: unknown column name 'thta' (furuta-drake's names: time, theta, phi, torque, "
+            "voltage; write NAME=FILE_COLUMN)",
+        ),
+        ("theta=alpha,theta=a2", None, "--columns: 'theta' is mapped twice ('alpha' and 'a2')"),
+        ("theta=alpha,phi=alpha", None, "--columns: the file's column 'alpha' is mapped to both 'theta' and 'phi'"),
+        (
+            "phi=theta",
+            None,
+            "--columns: the file's column 'theta' is read as 'phi', so 'theta' needs a column of its own (theta=...)",
+        ),
+        ("theta", None, "--columns: 'theta' is not NAME=FILE_COLUMN (e.g. theta=alpha)"),
+        ("theta=", None, "--columns: theta= names no file column"),
+        (None, "grad", "--angle-unit: unknown unit 'grad' (rad, deg or counts)"),
+    ],
+)
 def test_a_malformed_format_names_the_flag(columns, unit, message):
     with pytest.raises(ConfigError) as err:
         LogFormat.parse(columns, unit)
@@ -143,16 +167,22 @@ def test_mcap_channel_choice_and_encoding(tmp_path, rig):
         writer.finish()
     with pytest.raises(LogError, match=r"two\.mcap: 2 channels \(/camera, /qube\): name the run's with --topic"):
         load_log(path, rig, QUBE_RIG)
-    with pytest.raises(LogError, match=r"two\.mcap: no channel with topic '/qbe' \(--topic\); the file has: "
-                                       r"/camera, /qube"):
+    with pytest.raises(
+        LogError,
+        match=r"two\.mcap: no channel with topic '/qbe' \(--topic\); the file has: "
+        r"/camera, /qube",
+    ):
         load_log(path, rig, QUBE_RIG, LogFormat(topic="/qbe"))
     with pytest.raises(LogError, match=r"topic '/qube': messages are 'cdr'-encoded; furuta-drake reads JSON"):
         load_log(path, rig, QUBE_RIG, LogFormat(topic="/qube"))
 
 
 @settings(max_examples=25, deadline=None)
-@given(suffix=st.sampled_from([".parquet", ".mcap"]), magic=st.sampled_from([b"", b"PAR1", b"\x89MCAP0\r\n"]),
-       data=st.binary(max_size=300))
+@given(
+    suffix=st.sampled_from([".parquet", ".mcap"]),
+    magic=st.sampled_from([b"", b"PAR1", b"\x89MCAP0\r\n"]),
+    data=st.binary(max_size=300),
+)
 def test_random_bytes_under_a_parquet_or_mcap_name_raise_log_error(tmp_path_factory, rig, suffix, magic, data):
     path = tmp_path_factory.mktemp("log") / f"run{suffix}"
     path.write_bytes(magic + data + magic)
@@ -192,17 +222,37 @@ def test_diagnose_on_a_renamed_degrees_copy_gives_the_same_report(tmp_path):
         raw = {name: values[raw["time"] >= first] for name, values in raw.items()}  # the chirp's last 4 s
         degrees = {name: np.degrees(raw[name]) for name in ("theta", "phi")}
         lab.append(write_log(tmp_path / "lab" / path.name, quanser_columns(raw)))
-        ref.append(write_log(tmp_path / "ref" / path.name, dict(raw, theta=degrees["theta"] * scale,
-                                                                  phi=degrees["phi"] * scale)))
+        ref.append(
+            write_log(
+                tmp_path / "ref" / path.name, dict(raw, theta=degrees["theta"] * scale, phi=degrees["phi"] * scale)
+            )
+        )
     common = ["diagnose", "--rig", str(QUBE_RIG), "--workers", "1", "--train"]
     assert main(common + [str(p) for p in ref] + ["--out", str(tmp_path / "a")]) == 0
-    assert main(common + [str(p) for p in lab] + ["--columns", "time=t,theta=alpha,phi=theta,voltage=vm",
-                                                  "--angle-unit", "deg", "--out", str(tmp_path / "b")]) == 0
+    assert (
+        main(
+            common
+            + [str(p) for p in lab]
+            + [
+                "--columns",
+                "time=t,theta=alpha,phi=theta,voltage=vm",
+                "--angle-unit",
+                "deg",
+                "--out",
+                str(tmp_path / "b"),
+            ]
+        )
+        == 0
+    )
     a, b = (json.loads((tmp_path / d / "report.json").read_text()) for d in ("a", "b"))
     assert any("extra" in note for note in b.pop("notes")) and a.pop("notes") == []  # the lab's extra column
     assert a == b
-    assert sorted(p.name for p in (tmp_path / "a").glob("*.png")) == \
-        sorted(p.name for p in (tmp_path / "b").glob("*.png"))
+    assert sorted(p.name for p in (tmp_path / "a").glob("*.png")) == sorted(
+        p.name for p in (tmp_path / "b").glob("*.png")
+    )
     record = yaml.safe_load((tmp_path / "b" / "config.yaml").read_text())["options"]["log_format"]
-    assert record == {"columns": {"time": "t", "theta": "alpha", "phi": "theta", "torque": "torque",
-                                  "voltage": "vm"}, "angle_unit": "deg", "topic": None}
+    assert record == {
+        "columns": {"time": "t", "theta": "alpha", "phi": "theta", "torque": "torque", "voltage": "vm"},
+        "angle_unit": "deg",
+        "topic": None,
+    }

@@ -18,8 +18,16 @@ from furuta_drake.studies import lugre_observer_study, pendulum_observer_study
 
 PERIOD = 1e-3  # [s] the Lund rig's control period
 
-LUGRE = dict(coulomb_pos=0.012, coulomb_neg=0.018, static_pos=0.02, static_neg=0.03, stribeck_velocity=0.1,
-             sigma0=10.0, sigma1=0.1, sigma2=0.002)
+LUGRE = dict(
+    coulomb_pos=0.012,
+    coulomb_neg=0.018,
+    static_pos=0.02,
+    static_neg=0.03,
+    stribeck_velocity=0.1,
+    sigma0=10.0,
+    sigma1=0.1,
+    sigma2=0.002,
+)
 
 
 def settle(params: DahlObserverParameters, velocity: float, joint: str = "arm", steps: int = 20000):
@@ -41,7 +49,7 @@ def test_lugre_observer_settles_on_the_stribeck_curve(speed, positive):
     F_hat = -(g(v) sign(v) + sigma2 v), g(v) = Fc + (Fs - Fc) exp(-(v/vs)^2) of v's direction."""
     v = speed if positive else -speed
     coulomb, static = (0.012, 0.02) if positive else (0.018, 0.03)
-    g = coulomb + (static - coulomb) * math.exp(-(speed / 0.1) ** 2)
+    g = coulomb + (static - coulomb) * math.exp(-((speed / 0.1) ** 2))
     friction = settle(DahlObserverParameters(**LUGRE), v, steps=int(60 * g / (10.0 * speed * 1e-3)) + 10)
     assert friction == pytest.approx(-(math.copysign(g, v) + 0.002 * v), rel=1e-6)
 
@@ -60,7 +68,7 @@ def test_pendulum_observer_has_pendulum_ports_and_no_injection():
 
 def test_vfe_pendulum_friction_enters_through_the_pendulum_column():
     """Eq. 10: F = [F_theta, F_phi] enters through B_F's columns; the new input's column is B_F's first."""
-    from furuta_drake.observers.vfe import continuous_vfe_observer, VfeParameters
+    from furuta_drake.observers.vfe import VfeParameters, continuous_vfe_observer
     from furuta_drake.rig import linearized_upright
 
     A, B_F = linearized_upright(lund_rig())

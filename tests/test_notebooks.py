@@ -3,7 +3,6 @@
 import jupytext
 import nbclient
 import pytest
-
 from conftest import REPO
 
 NOTEBOOKS = sorted((REPO / "notebooks").glob("*.py"))
@@ -19,8 +18,9 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.chdir(tmp_path)
     notebook = jupytext.read(path)
-    client = nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
-                                     resources={"metadata": {"path": str(tmp_path)}})
+    client = nbclient.NotebookClient(
+        notebook, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    )
     client.execute()  # raises CellExecutionError, with the cell and traceback, when any cell fails
     executed = [cell for cell in notebook.cells if cell.cell_type == "code"]
     assert executed and all(cell.get("execution_count") for cell in executed)

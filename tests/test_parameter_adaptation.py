@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver, DahlObserverParameters
-from furuta_drake.observers.parameter_adaptation import S_FC_POS, S_SIGMA0, Z, ParameterAdaptationParameters
+from furuta_drake.observers.parameter_adaptation import S_FC_POS, S_SIGMA0, ParameterAdaptationParameters, Z
 from furuta_drake.observers.vfe import VfeParameters, friction_error_response, vfe_gains
 from furuta_drake.rig import linearized_upright, lund_rig
 from furuta_drake.studies import parameter_adaptation_study
@@ -78,8 +78,11 @@ def test_matched_model_does_not_drift():
     params = DahlObserverParameters(rho=None)
     velocities = 0.5 * np.sin(np.linspace(0, 6 * math.pi, 3000))
     system, context = run(params, ParameterAdaptationParameters(enable_time=0.0), velocities, error=0.0)
-    np.testing.assert_allclose(system.GetOutputPort("dahl_parameters").Eval(context),
-                               [params.coulomb_pos, params.coulomb_neg, params.sigma0], rtol=1e-14)
+    np.testing.assert_allclose(
+        system.GetOutputPort("dahl_parameters").Eval(context),
+        [params.coulomb_pos, params.coulomb_neg, params.sigma0],
+        rtol=1e-14,
+    )
 
 
 def test_two_parameter_law_recovers_fc_and_sigma0_where_one_gain_cannot():
@@ -93,6 +96,9 @@ def test_two_parameter_law_recovers_fc_and_sigma0_where_one_gain_cannot():
     # Eq. 18 scales Fc and sigma0 together: from (0.75 Fc, 0.5 sigma0) its K_sigma sigma0 ends near
     # 0.5 / 0.75 = 0.67 of the truth, from (1.3 Fc, 2 sigma0) near 2 / 1.3 = 1.54 or worse: > 30 % off either way.
     for start in parameter_adaptation_study.STARTS:
-        worst = max(abs(row["paper"] / row["true"] - 1.0) for row in study.rows
-                    if row["metric"].startswith("sigma0") and start in row["metric"])
+        worst = max(
+            abs(row["paper"] / row["true"] - 1.0)
+            for row in study.rows
+            if row["metric"].startswith("sigma0") and start in row["metric"]
+        )
         assert worst > 0.30

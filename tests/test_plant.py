@@ -24,12 +24,17 @@ def drake_linearization(rig, theta0=0.0):
     plant.get_applied_generalized_force_input_port().FixValue(context, np.zeros(2))
     theta, phi = joint_indices(plant)
     order = [theta, phi, 2 + theta, 2 + phi]
-    arm_lin = Linearize(plant, context, plant.get_actuation_input_port().get_index(),
-                        plant.get_state_output_port().get_index())
+    arm_lin = Linearize(
+        plant, context, plant.get_actuation_input_port().get_index(), plant.get_state_output_port().get_index()
+    )
     A = arm_lin.A()[np.ix_(order, order)]
     B_arm = arm_lin.B()[order, 0]
-    force_lin = Linearize(plant, context, plant.get_applied_generalized_force_input_port().get_index(),
-                          plant.get_state_output_port().get_index())
+    force_lin = Linearize(
+        plant,
+        context,
+        plant.get_applied_generalized_force_input_port().get_index(),
+        plant.get_state_output_port().get_index(),
+    )
     B_pendulum = force_lin.B()[order, theta]
     return A, B_pendulum, B_arm
 
@@ -86,6 +91,7 @@ def test_hanging_pendulum_frequency_of_the_qube_matches_a_compound_pendulum():
 def test_positive_arm_torque_swings_hanging_pendulum_towards_positive_theta():
     """The sign convention of the logs: hanging, accelerating the arm towards +phi swings the pendulum to +theta."""
     from pydrake.systems.analysis import Simulator
+
     plant = make_furuta_plant("qube_servo2")
     context = plant.CreateDefaultContext()
     theta, phi = joint_indices(plant)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from furuta_drake import reproduce
-from furuta_drake.config import SimulationConfig, ExcitationConfig, dump_config, quanser_swingup_config
+from furuta_drake.config import ExcitationConfig, SimulationConfig, dump_config, quanser_swingup_config
 from furuta_drake.controllers.quanser_swingup import quanser_command
 from furuta_drake.controllers.swingup import catch_time, wrap_angle
 from furuta_drake.data import QUBE_REAL_RIG
@@ -28,8 +28,12 @@ def rig():
 
 @pytest.fixture(scope="module")
 def swingup(rig):
-    config = quanser_swingup_config(SimulationConfig.from_rig(rig), initial_state=[math.pi - 0.006, 0.0, 0.0, 0.0],
-                                    duration=4.0, velocity_filter=FilteredDerivativeParameters(corner=47.0))
+    config = quanser_swingup_config(
+        SimulationConfig.from_rig(rig),
+        initial_state=[math.pi - 0.006, 0.0, 0.0, 0.0],
+        duration=4.0,
+        velocity_filter=FilteredDerivativeParameters(corner=47.0),
+    )
     return config, simulate(config)
 
 
@@ -67,21 +71,32 @@ def test_hanging_observers_follow_a_hanging_run(rig):
     the upright linearisation (gravity of the wrong sign) do not, the model-based VFE least of all."""
     base = SimulationConfig.from_rig(rig)
     config = dataclasses.replace(
-        base, duration=4.0, initial_state=[math.pi, 0.0, 0.0, 0.0],
+        base,
+        duration=4.0,
+        initial_state=[math.pi, 0.0, 0.0, 0.0],
         controller=dataclasses.replace(base.controller, mode="open_loop"),
         excitation=ExcitationConfig(torque_rms=0.0015, frequency_min=0.5, frequency_max=6.0),
-        monitor=dataclasses.replace(base.monitor, theta_bound=None))
+        monitor=dataclasses.replace(base.monitor, theta_bound=None),
+    )
     result = simulate(config)
     assert np.max(np.abs(result.state[:, 0] - math.pi)) < 0.5  # stays in the linear range
     shifted = dataclasses.replace(result, measured=result.measured - [math.pi, 0.0])
-    replay_config = dataclasses.replace(config, initial_state=[0.0, 0.0, 0.0, 0.0], observers=dataclasses.replace(
-        config.observers, start_at_initial_state=True))
+    replay_config = dataclasses.replace(
+        config,
+        initial_state=[0.0, 0.0, 0.0, 0.0],
+        observers=dataclasses.replace(config.observers, start_at_initial_state=True),
+    )
     keep = result.time > 0.5
     truth = result.state[keep, 2:]
     rms = {}
     for equilibrium in ("hanging", "upright"):
-        estimates = reproduce.replay_observers(shifted, replay_config, model=observer_model(rig, equilibrium),
-                                               hg=config.observers.hg, vfe=(config.observers.vfe, None))
+        estimates = reproduce.replay_observers(
+            shifted,
+            replay_config,
+            model=observer_model(rig, equilibrium),
+            hg=config.observers.hg,
+            vfe=(config.observers.vfe, None),
+        )
         for name in ("hg", "vfe"):
             rms[(equilibrium, name)] = np.sqrt(np.mean((estimates[name][keep, 2:] - truth) ** 2, axis=0))
     scale = np.sqrt(np.mean(truth**2, axis=0))

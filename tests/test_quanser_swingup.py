@@ -6,11 +6,19 @@ import math
 import numpy as np
 import pytest
 
-from furuta_drake.controllers.quanser_swingup import (BALANCE, SWING, QuanserSwingUpController,
-                                                      QuanserSwingUpParameters, quanser_command)
+from furuta_drake.controllers.quanser_swingup import (
+    BALANCE,
+    SWING,
+    QuanserSwingUpController,
+    QuanserSwingUpParameters,
+    quanser_command,
+)
 from furuta_drake.errors import ConfigError
-from furuta_drake.observers.filtered_derivative import (FilteredDerivative, FilteredDerivativeParameters,
-                                                        filtered_derivative)
+from furuta_drake.observers.filtered_derivative import (
+    FilteredDerivative,
+    FilteredDerivativeParameters,
+    filtered_derivative,
+)
 
 P = QuanserSwingUpParameters()
 VOLTS_PER_ACCELERATION = 8.4 / 0.042 * 0.095 * 0.085  # R / k_m * m_r * L_r = 1.615 V s^2/m
@@ -63,8 +71,13 @@ def published_law(theta, phi, theta_dot, phi_dot):
     the arm angle th = phi."""
     th, thd, al, ald = phi, phi_dot, (math.pi - theta) % (2 * math.pi), -theta_dot
     if abs(1 + math.cos(al)) < 1 + math.cos(math.pi - math.radians(20.0)):
-        return float(np.clip(np.dot([-2.0, 35.0, -1.5, 3.0], np.array([0.0, math.pi, 0.0, 0.0])
-                                    - np.array([th, al, thd, ald])), -4, 4))
+        return float(
+            np.clip(
+                np.dot([-2.0, 35.0, -1.5, 3.0], np.array([0.0, math.pi, 0.0, 0.0]) - np.array([th, al, thd, ald])),
+                -4,
+                4,
+            )
+        )
     m, length, g = 0.024, 0.129, 9.81
     energy = 0.5 * m * length**2 / 12 * ald**2 + 0.5 * m * g * length * (1 - math.cos(al))
     acceleration = np.clip(50.0 * (energy - 0.025) * np.sign(ald * math.cos(al)) - 0.4 * th, -5, 5)
@@ -73,8 +86,9 @@ def published_law(theta, phi, theta_dot, phi_dot):
 
 def test_package_convention_law_is_the_published_law():
     rng = np.random.default_rng(3)
-    states = np.column_stack([rng.uniform(-7, 7, 400), rng.uniform(-1.5, 1.5, 400), rng.uniform(-15, 15, 400),
-                              rng.uniform(-10, 10, 400)])
+    states = np.column_stack(
+        [rng.uniform(-7, 7, 400), rng.uniform(-1.5, 1.5, 400), rng.uniform(-15, 15, 400), rng.uniform(-10, 10, 400)]
+    )
     states[:100, 0] = rng.uniform(-0.4, 0.4, 100)  # many within the balance window
     voltage, _, _ = quanser_command(P, states)
     np.testing.assert_allclose(voltage, [published_law(*state) for state in states], atol=1e-12)
@@ -86,8 +100,9 @@ def test_drake_block_gives_the_law_with_direct_feedthrough():
     for state in ([0.1, 0.2, 0.5, -1.0], [2.0, -0.5, 4.0, 1.0], [math.pi, 0.1, 0.0, 0.0]):
         block.GetInputPort("state_estimate").FixValue(context, state)
         expected = command(state)
-        got = [block.GetOutputPort(name).Eval(context)[0] for name in ("voltage_V", "swingup_mode",
-                                                                       "pendulum_energy_J")]
+        got = [
+            block.GetOutputPort(name).Eval(context)[0] for name in ("voltage_V", "swingup_mode", "pendulum_energy_J")
+        ]
         assert got == pytest.approx(expected)
     assert block.HasDirectFeedthrough(0, 0)
 
@@ -112,8 +127,13 @@ def test_filtered_derivative_follows_a_ramp_and_the_block_matches_the_arrays():
     velocity = filtered_derivative(angles, h, corner)
     assert velocity[-1, 0] == pytest.approx(0.3, rel=1e-9) and np.all(velocity[0] == 0)
     builder = DiagramBuilder()
-    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(  # held from each sample on
-        np.append(time, time[-1] + h), np.vstack([angles, angles[-1]]).T)))
+    source = builder.AddSystem(
+        TrajectorySource(
+            PiecewisePolynomial.ZeroOrderHold(  # held from each sample on
+                np.append(time, time[-1] + h), np.vstack([angles, angles[-1]]).T
+            )
+        )
+    )
     block = builder.AddSystem(FilteredDerivative(FilteredDerivativeParameters(corner=corner), period=h))
     builder.Connect(source.get_output_port(), block.GetInputPort("measured_angles_rad"))
     logger = LogVectorOutput(block.GetOutputPort("state_estimate"), builder, h)

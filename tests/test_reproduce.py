@@ -18,8 +18,11 @@ def table_runs():
 
 
 def _row(rows, signal, statistic, reference=None):
-    return next(r for r in rows if r["signal"] == signal and r["statistic"] == statistic
-                and (reference is None or r["reference"] == reference))
+    return next(
+        r
+        for r in rows
+        if r["signal"] == signal and r["statistic"] == statistic and (reference is None or r["reference"] == reference)
+    )
 
 
 @pytest.mark.parametrize("reference", ["butterworth", "true"])
@@ -61,8 +64,9 @@ def test_fairness_sweep_finds_an_interior_optimum(table_runs):
 def test_offline_replay_equals_the_closed_loop_observers(table_runs):
     # The sweep replays observers on logged data; after the start-up transient this must be the in-loop estimate.
     run, config = table_runs.vfe_run, table_runs.config
-    replayed = reproduce.replay_observers(run, config, hg=config.observers.hg,
-                                          vfe=(config.observers.vfe, config.observers.dahl))
+    replayed = reproduce.replay_observers(
+        run, config, hg=config.observers.hg, vfe=(config.observers.vfe, config.observers.dahl)
+    )
     keep = run.time >= reproduce.TRANSIENT
     for name in ("hg", "vfe"):
         np.testing.assert_allclose(replayed[name][keep], run.estimates[name][keep], atol=1e-9, rtol=0)

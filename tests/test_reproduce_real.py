@@ -14,8 +14,15 @@ from furuta_drake.config import load_config
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.studies.real_data import HELDOUT_SWINGUPS, SWINGUPS, load_real_runs, log_result
 
-REQUIRED = ["catch_time", "peak_arm_angle", "theta_rms", "phi_rms", "voltage_rms", "limit_cycle_hz",
-            "limit_cycle_amplitude"]
+REQUIRED = [
+    "catch_time",
+    "peak_arm_angle",
+    "theta_rms",
+    "phi_rms",
+    "voltage_rms",
+    "limit_cycle_hz",
+    "limit_cycle_amplitude",
+]
 
 
 @pytest.fixture(scope="module")
@@ -31,25 +38,43 @@ def rows(path):
 
 
 def test_writes_the_tables_plots_reports_and_a_simulate_config(out):
-    for name in ("real_observers.csv", "real_observer_sweep.csv", "real_closed_loop.csv", "real_closed_loop_gap.csv",
-                 "controller_fit.json", "report.md", "config.yaml", "real_observers.png", "controller_fit.png",
-                 "limit_cycle_spectra.png", "diagnosis_corrected/report.json", "diagnosis_balancing/report.json",
-                 "diagnosis_corrected/fitted_model.yaml"):
+    for name in (
+        "real_observers.csv",
+        "real_observer_sweep.csv",
+        "real_closed_loop.csv",
+        "real_closed_loop_gap.csv",
+        "controller_fit.json",
+        "report.md",
+        "config.yaml",
+        "real_observers.png",
+        "controller_fit.png",
+        "limit_cycle_spectra.png",
+        "diagnosis_corrected/report.json",
+        "diagnosis_balancing/report.json",
+        "diagnosis_corrected/fitted_model.yaml",
+    ):
         assert (out / name).stat().st_size > 0, name
     config = load_config(out / "config.yaml")
     assert config.controller.mode == "quanser_swingup" and config.rig.sample_period == 0.004
-    assert sorted(p.suffix for p in (out / "logs").iterdir()) == sorted([".csv", ".yaml"] * (len(list(
-        (out / "logs").glob("*.csv")))))
+    assert sorted(p.suffix for p in (out / "logs").iterdir()) == sorted(
+        [".csv", ".yaml"] * (len(list((out / "logs").glob("*.csv"))))
+    )
     report = (out / "report.md").read_text()
-    for section in ("Observers on measured data", "The controller against the logs", "The closed loop, real and "
-                    "simulated", "Where it does not close"):
+    for section in (
+        "Observers on measured data",
+        "The controller against the logs",
+        "The closed loop, real and simulated",
+        "Where it does not close",
+    ):
         assert section in report
 
 
 def test_observer_table_has_both_observers_and_models_on_held_out_logs(out):
     table = rows(out / "real_observers.csv")
     assert list(table[0]) == ["observer", "model", "log", "phi_dot_mse", "theta_dot_mse"]
-    assert {(r["observer"], r["model"]) for r in table} == {(o, m) for o in ("HG", "VFE") for m in ("nominal", "fitted")}
+    assert {(r["observer"], r["model"]) for r in table} == {
+        (o, m) for o in ("HG", "VFE") for m in ("nominal", "fitted")
+    }
     assert set(HELDOUT_SWINGUPS) <= {r["log"] for r in table}
     assert "swingup_250Hz_10s_a.csv" not in {r["log"] for r in table}  # the train swing-up tunes, never judges
     assert all(0 < float(r[key]) < 10 for r in table for key in ("phi_dot_mse", "theta_dot_mse"))

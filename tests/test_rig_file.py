@@ -22,8 +22,17 @@ MOTOR_KEYS = [f.name for f in dataclasses.fields(MotorParameters)]
 
 
 def test_the_required_keys_are_those_the_rig_file_format_does_not_mark_optional():
-    assert RIG_KEYS == ["arm_inertia", "arm_length", "pendulum_mass", "pendulum_com", "pendulum_inertia",
-                        "gravity", "counts_per_rev", "sample_period", "torque_limit"]
+    assert RIG_KEYS == [
+        "arm_inertia",
+        "arm_length",
+        "pendulum_mass",
+        "pendulum_com",
+        "pendulum_inertia",
+        "gravity",
+        "counts_per_rev",
+        "sample_period",
+        "torque_limit",
+    ]
     assert all(f.metadata.get("required") for f in dataclasses.fields(MotorParameters))
 
 
@@ -64,8 +73,10 @@ def test_the_template_round_trips_to_the_shipped_rig(name, tmp_path, capsys):
     assert main(["rig", "--check", str(path)]) == 0
     assert "alpha1" in capsys.readouterr().out
     # Every key's paragraph says whether it is required and how to measure it.
-    paragraphs = {re.match(r"\s*(?:# )?(\w+): ", block.splitlines()[-1]).group(1): block
-                  for block in path.read_text().strip().split("\n\n")[1:]}
+    paragraphs = {
+        re.match(r"\s*(?:# )?(\w+): ", block.splitlines()[-1]).group(1): block
+        for block in path.read_text().strip().split("\n\n")[1:]
+    }
     assert set(paragraphs) == ({f.name for f in dataclasses.fields(RigParameters)} - {"motor"}) | set(MOTOR_KEYS)
     for key, block in paragraphs.items():
         assert "How:" in block and ("; required." in block) == (key in RIG_KEYS + MOTOR_KEYS), block
@@ -82,8 +93,9 @@ def test_check_gives_the_lund_rig_constants():
     # Lumped constants 0.0033472, 0.0038852, 0.0024879 kg m^2 and 0.097625 N m; hanging with the arm held:
     # a compound pendulum, sqrt(m g l / (J_p + m l^2)); arm free: sqrt(m g l a / (a b - c^2)).
     a, b, cc, mgl = 0.0033472, 0.0038852, 0.0024879, 0.097625
-    assert (c["arm_inertia_total"], c["pendulum_inertia_total"], c["coupling"], c["gravity_torque"]) == \
-        pytest.approx((a, b, cc, mgl), rel=1e-4)
+    assert (c["arm_inertia_total"], c["pendulum_inertia_total"], c["coupling"], c["gravity_torque"]) == pytest.approx(
+        (a, b, cc, mgl), rel=1e-4
+    )
     assert c["hanging_arm_held"] == pytest.approx(math.sqrt(mgl / b), rel=1e-4)
     assert c["hanging_arm_free"] == pytest.approx(math.sqrt(mgl * a / (a * b - cc**2)), rel=1e-4)
     # The free-arm hanging frequency equals the upright's unstable pole: both are sqrt(|alpha1|).

@@ -5,7 +5,8 @@ import dataclasses
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from furuta_drake import reproduce
 from furuta_drake.analysis import separation_error
@@ -17,11 +18,16 @@ from furuta_drake.observers.vfe import vfe_error_matrix, vfe_gains
 from furuta_drake.plant import make_furuta_plant
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import simulate
-from furuta_drake.studies.stability_study import adaptive_loop_config
 from furuta_drake.stability import (
-    catches, common_lyapunov, interval_containing, linear_loop, lyapunov_region, presliding_plant,
+    catches,
+    common_lyapunov,
+    interval_containing,
+    linear_loop,
+    lyapunov_region,
+    presliding_plant,
     stable_intervals,
 )
+from furuta_drake.studies.stability_study import adaptive_loop_config
 
 BASE = reproduce.paper_rig_config()
 REVERSED = linear_loop(BASE, "vfe", discrete=True, injection_sign=-1)
@@ -72,14 +78,20 @@ def test_the_1khz_linear_loop_predicts_the_nonlinear_simulation_at_small_amplitu
     # 1e-6 rad keeps the bristle far inside presliding (sigma0 |z| << Fc); fine encoders, no pendulum Coulomb.
     theta0 = 1e-6
     config = dataclasses.replace(
-        BASE, duration=0.3, excitation=ExcitationConfig(), initial_state=[theta0, 0.0, 0.0, 0.0],
+        BASE,
+        duration=0.3,
+        excitation=ExcitationConfig(),
+        initial_state=[theta0, 0.0, 0.0, 0.0],
         encoder=dataclasses.replace(BASE.encoder, counts_per_rev=2**40),
         friction=dataclasses.replace(BASE.friction, pendulum=JointFrictionParameters()),
-        observers=dataclasses.replace(BASE.observers, run=[]))
+        observers=dataclasses.replace(BASE.observers, run=[]),
+    )
     result = simulate(config)
     loop = linear_loop(config, "vfe", discrete=True)
     from pydrake.systems.analysis import DiscreteTimeApproximation
+
     from furuta_drake.observers.vfe import continuous_vfe_observer
+
     A, B_F = linearized_upright(config.rig)
     Bd = DiscreteTimeApproximation(continuous_vfe_observer(A, B_F, config.observers.vfe), 1e-3).B()
     state = np.zeros(loop.A0.shape[0])
@@ -133,8 +145,11 @@ def test_every_sampled_state_inside_the_lyapunov_estimate_is_caught_by_the_true_
     # (theta, theta_dot) slice, simulated with the encoder angles and the true velocities (and the Dahl friction).
     S = REGION.P[np.ix_([0, 2], [0, 2])]
     L = np.linalg.cholesky(S)
-    true_state = dataclasses.replace(_adaptive(BASE), duration=2.0, controller=dataclasses.replace(
-        BASE.controller, velocity_source="true", friction_compensation=False))
+    true_state = dataclasses.replace(
+        _adaptive(BASE),
+        duration=2.0,
+        controller=dataclasses.replace(BASE.controller, velocity_source="true", friction_compensation=False),
+    )
     for angle in np.random.default_rng(1).uniform(0, 2 * np.pi, 3):
         point = np.linalg.solve(L.T, 0.95 * np.sqrt(REGION.level) * np.array([np.cos(angle), np.sin(angle)]))
         state = np.array([point[0], 0.0, point[1], 0.0])

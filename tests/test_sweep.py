@@ -5,7 +5,8 @@ import dataclasses
 import math
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from furuta_drake.cli import main
 from furuta_drake.config import SimulationConfig
@@ -37,8 +38,13 @@ def csv_rows(path):
 def test_grid_gives_one_row_per_point_and_the_same_bytes_on_one_and_two_workers(tmp_path, scheduler, capsys):
     base = short(observers=dataclasses.replace(LUND.observers, run=["hg"]))
     sweep_file = tmp_path / "sweep.yaml"
-    sweep_file.write_text(dump_yaml_dataclass(SweepConfig(
-        base=base, parameters={"encoder.counts_per_rev": [256, 16384], "initial_state[0]": [0.05, 0.1]}, seed=3)))
+    sweep_file.write_text(
+        dump_yaml_dataclass(
+            SweepConfig(
+                base=base, parameters={"encoder.counts_per_rev": [256, 16384], "initial_state[0]": [0.05, 0.1]}, seed=3
+            )
+        )
+    )
 
     assert main(["sweep", "--config", str(sweep_file), "--out", str(tmp_path / "two"), "--scheduler", scheduler]) == 0
     assert "swept 4 points (0 diverged)" in capsys.readouterr().out
@@ -46,7 +52,11 @@ def test_grid_gives_one_row_per_point_and_the_same_bytes_on_one_and_two_workers(
 
     assert (tmp_path / "one" / "results.csv").read_bytes() == (tmp_path / "two" / "results.csv").read_bytes()
     assert [(r["point"], r["encoder.counts_per_rev"], r["initial_state[0]"]) for r in rows] == [
-        (0, 256, 0.05), (1, 256, 0.1), (2, 16384, 0.05), (3, 16384, 0.1)]
+        (0, 256, 0.05),
+        (1, 256, 0.1),
+        (2, 16384, 0.05),
+        (3, 16384, 0.1),
+    ]
     assert len({r["point_seed"] for r in rows}) == 4
     for row in rows:
         assert not row["diverged"] and row["diverged_time"] is None
@@ -61,8 +71,12 @@ def test_grid_gives_one_row_per_point_and_the_same_bytes_on_one_and_two_workers(
         assert coarse["hg_velocity_mse_theta_dot"] > fine["hg_velocity_mse_theta_dot"]
         assert coarse["hg_velocity_mse_phi_dot"] > 100 * fine["hg_velocity_mse_phi_dot"]
     written = {p.name for p in (tmp_path / "two").iterdir()}
-    assert written == {"results.csv", "sweep.yaml", "metrics_vs_encoder_counts_per_rev.png",
-                       "metrics_vs_initial_state_0.png"}
+    assert written == {
+        "results.csv",
+        "sweep.yaml",
+        "metrics_vs_encoder_counts_per_rev.png",
+        "metrics_vs_initial_state_0.png",
+    }
     table = csv_rows(tmp_path / "two" / "results.csv")
     assert list(table[0])[:4] == ["point", "point_seed", "encoder.counts_per_rev", "initial_state[0]"]
     assert [r["diverged"] for r in table] == ["false"] * 4
@@ -77,8 +91,9 @@ def test_a_fallen_pendulum_is_a_diverged_row_and_the_other_points_run(tmp_path, 
     assert abs(BETA4) * 0.05 * math.cos(0.9) < ALPHA1 * math.sin(0.9)
     lqr = dataclasses.replace(LUND.controller.lqr, torque_limit=0.05)
     base = short(controller=dataclasses.replace(LUND.controller, lqr=lqr))
-    rows = run_sweep(SweepConfig(base=base, parameters={"initial_state[0]": [0.9, 0.05]}), tmp_path / "out",
-                     scheduler=scheduler)
+    rows = run_sweep(
+        SweepConfig(base=base, parameters={"initial_state[0]": [0.9, 0.05]}), tmp_path / "out", scheduler=scheduler
+    )
     fallen, balanced = rows
     assert fallen["diverged"] and "fell" in fallen["cause"]
     # Falling 0.1 rad at a net acceleration of at least 38 - 11 rad/s^2 takes under 0.09 s.
@@ -93,34 +108,51 @@ def test_a_fallen_pendulum_is_a_diverged_row_and_the_other_points_run(tmp_path, 
 def test_a_gain_that_destabilises_the_upright_is_bad_input_and_nothing_is_written(tmp_path, scheduler):
     # u = -K x with K = [1, 0, 0, 0] pushes the pendulum the way it falls: theta_ddot = (ALPHA1 - BETA4) theta.
     sweep = SweepConfig(base=short(), parameters={"controller.gain": [[1.0, 0.0, 0.0, 0.0]]})
-    with pytest.raises(ConfigError, match=r"point 0 \(controller\.gain=\[1\.0, 0\.0, 0\.0, 0\.0\]\): "
-                                          r"controller\.gain .* does not stabilise"):
+    with pytest.raises(
+        ConfigError,
+        match=r"point 0 \(controller\.gain=\[1\.0, 0\.0, 0\.0, 0\.0\]\): "
+        r"controller\.gain .* does not stabilise",
+    ):
         run_sweep(sweep, tmp_path / "out", scheduler=scheduler)
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("entries, fragment", [
-    ("parameters:\n  friction.arm.coulomb_poss: [0.01]\n",
-     r"sweep\.yaml:3: parameters\.friction\.arm\.coulomb_poss: unknown key 'coulomb_poss' in JointFrictionParameters"),
-    ("parameters:\n  fricton.arm.viscous: [0.01]\n", r"sweep\.yaml:3: .*unknown key 'fricton' in SimulationConfig"),
-    ("parameters:\n  duration: [1.0, abc]\n", r"sweep\.yaml:3: parameters\.duration\[1\] expected a number"),
-    ("parameters:\n  controller.velocity_source: [hg, kalman]\n", r"must be one of \['true', 'derivative'"),
-    ("parameters:\n  duration[0]: [1.0]\n", r"sweep\.yaml:3: .*'duration' is not a list"),
-    ("parameters:\n  initial_state[4]: [1.0]\n", r"sweep\.yaml:3: .*initial_state\[4\]: index out of range"),
-    ("parameters:\n  friction..arm: [1.0]\n", r"is not a dotted path"),
-    ("parameters:\n  duration: [1.0]\n  duration: [2.0]\n", r"sweep\.yaml:4: parameters\.duration: duplicate path"),
-    ("parameters:\n  duration: [1.0, -2.0]\n", r"sweep\.yaml: point 1 \(duration=-2\): duration must be a positive"),
-    ("parameters:\n  duration: []\n", r"parameters\.duration: needs at least one value"),
-    ("parameters: {}\n", r"a grid sweep needs at least one"),
-    ("mode: random\nsamples: 3\nranges:\n  controller.velocity_source: [0, 1]\n",
-     r"sweep\.yaml:5: ranges\.controller\.velocity_source: random mode draws numbers"),
-    ("mode: random\nsamples: 3\nranges:\n  encoder.counts_per_rev: [100.5, 2000]\n", r"give integer bounds"),
-    ("mode: random\nsamples: 3\nranges:\n  duration: [2.0, 1.0]\n", r"ranges\.duration must be \[low, high\]"),
-    ("mode: random\nranges:\n  duration: [1.0, 2.0]\n", r"samples must be >= 1"),
-    ("parameters:\n  duration: [1.0]\nmetrics: [velocity_rmse]\n", r"unknown metric 'velocity_rmse'"),
-    ("parameters:\n  duration: [1.0]\nbase_file: missing.yaml\n", r"missing\.yaml: no such file"),
-    ("parameters:\n  duration: [1.0]\nworkers: 2\n", r"sweep\.yaml:4: workers unknown key 'workers' in SweepConfig"),
-])
+@pytest.mark.parametrize(
+    "entries, fragment",
+    [
+        (
+            "parameters:\n  friction.arm.coulomb_poss: [0.01]\n",
+            r"sweep\.yaml:3: parameters\.friction\.arm\.coulomb_poss: "
+            r"unknown key 'coulomb_poss' in JointFrictionParameters",
+        ),
+        ("parameters:\n  fricton.arm.viscous: [0.01]\n", r"sweep\.yaml:3: .*unknown key 'fricton' in SimulationConfig"),
+        ("parameters:\n  duration: [1.0, abc]\n", r"sweep\.yaml:3: parameters\.duration\[1\] expected a number"),
+        ("parameters:\n  controller.velocity_source: [hg, kalman]\n", r"must be one of \['true', 'derivative'"),
+        ("parameters:\n  duration[0]: [1.0]\n", r"sweep\.yaml:3: .*'duration' is not a list"),
+        ("parameters:\n  initial_state[4]: [1.0]\n", r"sweep\.yaml:3: .*initial_state\[4\]: index out of range"),
+        ("parameters:\n  friction..arm: [1.0]\n", r"is not a dotted path"),
+        ("parameters:\n  duration: [1.0]\n  duration: [2.0]\n", r"sweep\.yaml:4: parameters\.duration: duplicate path"),
+        (
+            "parameters:\n  duration: [1.0, -2.0]\n",
+            r"sweep\.yaml: point 1 \(duration=-2\): duration must be a positive",
+        ),
+        ("parameters:\n  duration: []\n", r"parameters\.duration: needs at least one value"),
+        ("parameters: {}\n", r"a grid sweep needs at least one"),
+        (
+            "mode: random\nsamples: 3\nranges:\n  controller.velocity_source: [0, 1]\n",
+            r"sweep\.yaml:5: ranges\.controller\.velocity_source: random mode draws numbers",
+        ),
+        ("mode: random\nsamples: 3\nranges:\n  encoder.counts_per_rev: [100.5, 2000]\n", r"give integer bounds"),
+        ("mode: random\nsamples: 3\nranges:\n  duration: [2.0, 1.0]\n", r"ranges\.duration must be \[low, high\]"),
+        ("mode: random\nranges:\n  duration: [1.0, 2.0]\n", r"samples must be >= 1"),
+        ("parameters:\n  duration: [1.0]\nmetrics: [velocity_rmse]\n", r"unknown metric 'velocity_rmse'"),
+        ("parameters:\n  duration: [1.0]\nbase_file: missing.yaml\n", r"missing\.yaml: no such file"),
+        (
+            "parameters:\n  duration: [1.0]\nworkers: 2\n",
+            r"sweep\.yaml:4: workers unknown key 'workers' in SweepConfig",
+        ),
+    ],
+)
 def test_bad_sweep_files_are_named_by_file_line_and_key(tmp_path, entries, fragment):
     path = tmp_path / "sweep.yaml"
     path.write_text("seed: 1\n" + entries)
@@ -141,34 +173,60 @@ def test_the_cli_refuses_bad_input_in_one_line_before_running_anything(tmp_path,
     assert "not empty" in capsys.readouterr().err
     assert main(["sweep", "--config", str(sweep_file), "--out", str(tmp_path / "out"), "--workers", "0"]) == 2
     assert "workers (--workers) must be >= 1, got 0" in capsys.readouterr().err
-    assert main(["sweep", "--config", str(sweep_file), "--out", str(tmp_path / "out"),
-                 "--scheduler", "tcp://127.0.0.1:9", "--workers", "2"]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                "--config",
+                str(sweep_file),
+                "--out",
+                str(tmp_path / "out"),
+                "--scheduler",
+                "tcp://127.0.0.1:9",
+                "--workers",
+                "2",
+            ]
+        )
+        == 2
+    )
     assert "--scheduler" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["full", "sweep.yaml"]
     assert (tmp_path / "full" / "keep.txt").read_text() == "mine"
 
 
 @settings(max_examples=25, deadline=None)
-@given(durations=st.lists(st.floats(0.1, 5.0), min_size=1, max_size=3),
-       torques=st.lists(st.floats(0.0, 0.1), min_size=1, max_size=3), seed=st.integers(0, 2**32))
+@given(
+    durations=st.lists(st.floats(0.1, 5.0), min_size=1, max_size=3),
+    torques=st.lists(st.floats(0.0, 0.1), min_size=1, max_size=3),
+    seed=st.integers(0, 2**32),
+)
 def test_grid_points_are_the_product_in_order_and_seeds_depend_on_the_index_only(durations, torques, seed):
-    sweep = resolve_sweep(SweepConfig(base=LUND, seed=seed, parameters={"duration": durations,
-                                                                         "excitation.torque_rms": torques}))
+    sweep = resolve_sweep(
+        SweepConfig(base=LUND, seed=seed, parameters={"duration": durations, "excitation.torque_rms": torques})
+    )
     assert [(p.config.duration, p.config.excitation.torque_rms) for p in sweep.points] == [
-        (d, t) for d in durations for t in torques]
+        (d, t) for d in durations for t in torques
+    ]
     assert [p.index for p in sweep.points] == list(range(len(durations) * len(torques)))
     assert all(p.config.seed == p.seed == p.config.encoder.seed for p in sweep.points)
     assert len({p.seed for p in sweep.points}) == len(sweep.points)
-    other = resolve_sweep(SweepConfig(base=LUND, seed=seed, parameters={"duration": [1.0] * len(durations),
-                                                                         "actuator.gain": [1.0] * len(torques)}))
+    other = resolve_sweep(
+        SweepConfig(
+            base=LUND, seed=seed, parameters={"duration": [1.0] * len(durations), "actuator.gain": [1.0] * len(torques)}
+        )
+    )
     assert [p.seed for p in other.points] == [p.seed for p in sweep.points]
 
 
 @settings(max_examples=25, deadline=None)
-@given(low=st.floats(0.0, 0.05), width=st.floats(0.0, 0.05), counts=st.integers(4, 1 << 16),
-       samples=st.integers(1, 12), seed=st.integers(0, 2**32))
-def test_random_points_lie_in_their_ranges_and_do_not_depend_on_the_sample_count(low, width, counts, samples,
-                                                                                   seed):
+@given(
+    low=st.floats(0.0, 0.05),
+    width=st.floats(0.0, 0.05),
+    counts=st.integers(4, 1 << 16),
+    samples=st.integers(1, 12),
+    seed=st.integers(0, 2**32),
+)
+def test_random_points_lie_in_their_ranges_and_do_not_depend_on_the_sample_count(low, width, counts, samples, seed):
     ranges = {"friction.arm.viscous": [low, low + width], "encoder.counts_per_rev": [4, counts]}
     sweep = resolve_sweep(SweepConfig(base=LUND, mode="random", ranges=ranges, samples=samples, seed=seed))
     assert len(sweep.points) == samples

@@ -10,8 +10,15 @@ from hypothesis import strategies as st
 
 from furuta_drake.config import ControllerConfig, SimulationConfig, dump_config, swingup_config
 from furuta_drake.controllers.lqr import LqrParameters, design_lqr
-from furuta_drake.controllers.swingup import (BALANCE, SWING, EnergySwingUpController, SwingUpParameters, catch_time,
-                                              pendulum_energy, wrap_angle)
+from furuta_drake.controllers.swingup import (
+    BALANCE,
+    SWING,
+    EnergySwingUpController,
+    SwingUpParameters,
+    catch_time,
+    pendulum_energy,
+    wrap_angle,
+)
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import lund_rig, qube_servo2_rig
@@ -23,8 +30,9 @@ PLANT = make_furuta_plant(RIG)
 K = design_lqr(PLANT, LqrParameters(), period=1e-3)
 
 
-def controller_step(x, params=SwingUpParameters(), mode=SWING, rig=RIG, limit=0.2):
+def controller_step(x, params=None, mode=SWING, rig=RIG, limit=0.2):
     """One update of the controller at state estimate x (paper order): (torque, mode, energy)."""
+    params = SwingUpParameters() if params is None else params
     controller = EnergySwingUpController(rig, K, params, period=1e-3, torque_limit=limit)
     context = controller.CreateDefaultContext()
     controller.GetInputPort("state_estimate").FixValue(context, np.asarray(x, dtype=float))

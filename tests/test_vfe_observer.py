@@ -8,7 +8,13 @@ from hypothesis import strategies as st
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (
-    Adder, ConstantVectorSource, LinearSystem, LogVectorOutput, MatrixGain, Multiplexer, Sine,
+    Adder,
+    ConstantVectorSource,
+    LinearSystem,
+    LogVectorOutput,
+    MatrixGain,
+    Multiplexer,
+    Sine,
 )
 from scipy.linalg import expm
 from scipy.signal import place_poles
@@ -49,8 +55,14 @@ def observe_plant_with_friction(friction, friction_estimate: float, excitation: 
     builder.Connect(measure.get_output_port(), vfe.GetInputPort("measured_angles_rad"))
     builder.Connect(torque.get_output_port(), vfe.GetInputPort("arm_torque_Nm"))
     builder.Connect(estimate.get_output_port(), vfe.GetInputPort("friction_estimate_Nm"))
-    logs = [LogVectorOutput(port, builder, PERIOD) for port in (
-        plant.get_output_port(), vfe.GetOutputPort("state_estimate"), vfe.GetOutputPort("friction_error_estimate_Nm"))]
+    logs = [
+        LogVectorOutput(port, builder, PERIOD)
+        for port in (
+            plant.get_output_port(),
+            vfe.GetOutputPort("state_estimate"),
+            vfe.GetOutputPort("friction_error_estimate_Nm"),
+        )
+    ]
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     plant.GetMyMutableContextFromRoot(context).SetContinuousState([0.05, 0.1, 0.0, 0.0])
@@ -60,8 +72,12 @@ def observe_plant_with_friction(friction, friction_estimate: float, excitation: 
 
 
 @settings(max_examples=10, deadline=None)
-@given(pendulum=st.floats(-0.002, 0.002), arm=st.floats(-0.02, 0.02), offset=st.floats(-0.01, 0.01),
-       excitation=st.sampled_from([0.0, 0.02]))
+@given(
+    pendulum=st.floats(-0.002, 0.002),
+    arm=st.floats(-0.02, 0.02),
+    offset=st.floats(-0.01, 0.01),
+    excitation=st.sampled_from([0.0, 0.02]),
+)
 def test_eps_hat_f_converges_to_the_friction_error(pendulum, arm, offset, excitation):
     """Eq. 14-15: with F - F_hat constant, [x - x_hat; (F - F_hat) - eps_hat_F] obeys G (slowest eigenvalue
     -20 1/s), so after 2 s (e^-40) eps_hat_F = F - F_hat = [F_theta, -offset] when F_hat_phi = F_phi + offset.
@@ -112,17 +128,23 @@ def test_discretisation_is_the_exact_zero_order_hold_and_ports_are_named():
     np.testing.assert_allclose(vfe.discrete.A(), exact[:6, :6], atol=1e-12)
     np.testing.assert_allclose(vfe.discrete.B(), exact[:6, 6:], rtol=1e-9, atol=1e-12)
     assert [vfe.get_input_port(i).get_name() for i in range(3)] == [
-        "measured_angles_rad", "arm_torque_Nm", "friction_estimate_Nm"]
+        "measured_angles_rad",
+        "arm_torque_Nm",
+        "friction_estimate_Nm",
+    ]
     assert [vfe.get_output_port(i).get_name() for i in range(2)] == ["state_estimate", "friction_error_estimate_Nm"]
 
 
-@pytest.mark.parametrize("eigenvalues, field", [
-    ([-20.0, -23.0, -26.0, -29.0, -32.0, 0.0], r"eigenvalues\[5\]"),
-    ([-20.0, 1.0, -26.0, -29.0, -32.0, -35.0], r"eigenvalues\[1\]"),
-    ([-20.0, -23.0, -26.0, -29.0, float("nan"), -35.0], r"eigenvalues\[4\]"),
-    ([-20.0, -23.0, -26.0, -29.0, -32.0], r"eigenvalues"),
-    ([-20.0, -20.0, -20.0, -29.0, -32.0, -35.0], r"eigenvalues"),
-])
+@pytest.mark.parametrize(
+    "eigenvalues, field",
+    [
+        ([-20.0, -23.0, -26.0, -29.0, -32.0, 0.0], r"eigenvalues\[5\]"),
+        ([-20.0, 1.0, -26.0, -29.0, -32.0, -35.0], r"eigenvalues\[1\]"),
+        ([-20.0, -23.0, -26.0, -29.0, float("nan"), -35.0], r"eigenvalues\[4\]"),
+        ([-20.0, -23.0, -26.0, -29.0, -32.0], r"eigenvalues"),
+        ([-20.0, -20.0, -20.0, -29.0, -32.0, -35.0], r"eigenvalues"),
+    ],
+)
 def test_invalid_eigenvalues_are_rejected_naming_the_field(eigenvalues, field):
     with pytest.raises(ConfigError, match=rf"observers\.vfe\.{field}"):
         VfeObserver(lund_rig(), VfeParameters(eigenvalues=eigenvalues), period=PERIOD)

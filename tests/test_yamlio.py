@@ -6,14 +6,14 @@ import re
 
 import pytest
 import yaml
-from hypothesis import given, settings, strategies as st
-
 from conftest import QUBE_DATA
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from furuta_drake.config import SimulationConfig
 from furuta_drake.errors import ConfigError
 from furuta_drake.rig import MotorParameters, RigParameters
-from furuta_drake.yamlio import (dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass, locate,
-                                 locate_in_file)
+from furuta_drake.yamlio import dump_yaml_dataclass, load_yaml_dataclass, loads_yaml_dataclass, locate, locate_in_file
 
 QUBE_RIG = QUBE_DATA / "rig.yaml"
 REQUIRED = [f.name for f in dataclasses.fields(RigParameters) if f.metadata.get("required")]
@@ -22,8 +22,9 @@ REQUIRED = [f.name for f in dataclasses.fields(RigParameters) if f.metadata.get(
 def with_required(text: str) -> str:
     """``text`` followed by the Lund rig's value of every required key it does not set (its line numbers kept)."""
     lund = RigParameters()
-    return text + "".join(f"{name}: {getattr(lund, name)}\n" for name in REQUIRED
-                          if not re.search(rf"^{name}:", text, re.MULTILINE))
+    return text + "".join(
+        f"{name}: {getattr(lund, name)}\n" for name in REQUIRED if not re.search(rf"^{name}:", text, re.MULTILINE)
+    )
 
 
 def test_misspelt_key_names_file_line_and_key(tmp_path):
@@ -33,26 +34,30 @@ def test_misspelt_key_names_file_line_and_key(tmp_path):
         load_yaml_dataclass(path, RigParameters)
 
 
-@pytest.mark.parametrize("text, fragment", [
-    ("arm_inertia: abc\n", ":1: arm_inertia expected a number"),
-    ("counts_per_rev: 10.5\n", ":1: counts_per_rev expected an integer"),
-    ("counts_per_rev: .inf\n", ":1: counts_per_rev expected an integer, got inf"),
-    ("sample_period: '1e-3'\n", ":1: sample_period expected a number, got '1e-3'"),
-    ("motor: 3\n", ":1: motor expected a mapping"),
-    ("arm_inertia: .nan\n", "must be finite"),
-    ("arm_inertia: [1, 2\n", "not valid YAML"),
-    ("pendulum_mass: -0.1\n", "pendulum_mass must be a positive"),
-    ("theta_direction: 2\n", "theta_direction must be 1 or -1"),
-    ("arm_inertia: 1\narm_inertia: 2\n", "duplicate key"),
-])
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("arm_inertia: abc\n", ":1: arm_inertia expected a number"),
+        ("counts_per_rev: 10.5\n", ":1: counts_per_rev expected an integer"),
+        ("counts_per_rev: .inf\n", ":1: counts_per_rev expected an integer, got inf"),
+        ("sample_period: '1e-3'\n", ":1: sample_period expected a number, got '1e-3'"),
+        ("motor: 3\n", ":1: motor expected a mapping"),
+        ("arm_inertia: .nan\n", "must be finite"),
+        ("arm_inertia: [1, 2\n", "not valid YAML"),
+        ("pendulum_mass: -0.1\n", "pendulum_mass must be a positive"),
+        ("theta_direction: 2\n", "theta_direction must be 1 or -1"),
+        ("arm_inertia: 1\narm_inertia: 2\n", "duplicate key"),
+    ],
+)
 def test_bad_values_are_named(text, fragment):
     with pytest.raises(ConfigError, match=fragment.replace(".", r"\.").replace("[", r"\[")):
         loads_yaml_dataclass(with_required(text), RigParameters, source="rig.yaml")
 
 
 def test_exponent_without_a_dot_is_a_number_as_in_yaml_1_2():
-    rig = loads_yaml_dataclass(with_required("sample_period: 1e-3\ncounts_per_rev: 4e3\narm_inertia: +2E-3\n"),
-                               RigParameters)
+    rig = loads_yaml_dataclass(
+        with_required("sample_period: 1e-3\ncounts_per_rev: 4e3\narm_inertia: +2E-3\n"), RigParameters
+    )
     assert (rig.sample_period, rig.counts_per_rev, rig.arm_inertia) == (0.001, 4000, 0.002)
 
 
@@ -76,12 +81,23 @@ positive = st.floats(min_value=1e-6, max_value=1e3, allow_nan=False, allow_infin
 
 
 @settings(max_examples=25, deadline=None)
-@given(arm_inertia=positive, pendulum_mass=positive, counts=st.integers(4, 1 << 20), direction=st.sampled_from([1, -1]),
-       coulomb=st.floats(0, 1), with_motor=st.booleans())
+@given(
+    arm_inertia=positive,
+    pendulum_mass=positive,
+    counts=st.integers(4, 1 << 20),
+    direction=st.sampled_from([1, -1]),
+    coulomb=st.floats(0, 1),
+    with_motor=st.booleans(),
+)
 def test_round_trip_is_exact(arm_inertia, pendulum_mass, counts, direction, coulomb, with_motor):
-    rig = RigParameters(arm_inertia=arm_inertia, pendulum_mass=pendulum_mass, counts_per_rev=counts,
-                        theta_direction=direction, arm_coulomb=coulomb,
-                        motor=MotorParameters() if with_motor else None)
+    rig = RigParameters(
+        arm_inertia=arm_inertia,
+        pendulum_mass=pendulum_mass,
+        counts_per_rev=counts,
+        theta_direction=direction,
+        arm_coulomb=coulomb,
+        motor=MotorParameters() if with_motor else None,
+    )
     back = loads_yaml_dataclass(dump_yaml_dataclass(rig), RigParameters)
     assert back == rig
     assert math.isclose(back.arm_inertia, arm_inertia, rel_tol=0, abs_tol=0)
@@ -100,8 +116,10 @@ def test_validation_errors_name_the_line_of_their_key_without_a_root_prefix(tmp_
 
 
 def test_a_list_item_and_a_key_left_at_its_default_are_located():
-    text = "controller:\n  velocity_source: vfe\nobservers:\n  vfe:\n    eigenvalues:\n      - -20.0\n      - -23.0\n" \
-           "      - 26.0\n      - -29.0\n      - -32.0\n      - -35.0\n"
+    text = (
+        "controller:\n  velocity_source: vfe\nobservers:\n  vfe:\n    eigenvalues:\n      - -20.0\n      - -23.0\n"
+        "      - 26.0\n      - -29.0\n      - -32.0\n      - -35.0\n"
+    )
     with pytest.raises(ConfigError, match=r"^sim\.yaml:8: observers\.vfe\.eigenvalues\[2\] must be a negative real"):
         loads_yaml_dataclass(text, SimulationConfig, source="sim.yaml")
     # open_loop needs an excitation the file does not give: the error is at the key that asks for it.
@@ -118,18 +136,32 @@ def test_an_error_found_after_loading_is_located_in_its_file(tmp_path):
     assert locate("controller_gain is odd", "f.yaml", {"controller": 2}) == "f.yaml: controller_gain is odd"
 
 
-FIELD_NAMES = sorted({f.name for tp in (SimulationConfig, RigParameters, MotorParameters)
-                      for f in dataclasses.fields(tp)} | {"hg", "vfe", "lqr", "arm", "eigenvalues", "gain"})
-yaml_scalars = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6), st.floats(allow_nan=True),
-                         st.text(max_size=8), st.sampled_from(["lqr", "vfe", "hg", "dahl", "open_loop", ".nan"]))
-yaml_trees = st.recursive(yaml_scalars, lambda children: st.one_of(
-    st.lists(children, max_size=5), st.dictionaries(st.sampled_from(FIELD_NAMES), children, max_size=5)),
-    max_leaves=12)
+FIELD_NAMES = sorted(
+    {f.name for tp in (SimulationConfig, RigParameters, MotorParameters) for f in dataclasses.fields(tp)}
+    | {"hg", "vfe", "lqr", "arm", "eigenvalues", "gain"}
+)
+yaml_scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(10**6), 10**6),
+    st.floats(allow_nan=True),
+    st.text(max_size=8),
+    st.sampled_from(["lqr", "vfe", "hg", "dahl", "open_loop", ".nan"]),
+)
+yaml_trees = st.recursive(
+    yaml_scalars,
+    lambda children: st.one_of(
+        st.lists(children, max_size=5), st.dictionaries(st.sampled_from(FIELD_NAMES), children, max_size=5)
+    ),
+    max_leaves=12,
+)
 
 
 @settings(max_examples=25, deadline=None)
-@given(tree=st.dictionaries(st.sampled_from(FIELD_NAMES), yaml_trees, max_size=6),
-       schema=st.sampled_from([SimulationConfig, RigParameters]))
+@given(
+    tree=st.dictionaries(st.sampled_from(FIELD_NAMES), yaml_trees, max_size=6),
+    schema=st.sampled_from([SimulationConfig, RigParameters]),
+)
 def test_any_yaml_tree_loads_or_raises_config_error(tree, schema):
     text = yaml.safe_dump(tree)
     try:

@@ -16,7 +16,13 @@ from pydrake.systems.analysis import DiscreteTimeApproximation
 from pydrake.systems.controllers import DiscreteTimeLinearQuadraticRegulator, LinearQuadraticRegulator
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import (
-    Demultiplexer, Linearize, LinearSystem, MatrixGain, Multiplexer, Saturation, ZeroOrderHold,
+    Demultiplexer,
+    Linearize,
+    LinearSystem,
+    MatrixGain,
+    Multiplexer,
+    Saturation,
+    ZeroOrderHold,
 )
 
 from furuta_drake.errors import ConfigError, require_control_period
@@ -36,8 +42,9 @@ def upright_linearization(plant: MultibodyPlant) -> tuple[np.ndarray, np.ndarray
     plant.SetPositionsAndVelocities(context, np.zeros(plant.num_multibody_states()))
     plant.get_actuation_input_port().FixValue(context, np.zeros(plant.num_actuated_dofs()))
     plant.get_applied_generalized_force_input_port().FixValue(context, np.zeros(plant.num_velocities()))
-    linear = Linearize(plant, context, plant.get_actuation_input_port().get_index(),
-                       plant.get_state_output_port().get_index())
+    linear = Linearize(
+        plant, context, plant.get_actuation_input_port().get_index(), plant.get_state_output_port().get_index()
+    )
     P = plant_to_paper_permutation(plant)
     return P @ linear.A() @ P.T, P @ linear.B()
 
@@ -69,8 +76,9 @@ class LqrParameters:
 
     def validate(self, where: str = "lqr") -> None:
         if len(self.state_weights) != 4:
-            raise ConfigError(f"{where}.state_weights must be 4 weights [theta, phi, theta_dot, phi_dot], "
-                              f"got {self.state_weights!r}")
+            raise ConfigError(
+                f"{where}.state_weights must be 4 weights [theta, phi, theta_dot, phi_dot], got {self.state_weights!r}"
+            )
         for i, weight in enumerate(self.state_weights):
             _require_nonnegative(weight, f"{where}.state_weights[{i}]")
         for name in ("input_weight", "torque_limit"):
@@ -81,8 +89,9 @@ class LqrParameters:
             raise ConfigError(f"{where}.discrete must be true or false, got {self.discrete!r}")
 
 
-def design_lqr(plant: MultibodyPlant, params: LqrParameters, *, period: float,
-               where: str = "controller.lqr") -> np.ndarray:
+def design_lqr(
+    plant: MultibodyPlant, params: LqrParameters, *, period: float, where: str = "controller.lqr"
+) -> np.ndarray:
     """LQ gain K (1x4, paper order, u = -K x) for the upright linearization of ``plant``, for a controller
     sampled at ``period`` [s] (the DARE on the zero-order-hold model when ``params.discrete``).
 
@@ -103,8 +112,9 @@ def design_lqr(plant: MultibodyPlant, params: LqrParameters, *, period: float,
     return K
 
 
-def lqr_gain(plant: MultibodyPlant, params: LqrParameters, *, period: float, gain=None,
-             where: str = "controller.gain") -> np.ndarray:
+def lqr_gain(
+    plant: MultibodyPlant, params: LqrParameters, *, period: float, gain=None, where: str = "controller.gain"
+) -> np.ndarray:
     """The LQR gain K (1x4, paper order) of a controller sampled at ``period`` [s]: ``gain`` (4 numbers) when
     given, checked by :func:`check_stabilizing` to stabilise the upright linearization of ``plant`` (``where``
     names it in the error), else :func:`design_lqr` of ``params``."""
@@ -123,12 +133,15 @@ def _require_detectable(A: np.ndarray, Q: np.ndarray, discrete: bool, where: str
     marginal = np.abs(eigenvalues) >= 1 - 1e-9 if discrete else eigenvalues.real >= -1e-9
     for eigenvalue in eigenvalues[marginal]:
         if np.linalg.matrix_rank(np.vstack([eigenvalue * np.eye(n) - A, Q])) < n:
-            raise ConfigError(f"{where}.state_weights {np.diag(Q).tolist()} leave the mode at eigenvalue "
-                              f"{eigenvalue:.4g} out of the cost: no stabilising LQ gain (weight phi and theta)")
+            raise ConfigError(
+                f"{where}.state_weights {np.diag(Q).tolist()} leave the mode at eigenvalue "
+                f"{eigenvalue:.4g} out of the cost: no stabilising LQ gain (weight phi and theta)"
+            )
 
 
-def state_feedback_eigenvalues(A: np.ndarray, B: np.ndarray, K: np.ndarray, discrete: bool,
-                            period: float) -> np.ndarray:
+def state_feedback_eigenvalues(
+    A: np.ndarray, B: np.ndarray, K: np.ndarray, discrete: bool, period: float
+) -> np.ndarray:
     """Eigenvalues of A - B K (continuous, rad/s) or of Ad - Bd K (discrete, zero-order hold at ``period``)."""
     K = np.asarray(K, dtype=float).reshape(1, -1)
     if discrete:
@@ -142,19 +155,24 @@ def check_stabilizing(A: np.ndarray, B: np.ndarray, K, discrete: bool, period: f
     all |eig(Ad - Bd K)| < 1 (discrete) or all Re eig(A - B K) < 0 (continuous)."""
     K = np.asarray(K, dtype=float)
     if K.size != A.shape[0] or not np.all(np.isfinite(K)):
-        raise ConfigError(f"{where} must be {A.shape[0]} finite numbers [theta, phi, theta_dot, phi_dot], "
-                          f"got {K.ravel().tolist()}")
+        raise ConfigError(
+            f"{where} must be {A.shape[0]} finite numbers [theta, phi, theta_dot, phi_dot], got {K.ravel().tolist()}"
+        )
     eigenvalues = state_feedback_eigenvalues(A, B, K, discrete, period)
     if discrete:
         worst = eigenvalues[np.argmax(np.abs(eigenvalues))]
         if abs(worst) >= 1.0:
-            raise ConfigError(f"{where} {K.ravel().tolist()} does not stabilise the upright at a {period} s "
-                              f"period: closed-loop eigenvalue {worst:.4g} has |z| = {abs(worst):.4g} >= 1")
+            raise ConfigError(
+                f"{where} {K.ravel().tolist()} does not stabilise the upright at a {period} s "
+                f"period: closed-loop eigenvalue {worst:.4g} has |z| = {abs(worst):.4g} >= 1"
+            )
     else:
         worst = eigenvalues[np.argmax(eigenvalues.real)]
         if worst.real >= 0.0:
-            raise ConfigError(f"{where} {K.ravel().tolist()} does not stabilise the upright: closed-loop "
-                              f"eigenvalue {worst:.4g} has a non-negative real part")
+            raise ConfigError(
+                f"{where} {K.ravel().tolist()} does not stabilise the upright: closed-loop "
+                f"eigenvalue {worst:.4g} has a non-negative real part"
+            )
 
 
 class LqrController(Diagram):
@@ -169,8 +187,9 @@ class LqrController(Diagram):
     +-``torque_limit``) and ``lqr_torque_Nm`` (u_LQ before compensation and saturation). No direct feedthrough.
     """
 
-    def __init__(self, K, *, period: float, torque_limit: float, friction_compensation: bool = False,
-                 reference: bool = False):
+    def __init__(
+        self, K, *, period: float, torque_limit: float, friction_compensation: bool = False, reference: bool = False
+    ):
         Diagram.__init__(self)
         K = _checked_gain(K, period, torque_limit).reshape(1, 4)
         inputs = [("state_estimate", 4, -K)]
@@ -178,9 +197,12 @@ class LqrController(Diagram):
             inputs.append(("friction_compensation_Nm", 1, np.array([[-1.0]])))
         if reference:
             inputs.append(("state_reference", 4, K))
-        gains = np.vstack([np.hstack([gain for _, _, gain in inputs]),
-                           np.hstack([0.0 * gain if name == "friction_compensation_Nm" else gain
-                                      for name, _, gain in inputs])])
+        gains = np.vstack(
+            [
+                np.hstack([gain for _, _, gain in inputs]),
+                np.hstack([0.0 * gain if name == "friction_compensation_Nm" else gain for name, _, gain in inputs]),
+            ]
+        )
         builder = DiagramBuilder()
         law = builder.AddNamedSystem("law", MatrixGain(gains))
         if len(inputs) == 1:
@@ -213,6 +235,12 @@ def _checked_gain(K, period: float, torque_limit: float) -> np.ndarray:
 
 
 __all__ = [
-    "upright_linearization", "zero_order_hold", "LqrParameters", "design_lqr", "lqr_gain", "state_feedback_eigenvalues",
-    "check_stabilizing", "LqrController",
+    "upright_linearization",
+    "zero_order_hold",
+    "LqrParameters",
+    "design_lqr",
+    "lqr_gain",
+    "state_feedback_eigenvalues",
+    "check_stabilizing",
+    "LqrController",
 ]

@@ -53,7 +53,9 @@ class QuanserSwingUpParameters:
     arm_position_gain: float = 0.4  # k_x [m/(s^2 rad)]
     acceleration_limit: float = 5.0  # a_max [m/s^2]
     balance_angle: float = math.radians(20.0)  # [rad] the PD law runs while |theta_w| is below this
-    balance_gains: list[float] = field(default_factory=lambda: [35.0, 2.0, 3.0, 1.5])  # [V/rad, V/rad, V s/rad, V s/rad]
+    balance_gains: list[float] = field(
+        default_factory=lambda: [35.0, 2.0, 3.0, 1.5]
+    )  # [V/rad, V/rad, V s/rad, V s/rad]
     voltage_limit: float = 4.0  # [V] software clip of the command
     rest_direction: int = 1  # sign taken for theta_dot cos(theta) when it is 0 (the first kick from rest)
     pendulum_mass: float = 0.024  # m_p [kg]
@@ -65,17 +67,31 @@ class QuanserSwingUpParameters:
     gravity: float = 9.81  # [m/s^2]
 
     def validate(self, where: str = "controller.quanser_swingup") -> None:
-        for name in ("energy_gain", "acceleration_limit", "balance_angle", "voltage_limit", "pendulum_mass",
-                     "pendulum_length", "arm_mass", "arm_length", "motor_resistance", "motor_constant", "gravity"):
+        for name in (
+            "energy_gain",
+            "acceleration_limit",
+            "balance_angle",
+            "voltage_limit",
+            "pendulum_mass",
+            "pendulum_length",
+            "arm_mass",
+            "arm_length",
+            "motor_resistance",
+            "motor_constant",
+            "gravity",
+        ):
             _require_positive(getattr(self, name), f"{where}.{name}")
         for name in ("reference_energy", "arm_position_gain"):
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
         if not self.balance_angle < math.pi:
             raise ConfigError(f"{where}.balance_angle must be below pi rad, got {self.balance_angle!r}")
-        if len(self.balance_gains) != 4 or not all(isinstance(g, (int, float)) and math.isfinite(g)
-                                                   for g in self.balance_gains):
-            raise ConfigError(f"{where}.balance_gains must be 4 finite numbers [theta, phi, theta_dot, phi_dot], "
-                              f"got {self.balance_gains!r}")
+        if len(self.balance_gains) != 4 or not all(
+            isinstance(g, (int, float)) and math.isfinite(g) for g in self.balance_gains
+        ):
+            raise ConfigError(
+                f"{where}.balance_gains must be 4 finite numbers [theta, phi, theta_dot, phi_dot], "
+                f"got {self.balance_gains!r}"
+            )
         if self.rest_direction not in (1, -1):
             raise ConfigError(f"{where}.rest_direction must be 1 or -1, got {self.rest_direction!r}")
 
@@ -104,8 +120,11 @@ def quanser_command(params: QuanserSwingUpParameters, state):
     energy = quanser_energy(params, theta, theta_dot)
     direction = np.sign(theta_dot * np.cos(theta))
     direction = np.where(direction == 0.0, float(params.rest_direction), direction)
-    acceleration = np.clip(params.energy_gain * (energy - params.reference_energy) * direction
-                           - params.arm_position_gain * phi, -params.acceleration_limit, params.acceleration_limit)
+    acceleration = np.clip(
+        params.energy_gain * (energy - params.reference_energy) * direction - params.arm_position_gain * phi,
+        -params.acceleration_limit,
+        params.acceleration_limit,
+    )
     swing = params.volts_per_acceleration * acceleration
     k_theta, k_phi, k_thetadot, k_phidot = params.balance_gains
     balance = k_theta * wrap_angle(theta) + k_phi * phi + k_thetadot * theta_dot + k_phidot * phi_dot
@@ -129,12 +148,12 @@ class QuanserSwingUpController(LeafSystem):
         self.params = params
         self._estimate = self.DeclareVectorInputPort("state_estimate", 4)
         for index, name in enumerate(("voltage_V",) + self.LOGGED_OUTPUTS):
-            self.DeclareVectorOutputPort(name, 1, self._output(index),
-                                         prerequisites_of_calc={self._estimate.ticket()})
+            self.DeclareVectorOutputPort(name, 1, self._output(index), prerequisites_of_calc={self._estimate.ticket()})
 
     def _output(self, index: int):
         def calc(context, output: BasicVector):
             output.SetAtIndex(0, float(quanser_command(self.params, self._estimate.Eval(context))[index]))
+
         return calc
 
 

@@ -57,8 +57,15 @@ class SwingUpParameters:
     swing_torque_limit: float | None = None  # [N m] cap of the pumping torque (None: the rig's torque limit)
 
     def validate(self, where: str = "controller.swingup") -> None:
-        for name in ("energy_gain", "catch_angle", "catch_energy", "release_angle", "velocity_eps", "arm_return_time",
-                     "catch_torque_ratio"):
+        for name in (
+            "energy_gain",
+            "catch_angle",
+            "catch_energy",
+            "release_angle",
+            "velocity_eps",
+            "arm_return_time",
+            "catch_torque_ratio",
+        ):
             _require_positive(getattr(self, name), f"{where}.{name}")
         if self.swing_torque_limit is not None:
             _require_positive(self.swing_torque_limit, f"{where}.swing_torque_limit")
@@ -67,8 +74,10 @@ class SwingUpParameters:
         if not math.isfinite(self.energy_reference):
             raise ConfigError(f"{where}.energy_reference must be finite, got {self.energy_reference!r}")
         if not self.catch_angle < self.release_angle < math.pi:
-            raise ConfigError(f"{where}: need catch_angle < release_angle < pi (hysteresis), got "
-                              f"{self.catch_angle}, {self.release_angle}")
+            raise ConfigError(
+                f"{where}: need catch_angle < release_angle < pi (hysteresis), got "
+                f"{self.catch_angle}, {self.release_angle}"
+            )
 
 
 def pendulum_energy(rig: RigParameters, theta, theta_dot):
@@ -90,8 +99,16 @@ class EnergySwingUpController(LeafSystem):
     1 LQR) and ``pendulum_energy_J`` (E of the estimate at t_k).
     """
 
-    def __init__(self, rig: RigParameters, K, params: SwingUpParameters, *, period: float, torque_limit: float,
-                 friction_compensation: bool = False):
+    def __init__(
+        self,
+        rig: RigParameters,
+        K,
+        params: SwingUpParameters,
+        *,
+        period: float,
+        torque_limit: float,
+        friction_compensation: bool = False,
+    ):
         super().__init__()
         rig.validate()
         params.validate()
@@ -136,20 +153,28 @@ class EnergySwingUpController(LeafSystem):
         arm_reference = context.get_discrete_state(self._arm_reference).GetAtIndex(0) * self._arm_decay
         if mode == SWING and abs(theta_w) < p.catch_angle and abs(energy) < self._catch_energy:
             # Hand over only where the LQR, with its arm reference at the catch, is not saturated.
-            u_catch = self._negative_gain[0] * theta_w + self._negative_gain[2] * theta_dot \
-                + self._negative_gain[3] * phi_dot
+            u_catch = (
+                self._negative_gain[0] * theta_w + self._negative_gain[2] * theta_dot + self._negative_gain[3] * phi_dot
+            )
             if abs(u_catch) < self._catch_torque:
                 mode, arm_reference = BALANCE, phi
         elif mode == BALANCE and abs(theta_w) > p.release_angle:
             mode = SWING
         if mode == BALANCE:
-            u = (self._negative_gain[0] * theta_w + self._negative_gain[1] * (phi - arm_reference)
-                 + self._negative_gain[2] * theta_dot + self._negative_gain[3] * phi_dot)
+            u = (
+                self._negative_gain[0] * theta_w
+                + self._negative_gain[1] * (phi - arm_reference)
+                + self._negative_gain[2] * theta_dot
+                + self._negative_gain[3] * phi_dot
+            )
         else:
             # sign(0) = +1: from rest at the bottom the first command is a kick, not an equilibrium.
             direction = 1.0 if self._pump_sign * theta_dot * cos_theta >= 0.0 else -1.0
-            u = (p.energy_gain * (self._energy_reference - energy) * direction - self._arm_position_gain * phi
-                 - self._arm_velocity_gain * phi_dot)
+            u = (
+                p.energy_gain * (self._energy_reference - energy) * direction
+                - self._arm_position_gain * phi
+                - self._arm_velocity_gain * phi_dot
+            )
             u = min(max(u, -self._swing_limit), self._swing_limit)
         if self._compensate and self._friction_port.HasValue(context):
             u -= self._friction_port.Eval(context)[0]
@@ -179,5 +204,10 @@ def catch_time(result) -> float:
 
 
 __all__ = [
-    "SwingUpParameters", "EnergySwingUpController", "pendulum_energy", "wrap_angle", "kinematic_model", "catch_time",
+    "SwingUpParameters",
+    "EnergySwingUpController",
+    "pendulum_energy",
+    "wrap_angle",
+    "kinematic_model",
+    "catch_time",
 ]

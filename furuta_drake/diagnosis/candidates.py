@@ -21,8 +21,8 @@ from the sample period.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -92,137 +92,296 @@ REGULARIZATION_STARTS = (3e-3, 0.05)  # [rad/s]
 # arm free to move in the model where it sticks in the data, and the fit stalls), so they span two decades.
 FRICTION_LEVEL_STARTS = (0.005, 0.02, 0.06, 0.2)
 UNITS = {
-    "coulomb": "N m", "coulomb_pos": "N m", "coulomb_neg": "N m", "static": "N m", "presliding": "rad",
-    "regularization_velocity": "rad/s", "stribeck_velocity": "rad/s", "viscous": "N m s/rad",
-    "counts_per_rev": "counts/rev", "noise_std": "rad", "delay": "s", "gain": "-", "deadzone": "N m",
-    "time_constant": "s", "limit": "N m", "stiffness": "N m/rad", "cubic_stiffness": "N m/rad^3", "equilibrium": "rad",
-    "arm_inertia_scale": "-", "pendulum_inertia_scale": "-", "coupling_scale": "-", "gravity_scale": "-",
-    "arm_inertia_total": "kg m^2", "pendulum_inertia_total": "kg m^2", "coupling": "kg m^2",
+    "coulomb": "N m",
+    "coulomb_pos": "N m",
+    "coulomb_neg": "N m",
+    "static": "N m",
+    "presliding": "rad",
+    "regularization_velocity": "rad/s",
+    "stribeck_velocity": "rad/s",
+    "viscous": "N m s/rad",
+    "counts_per_rev": "counts/rev",
+    "noise_std": "rad",
+    "delay": "s",
+    "gain": "-",
+    "deadzone": "N m",
+    "time_constant": "s",
+    "limit": "N m",
+    "stiffness": "N m/rad",
+    "cubic_stiffness": "N m/rad^3",
+    "equilibrium": "rad",
+    "arm_inertia_scale": "-",
+    "pendulum_inertia_scale": "-",
+    "coupling_scale": "-",
+    "gravity_scale": "-",
+    "arm_inertia_total": "kg m^2",
+    "pendulum_inertia_total": "kg m^2",
+    "coupling": "kg m^2",
     "gravity_torque": "N m",
 }
 
 
-def _bristle_arm(model: Model, coulomb_pos: float, coulomb_neg: float, presliding: float, static: float | None = None,
-                 stribeck_velocity: float = 0.05) -> Model:
+def _bristle_arm(
+    model: Model,
+    coulomb_pos: float,
+    coulomb_neg: float,
+    presliding: float,
+    static: float | None = None,
+    stribeck_velocity: float = 0.05,
+) -> Model:
     """The arm's friction replaced by Dahl's (Eq. 7; levels per direction) or, with a ``static`` level, LuGre's
     without bristle damping: sigma0 = the largest saturation level / ``presliding``, the viscous term kept."""
     coulomb_pos, coulomb_neg = max(coulomb_pos, 1e-12), max(coulomb_neg, 1e-12)
     if static is None:
-        return model.replace(arm_friction=JointFrictionParameters(
-            model="dahl", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg,
-            sigma0=max(coulomb_pos, coulomb_neg) / presliding, viscous=model.arm_friction.viscous))
+        return model.replace(
+            arm_friction=JointFrictionParameters(
+                model="dahl",
+                coulomb_pos=coulomb_pos,
+                coulomb_neg=coulomb_neg,
+                sigma0=max(coulomb_pos, coulomb_neg) / presliding,
+                viscous=model.arm_friction.viscous,
+            )
+        )
     static = max(static, coulomb_pos)
-    return model.replace(arm_friction=JointFrictionParameters(
-        model="lugre", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_pos, static_pos=static, static_neg=static,
-        stribeck_velocity=stribeck_velocity, sigma0=static / presliding, sigma1=0.0,
-        viscous=model.arm_friction.viscous))
+    return model.replace(
+        arm_friction=JointFrictionParameters(
+            model="lugre",
+            coulomb_pos=coulomb_pos,
+            coulomb_neg=coulomb_pos,
+            static_pos=static,
+            static_neg=static,
+            stribeck_velocity=stribeck_velocity,
+            sigma0=static / presliding,
+            sigma1=0.0,
+            viscous=model.arm_friction.viscous,
+        )
+    )
 
 
-def _smooth_arm(model: Model, coulomb_pos: float, coulomb_neg: float, regularization: float,
-                static: float | None = None, stribeck_velocity: float = 0.05) -> Model:
+def _smooth_arm(
+    model: Model,
+    coulomb_pos: float,
+    coulomb_neg: float,
+    regularization: float,
+    static: float | None = None,
+    stribeck_velocity: float = 0.05,
+) -> Model:
     """The arm's friction replaced by the static law -(g(v) tanh(v / v_reg) + b v), the viscous term kept."""
-    return model.replace(arm_friction=JointFrictionParameters(
-        model="static", coulomb_pos=coulomb_pos, coulomb_neg=coulomb_neg,
-        static_pos=None if static is None else max(static, coulomb_pos),
-        static_neg=None if static is None else max(static, coulomb_pos), stribeck_velocity=stribeck_velocity,
-        regularization_velocity=regularization, viscous=model.arm_friction.viscous))
+    return model.replace(
+        arm_friction=JointFrictionParameters(
+            model="static",
+            coulomb_pos=coulomb_pos,
+            coulomb_neg=coulomb_neg,
+            static_pos=None if static is None else max(static, coulomb_pos),
+            static_neg=None if static is None else max(static, coulomb_pos),
+            stribeck_velocity=stribeck_velocity,
+            regularization_velocity=regularization,
+            viscous=model.arm_friction.viscous,
+        )
+    )
 
 
 def _arm(m: Model, **changes) -> Model:
     return m.replace(arm_friction=dataclasses.replace(m.arm_friction, **changes))
 
 
-def _friction_forms(params: tuple[str, ...], bounds: Callable, starts: Callable, bristle: Callable,
-                    smooth: Callable) -> tuple[Form, ...]:
+def _friction_forms(
+    params: tuple[str, ...], bounds: Callable, starts: Callable, bristle: Callable, smooth: Callable
+) -> tuple[Form, ...]:
     """The ``presliding`` and ``smooth`` forms of an arm friction candidate: its ``params`` (levels, then any
     Stribeck parameters) with ``bounds(s)`` and ``starts(s)``, then the presliding displacement or the
     regularisation velocity, each with its own bounds and starts."""
+
     def form(name, last, last_bounds, last_starts, apply):
-        return Form(name, params + (last,),
-                    lambda s: (bounds(s)[0] + [last_bounds[0]], bounds(s)[1] + [last_bounds[1]]),
-                    lambda s: [start + [value] for start in starts(s) for value in last_starts], apply)
-    return (form("presliding", "presliding", PRESLIDING, PRESLIDING_STARTS, bristle),
-            form("smooth", "regularization_velocity", REGULARIZATION, REGULARIZATION_STARTS, smooth))
+        return Form(
+            name,
+            params + (last,),
+            lambda s: (bounds(s)[0] + [last_bounds[0]], bounds(s)[1] + [last_bounds[1]]),
+            lambda s: [start + [value] for start in starts(s) for value in last_starts],
+            apply,
+        )
+
+    return (
+        form("presliding", "presliding", PRESLIDING, PRESLIDING_STARTS, bristle),
+        form("smooth", "regularization_velocity", REGULARIZATION, REGULARIZATION_STARTS, smooth),
+    )
 
 
 def _deadzone(form: str) -> Form:
-    return Form(form, ("deadzone",), lambda s: ([0.0], [0.5 * s.command]),
-                lambda s: [[0.01 * s.command], [0.05 * s.command], [0.15 * s.command]],
-                lambda m, p: m.replace(deadzone=p[0], deadzone_form=form))
+    return Form(
+        form,
+        ("deadzone",),
+        lambda s: ([0.0], [0.5 * s.command]),
+        lambda s: [[0.01 * s.command], [0.05 * s.command], [0.15 * s.command]],
+        lambda m, p: m.replace(deadzone=p[0], deadzone_form=form),
+    )
 
 
 def _saturation(form: str) -> Form:
-    return Form(form, ("limit",), lambda s: ([0.05 * s.command], [1.0 * s.command]),
-                lambda s: [[0.95 * s.command], [0.7 * s.command], [0.4 * s.command]],
-                lambda m, p: m.replace(saturation=p[0], saturation_form=form))
+    return Form(
+        form,
+        ("limit",),
+        lambda s: ([0.05 * s.command], [1.0 * s.command]),
+        lambda s: [[0.95 * s.command], [0.7 * s.command], [0.4 * s.command]],
+        lambda m, p: m.replace(saturation=p[0], saturation_form=form),
+    )
 
 
 def _single(params, bounds, starts, apply) -> tuple[Form, ...]:
     return (Form("", params, bounds, starts, apply),)
 
 
-CANDIDATES: dict[str, Candidate] = {c.name: c for c in [
-    Candidate("arm_coulomb_friction", _friction_forms(
-        ("coulomb",), lambda s: ([0.0], [0.5 * s.torque]),
-        lambda s: [[level * s.torque] for level in FRICTION_LEVEL_STARTS],
-        lambda m, p: _bristle_arm(m, p[0], p[0], p[1]), lambda m, p: _smooth_arm(m, p[0], p[0], p[1])),
-        main="coulomb"),
-    Candidate("arm_viscous_friction", _single(
-        ("viscous",), lambda s: ([0.0], [50.0 * s.arm_inertia]),
-        lambda s: [[0.1 * s.arm_inertia], [1.0 * s.arm_inertia], [5.0 * s.arm_inertia]],
-        lambda m, p: _arm(m, model="static" if m.arm_friction.model == "none" else m.arm_friction.model,
-                          viscous=p[0])), main="viscous"),
-    Candidate("arm_stribeck", _friction_forms(
-        ("coulomb", "static", "stribeck_velocity"), lambda s: ([0.0, 0.0, 0.01], [0.5 * s.torque, s.torque, 1.0]),
-        lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1] for level in FRICTION_LEVEL_STARTS],
-        lambda m, p: _bristle_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2]),
-        lambda m, p: _smooth_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2])),
-        main="static"),
-    Candidate("friction_asymmetry", _friction_forms(
-        ("coulomb_pos", "coulomb_neg"), lambda s: ([0.0, 0.0], [0.5 * s.torque, 0.5 * s.torque]),
-        lambda s: [[level * ratio * s.torque, level / ratio * s.torque] for level in FRICTION_LEVEL_STARTS
-                   for ratio in (1.0, 0.8, 1.25)],
-        lambda m, p: _bristle_arm(m, p[0], p[1], p[2]), lambda m, p: _smooth_arm(m, p[0], p[1], p[2])),
-        main="coulomb_neg"),
-    Candidate("pendulum_friction", _single(
-        ("coulomb", "viscous"), lambda s: ([0.0, 0.0], [0.1 * s.torque, 20.0 * s.pendulum_inertia]),
-        lambda s: [[0.0005 * s.torque, 0.02 * s.pendulum_inertia], [0.005 * s.torque, 0.2 * s.pendulum_inertia]],
-        lambda m, p: m.replace(pendulum_friction=dataclasses.replace(
-            m.pendulum_friction, coulomb_pos=p[0], coulomb_neg=p[0], viscous=p[1]))), main="coulomb"),
-    Candidate("encoder_quantization", _single(
-        ("counts_per_rev",), lambda s: ([4.0], [1e7]), lambda s: [],
-        lambda m, p: m.replace(counts_per_rev=int(round(p[0])))), main="counts_per_rev", fit=False),
-    Candidate("measurement_noise", _single(
-        ("noise_std",), lambda s: ([0.0], [1.0]), lambda s: [], lambda m, p: m.replace(noise_std=float(p[0]))),
-        main="noise_std", fit=False),
-    Candidate("input_delay", _single(
-        ("delay",), lambda s: ([0.0], [20.0 * s.period]),
-        lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 3.5, 6.0, 10.0)], lambda m, p: m.replace(delay=p[0])),
-        main="delay"),
-    Candidate("torque_gain_error", _single(
-        ("gain",), lambda s: ([0.2], [5.0]), lambda s: [[0.7], [1.0], [1.4]], lambda m, p: m.replace(gain=p[0])),
-        main="gain", neutral=1.0),
-    Candidate("actuator_deadzone", (_deadzone("subtract"), _deadzone("threshold")), main="deadzone"),
-    Candidate("actuator_lag", _single(
-        ("time_constant",), lambda s: ([0.0], [0.1]),
-        lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 4.0, 8.0)] + [[0.01], [0.03]],
-        lambda m, p: m.replace(lag=p[0])), main="time_constant"),
-    Candidate("actuator_saturation", (_saturation("hard"), _saturation("smooth")), main="limit"),
-    Candidate("arm_spring", (
-        Form("linear", ("stiffness", "equilibrium"), lambda s: ([0.0, -1.0], [5.0 * s.torque, 1.0]),
-             lambda s: [[0.01 * s.torque, 0.0], [0.1 * s.torque, 0.0]],
-             lambda m, p: m.replace(spring_stiffness=p[0], spring_equilibrium=p[1], spring_cubic=0.0)),
-        Form("cubic", ("stiffness", "cubic_stiffness", "equilibrium"),
-             lambda s: ([0.0, 0.0, -1.0], [5.0 * s.torque, 20.0 * s.torque, 1.0]),
-             lambda s: [[0.01 * s.torque, 0.1 * s.torque, 0.0], [0.1 * s.torque, 1.0 * s.torque, 0.0]],
-             lambda m, p: m.replace(spring_stiffness=p[0], spring_cubic=p[1], spring_equilibrium=p[2]))),
-        main="stiffness"),
-    Candidate("inertia_mismatch", _single(  # scales of the rig file's a, b, c, d (Model.rig_constants)
-        ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale"),
-        lambda s: ([0.3] * 4, [3.0] * 4), lambda s: [[1.0] * 4],
-        lambda m, p: m.replace(**{key: base * scale for key, base, scale in zip("abcd", m.rig_constants, p)})),
-        main="arm_inertia_scale", neutral=1.0),
-]}
+CANDIDATES: dict[str, Candidate] = {
+    c.name: c
+    for c in [
+        Candidate(
+            "arm_coulomb_friction",
+            _friction_forms(
+                ("coulomb",),
+                lambda s: ([0.0], [0.5 * s.torque]),
+                lambda s: [[level * s.torque] for level in FRICTION_LEVEL_STARTS],
+                lambda m, p: _bristle_arm(m, p[0], p[0], p[1]),
+                lambda m, p: _smooth_arm(m, p[0], p[0], p[1]),
+            ),
+            main="coulomb",
+        ),
+        Candidate(
+            "arm_viscous_friction",
+            _single(
+                ("viscous",),
+                lambda s: ([0.0], [50.0 * s.arm_inertia]),
+                lambda s: [[0.1 * s.arm_inertia], [1.0 * s.arm_inertia], [5.0 * s.arm_inertia]],
+                lambda m, p: _arm(
+                    m, model="static" if m.arm_friction.model == "none" else m.arm_friction.model, viscous=p[0]
+                ),
+            ),
+            main="viscous",
+        ),
+        Candidate(
+            "arm_stribeck",
+            _friction_forms(
+                ("coulomb", "static", "stribeck_velocity"),
+                lambda s: ([0.0, 0.0, 0.01], [0.5 * s.torque, s.torque, 1.0]),
+                lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1] for level in FRICTION_LEVEL_STARTS],
+                lambda m, p: _bristle_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2]),
+                lambda m, p: _smooth_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2]),
+            ),
+            main="static",
+        ),
+        Candidate(
+            "friction_asymmetry",
+            _friction_forms(
+                ("coulomb_pos", "coulomb_neg"),
+                lambda s: ([0.0, 0.0], [0.5 * s.torque, 0.5 * s.torque]),
+                lambda s: [
+                    [level * ratio * s.torque, level / ratio * s.torque]
+                    for level in FRICTION_LEVEL_STARTS
+                    for ratio in (1.0, 0.8, 1.25)
+                ],
+                lambda m, p: _bristle_arm(m, p[0], p[1], p[2]),
+                lambda m, p: _smooth_arm(m, p[0], p[1], p[2]),
+            ),
+            main="coulomb_neg",
+        ),
+        Candidate(
+            "pendulum_friction",
+            _single(
+                ("coulomb", "viscous"),
+                lambda s: ([0.0, 0.0], [0.1 * s.torque, 20.0 * s.pendulum_inertia]),
+                lambda s: [
+                    [0.0005 * s.torque, 0.02 * s.pendulum_inertia],
+                    [0.005 * s.torque, 0.2 * s.pendulum_inertia],
+                ],
+                lambda m, p: m.replace(
+                    pendulum_friction=dataclasses.replace(
+                        m.pendulum_friction, coulomb_pos=p[0], coulomb_neg=p[0], viscous=p[1]
+                    )
+                ),
+            ),
+            main="coulomb",
+        ),
+        Candidate(
+            "encoder_quantization",
+            _single(
+                ("counts_per_rev",),
+                lambda s: ([4.0], [1e7]),
+                lambda s: [],
+                lambda m, p: m.replace(counts_per_rev=int(round(p[0]))),
+            ),
+            main="counts_per_rev",
+            fit=False,
+        ),
+        Candidate(
+            "measurement_noise",
+            _single(
+                ("noise_std",), lambda s: ([0.0], [1.0]), lambda s: [], lambda m, p: m.replace(noise_std=float(p[0]))
+            ),
+            main="noise_std",
+            fit=False,
+        ),
+        Candidate(
+            "input_delay",
+            _single(
+                ("delay",),
+                lambda s: ([0.0], [20.0 * s.period]),
+                lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 3.5, 6.0, 10.0)],
+                lambda m, p: m.replace(delay=p[0]),
+            ),
+            main="delay",
+        ),
+        Candidate(
+            "torque_gain_error",
+            _single(
+                ("gain",), lambda s: ([0.2], [5.0]), lambda s: [[0.7], [1.0], [1.4]], lambda m, p: m.replace(gain=p[0])
+            ),
+            main="gain",
+            neutral=1.0,
+        ),
+        Candidate("actuator_deadzone", (_deadzone("subtract"), _deadzone("threshold")), main="deadzone"),
+        Candidate(
+            "actuator_lag",
+            _single(
+                ("time_constant",),
+                lambda s: ([0.0], [0.1]),
+                lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 4.0, 8.0)] + [[0.01], [0.03]],
+                lambda m, p: m.replace(lag=p[0]),
+            ),
+            main="time_constant",
+        ),
+        Candidate("actuator_saturation", (_saturation("hard"), _saturation("smooth")), main="limit"),
+        Candidate(
+            "arm_spring",
+            (
+                Form(
+                    "linear",
+                    ("stiffness", "equilibrium"),
+                    lambda s: ([0.0, -1.0], [5.0 * s.torque, 1.0]),
+                    lambda s: [[0.01 * s.torque, 0.0], [0.1 * s.torque, 0.0]],
+                    lambda m, p: m.replace(spring_stiffness=p[0], spring_equilibrium=p[1], spring_cubic=0.0),
+                ),
+                Form(
+                    "cubic",
+                    ("stiffness", "cubic_stiffness", "equilibrium"),
+                    lambda s: ([0.0, 0.0, -1.0], [5.0 * s.torque, 20.0 * s.torque, 1.0]),
+                    lambda s: [[0.01 * s.torque, 0.1 * s.torque, 0.0], [0.1 * s.torque, 1.0 * s.torque, 0.0]],
+                    lambda m, p: m.replace(spring_stiffness=p[0], spring_cubic=p[1], spring_equilibrium=p[2]),
+                ),
+            ),
+            main="stiffness",
+        ),
+        Candidate(
+            "inertia_mismatch",
+            _single(  # scales of the rig file's a, b, c, d (Model.rig_constants)
+                ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale"),
+                lambda s: ([0.3] * 4, [3.0] * 4),
+                lambda s: [[1.0] * 4],
+                lambda m, p: m.replace(**{key: base * scale for key, base, scale in zip("abcd", m.rig_constants, p)}),
+            ),
+            main="arm_inertia_scale",
+            neutral=1.0,
+        ),
+    ]
+}
 # Variants of one law (each holds the arm's Coulomb level): one model never holds two of them.
 SAME_LAW = (frozenset({"arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"}),)
 
@@ -244,12 +403,16 @@ def describe(name: str, effect: Effect, nominal: Model) -> dict[str, float | str
     as the lumped constants they produce."""
     candidate = CANDIDATES[name]
     values: dict[str, float | str] = {
-        key: float(v) for key, v in zip(candidate.form(effect.form).params, effect.values)}
+        key: float(v) for key, v in zip(candidate.form(effect.form).params, effect.values)
+    }
     if name == "inertia_mismatch":  # the scales are of the rig file's lumped constants
         a, b, c, d = nominal.rig_constants
-        values.update(arm_inertia_total=a * values["arm_inertia_scale"],
-                      pendulum_inertia_total=b * values["pendulum_inertia_scale"],
-                      coupling=c * values["coupling_scale"], gravity_torque=d * values["gravity_scale"])
+        values.update(
+            arm_inertia_total=a * values["arm_inertia_scale"],
+            pendulum_inertia_total=b * values["pendulum_inertia_scale"],
+            coupling=c * values["coupling_scale"],
+            gravity_torque=d * values["gravity_scale"],
+        )
     if len(candidate.forms) > 1:
         values["form"] = effect.form
     return values
@@ -266,8 +429,18 @@ def effect_from_params(name: str, params: dict) -> Effect:
     return Effect(form_name, tuple(float(params[key]) for key in form.params))
 
 
-POSITIVE = {"presliding", "regularization_velocity", "stribeck_velocity", "gain", "arm_inertia_scale",
-            "pendulum_inertia_scale", "coupling_scale", "gravity_scale", "counts_per_rev", "limit"}
+POSITIVE = {
+    "presliding",
+    "regularization_velocity",
+    "stribeck_velocity",
+    "gain",
+    "arm_inertia_scale",
+    "pendulum_inertia_scale",
+    "coupling_scale",
+    "gravity_scale",
+    "counts_per_rev",
+    "limit",
+}
 SIGNED = {"equilibrium"}
 
 
@@ -293,13 +466,16 @@ def rig_effects(rig) -> dict[str, Effect]:
             if key == "form":
                 continue
             if key not in expected:
-                raise ConfigError(f"{where}.{key}: unknown parameter of {name} ({form or 'its'} form: "
-                                  f"{', '.join(expected)})")
+                raise ConfigError(
+                    f"{where}.{key}: unknown parameter of {name} ({form or 'its'} form: {', '.join(expected)})"
+                )
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
                 raise ConfigError(f"{where}.{key} must be a finite number [{UNITS[key]}], got {value!r}")
             if (key in POSITIVE and value <= 0) or (key not in SIGNED and value < 0):
-                raise ConfigError(f"{where}.{key} must be {'positive' if key in POSITIVE else 'non-negative'} "
-                                  f"[{UNITS[key]}], got {value!r}")
+                raise ConfigError(
+                    f"{where}.{key} must be {'positive' if key in POSITIVE else 'non-negative'} "
+                    f"[{UNITS[key]}], got {value!r}"
+                )
         missing = [key for key in expected if key not in params]
         if missing:
             raise ConfigError(f"{where}: missing parameter {', '.join(missing)} of {name}")

@@ -24,24 +24,40 @@ def model_rig(model: Model, rig: RigParameters) -> RigParameters:
     mass = float(np.clip(rig.pendulum_mass, 1.0001 * ml**2 / model.b, 0.9999 * model.a / r**2))
     com = ml / mass
     return dataclasses.replace(
-        rig, arm_length=r, pendulum_mass=mass, pendulum_com=com, pendulum_inertia=model.b - mass * com**2,
-        arm_inertia=model.a - mass * r**2, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0,
-        pendulum_viscous=0.0, motor=None)
+        rig,
+        arm_length=r,
+        pendulum_mass=mass,
+        pendulum_com=com,
+        pendulum_inertia=model.b - mass * com**2,
+        arm_inertia=model.a - mass * r**2,
+        arm_coulomb=0.0,
+        arm_viscous=0.0,
+        pendulum_coulomb=0.0,
+        pendulum_viscous=0.0,
+        motor=None,
+    )
 
 
 def model_disturbance(model: Model) -> DisturbanceParameters:
     """The model's arm spring as the world's disturbance parameters."""
-    return DisturbanceParameters(arm_spring_stiffness=model.spring_stiffness,
-                                 arm_spring_equilibrium=model.spring_equilibrium,
-                                 arm_spring_cubic_stiffness=model.spring_cubic)
+    return DisturbanceParameters(
+        arm_spring_stiffness=model.spring_stiffness,
+        arm_spring_equilibrium=model.spring_equilibrium,
+        arm_spring_cubic_stiffness=model.spring_cubic,
+    )
 
 
 def model_actuator(model: Model) -> ActuatorParameters:
     """The actuator blocks of the model other than the delay (a time shift of the replayed command)."""
-    return ActuatorParameters(gain=model.gain, deadzone=model.deadzone, deadzone_form=model.deadzone_form,
-                              saturation_form=model.saturation_form,
-                              saturation=None if not np.isfinite(model.saturation) else model.saturation,
-                              delay=0.0, lag_time_constant=model.lag)
+    return ActuatorParameters(
+        gain=model.gain,
+        deadzone=model.deadzone,
+        deadzone_form=model.deadzone_form,
+        saturation_form=model.saturation_form,
+        saturation=None if not np.isfinite(model.saturation) else model.saturation,
+        delay=0.0,
+        lag_time_constant=model.lag,
+    )
 
 
 def model_config(rig: RigParameters, model: Model) -> SimulationConfig:
@@ -53,8 +69,8 @@ def model_config(rig: RigParameters, model: Model) -> SimulationConfig:
         friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
         actuator=dataclasses.replace(model_actuator(model), delay=model.delay),
         disturbance=model_disturbance(model),
-        encoder=dataclasses.replace(config.encoder, counts_per_rev=model.counts_per_rev,
-                                    noise_std=model.noise_std))
+        encoder=dataclasses.replace(config.encoder, counts_per_rev=model.counts_per_rev, noise_std=model.noise_std),
+    )
 
 
 def fitted_rig(rig: RigParameters, effects: dict[str, Effect], nominal: Model) -> RigParameters:
@@ -62,6 +78,9 @@ def fitted_rig(rig: RigParameters, effects: dict[str, Effect], nominal: Model) -
     stated = dict(rig.effects or {})
     for name, effect in effects.items():
         params = describe(name, effect, nominal)
-        stated[name] = {key: value for key, value in params.items()
-                        if key == "form" or key in CANDIDATES[name].form(effect.form).params}
+        stated[name] = {
+            key: value
+            for key, value in params.items()
+            if key == "form" or key in CANDIDATES[name].form(effect.form).params
+        }
     return rig.replace(effects=stated or None)

@@ -17,8 +17,8 @@ less than half a count), and a coarser encoder by re-quantising the measured ang
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -55,47 +55,91 @@ def _arm_level(model: Model) -> float:
 
 INJECTIONS: dict[str, Injection] = {
     "arm_coulomb_friction": Injection(
-        "coulomb", lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
-        lambda s, sc, m: Effect("presliding", (_arm_level(m) + s, PRESLIDING_STARTS[0])), _same,
-        f"added to the model's Coulomb level, presliding {PRESLIDING_STARTS[0] * 1e3:g} mrad"),
+        "coulomb",
+        lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
+        lambda s, sc, m: Effect("presliding", (_arm_level(m) + s, PRESLIDING_STARTS[0])),
+        _same,
+        f"added to the model's Coulomb level, presliding {PRESLIDING_STARTS[0] * 1e3:g} mrad",
+    ),
     "arm_viscous_friction": Injection(
-        "viscous", lambda sc, m: (1e-4 * sc.arm_inertia, 50.0 * sc.arm_inertia),
-        lambda s, sc, m: Effect("", (m.arm_friction.viscous + s,)), _same, "added to the model's"),
+        "viscous",
+        lambda sc, m: (1e-4 * sc.arm_inertia, 50.0 * sc.arm_inertia),
+        lambda s, sc, m: Effect("", (m.arm_friction.viscous + s,)),
+        _same,
+        "added to the model's",
+    ),
     "arm_stribeck": Injection(
-        "static", lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
-        lambda s, sc, m: Effect("presliding", (_arm_level(m), _arm_level(m) + s, 0.1, PRESLIDING_STARTS[0])), _same,
-        "static level above the model's Coulomb level, Stribeck velocity 0.1 rad/s"),
+        "static",
+        lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
+        lambda s, sc, m: Effect("presliding", (_arm_level(m), _arm_level(m) + s, 0.1, PRESLIDING_STARTS[0])),
+        _same,
+        "static level above the model's Coulomb level, Stribeck velocity 0.1 rad/s",
+    ),
     "friction_asymmetry": Injection(
-        "coulomb_neg", lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
-        lambda s, sc, m: Effect("presliding", (_arm_level(m) + 1e-6 * sc.torque, _arm_level(m) + s,
-                                               PRESLIDING_STARTS[0])), _same,
-        "added to the model's Coulomb level in the negative direction only"),
+        "coulomb_neg",
+        lambda sc, m: (1e-5 * sc.torque, 0.5 * sc.torque),
+        lambda s, sc, m: Effect(
+            "presliding", (_arm_level(m) + 1e-6 * sc.torque, _arm_level(m) + s, PRESLIDING_STARTS[0])
+        ),
+        _same,
+        "added to the model's Coulomb level in the negative direction only",
+    ),
     "pendulum_friction": Injection(
-        "coulomb", lambda sc, m: (1e-6 * sc.torque, 0.1 * sc.torque),
-        lambda s, sc, m: Effect("", (m.pendulum_friction.coulomb_pos + s, m.pendulum_friction.viscous)), _same,
-        "added to the model's Coulomb level"),
+        "coulomb",
+        lambda sc, m: (1e-6 * sc.torque, 0.1 * sc.torque),
+        lambda s, sc, m: Effect("", (m.pendulum_friction.coulomb_pos + s, m.pendulum_friction.viscous)),
+        _same,
+        "added to the model's Coulomb level",
+    ),
     "input_delay": Injection(
-        "delay", lambda sc, m: (0.01 * sc.period, 20.0 * sc.period), lambda s, sc, m: Effect("", (m.delay + s,)),
-        _same, "added to the model's"),
+        "delay",
+        lambda sc, m: (0.01 * sc.period, 20.0 * sc.period),
+        lambda s, sc, m: Effect("", (m.delay + s,)),
+        _same,
+        "added to the model's",
+    ),
     "torque_gain_error": Injection(
-        "gain", lambda sc, m: (1e-3, 1.0), lambda s, sc, m: Effect("", (1.0 + s,)), lambda s, sc, m: 1.0 + s,
-        "a gain above 1 (a gain below 1 is detected at about the same distance from 1)"),
+        "gain",
+        lambda sc, m: (1e-3, 1.0),
+        lambda s, sc, m: Effect("", (1.0 + s,)),
+        lambda s, sc, m: 1.0 + s,
+        "a gain above 1 (a gain below 1 is detected at about the same distance from 1)",
+    ),
     "actuator_deadzone": Injection(
-        "deadzone", lambda sc, m: (1e-4 * sc.command, 0.5 * sc.command),
-        lambda s, sc, m: Effect("subtract", (m.deadzone + s,)), _same, "the subtract form"),
+        "deadzone",
+        lambda sc, m: (1e-4 * sc.command, 0.5 * sc.command),
+        lambda s, sc, m: Effect("subtract", (m.deadzone + s,)),
+        _same,
+        "the subtract form",
+    ),
     "actuator_lag": Injection(
-        "time_constant", lambda sc, m: (0.01 * sc.period, 0.1), lambda s, sc, m: Effect("", (m.lag + s,)), _same,
-        "added to the model's"),
+        "time_constant",
+        lambda sc, m: (0.01 * sc.period, 0.1),
+        lambda s, sc, m: Effect("", (m.lag + s,)),
+        _same,
+        "added to the model's",
+    ),
     "actuator_saturation": Injection(
-        "limit", lambda sc, m: (1e-3, 0.95), lambda s, sc, m: Effect("hard", ((1.0 - s) * sc.command,)),
-        lambda s, sc, m: (1.0 - s) * sc.command, "the largest limit detected, below the largest command"),
+        "limit",
+        lambda sc, m: (1e-3, 0.95),
+        lambda s, sc, m: Effect("hard", ((1.0 - s) * sc.command,)),
+        lambda s, sc, m: (1.0 - s) * sc.command,
+        "the largest limit detected, below the largest command",
+    ),
     "arm_spring": Injection(
-        "stiffness", lambda sc, m: (1e-5 * sc.torque, 5.0 * sc.torque),
-        lambda s, sc, m: Effect("linear", (m.spring_stiffness + s, m.spring_equilibrium)), _same,
-        "a linear spring added to the model's"),
+        "stiffness",
+        lambda sc, m: (1e-5 * sc.torque, 5.0 * sc.torque),
+        lambda s, sc, m: Effect("linear", (m.spring_stiffness + s, m.spring_equilibrium)),
+        _same,
+        "a linear spring added to the model's",
+    ),
     "inertia_mismatch": Injection(
-        "arm_inertia_scale", lambda sc, m: (1e-3, 1.0), lambda s, sc, m: Effect("", (1.0 + s, 1.0, 1.0, 1.0)),
-        lambda s, sc, m: 1.0 + s, "the arm's inertia alone, scaled up"),
+        "arm_inertia_scale",
+        lambda sc, m: (1e-3, 1.0),
+        lambda s, sc, m: Effect("", (1.0 + s, 1.0, 1.0, 1.0)),
+        lambda s, sc, m: 1.0 + s,
+        "the arm's inertia alone, scaled up",
+    ),
 }
 
 
@@ -127,16 +171,25 @@ class _Judge:
     def injected(self, effect_model: Model) -> list[np.ndarray]:
         count = 2 * np.pi / self.counts
         predicted = fixed_state_residuals(effect_model, self.windows, self.states, self.counts)
-        return [raw + project_out_states(np.nan_to_num(p - raw, nan=1e6 / count), J)
-                for raw, p, J in zip(self.raw, predicted, self.jacobians)]
+        return [
+            raw + project_out_states(np.nan_to_num(p - raw, nan=1e6 / count), J)
+            for raw, p, J in zip(self.raw, predicted, self.jacobians)
+        ]
 
 
 def _excess(residuals: list[np.ndarray], variance: float) -> np.ndarray:
     return np.concatenate([(r[1:] ** 2).mean(axis=(0, 1)) for r in residuals]) - variance
 
 
-def detection_limits(model: Model, accepted: list[str], windows: Windows, scales: Scales, counts: int,
-                     bootstrap: Bootstrap, seed: int = 0) -> list[DetectionLimit]:
+def detection_limits(
+    model: Model,
+    accepted: list[str],
+    windows: Windows,
+    scales: Scales,
+    counts: int,
+    bootstrap: Bootstrap,
+    seed: int = 0,
+) -> list[DetectionLimit]:
     """The detection limit of every vocabulary effect that is neither accepted nor a variant of an accepted
     effect's law, on the held-out ``windows`` of ``model`` (the model holding the accepted effects)."""
     from furuta_drake.diagnosis.candidates import law_of
@@ -178,11 +231,17 @@ def _injected_limit(name: str, judge: _Judge, scales: Scales) -> DetectionLimit:
     low, high = injection.bracket(scales, judge.model)
     size = _bisect(detected, low, high)
     if size is None:
-        return DetectionLimit(name, injection.param, None, UNITS[injection.param],
-                              f"not detected even at {injection.value(high, scales, judge.model):.3g} "
-                              f"{UNITS[injection.param]}, the end of its search range")
-    return DetectionLimit(name, injection.param, injection.value(size, scales, judge.model), UNITS[injection.param],
-                          injection.note)
+        return DetectionLimit(
+            name,
+            injection.param,
+            None,
+            UNITS[injection.param],
+            f"not detected even at {injection.value(high, scales, judge.model):.3g} "
+            f"{UNITS[injection.param]}, the end of its search range",
+        )
+    return DetectionLimit(
+        name, injection.param, injection.value(size, scales, judge.model), UNITS[injection.param], injection.note
+    )
 
 
 def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:
@@ -197,8 +256,13 @@ def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:
         return judge.detected(residuals, judge.variance + size**2)
 
     size = _bisect(detected, NOISE_FLOOR_COUNTS, 20.0)
-    return DetectionLimit("measurement_noise", "noise_std", None if size is None else size * count, "rad",
-                          "white noise on both angles" if size is not None else "not detected up to 20 counts")
+    return DetectionLimit(
+        "measurement_noise",
+        "noise_std",
+        None if size is None else size * count,
+        "rad",
+        "white noise on both angles" if size is not None else "not detected up to 20 counts",
+    )
 
 
 def _quantization_limit(judge: _Judge) -> DetectionLimit:
@@ -210,7 +274,13 @@ def _quantization_limit(judge: _Judge) -> DetectionLimit:
             coarse = np.round(log_windows / (k * count)) * k * count
             residuals.append(raw + (coarse - log_windows) / count)
         if judge.detected(residuals, judge.variance + (k**2 - 1) / 12.0):
-            return DetectionLimit("encoder_quantization", "counts_per_rev", judge.counts / k, "counts/rev",
-                                  f"an encoder {k} times coarser than the rig file's")
-    return DetectionLimit("encoder_quantization", "counts_per_rev", None, "counts/rev",
-                          "not detected up to 64 times coarser")
+            return DetectionLimit(
+                "encoder_quantization",
+                "counts_per_rev",
+                judge.counts / k,
+                "counts/rev",
+                f"an encoder {k} times coarser than the rig file's",
+            )
+    return DetectionLimit(
+        "encoder_quantization", "counts_per_rev", None, "counts/rev", "not detected up to 64 times coarser"
+    )

@@ -27,7 +27,12 @@ from scipy.optimize import least_squares
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, Scales, apply_effects
 from furuta_drake.diagnosis.gap import (
-    GapResult, Windows, evaluate_gap, fixed_state_residuals, project_out_states, projected_residuals,
+    GapResult,
+    Windows,
+    evaluate_gap,
+    fixed_state_residuals,
+    project_out_states,
+    projected_residuals,
 )
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import DiagnosisSettings
@@ -77,8 +82,13 @@ class FitTask:
 
 def scales_of(logs, model: Model) -> Scales:
     command = max(float(np.max(np.abs(log.torque_command))) for log in logs)
-    return Scales(torque=model.d, command=max(command, 1e-9), arm_inertia=model.a, pendulum_inertia=model.b,
-                  period=float(np.median([log.sample_period for log in logs])))
+    return Scales(
+        torque=model.d,
+        command=max(command, 1e-9),
+        arm_inertia=model.a,
+        pendulum_inertia=model.b,
+        period=float(np.median([log.sample_period for log in logs])),
+    )
 
 
 def quantization_estimate(logs, nominal_counts: int) -> float:
@@ -113,7 +123,7 @@ def noise_estimate(logs, nominal_counts: int, resamples: int = 0, seed: int = 0)
         value = np.sqrt(np.maximum(mean_square / 6.0 - step**2 / 12.0, 0.0))
         return np.where(value >= NOISE_FLOOR_COUNTS, value * count, 0.0)
 
-    blocks = kept[:kept.size // 100 * 100].reshape(-1, 100) if kept.size >= 200 else kept.reshape(1, -1)
+    blocks = kept[: kept.size // 100 * 100].reshape(-1, 100) if kept.size >= 200 else kept.reshape(1, -1)
     block_sums = np.sum(blocks**2, axis=1)
     rng = np.random.default_rng(seed)
     draws = rng.integers(0, blocks.shape[0], (resamples, blocks.shape[0]))
@@ -157,11 +167,16 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     bootstrap samples per effect, cost)."""
     settings, counts = task.settings, task.nominal_counts
     scales = scales_of(task.logs, task.model)
-    forms = {} if task.frozen else {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items()
-                                    if CANDIDATES[name].fit}
+    forms = (
+        {}
+        if task.frozen
+        else {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items() if CANDIDATES[name].fit}
+    )
     for name, form_name in new_form.items():
-        forms[name] = (form_name, [list(task.start.values)] if task.start is not None
-                       else CANDIDATES[name].form(form_name).starts(scales))
+        forms[name] = (
+            form_name,
+            [list(task.start.values)] if task.start is not None else CANDIDATES[name].form(form_name).starts(scales),
+        )
     sensors = {name: effect for name, effect in task.fixed.items() if task.frozen or not CANDIDATES[name].fit}
     names = tuple(forms)
     lows, highs, sizes, starts = [], [], [], [[]]
@@ -176,7 +191,7 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     def effects_at(x) -> dict[str, Effect]:
         out, i = {}, 0
         for name, size in zip(names, sizes):
-            out[name] = Effect(forms[name][0], tuple(x[i:i + size]))
+            out[name] = Effect(forms[name][0], tuple(x[i : i + size]))
             i += size
         return out
 
@@ -194,22 +209,37 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     def jacobian(x):
         if "x" not in last or not np.array_equal(last["x"], x):
             cost(x)
-        return np.column_stack([_flat(column) for column in _columns(model_at, x, subset, last, counts, span,
-                                                                     high)])
+        return np.column_stack([_flat(column) for column in _columns(model_at, x, subset, last, counts, span, high)])
 
     candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
     screen = subset.subset(settings.start_windows, seed=settings.seed + 1)
-    x0 = candidates[0] if len(candidates) == 1 else min(
-        candidates, key=lambda x: float(np.sum(_flat(projected_residuals(model_at(x), screen, counts)[0]) ** 2)))
-    result = least_squares(cost, x0, jac=jacobian, bounds=(low, high), x_scale=np.maximum(span, 1e-12) / 10.0,
-                           max_nfev=settings.max_nfev, method="trf")
+    x0 = (
+        candidates[0]
+        if len(candidates) == 1
+        else min(
+            candidates, key=lambda x: float(np.sum(_flat(projected_residuals(model_at(x), screen, counts)[0]) ** 2))
+        )
+    )
+    result = least_squares(
+        cost,
+        x0,
+        jac=jacobian,
+        bounds=(low, high),
+        x_scale=np.maximum(span, 1e-12) / 10.0,
+        max_nfev=settings.max_nfev,
+        method="trf",
+    )
     samples = _bootstrap(model_at, result.x, subset, counts, span, low, high, settings)
     split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
-        split[name] = samples[:, i:i + size]
+        split[name] = samples[:, i : i + size]
         i += size
-    return ({**sensors, **effects_at(result.x)}, at_bounds(names, [forms[n][0] for n in names], result.x, low, high),
-            split, float(2.0 * result.cost))
+    return (
+        {**sensors, **effects_at(result.x)},
+        at_bounds(names, [forms[n][0] for n in names], result.x, low, high),
+        split,
+        float(2.0 * result.cost),
+    )
 
 
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:
@@ -223,13 +253,16 @@ def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high)
         shifted = x.copy()
         shifted[i] += step
         shifted_r = fixed_state_residuals(model_at(shifted), windows, last["states"], counts)
-        columns.append([project_out_states(new - old, J) / step
-                        for new, old, J in zip(shifted_r, last["raw"], last["state_jacobians"])])
+        columns.append(
+            [
+                project_out_states(new - old, J) / step
+                for new, old, J in zip(shifted_r, last["raw"], last["state_jacobians"])
+            ]
+        )
     return columns
 
 
-def _bootstrap(model_at, x, windows: Windows, counts: int, span, low, high, settings: DiagnosisSettings
-               ) -> np.ndarray:
+def _bootstrap(model_at, x, windows: Windows, counts: int, span, low, high, settings: DiagnosisSettings) -> np.ndarray:
     """(resamples, params) bootstrap of the fitted parameters over ``windows`` (module docstring)."""
     last = dict(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), windows, counts)))
     columns = _columns(model_at, x, windows, last, counts, span, high)
@@ -245,8 +278,9 @@ def _bootstrap(model_at, x, windows: Windows, counts: int, span, low, high, sett
     weights = np.vstack([np.ones(W), rng.multinomial(W, np.full(W, 1.0 / W), settings.interval_resamples)])
     H = np.einsum("bw,wij->bij", weights, normal)
     ridge = 1e-9 * np.maximum(np.einsum("bii->bi", H), 1e-300)
-    steps = -np.linalg.solve(H + ridge[:, :, None] * np.eye(x.size), np.einsum("bw,wi->bi", weights, gradient)[
-        ..., None])[..., 0]
+    steps = -np.linalg.solve(
+        H + ridge[:, :, None] * np.eye(x.size), np.einsum("bw,wi->bi", weights, gradient)[..., None]
+    )[..., 0]
     return np.clip(x + steps[1:] - steps[0], low, high)
 
 
@@ -256,14 +290,14 @@ def interval(samples: np.ndarray) -> tuple[float, float]:
     return float(low), float(high)
 
 
-def at_bounds(names: tuple[str, ...], forms: list[str], x: np.ndarray, low: np.ndarray, high: np.ndarray
-              ) -> list[str]:
+def at_bounds(names: tuple[str, ...], forms: list[str], x: np.ndarray, low: np.ndarray, high: np.ndarray) -> list[str]:
     """The fitted parameters that ended at a bound of their search range, as "effect.param (lower|upper)": an
     accepted effect stretched to its range's edge may stand in for another effect of a similar shape."""
     labels = [f"{name}.{param}" for name, form in zip(names, forms) for param in CANDIDATES[name].form(form).params]
     tolerance = BOUND_TOLERANCE * (high - low)
-    return ([f"{label} (lower)" for label, v, lo, t in zip(labels, x, low, tolerance) if v - lo <= t]
-            + [f"{label} (upper)" for label, v, hi, t in zip(labels, x, high, tolerance) if hi - v <= t])
+    return [f"{label} (lower)" for label, v, lo, t in zip(labels, x, low, tolerance) if v - lo <= t] + [
+        f"{label} (upper)" for label, v, hi, t in zip(labels, x, high, tolerance) if hi - v <= t
+    ]
 
 
 def _flat(r: list[np.ndarray]) -> np.ndarray:

@@ -4,7 +4,7 @@ how far the accepted effects' parameters spread."""
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, describe
 from furuta_drake.diagnosis.gap import make_windows
@@ -17,15 +17,30 @@ from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.rig import RigParameters
 
 
-def consistency(logs: list[RunLog], rig: RigParameters, nominal: Model, names: list[str],
-                settings: DiagnosisSettings, run: Callable, folds: int) -> Consistency:
+def consistency(
+    logs: list[RunLog],
+    rig: RigParameters,
+    nominal: Model,
+    names: list[str],
+    settings: DiagnosisSettings,
+    run: Callable,
+    folds: int,
+) -> Consistency:
     """The selection repeated on ``folds`` splits of all the logs (:func:`fold_split`): each fold's verdict and
     effects, the range of each accepted effect's parameters over the folds that accepted it, and a judgement."""
     verdicts, effects, values = [], [], {}
     for fold in range(folds):
         train, heldout = fold_split(logs, folds, fold, rig)
-        selection = select_effects(nominal, train, make_windows(train, rig), make_windows(heldout, rig),
-                                   rig.counts_per_rev, names, settings, run)
+        selection = select_effects(
+            nominal,
+            train,
+            make_windows(train, rig),
+            make_windows(heldout, rig),
+            rig.counts_per_rev,
+            names,
+            settings,
+            run,
+        )
         verdicts.append(selection.verdict)
         effects.append(selection.effects)
         if selection.effects:
@@ -37,8 +52,7 @@ def consistency(logs: list[RunLog], rig: RigParameters, nominal: Model, names: l
     return Consistency(folds, verdicts, effects, ranges, judgement(verdicts, effects, ranges, nominal))
 
 
-def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, list[float]], nominal: Model
-              ) -> str:
+def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, list[float]], nominal: Model) -> str:
     """One line: how often the verdict and each effect came back, and the spread of the main parameters."""
     folds = len(verdicts)
     counts = {verdict: verdicts.count(verdict) for verdict in dict.fromkeys(verdicts)}
@@ -49,6 +63,10 @@ def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, l
     named = {name: sum(name in found for found in effects) for found in effects for name in found}
     if named and any(n < folds for n in named.values()):
         text += "; effects " + ", ".join(f"{name} {n}/{folds}" for name, n in named.items())
-    mains = [f"{name} {CANDIDATES[name].main} {low:.4g}-{high:.4g}" for key, (low, high) in ranges.items()
-             for name in [key.split(".")[0]] if key.split(".")[1] == CANDIDATES[name].main]
+    mains = [
+        f"{name} {CANDIDATES[name].main} {low:.4g}-{high:.4g}"
+        for key, (low, high) in ranges.items()
+        for name in [key.split(".")[0]]
+        if key.split(".")[1] == CANDIDATES[name].main
+    ]
     return text + ("; " + ", ".join(mains) if mains else "")

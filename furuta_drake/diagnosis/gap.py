@@ -5,7 +5,8 @@ first estimated from the measured angles by a centred Savitzky-Golay smoother (a
 Dahl or LuGre arm's bristle state integrated along the smoothed arm path, then refined for each model by
 Levenberg-Marquardt steps on the window's residuals (a step is kept only where the re-simulated residual
 falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
-or integrator. The model then predicts the angles over the window from the logged command (held over each sample). Residuals
+or integrator. The model then predicts the angles over the window from the logged command (held over each sample).
+Residuals
 are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that the
 upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
 
@@ -33,10 +34,12 @@ SMOOTHING_S = 0.03  # Savitzky-Golay window for the initial states [s]
 
 
 def gap_metric_definition(horizon_s: float) -> str:
-    return (f"k-step output error: RMS of measured minus predicted theta and phi over {horizon_s * 1e3:.0f} ms "
-            f"windows started from Savitzky-Golay-smoothed states refined per model and window by "
-            f"Levenberg-Marquardt steps (the arm's bristle state too, for Dahl or LuGre friction), in encoder "
-            f"counts of the rig file, with the model's own sensor variance subtracted")
+    return (
+        f"k-step output error: RMS of measured minus predicted theta and phi over {horizon_s * 1e3:.0f} ms "
+        f"windows started from Savitzky-Golay-smoothed states refined per model and window by "
+        f"Levenberg-Marquardt steps (the arm's bristle state too, for Dahl or LuGre friction), in encoder "
+        f"counts of the rig file, with the model's own sensor variance subtracted"
+    )
 
 
 def horizon_seconds(rig: RigParameters) -> float:
@@ -62,18 +65,25 @@ class Windows:
     def count(self) -> int:
         return int(sum(s.size for s in self.starts))
 
-    def subset(self, max_windows: int, seed: int = 0) -> "Windows":
+    def subset(self, max_windows: int, seed: int = 0) -> Windows:
         """At most ``max_windows`` windows, drawn evenly over the logs (for fitting speed)."""
         if self.count <= max_windows:
             return self
         rng = np.random.default_rng(seed)
-        keep = [np.sort(rng.choice(s.size, max(1, round(max_windows * s.size / self.count)), replace=False))
-                for s in self.starts]
-        return Windows(self.logs, self.horizons, [s[k] for s, k in zip(self.starts, keep)],
-                       [x[:, k] for x, k in zip(self.initial_states, keep)],
-                       [m[:, :, k] for m, k in zip(self.measured, keep)], self.arm_paths)
+        keep = [
+            np.sort(rng.choice(s.size, max(1, round(max_windows * s.size / self.count)), replace=False))
+            for s in self.starts
+        ]
+        return Windows(
+            self.logs,
+            self.horizons,
+            [s[k] for s, k in zip(self.starts, keep)],
+            [x[:, k] for x, k in zip(self.initial_states, keep)],
+            [m[:, :, k] for m, k in zip(self.measured, keep)],
+            self.arm_paths,
+        )
 
-    def batches(self) -> list["Batch"]:
+    def batches(self) -> list[Batch]:
         """The windows as one array problem per (sample period, horizon): fewer, wider surrogate calls."""
         groups: dict[tuple[float, int], list[int]] = {}
         for i, (log, horizon) in enumerate(zip(self.logs, self.horizons)):
@@ -87,10 +97,18 @@ class Windows:
                 commands.append(np.concatenate([np.full(COMMAND_PAD, command[0]), command]))
                 starts.append(self.starts[i] + offset + COMMAND_PAD)
                 offset += COMMAND_PAD + command.size
-            out.append(Batch(members, period, horizon, np.concatenate(commands), np.concatenate(starts),
-                             np.concatenate([self.initial_states[i] for i in members], axis=1),
-                             np.concatenate([self.measured[i] for i in members], axis=2),
-                             np.cumsum([0] + [self.starts[i].size for i in members])))
+            out.append(
+                Batch(
+                    members,
+                    period,
+                    horizon,
+                    np.concatenate(commands),
+                    np.concatenate(starts),
+                    np.concatenate([self.initial_states[i] for i in members], axis=1),
+                    np.concatenate([self.measured[i] for i in members], axis=2),
+                    np.cumsum([0] + [self.starts[i].size for i in members]),
+                )
+            )
         return out
 
 
@@ -124,10 +142,12 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
     for log in logs:
         horizon, smooth = window_samples(log.sample_period, rig)
         if log.time.size <= horizon + 2 * smooth:
-            raise LogError(f"{log.name}: {log.time.size} samples ({log.time.size * log.sample_period:.3g} s) are too "
-                           f"short for one gap window of this rig: {horizon} samples ({horizon_s * 1e3:.0f} ms) "
-                           f"plus {SMOOTHING_S * 1e3:.0f} ms of smoothing on each side; without --heldout part of "
-                           f"each log is held out and the rest trains, so give longer logs")
+            raise LogError(
+                f"{log.name}: {log.time.size} samples ({log.time.size * log.sample_period:.3g} s) are too "
+                f"short for one gap window of this rig: {horizon} samples ({horizon_s * 1e3:.0f} ms) "
+                f"plus {SMOOTHING_S * 1e3:.0f} ms of smoothing on each side; without --heldout part of "
+                f"each log is held out and the rest trains, so give longer logs"
+            )
         angles = np.vstack([log.theta, log.phi])
         position = savgol_filter(angles, smooth, 3, axis=1)
         velocity = savgol_filter(angles, smooth, 3, deriv=1, delta=log.sample_period, axis=1)
@@ -147,11 +167,13 @@ def initial_bristles(model: Model, windows: Windows) -> list[np.ndarray | None]:
     without a Dahl or LuGre arm."""
     if not model.arm_friction.has_bristles:
         return [None] * len(windows.logs)
-    return [bristle_path(path, model.arm_friction, log.sample_period)[starts]
-            for log, path, starts in zip(windows.logs, windows.arm_paths, windows.starts)]
+    return [
+        bristle_path(path, model.arm_friction, log.sample_period)[starts]
+        for log, path, starts in zip(windows.logs, windows.arm_paths, windows.starts)
+    ]
 
 
-def _batch_bristles(bristles: list[np.ndarray | None], batch: "Batch") -> np.ndarray | None:
+def _batch_bristles(bristles: list[np.ndarray | None], batch: Batch) -> np.ndarray | None:
     parts = [bristles[i] for i in batch.members]
     return None if parts[0] is None else np.concatenate(parts)
 
@@ -182,20 +204,21 @@ def _perturbation(model: Model, n: int) -> np.ndarray:
     return np.append(_PERTURBATION, 0.05 * model.arm_friction.bristle_bound)
 
 
-def _predict(model: Model, x: np.ndarray, batch: "Batch", starts: np.ndarray, substeps: int) -> np.ndarray:
+def _predict(model: Model, x: np.ndarray, batch: Batch, starts: np.ndarray, substeps: int) -> np.ndarray:
     """:func:`predict_windows` from initial states (4, W) or, with the arm's bristle state as a 5th row, (5, W)."""
-    return predict_windows(model, x[:4], batch.command, starts, batch.horizon, batch.period, substeps,
-                           x[4] if x.shape[0] > 4 else None)
+    return predict_windows(
+        model, x[:4], batch.command, starts, batch.horizon, batch.period, substeps, x[4] if x.shape[0] > 4 else None
+    )
 
 
-def _linearised(model: Model, x: np.ndarray, batch: "Batch", substeps: int, delta: np.ndarray, count: float):
+def _linearised(model: Model, x: np.ndarray, batch: Batch, substeps: int, delta: np.ndarray, count: float):
     """Residuals (h, 2, W) [counts] from the initial states x (n, W) and their sensitivities (h, 2, W, n) [counts
     per unit of state], by forward differences of step ``delta``: one surrogate call of width (n + 1) W."""
     n, W = x.shape
     points = np.concatenate([x] + [x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
     predicted = _predict(model, points, batch, np.tile(batch.starts, n + 1), substeps)
     base = predicted[:, :, :W]
-    J = np.stack([(predicted[:, :, (i + 1) * W:(i + 2) * W] - base) / delta[i] / count for i in range(n)], axis=-1)
+    J = np.stack([(predicted[:, :, (i + 1) * W : (i + 2) * W] - base) / delta[i] / count for i in range(n)], axis=-1)
     return (batch.measured - base) / count, J
 
 
@@ -262,8 +285,9 @@ def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.nda
     return change - fitted.reshape(W, h, 2).transpose(1, 2, 0)
 
 
-def fixed_state_residuals(model: Model, windows: Windows, states: list[np.ndarray], nominal_counts: int
-                          ) -> list[np.ndarray]:
+def fixed_state_residuals(
+    model: Model, windows: Windows, states: list[np.ndarray], nominal_counts: int
+) -> list[np.ndarray]:
     """Per log: measured minus predicted angles [counts] from given initial states (those of
     :func:`projected_residuals`, no refinement)."""
     count = 2 * np.pi / nominal_counts
@@ -272,7 +296,7 @@ def fixed_state_residuals(model: Model, windows: Windows, states: list[np.ndarra
         x = np.concatenate([states[i] for i in batch.members], axis=1)
         r = (batch.measured - _predict(model, x, batch, batch.starts, substeps_for(batch.period))) / count
         for j, i in enumerate(batch.members):
-            out[i] = r[:, :, batch.bounds[j]:batch.bounds[j + 1]]
+            out[i] = r[:, :, batch.bounds[j] : batch.bounds[j + 1]]
     return out
 
 
@@ -291,10 +315,11 @@ def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: lis
     squared = [x[1:] ** 2 for x in r]  # row 0 is the start
     per_window = np.concatenate([x.mean(axis=(0, 1)) for x in squared]) - variance
     samples = sum(x.shape[0] * x.shape[2] for x in squared)
-    per_signal = {name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - variance, 0.0)))
-                  for i, name in enumerate(("theta", "phi"))}
-    return GapResult(float(np.sqrt(max(per_window.mean(), 0.0))), per_signal, per_window, variance, r,
-                     initial_states)
+    per_signal = {
+        name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - variance, 0.0)))
+        for i, name in enumerate(("theta", "phi"))
+    }
+    return GapResult(float(np.sqrt(max(per_window.mean(), 0.0))), per_signal, per_window, variance, r, initial_states)
 
 
 def evaluate_gap(model: Model, windows: Windows, nominal_counts: int) -> GapResult:
@@ -310,12 +335,18 @@ def window_residuals(result: GapResult, windows: Windows, rig: RigParameters) ->
     for log, horizon, starts, r in zip(windows.logs, windows.horizons, windows.starts, result.residuals):
         command = log.torque_command
         smooth = max(5, int(round(SMOOTHING_S / log.sample_period)) | 1)
-        velocity = savgol_filter(np.vstack([log.theta, log.phi]), smooth, 3, deriv=1, delta=log.sample_period,
-                                 axis=1)
+        velocity = savgol_filter(np.vstack([log.theta, log.phi]), smooth, 3, deriv=1, delta=log.sample_period, axis=1)
         for w, start in enumerate(starts):
             index = start + np.arange(horizon)
             state = np.vstack([log.theta[index], log.phi[index], velocity[:, index]]).T
-            out.append(WindowResiduals(log_name=log.name, time=log.time[index], residual=r[:, :, w],
-                                       state=state, torque=command[index],
-                                       saturated=np.abs(command[index]) >= 0.98 * rig.torque_limit))
+            out.append(
+                WindowResiduals(
+                    log_name=log.name,
+                    time=log.time[index],
+                    residual=r[:, :, w],
+                    state=state,
+                    torque=command[index],
+                    saturated=np.abs(command[index]) >= 0.98 * rig.torque_limit,
+                )
+            )
     return out

@@ -15,8 +15,12 @@ import html
 import re
 from pathlib import Path
 
-SECTIONS = (("gap", "Gap"), ("ranking", "Ranking of the candidates"), ("localization", "Where the gap is"),
-            ("figures", "Figures"))
+SECTIONS = (
+    ("gap", "Gap"),
+    ("ranking", "Ranking of the candidates"),
+    ("localization", "Where the gap is"),
+    ("figures", "Figures"),
+)
 SHOWN_KEYS = ("verdict", "effects", "gap", "ranking", "localization")  # the rest go to "More"
 PERCENT_KEYS = ("heldout_reduction", "share_of_gap", "share_of_samples")
 NUMBER = re.compile(r"[-+]?[0-9.]+(e[-+]?[0-9]+)?( %)?")  # a formatted number: right-aligned in its cell
@@ -56,18 +60,28 @@ def report_html(report: dict, directory: Path, figures: dict[str, str]) -> str:
         the page; each figure is inlined as a base64 data URI.
     """
     verdict = str(report.get("verdict", "?"))
-    body = [f"<h1>Verdict: <code>{_text(verdict)}</code></h1>", _summary(report),
-            "<nav>" + "".join(f'<a href="#{key}">{title}</a>' for key, title in SECTIONS) + "</nav>",
-            _gap(report.get("gap", {})), _ranking(report.get("ranking", [])),
-            _localization(report.get("localization", {})), _figures(Path(directory), figures)]
+    body = [
+        f"<h1>Verdict: <code>{_text(verdict)}</code></h1>",
+        _summary(report),
+        "<nav>" + "".join(f'<a href="#{key}">{title}</a>' for key, title in SECTIONS) + "</nav>",
+        _gap(report.get("gap", {})),
+        _ranking(report.get("ranking", [])),
+        _localization(report.get("localization", {})),
+        _figures(Path(directory), figures),
+    ]
     extra = {key: value for key, value in report.items() if key not in SHOWN_KEYS}
     if extra:
         body.append('<h2 id="more">More</h2>')
-        body += [f"<h3>{_text(key)}</h3>" + (_any(value) if isinstance(value, (dict, list)) else
-                                              f"<p>{_any(value)}</p>") for key, value in extra.items()]
-    return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-            f"<title>Sim-to-real gap diagnosis: {_text(verdict)}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n"
-            + "\n".join(body) + "\n</body>\n</html>\n")
+        body += [
+            f"<h3>{_text(key)}</h3>" + (_any(value) if isinstance(value, (dict, list)) else f"<p>{_any(value)}</p>")
+            for key, value in extra.items()
+        ]
+    return (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f"<title>Sim-to-real gap diagnosis: {_text(verdict)}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n"
+        + "\n".join(body)
+        + "\n</body>\n</html>\n"
+    )
 
 
 def _summary(report: dict) -> str:
@@ -77,8 +91,10 @@ def _summary(report: dict) -> str:
     after = gap.get("with_effects", {}).get("heldout")
     line = f"<p>Accepted effects: {effects}."
     if nominal is not None and after is not None:
-        line += (f" Held-out gap {_number(nominal)} &rarr; {_number(after)} "
-                 f"({_percent(gap.get('heldout_reduction'))} reduction).")
+        line += (
+            f" Held-out gap {_number(nominal)} &rarr; {_number(after)} "
+            f"({_percent(gap.get('heldout_reduction'))} reduction)."
+        )
     return line + "</p>"
 
 
@@ -86,13 +102,17 @@ def _gap(gap: dict) -> str:
     parts = ['<h2 id="gap">Gap</h2>']
     if "metric" in gap:
         parts.append(f"<p>Metric: {_text(gap['metric'])}</p>")
-    rows = [[label, gap[key].get("train"), gap[key].get("heldout")]
-            for key, label in (("nominal", "nominal (rig file)"), ("with_effects", "with the accepted effects"))
-            if key in gap]
+    rows = [
+        [label, gap[key].get("train"), gap[key].get("heldout")]
+        for key, label in (("nominal", "nominal (rig file)"), ("with_effects", "with the accepted effects"))
+        if key in gap
+    ]
     parts.append(_table(["model", "train", "held-out"], rows))
     rest = {k: v for k, v in gap.items() if k not in ("metric", "nominal", "with_effects")}
-    parts += [f"<p>{_text(k)}: {_value(k, v)}</p>" if not isinstance(v, (dict, list)) else
-              f"<p>{_text(k)}:</p>{_any(v)}" for k, v in rest.items()]
+    parts += [
+        f"<p>{_text(k)}: {_value(k, v)}</p>" if not isinstance(v, (dict, list)) else f"<p>{_text(k)}:</p>{_any(v)}"
+        for k, v in rest.items()
+    ]
     return "\n".join(parts)
 
 
@@ -115,8 +135,11 @@ def _params(params: dict, intervals: dict) -> str:
     items = []
     for name, value in params.items():
         interval = intervals.get(name)
-        ci = (f" [{_number(interval[0])}, {_number(interval[1])}]"
-              if isinstance(interval, (list, tuple)) and len(interval) == 2 else "")
+        ci = (
+            f" [{_number(interval[0])}, {_number(interval[1])}]"
+            if isinstance(interval, (list, tuple)) and len(interval) == 2
+            else ""
+        )
         items.append(f"{_text(name)} = {_value(name, value)}{ci}")
     return "<br>".join(items)
 
@@ -128,20 +151,30 @@ def _localization(loc: dict) -> str:
         parts.append(f"<p>Shares of the {_text(loc['basis'])}.</p>")
     columns = ["nominal"] + (["with the effects"] if after else [])
     signals = loc.get("signals", {})
-    parts += ["<h3>Signals</h3>", _table(["signal"] + [f"share ({c})" for c in columns], [
-        [name, _Raw(_percent(share))] + ([_Raw(_percent(after.get("signals", {}).get(name)))] if after else [])
-        for name, share in signals.items()])]
+    parts += [
+        "<h3>Signals</h3>",
+        _table(
+            ["signal"] + [f"share ({c})" for c in columns],
+            [
+                [name, _Raw(_percent(share))] + ([_Raw(_percent(after.get("signals", {}).get(name)))] if after else [])
+                for name, share in signals.items()
+            ],
+        ),
+    ]
     for title, block in (("Worst time windows (nominal model)", loc), ("Worst time windows with the effects", after)):
         if block.get("windows"):
             parts += [f"<h3>{title}</h3>", _records(block["windows"])]
-    for key, title, match in (("regimes", "Regimes", ("regime",)), ("frequency_bands", "Frequency bands [Hz]",
-                                                                    ("low_hz", "high_hz"))):
+    for key, title, match in (
+        ("regimes", "Regimes", ("regime",)),
+        ("frequency_bands", "Frequency bands [Hz]", ("low_hz", "high_hz")),
+    ):
         rows = [dict(row) for row in loc.get(key, [])]
         after_rows = {tuple(r.get(m) for m in match): r for r in after.get(key, [])}
         for row in rows:
             if after:
-                row["share_of_gap (with the effects)"] = after_rows.get(
-                    tuple(row.get(m) for m in match), {}).get("share_of_gap")
+                row["share_of_gap (with the effects)"] = after_rows.get(tuple(row.get(m) for m in match), {}).get(
+                    "share_of_gap"
+                )
         if rows:
             parts += [f"<h3>{title}</h3>", _records(rows)]
     return "\n".join(parts)
@@ -151,8 +184,10 @@ def _figures(directory: Path, figures: dict[str, str]) -> str:
     parts = ['<h2 id="figures">Figures</h2>']
     for name, caption in figures.items():
         data = base64.b64encode((directory / name).read_bytes()).decode("ascii")
-        parts.append(f'<figure id="figure-{_text(Path(name).stem)}"><img src="data:image/png;base64,{data}" '
-                     f'alt="{_text(caption)}"><figcaption>{_text(caption)} ({_text(name)})</figcaption></figure>')
+        parts.append(
+            f'<figure id="figure-{_text(Path(name).stem)}"><img src="data:image/png;base64,{data}" '
+            f'alt="{_text(caption)}"><figcaption>{_text(caption)} ({_text(name)})</figcaption></figure>'
+        )
     return "\n".join(parts)
 
 

@@ -42,17 +42,35 @@ WORST_SHARE = 0.5  # worst windows are taken until they hold this share of the p
 MAX_WORST = 8  # at most this many windows are taken, and at most this many merged intervals reported
 SENSOR_VARIANCE = 1.0 / 12.0  # [count^2] uniform quantisation of the rig's encoder
 
-REGIMES = ("arm velocity reversal", "near-zero arm speed", "high arm speed", "upright", "hanging", "swinging",
-           "torque saturation")
+REGIMES = (
+    "arm velocity reversal",
+    "near-zero arm speed",
+    "high arm speed",
+    "upright",
+    "hanging",
+    "swinging",
+    "torque saturation",
+)
 _POSES = ("upright", "hanging", "swinging")
 _MOTIONS = ("arm velocity reversal", "near-zero arm speed", "high arm speed", "torque saturation")
-_PHRASES = {"arm velocity reversal": "at arm velocity reversals", "near-zero arm speed": "at near-zero arm speed",
-            "high arm speed": "at high arm speed", "torque saturation": "with the torque saturated",
-            "upright": "near upright", "hanging": "hanging", "swinging": "swinging"}
+_PHRASES = {
+    "arm velocity reversal": "at arm velocity reversals",
+    "near-zero arm speed": "at near-zero arm speed",
+    "high arm speed": "at high arm speed",
+    "torque saturation": "with the torque saturated",
+    "upright": "near upright",
+    "hanging": "hanging",
+    "swinging": "swinging",
+}
 
 
-def localize(before: list[WindowResiduals], after: list[WindowResiduals] | None = None, *,
-             noise_variance: float = SENSOR_VARIANCE, noise_variance_after: float | None = None) -> dict:
+def localize(
+    before: list[WindowResiduals],
+    after: list[WindowResiduals] | None = None,
+    *,
+    noise_variance: float = SENSOR_VARIANCE,
+    noise_variance_after: float | None = None,
+) -> dict:
     """The spec's ``localization`` object for the nominal residuals ``before``, with the same analysis of the
     residuals with the accepted effects under ``after`` when given.
 
@@ -88,8 +106,7 @@ def regime_masks(window: WindowResiduals, speed_scale: float, reversals: np.ndar
     }
 
 
-def band_power(window: WindowResiduals, noise_variance: float, edges_hz=BAND_EDGES_HZ) -> tuple[np.ndarray,
-                                                                                                   np.ndarray]:
+def band_power(window: WindowResiduals, noise_variance: float, edges_hz=BAND_EDGES_HZ) -> tuple[np.ndarray, np.ndarray]:
     """(band edges [Hz] ending at Nyquist, excess residual power per band and signal (bands x 2) [count^2])
     of one window: periodogram bins minus the white sensor noise, spread over the bands by overlap."""
     n = len(window.time)
@@ -106,8 +123,9 @@ def band_power(window: WindowResiduals, noise_variance: float, edges_hz=BAND_EDG
     freq = np.arange(spectrum.shape[0]) * df
     low = np.clip(freq - df / 2, 0.0, nyquist)
     high = np.clip(freq + df / 2, 0.0, nyquist)
-    overlap = np.clip(np.minimum(high[:, None], edges[None, 1:]) - np.maximum(low[:, None], edges[None, :-1]),
-                      0.0, None)
+    overlap = np.clip(
+        np.minimum(high[:, None], edges[None, 1:]) - np.maximum(low[:, None], edges[None, :-1]), 0.0, None
+    )
     fraction = overlap / np.maximum(high - low, 1e-300)[:, None]  # bins x bands, rows sum to 1
     return edges, fraction.T @ power
 
@@ -129,25 +147,36 @@ def _localize_set(windows: list[WindowResiduals], noise_variance: float, speed_s
     regimes = []
     for name in REGIMES:
         mask = stacked[name]
-        regimes.append({"regime": name,
-                        "share_of_gap": _share(per_sample[mask].sum(), total),
-                        "share_of_samples": float(mask.mean()),
-                        "definition": _definition(name, speed_scale)})
+        regimes.append(
+            {
+                "regime": name,
+                "share_of_gap": _share(per_sample[mask].sum(), total),
+                "share_of_samples": float(mask.mean()),
+                "definition": _definition(name, speed_scale),
+            }
+        )
 
     bands = [band_power(w, noise_variance if use_excess else 0.0) for w in windows]
     edges = max((e for e, _ in bands), key=len)
     band_totals = np.zeros(len(edges) - 1)
     for e, p in bands:
-        band_totals[:len(e) - 1] += p.sum(axis=1)
-    frequency_bands = [{"low_hz": float(lo), "high_hz": float(hi), "share_of_gap": float(s)}
-                       for lo, hi, s in zip(edges[:-1], edges[1:], _fractions(np.clip(band_totals, 0.0, None)))]
+        band_totals[: len(e) - 1] += p.sum(axis=1)
+    frequency_bands = [
+        {"low_hz": float(lo), "high_hz": float(hi), "share_of_gap": float(s)}
+        for lo, hi, s in zip(edges[:-1], edges[1:], _fractions(np.clip(band_totals, 0.0, None)))
+    ]
 
-    return {"signals": signals,
-            "windows": _worst_windows(windows, masks, bands, noise_variance if use_excess else 0.0, total),
-            "regimes": regimes,
-            "frequency_bands": frequency_bands,
-            "basis": ("excess squared residual over the sensor noise" if use_excess else
-                      "squared residual (no excess over the sensor noise)")}
+    return {
+        "signals": signals,
+        "windows": _worst_windows(windows, masks, bands, noise_variance if use_excess else 0.0, total),
+        "regimes": regimes,
+        "frequency_bands": frequency_bands,
+        "basis": (
+            "excess squared residual over the sensor noise"
+            if use_excess
+            else "squared residual (no excess over the sensor noise)"
+        ),
+    }
 
 
 def _worst_windows(windows, masks, bands, noise_variance: float, total: float) -> list[dict]:
@@ -175,9 +204,15 @@ def _worst_windows(windows, masks, bands, noise_variance: float, total: float) -
             intervals.append([w.log_name, float(w.time[0]), float(w.time[-1]), [index]])
     reported = []
     for log_name, start, end, members in intervals:
-        reported.append({"log": log_name, "start": start, "end": end,
-                         "why": _why(windows, masks, bands, members, noise_variance),
-                         "share_of_gap": _share(float(scores[members].sum()), total)})
+        reported.append(
+            {
+                "log": log_name,
+                "start": start,
+                "end": end,
+                "why": _why(windows, masks, bands, members, noise_variance),
+                "share_of_gap": _share(float(scores[members].sum()), total),
+            }
+        )
     reported.sort(key=lambda item: -item["share_of_gap"])
     return reported
 
@@ -202,7 +237,7 @@ def _why(windows, masks, bands, members, noise_variance: float) -> str:
     band_totals = np.zeros(len(edges) - 1)
     for i in members:
         e, p = bands[i]
-        band_totals[:len(e) - 1] += p.sum(axis=1)
+        band_totals[: len(e) - 1] += p.sum(axis=1)
     shares = _fractions(np.clip(band_totals, 0.0, None))
     top = int(np.argmax(shares))
     if shares[top] >= 0.6:
@@ -237,9 +272,9 @@ def _definition(name: str, speed_scale: float) -> str:
     return {
         "arm velocity reversal": f"phi_dot changes sign within +-{REVERSAL_WINDOW_S:g} s",
         "near-zero arm speed": f"|phi_dot| < {NEAR_ZERO_FRACTION * speed_scale:.3g} rad/s "
-                               f"({NEAR_ZERO_FRACTION:g} x its 90th percentile)",
+        f"({NEAR_ZERO_FRACTION:g} x its 90th percentile)",
         "high arm speed": f"|phi_dot| > {HIGH_SPEED_FRACTION * speed_scale:.3g} rad/s "
-                          f"({HIGH_SPEED_FRACTION:g} x its 90th percentile)",
+        f"({HIGH_SPEED_FRACTION:g} x its 90th percentile)",
         "upright": f"|theta| < {POSE_RADIUS:g} rad",
         "hanging": f"|theta - pi| < {POSE_RADIUS:g} rad (wrapped)",
         "swinging": "neither upright nor hanging",

@@ -40,26 +40,30 @@ class LogFormat:
     def __post_init__(self) -> None:
         unknown = [name for name in self.columns if name not in COLUMN_NAMES]
         if unknown:
-            raise ConfigError(f"--columns: unknown column name {unknown[0]!r} (furuta-drake's names: "
-                              f"{', '.join(COLUMN_NAMES)}; write NAME=FILE_COLUMN)")
+            raise ConfigError(
+                f"--columns: unknown column name {unknown[0]!r} (furuta-drake's names: "
+                f"{', '.join(COLUMN_NAMES)}; write NAME=FILE_COLUMN)"
+            )
         targets: dict[str, str] = {}
         for name, column in self.columns.items():
             if not column:
                 raise ConfigError(f"--columns: {name}= names no file column")
             if column in targets:
-                raise ConfigError(f"--columns: the file's column {column!r} is mapped to both "
-                                  f"{targets[column]!r} and {name!r}")
+                raise ConfigError(
+                    f"--columns: the file's column {column!r} is mapped to both {targets[column]!r} and {name!r}"
+                )
             targets[column] = name
         shadowed = [name for name in COLUMN_NAMES if name not in self.columns and name in targets]
         if shadowed:
-            raise ConfigError(f"--columns: the file's column {shadowed[0]!r} is read as {targets[shadowed[0]]!r}, "
-                              f"so {shadowed[0]!r} needs a column of its own ({shadowed[0]}=...)")
+            raise ConfigError(
+                f"--columns: the file's column {shadowed[0]!r} is read as {targets[shadowed[0]]!r}, "
+                f"so {shadowed[0]!r} needs a column of its own ({shadowed[0]}=...)"
+            )
         if self.angle_unit not in ANGLE_UNITS:
             raise ConfigError(f"--angle-unit: unknown unit {self.angle_unit!r} (rad, deg or counts)")
 
     @classmethod
-    def parse(cls, columns: str | None = None, angle_unit: str | None = None,
-              topic: str | None = None) -> "LogFormat":
+    def parse(cls, columns: str | None = None, angle_unit: str | None = None, topic: str | None = None) -> LogFormat:
         """The format the command line's ``--columns NAME=COLUMN,...``, ``--angle-unit`` and ``--topic`` give
         (None: the default); ConfigError naming the flag when one is malformed."""
         mapping: dict[str, str] = {}
@@ -98,8 +102,11 @@ class LogFormat:
 
     def record(self) -> dict:
         """The format as ``config.yaml`` records it."""
-        return {"columns": {name: self.column(name) for name in COLUMN_NAMES}, "angle_unit": self.angle_unit,
-                "topic": self.topic}
+        return {
+            "columns": {name: self.column(name) for name in COLUMN_NAMES},
+            "angle_unit": self.angle_unit,
+            "topic": self.topic,
+        }
 
 
 __all__ = ["LogFormat", "COLUMN_NAMES", "ANGLE_UNITS"]

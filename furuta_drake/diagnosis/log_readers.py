@@ -82,8 +82,9 @@ class CsvColumns:
                     try:
                         float(fields[index])
                     except ValueError:
-                        raise LogError(f"{path}:{number}: column {label}: {fields[index].strip()!r} is not a "
-                                       f"number") from None
+                        raise LogError(
+                            f"{path}:{number}: column {label}: {fields[index].strip()!r} is not a number"
+                        ) from None
             raise LogError(f"{path}: cannot read the numbers ({err})") from None
         return data, lambda row: f"{path}:{int(line_numbers[row])}"
 
@@ -153,8 +154,10 @@ class McapColumns:
             raise LogError(f"{path}: not a readable MCAP file ({type(err).__name__}: {_first_line(err)})") from None
         self.header_where = f"{path}: topic {channel.topic!r}"
         if channel.message_encoding != "json":
-            raise LogError(f"{self.header_where}: messages are {channel.message_encoding!r}-encoded; furuta-drake "
-                           f"reads JSON-encoded messages (one field per column)")
+            raise LogError(
+                f"{self.header_where}: messages are {channel.message_encoding!r}-encoded; furuta-drake "
+                f"reads JSON-encoded messages (one field per column)"
+            )
         if not messages:
             raise LogError(f"{self.header_where}: no messages")
         self.rows = []
@@ -164,8 +167,10 @@ class McapColumns:
             except (ValueError, UnicodeDecodeError) as err:
                 raise LogError(f"{self.header_where}: message {k + 1}: not JSON ({err})") from None
             if not isinstance(fields, dict):
-                raise LogError(f"{self.header_where}: message {k + 1}: a JSON {type(fields).__name__}, expected an "
-                               f"object whose fields are the columns")
+                raise LogError(
+                    f"{self.header_where}: message {k + 1}: a JSON {type(fields).__name__}, expected an "
+                    f"object whose fields are the columns"
+                )
             self.rows.append(fields)
         self.log_times = np.array([message.log_time for message in messages], dtype=np.int64)
         self.names = tuple(dict.fromkeys(name for fields in self.rows for name in fields)) + (LOG_TIME,)
@@ -174,13 +179,17 @@ class McapColumns:
         topics = sorted(channel.topic for channel in channels)
         if topic is None:
             if len(channels) != 1:
-                raise LogError(f"{self.path}: {len(channels)} channels ({', '.join(topics) or 'none'}): name the "
-                               f"run's with --topic")
+                raise LogError(
+                    f"{self.path}: {len(channels)} channels ({', '.join(topics) or 'none'}): name the "
+                    f"run's with --topic"
+                )
             return channels[0]
         matching = [channel for channel in channels if channel.topic == topic]
         if not matching:
-            raise LogError(f"{self.path}: no channel with topic {topic!r} (--topic); the file has: "
-                           f"{', '.join(topics) or 'no channel'}")
+            raise LogError(
+                f"{self.path}: no channel with topic {topic!r} (--topic); the file has: "
+                f"{', '.join(topics) or 'no channel'}"
+            )
         return matching[0]
 
     def read(self, columns: dict[str, str]) -> tuple[np.ndarray, Where]:

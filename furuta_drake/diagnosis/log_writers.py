@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 
 
-def write_log(path: str | Path, columns: dict[str, np.ndarray], topic: str = "/furuta/log",
-              time: str = "time") -> Path:
+def write_log(path: str | Path, columns: dict[str, np.ndarray], topic: str = "/furuta/log", time: str = "time") -> Path:
     """Write ``columns`` (name -> one value per sample) to ``path``.
 
     Parameters
@@ -47,18 +46,23 @@ def _write_mcap(path: Path, arrays: dict[str, np.ndarray], topic: str, time: str
     from mcap.writer import Writer
 
     n = len(next(iter(arrays.values())))
-    log_times = (np.round(arrays[time] * 1e9).astype(np.int64) if time in arrays
-                 else np.arange(n, dtype=np.int64) * 1_000_000)
+    log_times = (
+        np.round(arrays[time] * 1e9).astype(np.int64) if time in arrays else np.arange(n, dtype=np.int64) * 1_000_000
+    )
     with open(path, "wb") as stream:
         writer = Writer(stream)
         writer.start()
-        schema = writer.register_schema(name="furuta_log", encoding="jsonschema", data=json.dumps(
-            {"type": "object", "properties": {name: {"type": "number"} for name in arrays}}).encode())
+        schema = writer.register_schema(
+            name="furuta_log",
+            encoding="jsonschema",
+            data=json.dumps({"type": "object", "properties": {name: {"type": "number"} for name in arrays}}).encode(),
+        )
         channel = writer.register_channel(topic=topic, message_encoding="json", schema_id=schema)
         for k in range(n):
             data = json.dumps({name: float(values[k]) for name, values in arrays.items()}).encode()
-            writer.add_message(channel, log_time=int(log_times[k]), data=data, publish_time=int(log_times[k]),
-                               sequence=k)
+            writer.add_message(
+                channel, log_time=int(log_times[k]), data=data, publish_time=int(log_times[k]), sequence=k
+            )
         writer.finish()
 
 

@@ -1,12 +1,14 @@
 """Load and check the run logs and the rig file of ``furuta-drake diagnose`` (``docs/diagnose.md``; stage 1 of the
-diagnosis), and the two types the stages share: :class:`RunLog` (a checked log) and :class:`WindowResiduals` (the gap stage's
+diagnosis), and the two types the stages share: :class:`RunLog` (a checked log) and :class:`WindowResiduals` (the gap
+stage's
 per-window residuals that the localisation reads).
 
 A log is CSV, Parquet or MCAP (:mod:`~furuta_drake.diagnosis.log_readers` produces its columns; a
 :class:`~furuta_drake.diagnosis.log_format.LogFormat` maps a lab's column names and angle unit); one code path
 here checks them, whatever the format. Every bad input raises :class:`~furuta_drake.errors.LogError` (a log) or
 :class:`~furuta_drake.errors.ConfigError` (the rig file) with one line naming the file, the row (for a CSV the
-1-based line, the header is line 1) and the column, so the command line can print it and exit 2. Unknown extra columns are not an error: they are listed in
+1-based line, the header is line 1) and the column, so the command line can print it and exit 2. Unknown extra
+columns are not an error: they are listed in
 :attr:`RunLog.ignored_columns` and :func:`ignored_columns_note` words the one line the command prints.
 
 Beyond the format, the checks refuse what would otherwise be "diagnosed" as a model error: a time gap (never
@@ -91,13 +93,15 @@ class WindowResiduals:
 
 
 def load_rig(path: str | Path) -> RigParameters:
-    """The rig file, strictly (every required key present): unknown keys and non-physical values raise ConfigError naming
+    """The rig file, strictly (every required key present): unknown keys and non-physical values raise ConfigError
+    naming
     file:line:key."""
     return load_yaml_dataclass(path, RigParameters)
 
 
-def load_log(path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file",
-             log_format: LogFormat = LogFormat()) -> RunLog:
+def load_log(
+    path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
+) -> RunLog:
     """Read and check one log (CSV, Parquet or MCAP by its extension; see
     :mod:`~furuta_drake.diagnosis.log_readers`).
 
@@ -119,15 +123,19 @@ def load_log(path: str | Path, rig: RigParameters, rig_path: str | Path = "the r
     input_kind = next(name for name in INPUT_COLUMNS if name in columns)
     label = {name: log_format.label(name) for name in columns}
     if input_kind == "voltage" and rig.motor is None:
-        raise LogError(f"{reader.header_where}: column {label['voltage']}: a voltage log needs a DC motor, but "
-                       f"{rig_path} has no 'motor' block (add motor: {{resistance, torque_constant, "
-                       f"backemf_constant}})")
+        raise LogError(
+            f"{reader.header_where}: column {label['voltage']}: a voltage log needs a DC motor, but "
+            f"{rig_path} has no 'motor' block (add motor: {{resistance, torque_constant, "
+            f"backemf_constant}})"
+        )
     data, where = reader.read({column: label[name] for name, column in columns.items()})
     for j, name in enumerate(columns):
         bad = np.flatnonzero(~np.isfinite(data[:, j]))
         if bad.size:
-            raise LogError(f"{where(bad[0])}: column {label[name]} is {float(data[bad[0], j])}: every value must "
-                           f"be a finite number")
+            raise LogError(
+                f"{where(bad[0])}: column {label[name]} is {float(data[bad[0], j])}: every value must "
+                f"be a finite number"
+            )
     if len(data) < MIN_SAMPLES:
         raise LogError(f"{where(len(data) - 1)}: only {len(data)} data rows, need at least {MIN_SAMPLES}")
     scale = log_format.radians_per_unit(rig.counts_per_rev)
@@ -138,12 +146,22 @@ def load_log(path: str | Path, rig: RigParameters, rig_path: str | Path = "the r
     theta = theta * rig.theta_direction
     for array in (time, theta, phi, command):
         array.setflags(write=False)
-    torque_per_volt = 1.0 if rig.motor is None or input_kind == "torque" else \
-        rig.motor.torque_constant / rig.motor.resistance
+    torque_per_volt = (
+        1.0 if rig.motor is None or input_kind == "torque" else rig.motor.torque_constant / rig.motor.resistance
+    )
     used = set(columns.values()) | {LOG_TIME}
-    return RunLog(name=path.name, path=str(path), time=time, theta=theta, phi=phi, input_kind=input_kind,
-                  input=command, sample_period=sample_period, torque_per_volt=torque_per_volt,
-                  ignored_columns=tuple(name for name in reader.names if name not in used))
+    return RunLog(
+        name=path.name,
+        path=str(path),
+        time=time,
+        theta=theta,
+        phi=phi,
+        input_kind=input_kind,
+        input=command,
+        sample_period=sample_period,
+        torque_per_volt=torque_per_volt,
+        ignored_columns=tuple(name for name in reader.names if name not in used),
+    )
 
 
 def _resolve_columns(reader, log_format: LogFormat) -> dict[str, str]:
@@ -159,21 +177,28 @@ def _resolve_columns(reader, log_format: LogFormat) -> dict[str, str]:
     missing = [name for name in ("time",) + ANGLE_COLUMNS if column[name] not in names]
     if missing:
         expected = ", ".join(log_format.label(name) for name in ("time",) + ANGLE_COLUMNS)
-        raise LogError(f"{reader.header_where}: missing column {', '.join(log_format.label(m) for m in missing)} "
-                       f"({has}; expected {expected} and {log_format.label('torque')} or "
-                       f"{log_format.label('voltage')}{mapping}; --columns maps other names)")
+        raise LogError(
+            f"{reader.header_where}: missing column {', '.join(log_format.label(m) for m in missing)} "
+            f"({has}; expected {expected} and {log_format.label('torque')} or "
+            f"{log_format.label('voltage')}{mapping}; --columns maps other names)"
+        )
     inputs = [name for name in INPUT_COLUMNS if column[name] in names]
     if not inputs:
-        raise LogError(f"{reader.header_where}: no input column: expected {log_format.label('torque')} [N m] or "
-                       f"{log_format.label('voltage')} [V] ({has}{mapping}; --columns maps other names)")
+        raise LogError(
+            f"{reader.header_where}: no input column: expected {log_format.label('torque')} [N m] or "
+            f"{log_format.label('voltage')} [V] ({has}{mapping}; --columns maps other names)"
+        )
     if len(inputs) == 2:
-        raise LogError(f"{reader.header_where}: both {log_format.label('torque')} and "
-                       f"{log_format.label('voltage')} columns: a log has exactly one input column")
+        raise LogError(
+            f"{reader.header_where}: both {log_format.label('torque')} and "
+            f"{log_format.label('voltage')} columns: a log has exactly one input column"
+        )
     return {name: column[name] for name in ("time",) + ANGLE_COLUMNS + (inputs[0],)}
 
 
-def load_logs(paths, rig: RigParameters, rig_path: str | Path = "the rig file",
-              log_format: LogFormat = LogFormat()) -> list[RunLog]:
+def load_logs(
+    paths, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
+) -> list[RunLog]:
     """:func:`load_log` for each path (all in ``log_format``), then the sign checks pooled over all of them (phi
     first: a flipped phi also flips the arm-pendulum coupling that the theta check reads)."""
     logs = [load_log(path, rig, rig_path, log_format) for path in paths]
@@ -202,8 +227,14 @@ def check_theta_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
     rows = []
     for log in _long_enough(logs):
         theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot = smoothed_derivatives(log)
-        rows.append((np.column_stack([np.cos(theta) * phi_ddot, np.sin(theta), theta_dot,
-                                      np.sin(theta) * np.cos(theta) * phi_dot**2]), theta_ddot))
+        rows.append(
+            (
+                np.column_stack(
+                    [np.cos(theta) * phi_ddot, np.sin(theta), theta_dot, np.sin(theta) * np.cos(theta) * phi_dot**2]
+                ),
+                theta_ddot,
+            )
+        )
     fit = _pooled_fit(rows, logs)
     if fit is None:
         return
@@ -219,7 +250,8 @@ def check_theta_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
             f"arm-pendulum coupling d(theta_ddot)/d(cos(theta) phi_ddot) is {coef[0]:+.3g} (t = {t_stat[0]:.0f}), "
             f"the convention gives {expected:+.3g} (near the upright a positive arm acceleration gives a "
             f"negative pendulum acceleration): the logs count theta the other way, set theta_direction: "
-            f"{-rig.theta_direction} (unless it is phi that counts against the input)")
+            f"{-rig.theta_direction} (unless it is phi that counts against the input)"
+        )
 
 
 def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str | Path = "the rig file") -> None:
@@ -235,9 +267,21 @@ def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
         theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot = smoothed_derivatives(log)
         inertia = a + b * np.sin(theta) ** 2
         s, c = np.sin(theta), np.cos(theta)
-        rows.append((np.column_stack([log.torque_command / inertia, c * theta_ddot / inertia, phi_dot,
-                                      np.tanh(phi_dot / 0.05), s * theta_dot**2 / inertia,
-                                      s * c * theta_dot * phi_dot / inertia]), phi_ddot))
+        rows.append(
+            (
+                np.column_stack(
+                    [
+                        log.torque_command / inertia,
+                        c * theta_ddot / inertia,
+                        phi_dot,
+                        np.tanh(phi_dot / 0.05),
+                        s * theta_dot**2 / inertia,
+                        s * c * theta_dot * phi_dot / inertia,
+                    ]
+                ),
+                phi_ddot,
+            )
+        )
     fit = _pooled_fit(rows, logs)
     if fit is None:
         return
@@ -247,12 +291,14 @@ def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str 
         raise LogError(
             f"{names}: columns 'theta'/'phi': the arm accelerates {coef[0]:.3g} +- {std[0]:.2g} times more per unit "
             f"command than the rig ({rig_path}) allows (57.3 would be degrees): the angles look like degrees; the "
-            f"diagnosis wants radians: pass --angle-unit deg (unless the rig's arm inertia is off by that factor)")
+            f"diagnosis wants radians: pass --angle-unit deg (unless the rig's arm inertia is off by that factor)"
+        )
     if coef[0] < -CLEAR_T_STAT * std[0]:
         raise LogError(
             f"{names}: column 'phi' counts against the input: the arm acceleration per unit command is "
             f"{coef[0]:+.3g} times the rig's ({rig_path}) (t = {coef[0] / std[0]:.0f}); phi must be positive in "
-            f"the direction a positive input accelerates the arm (negate phi, or the input)")
+            f"the direction a positive input accelerates the arm (negate phi, or the input)"
+        )
 
 
 def smoothed_derivatives(log: RunLog, window_s: float = SMOOTHING_WINDOW_S):
@@ -309,21 +355,27 @@ def _check_time(where: Where, time: np.ndarray, label: str) -> float:
     if bad.size:
         row = bad[0] + 1
         kind = "duplicates" if step[bad[0]] == 0 else "goes back from"
-        raise LogError(f"{where(row)}: column {label}: {time[row]:.9g} {kind} the previous sample's "
-                       f"{time[row - 1]:.9g}: time must be strictly increasing")
+        raise LogError(
+            f"{where(row)}: column {label}: {time[row]:.9g} {kind} the previous sample's "
+            f"{time[row - 1]:.9g}: time must be strictly increasing"
+        )
     period = float(np.median(step))
     gaps = np.flatnonzero(step > GAP_FACTOR * period)
     if gaps.size:
         row = gaps[0] + 1
-        raise LogError(f"{where(row)}: column {label}: gap of {step[gaps[0]]:.6g} s from t = {time[row - 1]:.6g} "
-                       f"to t = {time[row]:.6g} s (about {round(step[gaps[0]] / period) - 1} missing samples of "
-                       f"{period:.6g} s); the diagnosis does not interpolate: split the log at the gap")
+        raise LogError(
+            f"{where(row)}: column {label}: gap of {step[gaps[0]]:.6g} s from t = {time[row - 1]:.6g} "
+            f"to t = {time[row]:.6g} s (about {round(step[gaps[0]] / period) - 1} missing samples of "
+            f"{period:.6g} s); the diagnosis does not interpolate: split the log at the gap"
+        )
     irregular = np.flatnonzero(np.abs(step - period) > PERIOD_TOLERANCE * period)
     if irregular.size:
         row = irregular[0] + 1
-        raise LogError(f"{where(row)}: column {label}: step {step[irregular[0]]:.6g} s deviates by "
-                       f"{abs(step[irregular[0]] / period - 1):.1%} from the log's sample period {period:.6g} s "
-                       f"(at most {PERIOD_TOLERANCE:.0%} is allowed)")
+        raise LogError(
+            f"{where(row)}: column {label}: step {step[irregular[0]]:.6g} s deviates by "
+            f"{abs(step[irregular[0]] / period - 1):.1%} from the log's sample period {period:.6g} s "
+            f"(at most {PERIOD_TOLERANCE:.0%} is allowed)"
+        )
     return period
 
 
@@ -334,9 +386,11 @@ def _check_angles(where: Where, theta: np.ndarray, phi: np.ndarray, label: dict[
     far = np.flatnonzero(np.abs(theta) > MAX_THETA_RAD)
     if far.size:
         row = far[0]
-        raise LogError(f"{where(row)}: column {label['theta']} is {theta[row]:.6g}{read_as}, more than two turns "
-                       f"from the upright: the angles look like degrees; the diagnosis wants radians ({hint}; "
-                       f"theta 0 upright, unwrapped)")
+        raise LogError(
+            f"{where(row)}: column {label['theta']} is {theta[row]:.6g}{read_as}, more than two turns "
+            f"from the upright: the angles look like degrees; the diagnosis wants radians ({hint}; "
+            f"theta 0 upright, unwrapped)"
+        )
     for name, angle in (("theta", theta), ("phi", phi)):
         step = np.diff(angle)
         jumps = np.flatnonzero(np.abs(step) > math.pi)
@@ -345,9 +399,13 @@ def _check_angles(where: Where, theta: np.ndarray, phi: np.ndarray, label: dict[
         row = jumps[0] + 1
         turns = step[jumps[0]] / (2 * math.pi)
         if abs(turns - round(turns)) < 0.1:
-            raise LogError(f"{where(row)}: column {label[name]} jumps by {step[jumps[0]]:+.4g} rad in one sample "
-                           f"(from {angle[row - 1]:.6g} to {angle[row]:.6g}){read_as}: the angle is wrapped; the "
-                           f"diagnosis wants unwrapped angles (e.g. numpy.unwrap)")
-        raise LogError(f"{where(row)}: column {label[name]} jumps by {step[jumps[0]]:+.4g} rad in one "
-                       f"sample{read_as}: not a continuous angle in radians (degrees?); the diagnosis wants "
-                       f"unwrapped radians ({hint})")
+            raise LogError(
+                f"{where(row)}: column {label[name]} jumps by {step[jumps[0]]:+.4g} rad in one sample "
+                f"(from {angle[row - 1]:.6g} to {angle[row]:.6g}){read_as}: the angle is wrapped; the "
+                f"diagnosis wants unwrapped angles (e.g. numpy.unwrap)"
+            )
+        raise LogError(
+            f"{where(row)}: column {label[name]} jumps by {step[jumps[0]]:+.4g} rad in one "
+            f"sample{read_as}: not a continuous angle in radians (degrees?); the diagnosis wants "
+            f"unwrapped radians ({hint})"
+        )

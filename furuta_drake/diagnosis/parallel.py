@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import os
 import signal
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -43,8 +43,14 @@ def _contained(task):
             return Failure(one_line(err))
 
 
-def run_tasks(function: Callable, tasks: list, *, workers: int | None = None, scheduler: str | None = None,
-              done: Callable | None = None) -> list:
+def run_tasks(
+    function: Callable,
+    tasks: list,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    done: Callable | None = None,
+) -> list:
     """``[function(task) for task in tasks]``, each result or a :class:`Failure`, in task order.
 
     ``workers``: processes on this machine (default: all cores; 1: in this process); ``scheduler``: the address

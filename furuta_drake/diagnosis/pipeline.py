@@ -7,9 +7,9 @@ writes it; ``docs/diagnose.md`` explains every figure).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -18,8 +18,13 @@ from furuta_drake.diagnosis.corrected import fitted_rig, model_config
 from furuta_drake.diagnosis.detection import detection_limits
 from furuta_drake.diagnosis.fit import FitResult, interval, scales_of
 from furuta_drake.diagnosis.folds import consistency
-from furuta_drake.diagnosis.gap import evaluate_gap, gap_metric_definition, horizon_seconds, make_windows, \
-    window_residuals
+from furuta_drake.diagnosis.gap import (
+    evaluate_gap,
+    gap_metric_definition,
+    horizon_seconds,
+    make_windows,
+    window_residuals,
+)
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs, load_rig
@@ -33,9 +38,11 @@ from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, choice_text, select_effects
 from furuta_drake.diagnosis.surrogate import Model
 
-UNCERTAINTY = ("95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
-               "linearised at the fit: one Gauss-Newton step per resample; quantisation is read exactly, noise "
-               "is bootstrapped over blocks of second differences")
+UNCERTAINTY = (
+    "95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
+    "linearised at the fit: one Gauss-Newton step per resample; quantisation is read exactly, noise "
+    "is bootstrapped over blocks of second differences"
+)
 
 
 def _params(result: FitResult, nominal: Model) -> tuple[dict, dict]:
@@ -49,7 +56,7 @@ def _params(result: FitResult, nominal: Model) -> tuple[dict, dict]:
         if samples is None or samples.size == 0:
             continue
         described = [describe(name, Effect(effect.form, tuple(row)), nominal) for row in samples]
-        for key, value in described[0].items():
+        for key in described[0]:
             if key != "form":
                 intervals[prefix + key] = list(interval(np.array([d[key] for d in described])))
     return params, intervals
@@ -60,27 +67,48 @@ def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
     rows = []
     for step, result in selection.tried:
         if result.failure:
-            rows.append(RankedCandidate(result.name, {}, None, None, None, step=step, status="failed",
-                                        reason=result.failure))
+            rows.append(
+                RankedCandidate(result.name, {}, None, None, None, step=step, status="failed", reason=result.failure)
+            )
             continue
         params, intervals = _params(result, nominal)
         over_nominal, over_previous = selection.over_nominal[result.name], selection.over_previous[result.name]
-        rows.append(RankedCandidate(
-            result.name, params, over_nominal.heldout_gap, over_nominal.reduction, over_nominal.lower_bound,
-            params_ci=intervals, step=step, reduction_over_previous=over_previous.reduction,
-            evidence_over_previous=over_previous.lower_bound, train_gap=result.train_gap,
-            at_bounds=result.at_bounds))
+        rows.append(
+            RankedCandidate(
+                result.name,
+                params,
+                over_nominal.heldout_gap,
+                over_nominal.reduction,
+                over_nominal.lower_bound,
+                params_ci=intervals,
+                step=step,
+                reduction_over_previous=over_previous.reduction,
+                evidence_over_previous=over_previous.lower_bound,
+                train_gap=result.train_gap,
+                at_bounds=result.at_bounds,
+            )
+        )
     ok = [row for row in rows if row.status == "ok"]
-    excess = {result.name: selection.over_nominal[result.name].excess for _, result in selection.tried
-              if not result.failure}
+    excess = {
+        result.name: selection.over_nominal[result.name].excess for _, result in selection.tried if not result.failure
+    }
     ok.sort(key=lambda row: (-row.heldout_reduction, excess[row.effect], row.step, row.effect))
     return ok + [row for row in rows if row.status != "ok"]
 
 
-def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: list[str] | None = None,
-             settings: DiagnosisSettings = DiagnosisSettings(), folds: int | None = None, workers: int | None = None,
-             scheduler: str | None = None, progress: Callable | None = None,
-             log_format: LogFormat = LogFormat()) -> Diagnosis:
+def diagnose(
+    *,
+    rig: str | Path,
+    train: list,
+    heldout: list = (),
+    candidates: list[str] | None = None,
+    settings: DiagnosisSettings = DiagnosisSettings(),
+    folds: int | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable | None = None,
+    log_format: LogFormat = LogFormat(),
+) -> Diagnosis:
     """Diagnose the gap between the rig file's nominal model and the logs.
 
     Parameters
@@ -109,6 +137,7 @@ def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: li
     unknown = [name for name in names if name not in CANDIDATES]
     if unknown:
         from furuta_drake.errors import ConfigError
+
         raise ConfigError(f"unknown candidate effect {', '.join(unknown)} (the vocabulary: {', '.join(CANDIDATES)})")
     counts = rig_params.counts_per_rev
     nominal = rig_model(rig_params)
@@ -121,20 +150,33 @@ def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: li
 
     limits = []
     if settings.detection_limits:
-        limits = detection_limits(accepted_model, list(final.effects) if final else [], heldout_windows,
-                                  scales_of(fit_logs, nominal), counts, bootstrap, settings.seed)
+        limits = detection_limits(
+            accepted_model,
+            list(final.effects) if final else [],
+            heldout_windows,
+            scales_of(fit_logs, nominal),
+            counts,
+            bootstrap,
+            settings.seed,
+        )
 
     # The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
     # replay fails).
     replays = [(nominal, selection.nominal.initial_states)]
     if final:
         replays.append((accepted_model, final.heldout.initial_states))
-    drake = replay_gaps(replays, rig_params, heldout_windows, workers, scheduler) if settings.replay \
+    drake = (
+        replay_gaps(replays, rig_params, heldout_windows, workers, scheduler)
+        if settings.replay
         else [None] * len(replays)
+    )
     surrogate = [selection.nominal] + ([final.heldout] if final else [])
     gaps = [d if d is not None else s for d, s in zip(drake, surrogate)]
-    evaluated_by = ("drake replay of the held-out windows" if all(d is not None for d in drake)
-                    else "surrogate (the Drake replay " + ("was not run" if not settings.replay else "failed") + ")")
+    evaluated_by = (
+        "drake replay of the held-out windows"
+        if all(d is not None for d in drake)
+        else "surrogate (the Drake replay " + ("was not run" if not settings.replay else "failed") + ")"
+    )
     nominal_heldout, accepted_heldout = gaps[0], gaps[-1]
     train_nominal = evaluate_gap(nominal, train_windows, counts).gap
     reduction = 1.0 - accepted_heldout.gap / nominal_heldout.gap if nominal_heldout.gap > 0 else 0.0
@@ -148,27 +190,71 @@ def diagnose(*, rig: str | Path, train: list, heldout: list = (), candidates: li
     for name, result, over_step in zip(selection.kept, selection.accepted if final else [], selection.over_step):
         params, _ = _params(result, nominal)
         over_nominal, over_others = selection.over_nominal[result.name], selection.over_others[name]
-        steps.append(Step(name, params, over_nominal.heldout_gap, over_nominal.reduction, over_step.reduction,
-                          over_others.reduction, over_others.lower_bound))
-    record = input_record(rig_path=rig_path, train=train, heldout=heldout,
-                          seeds={"bootstrap": settings.seed, "fit_windows": settings.seed},
-                          options={"workers": workers, "scheduler": scheduler, "holdout": holdout_note,
-                                   "candidates": names, "folds": folds, "settings": dataclasses.asdict(settings),
-                                   "log_format": log_format.record()})
-    curves = [effect_curve(name, describe(name, effect, nominal), rig_params)
-              for name, effect in (final.effects.items() if final else [])]
-    artifacts = Artifacts(before, after, nominal_heldout.sensor_variance, curves,
-                          fitted_config=model_config(rig_params, accepted_model),
-                          fitted_rig=fitted_rig(rig_params, final.effects if final else {}, nominal), record=record)
+        steps.append(
+            Step(
+                name,
+                params,
+                over_nominal.heldout_gap,
+                over_nominal.reduction,
+                over_step.reduction,
+                over_others.reduction,
+                over_others.lower_bound,
+            )
+        )
+    record = input_record(
+        rig_path=rig_path,
+        train=train,
+        heldout=heldout,
+        seeds={"bootstrap": settings.seed, "fit_windows": settings.seed},
+        options={
+            "workers": workers,
+            "scheduler": scheduler,
+            "holdout": holdout_note,
+            "candidates": names,
+            "folds": folds,
+            "settings": dataclasses.asdict(settings),
+            "log_format": log_format.record(),
+        },
+    )
+    curves = [
+        effect_curve(name, describe(name, effect, nominal), rig_params)
+        for name, effect in (final.effects.items() if final else [])
+    ]
+    artifacts = Artifacts(
+        before,
+        after,
+        nominal_heldout.sensor_variance,
+        curves,
+        fitted_config=model_config(rig_params, accepted_model),
+        fitted_rig=fitted_rig(rig_params, final.effects if final else {}, nominal),
+        record=record,
+    )
     return Diagnosis(
-        verdict=selection.verdict, effects=selection.effects,
-        gap=GapFigures(gap_metric_definition(horizon_seconds(rig_params)),
-                       {"train": train_nominal, "heldout": nominal_heldout.gap},
-                       {"train": final.train_gap if final else train_nominal, "heldout": accepted_heldout.gap},
-                       reduction, nominal_heldout.per_signal, evaluated_by),
+        verdict=selection.verdict,
+        effects=selection.effects,
+        gap=GapFigures(
+            gap_metric_definition(horizon_seconds(rig_params)),
+            {"train": train_nominal, "heldout": nominal_heldout.gap},
+            {"train": final.train_gap if final else train_nominal, "heldout": accepted_heldout.gap},
+            reduction,
+            nominal_heldout.per_signal,
+            evaluated_by,
+        ),
         ranking=ranking(selection, nominal),
-        localization=localize(before, after, noise_variance=nominal_heldout.sensor_variance,
-                              noise_variance_after=accepted_heldout.sensor_variance),
-        steps=steps, uncertainty=UNCERTAINTY, detection_limits=limits, confusable=selection.confusable,
-        consistency=consistency_result, choice=choice_text(selection), holdout=holdout_note,
-        rule=threshold_note(settings.bootstrap, settings.seed), notes=notes, artifacts=artifacts)
+        localization=localize(
+            before,
+            after,
+            noise_variance=nominal_heldout.sensor_variance,
+            noise_variance_after=accepted_heldout.sensor_variance,
+        ),
+        steps=steps,
+        uncertainty=UNCERTAINTY,
+        detection_limits=limits,
+        confusable=selection.confusable,
+        consistency=consistency_result,
+        choice=choice_text(selection),
+        holdout=holdout_note,
+        rule=threshold_note(settings.bootstrap, settings.seed),
+        notes=notes,
+        artifacts=artifacts,
+    )

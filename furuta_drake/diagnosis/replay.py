@@ -27,6 +27,7 @@ from furuta_drake.world import add_furuta_world
 
 REPLAY_INTEGRATOR = SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3)
 
+
 class WindowReplayer:
     """One Drake diagram for a model and a log; :meth:`replay` integrates one window from a state."""
 
@@ -36,14 +37,19 @@ class WindowReplayer:
         # The simulate world of the model: its rigid body, friction, spring and back-EMF, and its actuator but for
         # the delay, which is the time shift of the replayed command below.
         world = add_furuta_world(
-            builder, rig=model_rig(model, rig), control_period=period,
+            builder,
+            rig=model_rig(model, rig),
+            control_period=period,
             friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
-            actuator=model_actuator(model), back_emf_damping=model.back_emf_damping,
-            disturbance=model_disturbance(model))
+            actuator=model_actuator(model),
+            back_emf_damping=model.back_emf_damping,
+            disturbance=model_disturbance(model),
+        )
         self.plant, self.P, self.friction = world.plant, world.to_paper, world.friction
         breaks = np.append(time, time[-1] + period) + model.delay
-        source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
-            breaks, np.append(command, command[-1]).reshape(1, -1))))
+        source = builder.AddSystem(
+            TrajectorySource(PiecewisePolynomial.ZeroOrderHold(breaks, np.append(command, command[-1]).reshape(1, -1)))
+        )
         builder.Connect(source.get_output_port(), world.arm_torque_input)
         self.diagram = builder.Build()
         self.simulator = Simulator(self.diagram)
@@ -54,8 +60,14 @@ class WindowReplayer:
         self.default_context = self.context.Clone()
         self.lag = model.lag > 0
 
-    def replay(self, start_time: float, x0: np.ndarray, command_at_start: float, times: np.ndarray,
-               bristle: float | None = None) -> np.ndarray:
+    def replay(
+        self,
+        start_time: float,
+        x0: np.ndarray,
+        command_at_start: float,
+        times: np.ndarray,
+        bristle: float | None = None,
+    ) -> np.ndarray:
         """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (lag filter at the command, the
         arm's Dahl bristle at ``bristle``). Every window starts with a fresh integrator, so its result does not
         depend on the step size the previous window ended with."""
@@ -63,11 +75,11 @@ class WindowReplayer:
         self.context.SetTimeStateAndParametersFrom(self.default_context)
         self.context.SetTime(start_time)
         if self.lag:
-            self.context.get_mutable_continuous_state_vector().SetFromVector(
-                self._with_lag_state(command_at_start))
+            self.context.get_mutable_continuous_state_vector().SetFromVector(self._with_lag_state(command_at_start))
         if bristle is not None:  # the arm's is the friction system's only bristle (the pendulum's is static)
-            self.friction.GetMyMutableContextFromRoot(self.context).get_mutable_continuous_state_vector(
-            ).SetFromVector([bristle])
+            self.friction.GetMyMutableContextFromRoot(self.context).get_mutable_continuous_state_vector().SetFromVector(
+                [bristle]
+            )
         self.plant.SetPositionsAndVelocities(self.plant_context, self.P.T @ x0)
         self.simulator.Initialize()
         out = np.empty((times.size, 2))
@@ -83,6 +95,7 @@ class WindowReplayer:
         state[-1] = value
         return state
 
+
 def _replay_log(task) -> np.ndarray:
     """(horizon, 2, W) residuals [counts] of one log's windows replayed in Drake (one diagram per task)."""
     model, rig, log, horizon, starts, x0, measured = task
@@ -90,31 +103,43 @@ def _replay_log(task) -> np.ndarray:
     replayer = WindowReplayer(model, rig, log.time, log.torque_command)
     r = np.empty_like(measured)
     for w, start in enumerate(starts):
-        times = log.time[start:start + horizon]
-        predicted = replayer.replay(log.time[start], x0[:4, w], log.torque_command[start], times,
-                                    float(x0[4, w]) if x0.shape[0] > 4 else None)
+        times = log.time[start : start + horizon]
+        predicted = replayer.replay(
+            log.time[start], x0[:4, w], log.torque_command[start], times, float(x0[4, w]) if x0.shape[0] > 4 else None
+        )
         r[:, :, w] = (measured[:, :, w] - predicted) / count
     return r
 
-def replay_gaps(models: list[tuple[Model, list[np.ndarray]]], rig: RigParameters, windows: Windows,
-                workers: int | None = None, scheduler: str | None = None) -> list[GapResult | None]:
+
+def replay_gaps(
+    models: list[tuple[Model, list[np.ndarray]]],
+    rig: RigParameters,
+    windows: Windows,
+    workers: int | None = None,
+    scheduler: str | None = None,
+) -> list[GapResult | None]:
     """The gap of each (model, initial states per log: 4 x W, or 5 x W with the arm's bristle state) on
     ``windows`` from Drake replays, one task per model and log; None for a model whose replay failed (raised, or
     diverged to a non-finite residual)."""
-    tasks = [(model, rig, log, horizon, starts, x0[i], measured)
-             for model, x0 in models
-             for i, (log, horizon, starts, measured) in enumerate(zip(windows.logs, windows.horizons, windows.starts,
-                                                                       windows.measured))]
+    tasks = [
+        (model, rig, log, horizon, starts, x0[i], measured)
+        for model, x0 in models
+        for i, (log, horizon, starts, measured) in enumerate(
+            zip(windows.logs, windows.horizons, windows.starts, windows.measured)
+        )
+    ]
     residuals = run_tasks(_replay_log, tasks, workers=workers, scheduler=scheduler)
     n = len(windows.logs)
     out = []
     for k, (model, x0) in enumerate(models):
-        parts = residuals[k * n:(k + 1) * n]
+        parts = residuals[k * n : (k + 1) * n]
         failed = any(isinstance(r, Failure) or not np.all(np.isfinite(r)) for r in parts)
         out.append(None if failed else gap_from_residuals(parts, sensor_variance(model, rig.counts_per_rev), x0))
     return out
 
-def replay_gap(model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray],
-               workers: int | None = 1) -> GapResult | None:
+
+def replay_gap(
+    model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray], workers: int | None = 1
+) -> GapResult | None:
     """:func:`replay_gaps` of one model."""
     return replay_gaps([(model, initial_states)], rig, windows, workers)[0]

@@ -108,7 +108,7 @@ class Diagnosis:
     holdout: str = ""  # how the held-out data were chosen
     rule: str = ""  # the acceptance rule
     notes: list[str] = field(default_factory=list)  # what the command tells its user (e.g. ignored columns)
-    artifacts: "Artifacts | None" = field(default=None, repr=False, compare=False)  # not in report.json
+    artifacts: Artifacts | None = field(default=None, repr=False, compare=False)  # not in report.json
 
     SPEC_KEYS = ("verdict", "effects", "gap", "ranking", "localization")
 
@@ -122,7 +122,7 @@ class Diagnosis:
         return {**{key: out.pop(key) for key in self.SPEC_KEYS}, **out}
 
     @classmethod
-    def from_json(cls, data: dict) -> "Diagnosis":
+    def from_json(cls, data: dict) -> Diagnosis:
         """A :class:`Diagnosis` from a ``report.json`` object, also one written before the later keys."""
         known = {f.name for f in dataclasses.fields(cls)}
         values = {key: value for key, value in data.items() if key in known}
@@ -136,8 +136,11 @@ class Diagnosis:
 
 
 def _plain(value):
-    return dataclasses.asdict(value) if dataclasses.is_dataclass(value) else (
-        [_plain(v) for v in value] if isinstance(value, list) else value)
+    return (
+        dataclasses.asdict(value)
+        if dataclasses.is_dataclass(value)
+        else ([_plain(v) for v in value] if isinstance(value, list) else value)
+    )
 
 
 def _build(cls, data: dict):

@@ -13,7 +13,8 @@ place against the model holding all the others:
 - a candidate *enters* when the 5 % lower bound of its reduction over the model holding the earlier effects
   exceeds ``ENTRY``: the candidate with the largest reduction, replaced by one with fewer parameters when that
   one is within ``PARSIMONY`` of it, or when it is a variant of the same law that the best does not beat
-  significantly (Coulomb before Stribeck or asymmetry when the data cannot tell them apart). Entry is lenient because effects mask each other: with three strong effects acting, none alone may
+  significantly (Coulomb before Stribeck or asymmetry when the data cannot tell them apart). Entry is lenient because
+  effects mask each other: with three strong effects acting, none alone may
   explain much;
 - an effect is *kept* when the 5 % lower bound of the reduction it brings to the model holding all the other
   kept effects exceeds ``MARGIN``; the weakest one that does not is dropped, and the others judged again;
@@ -41,17 +42,19 @@ CONFUSABLE_LEVEL = 0.9  # two-sided level of the interval of a difference of red
 
 def threshold_note(bootstrap: int, seed: int) -> str:
     """The acceptance rule in one paragraph, written into every report."""
-    return (f"Held-out reductions are bootstrapped over held-out windows ({bootstrap} paired resamples, seed "
-            f"{seed}). Effects enter one at a time, at most three: nothing more enters once a model's held-out gap "
-            f"is below {FLOOR_COUNTS} counts; the candidate with the largest reduction over the model holding the earlier "
-            f"effects enters when the 5 % lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
-            f"{PARSIMONY:.0%} of it is preferred); an effect is kept when the 5 % lower bound of the reduction it "
-            f"brings to the model holding all the other kept effects exceeds {MARGIN:.0%}, else the weakest is "
-            f"dropped; the verdict is none when no effect is kept and the nominal gap is below {FLOOR_COUNTS} counts or "
-            f"twice its bootstrap standard error; two supported candidates of different laws whose "
-            f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
-            f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
-            f"unexplained.")
+    return (
+        f"Held-out reductions are bootstrapped over held-out windows ({bootstrap} paired resamples, seed "
+        f"{seed}). Effects enter one at a time, at most three: nothing more enters once a model's held-out gap "
+        f"is below {FLOOR_COUNTS} counts; the candidate with the largest reduction over the model holding the earlier "
+        f"effects enters when the 5 % lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
+        f"{PARSIMONY:.0%} of it is preferred); an effect is kept when the 5 % lower bound of the reduction it "
+        f"brings to the model holding all the other kept effects exceeds {MARGIN:.0%}, else the weakest is "
+        f"dropped; the verdict is none when no effect is kept and the nominal gap is below {FLOOR_COUNTS} counts or "
+        f"twice its bootstrap standard error; two supported candidates of different laws whose "
+        f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
+        f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
+        f"unexplained."
+    )
 
 
 def gap_of(per_window_excess) -> np.ndarray:
@@ -78,12 +81,17 @@ class Bootstrap:
     def reductions(self, reference: np.ndarray, candidate: np.ndarray) -> np.ndarray:
         """Bootstrap values of 1 - gap(candidate) / gap(reference)."""
         return 1.0 - gap_of(candidate[self.index].mean(axis=1)) / np.maximum(
-            gap_of(reference[self.index].mean(axis=1)), 1e-12)
+            gap_of(reference[self.index].mean(axis=1)), 1e-12
+        )
 
     def evidence(self, reference: np.ndarray, candidate: np.ndarray) -> Evidence:
         point = 1.0 - gap_of(candidate.mean()) / max(float(gap_of(reference.mean())), 1e-12)
-        return Evidence(float(gap_of(candidate.mean())), float(point),
-                        float(np.quantile(self.reductions(reference, candidate), 0.05)), float(candidate.mean()))
+        return Evidence(
+            float(gap_of(candidate.mean())),
+            float(point),
+            float(np.quantile(self.reductions(reference, candidate), 0.05)),
+            float(candidate.mean()),
+        )
 
     def within_noise(self, per_window: np.ndarray) -> bool:
         """The model of ``per_window`` explains the data to within their noise: its gap is below ``FLOOR_COUNTS``
@@ -91,8 +99,7 @@ class Bootstrap:
         gap = float(gap_of(per_window.mean()))
         return at_floor(per_window) or gap < 2.0 * float(np.std(gap_of(per_window[self.index].mean(axis=1))))
 
-    def difference_interval(self, reference: np.ndarray, first: np.ndarray, second: np.ndarray
-                            ) -> tuple[float, float]:
+    def difference_interval(self, reference: np.ndarray, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
         """The ``CONFUSABLE_LEVEL`` interval of reduction(first) - reduction(second), both over ``reference``."""
         difference = self.reductions(reference, first) - self.reductions(reference, second)
         tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
@@ -112,13 +119,17 @@ def n_params(name: str) -> int:
 def order(evidence: dict[str, Evidence]) -> list[str]:
     """Candidates best first: the larger reduction, then (two models at the floor both reduce by 1) the smaller
     excess residual before the square root's clip, then fewer parameters, then the name."""
-    return sorted(evidence, key=lambda name: (-evidence[name].reduction, evidence[name].excess, n_params(name),
-                                              name))
+    return sorted(evidence, key=lambda name: (-evidence[name].reduction, evidence[name].excess, n_params(name), name))
 
 
-def choose(evidence: dict[str, Evidence], new: dict[str, str], margin: float = MARGIN,
-           previous: np.ndarray | None = None, per_window: dict[str, np.ndarray] | None = None,
-           bootstrap: "Bootstrap | None" = None) -> str | None:
+def choose(
+    evidence: dict[str, Evidence],
+    new: dict[str, str],
+    margin: float = MARGIN,
+    previous: np.ndarray | None = None,
+    per_window: dict[str, np.ndarray] | None = None,
+    bootstrap: Bootstrap | None = None,
+) -> str | None:
     """The candidate among ``evidence`` (over the ``previous`` model) whose reduction's lower bound exceeds
     ``margin``: the best, or a simpler one within ``PARSIMONY`` of it or, when it is a variant of the best one's
     law, one the best does not beat beyond the ``CONFUSABLE_LEVEL`` interval of their difference (given the
@@ -140,8 +151,14 @@ def choose(evidence: dict[str, Evidence], new: dict[str, str], margin: float = M
     return min(simpler, key=lambda name: (n_params(new[name]), -evidence[name].reduction)) if simpler else best
 
 
-def confusable(chosen: str, evidence: dict[str, Evidence], new: dict[str, str], previous: np.ndarray,
-               per_window: dict[str, np.ndarray], bootstrap: Bootstrap) -> list[dict]:
+def confusable(
+    chosen: str,
+    evidence: dict[str, Evidence],
+    new: dict[str, str],
+    previous: np.ndarray,
+    per_window: dict[str, np.ndarray],
+    bootstrap: Bootstrap,
+) -> list[dict]:
     """The supported candidates of other laws that explain the held-out data as well as ``chosen``, each as
     ``{"effects": [chosen's effect, other's effect], "why": ...}``."""
     out = []
@@ -150,8 +167,15 @@ def confusable(chosen: str, evidence: dict[str, Evidence], new: dict[str, str], 
             continue
         low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
         if low <= 0.0 <= high:
-            out.append({"effects": [new[chosen], new[name]], "why": (
-                f"held-out reductions {evidence[chosen].reduction:.1%} ({new[chosen]}) and "
-                f"{evidence[name].reduction:.1%} ({new[name]}): the {CONFUSABLE_LEVEL:.0%} bootstrap interval of "
-                f"their difference, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0")})
+            out.append(
+                {
+                    "effects": [new[chosen], new[name]],
+                    "why": (
+                        f"held-out reductions {evidence[chosen].reduction:.1%} ({new[chosen]}) and "
+                        f"{evidence[name].reduction:.1%} ({new[name]}): the {CONFUSABLE_LEVEL:.0%} bootstrap interval "
+                        f"of "
+                        f"their difference, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0"
+                    ),
+                }
+            )
     return out

@@ -44,6 +44,7 @@ class DiagnosisSettings:
             raise ConfigError(f"diagnosis setting max_effects is at most 3, got {self.max_effects}")
 
 
-FAST = DiagnosisSettings(fit_windows=10, start_windows=4, max_nfev=4, bootstrap=200, interval_resamples=100,
-                         detection_limits=False)
+FAST = DiagnosisSettings(
+    fit_windows=10, start_windows=4, max_nfev=4, bootstrap=200, interval_resamples=100, detection_limits=False
+)
 """Settings for quick checks (a smoke test of a pipeline change, property tests): every stage runs, briefly."""

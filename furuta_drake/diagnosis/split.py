@@ -23,9 +23,13 @@ def _cut(log: RunLog, edges: list[int], held: set[int]) -> tuple[list[RunLog], l
     train, heldout = [], []
     for k, (first, last) in enumerate(zip(edges[:-1], edges[1:])):
         part = dataclasses.replace(
-            log, name=f"{log.name} (t = {log.time[first]:.2f}-{log.time[last - 1]:.2f} s)",
-            time=log.time[first:last], theta=log.theta[first:last], phi=log.phi[first:last],
-            input=log.input[first:last])
+            log,
+            name=f"{log.name} (t = {log.time[first]:.2f}-{log.time[last - 1]:.2f} s)",
+            time=log.time[first:last],
+            theta=log.theta[first:last],
+            phi=log.phi[first:last],
+            input=log.input[first:last],
+        )
         (heldout if k in held else train).append(part)
     return train, heldout
 
@@ -54,11 +58,16 @@ def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
             edges, held = np.linspace(0, log.time.size, blocks + 1).astype(int).tolist(), _held_out_blocks(blocks)
         parts = _cut(log, edges, held)
         train, heldout = train + parts[0], heldout + parts[1]
-    return train, heldout, (
-        f"no --heldout logs: each train log was cut into up to {HOLDOUT_BLOCKS} equal blocks of at least "
-        f"{MIN_BLOCK_S:g} s and {HOLDOUT_FRACTION:.0%} of them, spread over the run, were held out and never used "
-        f"for fitting (a log shorter than {MIN_BLOCKS} blocks held out its last {HOLDOUT_FRACTION:.0%}): "
-        + ", ".join(log.name for log in heldout))
+    return (
+        train,
+        heldout,
+        (
+            f"no --heldout logs: each train log was cut into up to {HOLDOUT_BLOCKS} equal blocks of at least "
+            f"{MIN_BLOCK_S:g} s and {HOLDOUT_FRACTION:.0%} of them, spread over the run, were held out and never used "
+            f"for fitting (a log shorter than {MIN_BLOCKS} blocks held out its last {HOLDOUT_FRACTION:.0%}): "
+            + ", ".join(log.name for log in heldout)
+        ),
+    )
 
 
 def fold_split(logs: list[RunLog], folds: int, fold: int, rig: RigParameters) -> tuple[list[RunLog], list[RunLog]]:
@@ -68,8 +77,10 @@ def fold_split(logs: list[RunLog], folds: int, fold: int, rig: RigParameters) ->
     train, heldout = [], []
     for log in logs:
         blocks = max(folds, _blocks(log))
-        if log.time.size // blocks <= sum(window_samples(log.sample_period, rig)) + window_samples(
-                log.sample_period, rig)[1]:
+        if (
+            log.time.size // blocks
+            <= sum(window_samples(log.sample_period, rig)) + window_samples(log.sample_period, rig)[1]
+        ):
             train.append(log)
             continue
         edges = np.linspace(0, log.time.size, blocks + 1).astype(int).tolist()

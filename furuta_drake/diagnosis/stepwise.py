@@ -5,8 +5,8 @@ without it is worse by the rule's margin (:mod:`furuta_drake.diagnosis.select` h
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, law_of
 from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
@@ -14,7 +14,14 @@ from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.parallel import Failure
 from furuta_drake.diagnosis.select import (
-    CLOSES, ENTRY, MARGIN, Bootstrap, Evidence, at_floor, choose, confusable,
+    CLOSES,
+    ENTRY,
+    MARGIN,
+    Bootstrap,
+    Evidence,
+    at_floor,
+    choose,
+    confusable,
 )
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
@@ -76,8 +83,16 @@ def _vocabulary_name(name: str, effect: Effect) -> str:
     return name
 
 
-def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: int, names: list[str],
-                   settings: DiagnosisSettings, run: Callable) -> Selection:
+def select_effects(
+    nominal: Model,
+    logs: list[RunLog],
+    train,
+    heldout,
+    counts: int,
+    names: list[str],
+    settings: DiagnosisSettings,
+    run: Callable,
+) -> Selection:
     """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.select`):
     forward, one at a time, each fitted together with the earlier ones and entering when it reduces the gap of
     the model holding them; then backward, each kept only while the model without it is worse by the rule."""
@@ -98,9 +113,18 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
         return results
 
     def task(new, held, **options):
-        return FitTask(new=new, fixed=held.effects if held else {}, model=nominal, train=train, heldout=heldout,
-                       logs=tuple(logs), nominal_counts=counts, settings=settings,
-                       fixed_samples=held.samples if held else {}, **options)
+        return FitTask(
+            new=new,
+            fixed=held.effects if held else {},
+            model=nominal,
+            train=train,
+            heldout=heldout,
+            logs=tuple(logs),
+            nominal_counts=counts,
+            settings=settings,
+            fixed_samples=held.samples if held else {},
+            **options,
+        )
 
     for step in range(1, settings.max_effects + 1):
         held = selection.final
@@ -108,18 +132,25 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
         if step > 1 and at_floor(previous):
             break
         pool = [name for name in names if not law_of(name) & set(selection.kept)]
-        fitted = {r.name: r for r in fit([task(name, held, frozen=step > 1) for name in pool], step, previous)
-                  if not r.failure}
+        fitted = {
+            r.name: r
+            for r in fit([task(name, held, frozen=step > 1) for name in pool], step, previous)
+            if not r.failure
+        }
         if at_floor(nominal_gap.per_window):
             break
         if step > 1:  # the most promising, fitted again together with the earlier effects
             best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
-            for joint in fit([task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]])
-                              for name in best], step, previous):
+            for joint in fit(
+                [task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]]) for name in best],
+                step,
+                previous,
+            ):
                 screened = fitted[joint.name]
                 kept = joint if not joint.failure and joint.train_gap <= screened.train_gap else screened
-                selection.tried = [(s, r) for s, r in selection.tried if r is not (screened if kept is joint
-                                                                                       else joint)]
+                selection.tried = [
+                    (s, r) for s, r in selection.tried if r is not (screened if kept is joint else joint)
+                ]
                 fitted[joint.name] = kept
                 record(kept, previous)
         evidence = {name: selection.over_previous[name] for name in fitted}
@@ -133,8 +164,9 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
             selection.tried = [(s, refitted if r is fitted[chosen] else r) for s, r in selection.tried]
             fitted[chosen] = refitted
             selection.over_nominal[chosen] = bootstrap.evidence(nominal_gap.per_window, refitted.heldout.per_window)
-            evidence[chosen] = selection.over_previous[chosen] = bootstrap.evidence(previous,
-                                                                                     refitted.heldout.per_window)
+            evidence[chosen] = selection.over_previous[chosen] = bootstrap.evidence(
+                previous, refitted.heldout.per_window
+            )
         per_window[chosen] = fitted[chosen].heldout.per_window
         selection.confusable += confusable(chosen, evidence, added, previous, per_window, bootstrap)
         selection.kept.append(added[chosen])
@@ -142,8 +174,9 @@ def select_effects(nominal: Model, logs: list[RunLog], train, heldout, counts: i
     return selection
 
 
-def _backward(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task: Callable, fit: Callable
-              ) -> None:
+def _backward(
+    selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task: Callable, fit: Callable
+) -> None:
     """Drop, one at a time, the kept effect whose removal costs the least while that cost's lower bound is not
     above ``MARGIN``: every effect finally kept reduces the held-out gap of the model holding all the others by
     the rule's margin (an effect that entered beside a stronger one it masked must earn its place)."""
@@ -155,9 +188,18 @@ def _backward(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult
             model = selection.model(others) if others else None
             if others and model is None:
                 held = selection.model(others[:-1]) if len(others) > 1 else None
-                model = next((r for r in fit([task(others[-1], held)], len(others),
-                                                   held.heldout.per_window if held else nominal_gap.per_window)
-                              if not r.failure), None)
+                model = next(
+                    (
+                        r
+                        for r in fit(
+                            [task(others[-1], held)],
+                            len(others),
+                            held.heldout.per_window if held else nominal_gap.per_window,
+                        )
+                        if not r.failure
+                    ),
+                    None,
+                )
             # (a model without it that failed to fit leaves the effect judged against the nominal model)
             reference = model.heldout.per_window if model else nominal_gap.per_window
             without[name] = bootstrap.evidence(reference, final.heldout.per_window)
@@ -167,8 +209,9 @@ def _backward(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult
         selection.kept.remove(weakest)
     selection.over_others = {name: without[name] for name in selection.kept}
     models = [nominal_gap] + [model.heldout for model in selection.accepted]
-    selection.over_step = [bootstrap.evidence(before.per_window, after.per_window)
-                           for before, after in zip(models[:-1], models[1:])]
+    selection.over_step = [
+        bootstrap.evidence(before.per_window, after.per_window) for before, after in zip(models[:-1], models[1:])
+    ]
     selection.confusable = [pair for pair in selection.confusable if pair["effects"][0] in selection.kept]
 
 
@@ -180,8 +223,9 @@ def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
     for name, effect in task.fixed.items():
         for form in CANDIDATES[name].forms:
             if form.name != effect.form:
-                tasks.append(dataclasses.replace(task, fixed={**task.fixed, name: _in_form(name, effect, form,
-                                                                                             scales)}))
+                tasks.append(
+                    dataclasses.replace(task, fixed={**task.fixed, name: _in_form(name, effect, form, scales)})
+                )
     if not tasks:
         return result
     fits = [fit for fit in (_as_fit(t, r) for t, r in zip(tasks, run(fit_task, tasks))) if not fit.failure]
@@ -192,8 +236,7 @@ def _in_form(name: str, effect: Effect, form, scales) -> Effect:
     """``effect`` in another ``form`` of its candidate: the parameters both forms have keep their values, the
     others take the form's first start."""
     old = dict(zip(CANDIDATES[name].form(effect.form).params, effect.values))
-    return Effect(form.name, tuple(old.get(param, start) for param, start in zip(form.params,
-                                                                              form.starts(scales)[0])))
+    return Effect(form.name, tuple(old.get(param, start) for param, start in zip(form.params, form.starts(scales)[0])))
 
 
 def _as_fit(task: FitTask, result) -> FitResult:
@@ -208,19 +251,28 @@ def choice_text(selection: Selection) -> str:
     if not selection.kept:
         if selection.quiet:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
-        return ("No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's "
-                "margin.")
+        return "No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's margin."
     total = selection.over_nominal[selection.final.name]
-    text = (f"The model holding {', '.join(selection.kept)} reduces the nominal held-out gap by {total.reduction:.1%} "
-            f"(5 % lower bound {total.lower_bound:.1%}). ")
+    text = (
+        f"The model holding {', '.join(selection.kept)} reduces the nominal held-out gap by {total.reduction:.1%} "
+        f"(5 % lower bound {total.lower_bound:.1%}). "
+    )
     if len(selection.kept) > 1:
-        text += "Without each of them the held-out gap of the others' model grows: " + "; ".join(
-            f"{name} brings {selection.over_others[name].reduction:.1%} (lower bound "
-            f"{selection.over_others[name].lower_bound:.1%})" for name in selection.kept) + "."
+        text += (
+            "Without each of them the held-out gap of the others' model grows: "
+            + "; ".join(
+                f"{name} brings {selection.over_others[name].reduction:.1%} (lower bound "
+                f"{selection.over_others[name].lower_bound:.1%})"
+                for name in selection.kept
+            )
+            + "."
+        )
     if not selection.closes:
         text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
     for pair in selection.confusable:
-        text += (f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "
-                 f"({pair['why']}); {pair['effects'][0]} was accepted for its larger point reduction or fewer "
-                 f"parameters.")
+        text += (
+            f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "
+            f"({pair['why']}); {pair['effects'][0]} was accepted for its larger point reduction or fewer "
+            f"parameters."
+        )
     return text

@@ -27,9 +27,20 @@ from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 VOCABULARY = (
-    "arm_coulomb_friction", "arm_viscous_friction", "arm_stribeck", "friction_asymmetry", "pendulum_friction",
-    "encoder_quantization", "measurement_noise", "input_delay", "torque_gain_error", "actuator_deadzone",
-    "actuator_lag", "actuator_saturation", "arm_spring", "inertia_mismatch",
+    "arm_coulomb_friction",
+    "arm_viscous_friction",
+    "arm_stribeck",
+    "friction_asymmetry",
+    "pendulum_friction",
+    "encoder_quantization",
+    "measurement_noise",
+    "input_delay",
+    "torque_gain_error",
+    "actuator_deadzone",
+    "actuator_lag",
+    "actuator_saturation",
+    "arm_spring",
+    "inertia_mismatch",
 )
 OUTSIDE_VOCABULARY = "cogging_torque"
 
@@ -79,30 +90,56 @@ def with_effect(config: SimulationConfig, effect: str, level: float) -> Simulati
     friction = config.friction
     if effect == "arm_coulomb_friction":
         level_Nm = 0.05 * k * mgl
-        friction = dataclasses.replace(friction, arm=JointFrictionParameters(
-            model="dahl", coulomb_pos=level_Nm, coulomb_neg=level_Nm, sigma0=400.0 * level_Nm))
+        friction = dataclasses.replace(
+            friction,
+            arm=JointFrictionParameters(
+                model="dahl", coulomb_pos=level_Nm, coulomb_neg=level_Nm, sigma0=400.0 * level_Nm
+            ),
+        )
     elif effect == "arm_viscous_friction":
         damping = 0.8 * k * rig.arm_inertia_total  # the arm's velocity decays at 0.8 k 1/s
-        friction = dataclasses.replace(friction, arm=dataclasses.replace(
-            arm, model="static" if arm.model == "none" else arm.model, viscous=arm.viscous + damping))
+        friction = dataclasses.replace(
+            friction,
+            arm=dataclasses.replace(
+                arm, model="static" if arm.model == "none" else arm.model, viscous=arm.viscous + damping
+            ),
+        )
     elif effect == "arm_stribeck":
         level_Nm = 0.04 * mgl
-        friction = dataclasses.replace(friction, arm=JointFrictionParameters(
-            model="lugre", coulomb_pos=level_Nm, coulomb_neg=level_Nm, static_pos=(1.0 + 1.0 * k) * level_Nm,
-            static_neg=(1.0 + 1.0 * k) * level_Nm, stribeck_velocity=0.1, sigma0=400.0 * level_Nm,
-            sigma1=0.0))
+        friction = dataclasses.replace(
+            friction,
+            arm=JointFrictionParameters(
+                model="lugre",
+                coulomb_pos=level_Nm,
+                coulomb_neg=level_Nm,
+                static_pos=(1.0 + 1.0 * k) * level_Nm,
+                static_neg=(1.0 + 1.0 * k) * level_Nm,
+                stribeck_velocity=0.1,
+                sigma0=400.0 * level_Nm,
+                sigma1=0.0,
+            ),
+        )
     elif effect == "friction_asymmetry":
         low = 0.03 * mgl
-        friction = dataclasses.replace(friction, arm=JointFrictionParameters(
-            model="dahl", coulomb_pos=low, coulomb_neg=low * (1.0 + 0.75 * k), sigma0=400.0 * low))
+        friction = dataclasses.replace(
+            friction,
+            arm=JointFrictionParameters(
+                model="dahl", coulomb_pos=low, coulomb_neg=low * (1.0 + 0.75 * k), sigma0=400.0 * low
+            ),
+        )
     elif effect == "pendulum_friction":
         damping = 0.3 * k * rig.pendulum_inertia_total  # the pendulum's swing decays at 0.3 k 1/s
         level_Nm = 0.004 * k * mgl
-        friction = dataclasses.replace(friction, pendulum=JointFrictionParameters(
-            model="static", coulomb_pos=level_Nm, coulomb_neg=level_Nm, viscous=damping))
+        friction = dataclasses.replace(
+            friction,
+            pendulum=JointFrictionParameters(
+                model="static", coulomb_pos=level_Nm, coulomb_neg=level_Nm, viscous=damping
+            ),
+        )
     elif effect == "encoder_quantization":
-        encoder = dataclasses.replace(config.encoder,
-                                      counts_per_rev=config.encoder.counts_per_rev // max(2, round(4 * level)))
+        encoder = dataclasses.replace(
+            config.encoder, counts_per_rev=config.encoder.counts_per_rev // max(2, round(4 * level))
+        )
         return dataclasses.replace(config, encoder=encoder)
     elif effect == "measurement_noise":
         noise = 1.5 * k * rig.encoder_resolution
@@ -114,24 +151,32 @@ def with_effect(config: SimulationConfig, effect: str, level: float) -> Simulati
         gain = 1.0 - 0.2 * k if k <= 1.0 else 1.0 + 0.35 * (k - 1.0)
         return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, gain=gain))
     elif effect == "actuator_deadzone":
-        return dataclasses.replace(config, actuator=dataclasses.replace(
-            config.actuator, deadzone=0.03 * k * mgl))
+        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, deadzone=0.03 * k * mgl))
     elif effect == "actuator_lag":
-        return dataclasses.replace(config, actuator=dataclasses.replace(
-            config.actuator, lag_time_constant=0.006 * k))
+        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, lag_time_constant=0.006 * k))
     elif effect == "actuator_saturation":
         limit = config.controller.lqr.torque_limit * max(0.7 - 0.2 * k, 0.1)
         return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, saturation=limit))
     elif effect == "arm_spring":
         stiffness = 0.25 * k * mgl  # N m/rad: a cable that pulls back with a quarter of m g l per radian
-        return dataclasses.replace(config, disturbance=dataclasses.replace(
-            config.disturbance, arm_spring_stiffness=stiffness, arm_spring_equilibrium=0.05))
+        return dataclasses.replace(
+            config,
+            disturbance=dataclasses.replace(
+                config.disturbance, arm_spring_stiffness=stiffness, arm_spring_equilibrium=0.05
+            ),
+        )
     elif effect == "inertia_mismatch":
-        return dataclasses.replace(config, rig=dataclasses.replace(
-            rig, pendulum_mass=rig.pendulum_mass * (1.0 + 0.2 * k), arm_inertia=rig.arm_inertia * (1.0 - 0.15 * k)))
+        return dataclasses.replace(
+            config,
+            rig=dataclasses.replace(
+                rig, pendulum_mass=rig.pendulum_mass * (1.0 + 0.2 * k), arm_inertia=rig.arm_inertia * (1.0 - 0.15 * k)
+            ),
+        )
     elif effect == OUTSIDE_VOCABULARY:
-        return dataclasses.replace(config, disturbance=dataclasses.replace(
-            config.disturbance, cogging_amplitude=0.04 * k * mgl, cogging_periods=12))
+        return dataclasses.replace(
+            config,
+            disturbance=dataclasses.replace(config.disturbance, cogging_amplitude=0.04 * k * mgl, cogging_periods=12),
+        )
     else:
         raise ValueError(f"unknown effect {effect!r}")
     return dataclasses.replace(config, friction=friction)
@@ -143,23 +188,39 @@ def run_configs(rig: RigParameters, seed: int, duration: float) -> dict[str, Sim
     base = SimulationConfig.from_rig(rig)
     scale = rig.gravity_torque
     balance = dataclasses.replace(
-        base, duration=duration, seed=seed, initial_state=[0.05, 0.0, 0.0, 0.0],
-        excitation=ExcitationConfig(torque_rms=0.08 * scale, frequency_min=0.3, frequency_max=6.0,
-                                    arm_reference_amplitude=0.3, arm_reference_period=3.0),
-        monitor=MonitorConfig(theta_bound=1.2))
+        base,
+        duration=duration,
+        seed=seed,
+        initial_state=[0.05, 0.0, 0.0, 0.0],
+        excitation=ExcitationConfig(
+            torque_rms=0.08 * scale,
+            frequency_min=0.3,
+            frequency_max=6.0,
+            arm_reference_amplitude=0.3,
+            arm_reference_period=3.0,
+        ),
+        monitor=MonitorConfig(theta_bound=1.2),
+    )
     hanging = dataclasses.replace(
-        base, duration=duration, seed=seed + 1000, initial_state=[np.pi, 0.0, 0.0, 0.0],
+        base,
+        duration=duration,
+        seed=seed + 1000,
+        initial_state=[np.pi, 0.0, 0.0, 0.0],
         controller=dataclasses.replace(base.controller, mode="open_loop"),
         excitation=ExcitationConfig(torque_rms=0.25 * scale, frequency_min=0.3, frequency_max=5.0),
-        monitor=MonitorConfig(theta_bound=None))
+        monitor=MonitorConfig(theta_bound=None),
+    )
     return {"balance": balance, "hanging": hanging}
 
 
 # Effects that act together on one rig (every one must be named): friction beside an actuator effect, and three.
 SEVERAL_EFFECTS = (
-    ("arm_coulomb_friction", "input_delay"), ("arm_coulomb_friction", "actuator_lag"),
-    ("arm_viscous_friction", "input_delay"), ("inertia_mismatch", "input_delay"),
-    ("arm_coulomb_friction", "actuator_deadzone"), ("arm_coulomb_friction", "arm_spring"),
+    ("arm_coulomb_friction", "input_delay"),
+    ("arm_coulomb_friction", "actuator_lag"),
+    ("arm_viscous_friction", "input_delay"),
+    ("inertia_mismatch", "input_delay"),
+    ("arm_coulomb_friction", "actuator_deadzone"),
+    ("arm_coulomb_friction", "arm_spring"),
     ("arm_coulomb_friction", "input_delay", "inertia_mismatch"),
     ("arm_viscous_friction", "actuator_lag", "inertia_mismatch"),
     ("arm_coulomb_friction", "actuator_lag", "arm_spring"),
@@ -201,8 +262,16 @@ def write_case(case: CaseSpec, directory: Path, duration: float = 8.0) -> dict:
             write_log_csv(result, path)
             files.setdefault(split, []).append(path.name)
     truth = {effect: true_params(rig, effect, case.level) for effect in case.effects}
-    return {"case": case.name, "rig": case.rig, "effects": list(case.effects), "level": case.level,
-            "seed": case.seed, "expected_verdict": case.expected_verdict, "files": files, "truth": truth}
+    return {
+        "case": case.name,
+        "rig": case.rig,
+        "effects": list(case.effects),
+        "level": case.level,
+        "seed": case.seed,
+        "expected_verdict": case.expected_verdict,
+        "files": files,
+        "truth": truth,
+    }
 
 
 def write_suite(out: Path, cases: list[CaseSpec], duration: float = 8.0, progress=None) -> Path:
@@ -225,10 +294,15 @@ def true_params(rig: RigParameters, effect: str, level: int) -> dict[str, float]
     config = with_effect(base, effect, level)
     arm, pendulum, actuator = config.friction.arm, config.friction.pendulum, config.actuator
     if effect in ("arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"):
-        params = {"arm_coulomb_friction": {"coulomb": arm.coulomb_pos},
-                  "arm_stribeck": {"coulomb": arm.coulomb_pos, "static": arm.static_levels[0],
-                                   "stribeck_velocity": arm.stribeck_velocity},
-                  "friction_asymmetry": {"coulomb_pos": arm.coulomb_pos, "coulomb_neg": arm.coulomb_neg}}[effect]
+        params = {
+            "arm_coulomb_friction": {"coulomb": arm.coulomb_pos},
+            "arm_stribeck": {
+                "coulomb": arm.coulomb_pos,
+                "static": arm.static_levels[0],
+                "stribeck_velocity": arm.stribeck_velocity,
+            },
+            "friction_asymmetry": {"coulomb_pos": arm.coulomb_pos, "coulomb_neg": arm.coulomb_neg},
+        }[effect]
         return {**params, "presliding": arm.bristle_bound}
     if effect == "inertia_mismatch":
         true_rig, constants = config.rig, ("arm_inertia_total", "pendulum_inertia_total", "coupling", "gravity_torque")
@@ -244,8 +318,12 @@ def true_params(rig: RigParameters, effect: str, level: int) -> dict[str, float]
         "actuator_deadzone": lambda: {"deadzone": actuator.deadzone},
         "actuator_lag": lambda: {"time_constant": actuator.lag_time_constant},
         "actuator_saturation": lambda: {"limit": actuator.saturation},
-        "arm_spring": lambda: {"stiffness": config.disturbance.arm_spring_stiffness,
-                               "equilibrium": config.disturbance.arm_spring_equilibrium},
-        OUTSIDE_VOCABULARY: lambda: {"cogging_amplitude": config.disturbance.cogging_amplitude,
-                                     "cogging_periods": float(config.disturbance.cogging_periods)},
+        "arm_spring": lambda: {
+            "stiffness": config.disturbance.arm_spring_stiffness,
+            "equilibrium": config.disturbance.arm_spring_equilibrium,
+        },
+        OUTSIDE_VOCABULARY: lambda: {
+            "cogging_amplitude": config.disturbance.cogging_amplitude,
+            "cogging_periods": float(config.disturbance.cogging_periods),
+        },
     }[effect]()

@@ -4,8 +4,9 @@ Many short windows are integrated at once (numpy arrays over windows, fixed-step
 body is the full nonlinear Furuta model in the four lumped constants a = J_arm + m r^2, b = J_p + m l^2,
 c = m l r, d = m g l (q = [theta, phi], theta = 0 upright):
 
-    [b, c cos(theta)] [theta'']   [ d sin(theta) + b sin(theta) cos(theta) phi'^2                    + tau_theta ]
-    [c cos(theta), a + b sin^2(theta)] [phi''] = [ c sin(theta) theta'^2 - 2 b sin(theta) cos(theta) theta' phi' + tau_phi ]
+    [b,            c cos(theta)     ] [theta'']   [ d sin(theta) + b sin(theta) cos(theta) phi'^2 + tau_theta ]
+    [c cos(theta), a + b sin^2(theta)] [phi''  ] = [ c sin(theta) theta'^2
+                                                     - 2 b sin(theta) cos(theta) theta' phi' + tau_phi         ]
 
 (a test checks it against Drake's MultibodyPlant). Friction uses the laws of :mod:`furuta_drake.friction`
 (static model with a regularisation velocity of ``REGULARIZATION_VELOCITY``, the same in the Drake replay).
@@ -21,7 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from furuta_drake.friction import (
-    JointFrictionParameters, bristle_friction_torque, dahl_exact_step, static_friction_torque, stribeck_curve,
+    JointFrictionParameters,
+    bristle_friction_torque,
+    dahl_exact_step,
+    static_friction_torque,
+    stribeck_curve,
 )
 from furuta_drake.rig import RigParameters
 
@@ -54,19 +59,27 @@ class Model:
     rig_constants: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # the rig file's (a, b, c, d)
 
     @classmethod
-    def from_rig(cls, rig: RigParameters) -> "Model":
+    def from_rig(cls, rig: RigParameters) -> Model:
         def joint(coulomb, viscous):
-            return JointFrictionParameters(model="static", coulomb_pos=coulomb, coulomb_neg=coulomb,
-                                           viscous=viscous, regularization_velocity=REGULARIZATION_VELOCITY)
+            return JointFrictionParameters(
+                model="static",
+                coulomb_pos=coulomb,
+                coulomb_neg=coulomb,
+                viscous=viscous,
+                regularization_velocity=REGULARIZATION_VELOCITY,
+            )
 
         constants = (rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque)
-        return cls(*constants, rig_constants=constants,
-                   arm_friction=joint(rig.arm_coulomb, rig.arm_viscous),
-                   pendulum_friction=joint(rig.pendulum_coulomb, rig.pendulum_viscous),
-                   back_emf_damping=0.0 if rig.motor is None else rig.motor.back_emf_damping,
-                   counts_per_rev=rig.counts_per_rev)
+        return cls(
+            *constants,
+            rig_constants=constants,
+            arm_friction=joint(rig.arm_coulomb, rig.arm_viscous),
+            pendulum_friction=joint(rig.pendulum_coulomb, rig.pendulum_viscous),
+            back_emf_damping=0.0 if rig.motor is None else rig.motor.back_emf_damping,
+            counts_per_rev=rig.counts_per_rev,
+        )
 
-    def replace(self, **changes) -> "Model":
+    def replace(self, **changes) -> Model:
         return dataclasses.replace(self, **changes)
 
 
@@ -83,8 +96,11 @@ def applied_torque(model: Model, command: np.ndarray) -> np.ndarray:
     saturation (a clip, or L tanh(u / L))."""
     u = command
     if model.deadzone > 0:
-        u = (command - np.clip(command, -model.deadzone, model.deadzone) if model.deadzone_form == "subtract"
-             else np.where(np.abs(command) > model.deadzone, command, 0.0))
+        u = (
+            command - np.clip(command, -model.deadzone, model.deadzone)
+            if model.deadzone_form == "subtract"
+            else np.where(np.abs(command) > model.deadzone, command, 0.0)
+        )
     u = model.gain * u if model.gain != 1.0 else u
     if not np.isfinite(model.saturation):
         return u
@@ -100,12 +116,14 @@ def spring_torque(model: Model, phi):
 
 
 def _acts(p: JointFrictionParameters) -> bool:
-    return p.model == "static" and (p.coulomb_pos > 0 or p.coulomb_neg > 0 or p.viscous > 0
-                                  or bool(p.static_pos) or bool(p.static_neg))
+    return p.model == "static" and (
+        p.coulomb_pos > 0 or p.coulomb_neg > 0 or p.viscous > 0 or bool(p.static_pos) or bool(p.static_neg)
+    )
 
 
-def _accelerations(model: Model, x: np.ndarray, tau_arm: np.ndarray, arm_friction: bool = True,
-                   pendulum_friction: bool = True) -> np.ndarray:
+def _accelerations(
+    model: Model, x: np.ndarray, tau_arm: np.ndarray, arm_friction: bool = True, pendulum_friction: bool = True
+) -> np.ndarray:
     """x' of the Furuta model (module docstring); the flags skip friction terms known to be zero."""
     theta, phi, theta_dot, phi_dot = x
     s, c_ = np.sin(theta), np.cos(theta)
@@ -168,8 +186,16 @@ def bristle_path(path: np.ndarray, p: JointFrictionParameters, period: float) ->
     return z
 
 
-def predict_windows(model: Model, x0: np.ndarray, command: np.ndarray, starts: np.ndarray, horizon: int,
-                    period: float, substeps: int, bristle0: np.ndarray | None = None) -> np.ndarray:
+def predict_windows(
+    model: Model,
+    x0: np.ndarray,
+    command: np.ndarray,
+    starts: np.ndarray,
+    horizon: int,
+    period: float,
+    substeps: int,
+    bristle0: np.ndarray | None = None,
+) -> np.ndarray:
     """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
 
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period);

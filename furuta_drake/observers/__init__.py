@@ -8,14 +8,27 @@ inside it. All are discrete at the control period.
 
 from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver, DahlObserverParameters
 from furuta_drake.observers.hg import (
-    HighGainObserver, HighGainParameters, high_gain_eigenvalues, high_gain_error_matrix,
+    HighGainObserver,
+    HighGainParameters,
+    high_gain_eigenvalues,
+    high_gain_error_matrix,
 )
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.observers.parameter_adaptation import ParameterAdaptationParameters
 from furuta_drake.observers.vfe import VfeObserver, VfeParameters, vfe_error_matrix, vfe_gains
 
 __all__ = [
-    "DahlAdaptation", "DahlFrictionObserver", "DahlObserverParameters", "HighGainObserver", "HighGainParameters",
-    "high_gain_eigenvalues", "high_gain_error_matrix", "KSigmaAdaptationParameters", "ParameterAdaptationParameters",
-    "VfeObserver", "VfeParameters", "vfe_error_matrix", "vfe_gains",
+    "DahlAdaptation",
+    "DahlFrictionObserver",
+    "DahlObserverParameters",
+    "HighGainObserver",
+    "HighGainParameters",
+    "high_gain_eigenvalues",
+    "high_gain_error_matrix",
+    "KSigmaAdaptationParameters",
+    "ParameterAdaptationParameters",
+    "VfeObserver",
+    "VfeParameters",
+    "vfe_error_matrix",
+    "vfe_gains",
 ]

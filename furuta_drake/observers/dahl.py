@@ -55,13 +55,32 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from furuta_drake.errors import ConfigError, require_control_period
-from furuta_drake.friction import (JointFrictionParameters, bristle_friction_torque, dahl_exact_step,
-                                   held_input_gain, stribeck_curve)
-from furuta_drake.observers.k_sigma import (K_SIGMA_NEG, K_SIGMA_POS, KSigmaAdaptationParameters, adapting_branch,
-                                            k_sigma_step)
-from furuta_drake.observers.parameter_adaptation import (LOG_FC_NEG, LOG_FC_POS, LOG_SIGMA0, PE_FC_NEG, PE_FC_POS,
-                                                         PE_SIGMA0, ParameterAdaptationLaw,
-                                                         ParameterAdaptationParameters, adapted_model, initial_state)
+from furuta_drake.friction import (
+    JointFrictionParameters,
+    bristle_friction_torque,
+    dahl_exact_step,
+    held_input_gain,
+    stribeck_curve,
+)
+from furuta_drake.observers.k_sigma import (
+    K_SIGMA_NEG,
+    K_SIGMA_POS,
+    KSigmaAdaptationParameters,
+    adapting_branch,
+    k_sigma_step,
+)
+from furuta_drake.observers.parameter_adaptation import (
+    LOG_FC_NEG,
+    LOG_FC_POS,
+    LOG_SIGMA0,
+    PE_FC_NEG,
+    PE_FC_POS,
+    PE_SIGMA0,
+    ParameterAdaptationLaw,
+    ParameterAdaptationParameters,
+    adapted_model,
+    initial_state,
+)
 
 JOINTS = ("arm", "pendulum")
 
@@ -76,8 +95,10 @@ class DahlAdaptation:
 
     def validate(self, where: str = "observers.dahl.adaptation") -> None:
         if (self.k_sigma is None) == (self.parameters is None):
-            raise ConfigError(f"{where} must give exactly one of k_sigma (Eq. 18) and parameters (Fc and sigma0, "
-                              f"Sec. VII); null switches adaptation off")
+            raise ConfigError(
+                f"{where} must give exactly one of k_sigma (Eq. 18) and parameters (Fc and sigma0, "
+                f"Sec. VII); null switches adaptation off"
+            )
         if self.k_sigma is not None:
             self.k_sigma.validate(f"{where}.k_sigma")
         else:
@@ -124,17 +145,27 @@ class DahlObserverParameters:
         if self.adaptation is not None:
             self.adaptation.validate(f"{where}.adaptation")
             if self.adaptation.parameters is not None and (
-                    self.sigma1 > 0 or self.sigma2 > 0 or self.static_pos is not None or self.static_neg is not None):
-                raise ConfigError(f"{where}.adaptation.parameters adapts a Dahl model: {where} must have no Stribeck "
-                                  f"levels, sigma1 or sigma2")
+                self.sigma1 > 0 or self.sigma2 > 0 or self.static_pos is not None or self.static_neg is not None
+            ):
+                raise ConfigError(
+                    f"{where}.adaptation.parameters adapts a Dahl model: {where} must have no Stribeck "
+                    f"levels, sigma1 or sigma2"
+                )
 
     def friction_law(self) -> JointFrictionParameters:
         """The observer's model as a friction law of :mod:`furuta_drake.friction` (LuGre; Dahl without
         Stribeck levels, sigma1 and sigma2)."""
         return JointFrictionParameters(
-            model="lugre", coulomb_pos=self.coulomb_pos, coulomb_neg=self.coulomb_neg, static_pos=self.static_pos,
-            static_neg=self.static_neg, stribeck_velocity=self.stribeck_velocity, viscous=self.sigma2,
-            sigma0=self.sigma0, sigma1=self.sigma1)
+            model="lugre",
+            coulomb_pos=self.coulomb_pos,
+            coulomb_neg=self.coulomb_neg,
+            static_pos=self.static_pos,
+            static_neg=self.static_neg,
+            stribeck_velocity=self.stribeck_velocity,
+            viscous=self.sigma2,
+            sigma0=self.sigma0,
+            sigma1=self.sigma1,
+        )
 
 
 class DahlFrictionObserver(LeafSystem):
@@ -154,8 +185,9 @@ class DahlFrictionObserver(LeafSystem):
     feeds eps_hat_F (``parameters`` only).
     """
 
-    def __init__(self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm",
-                 error_response=None):
+    def __init__(
+        self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm", error_response=None
+    ):
         LeafSystem.__init__(self)
         params = params or DahlObserverParameters()
         params.validate()
@@ -165,8 +197,9 @@ class DahlFrictionObserver(LeafSystem):
             raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
         adaptation = params.adaptation
         if adaptation is not None and joint != "arm":
-            raise ConfigError(f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the "
-                              f"{joint}'s")
+            raise ConfigError(
+                f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the {joint}'s"
+            )
         self.params, self.joint, self.period = params, joint, period
         self._law = params.friction_law()
         self._angle_index = 1 if joint == "arm" else 0
@@ -187,8 +220,9 @@ class DahlFrictionObserver(LeafSystem):
             state = {*state, self._velocity.ticket()}
         else:
             if error_response is None:
-                raise ConfigError("observers.dahl.adaptation.parameters needs the VFE observer's error response "
-                                  "(error_response)")
+                raise ConfigError(
+                    "observers.dahl.adaptation.parameters needs the VFE observer's error response (error_response)"
+                )
             self._parameter_law = ParameterAdaptationLaw(adaptation.parameters, error_response, period)
             initial = initial_state(params.coulomb_pos, params.coulomb_neg, params.sigma0)
             update, calc = self._update_parameters, self._calc_adapted
@@ -200,8 +234,7 @@ class DahlFrictionObserver(LeafSystem):
             self.DeclareVectorOutputPort("K_sigma_branches", 2, self._calc_branches, prerequisites_of_calc={xd})
         elif adaptation is not None:
             self.DeclareVectorOutputPort("dahl_parameters", 3, self._calc_parameters, prerequisites_of_calc={xd})
-            self.DeclareVectorOutputPort("parameter_excitation", 3, self._calc_excitation,
-                                         prerequisites_of_calc={xd})
+            self.DeclareVectorOutputPort("parameter_excitation", 3, self._calc_excitation, prerequisites_of_calc={xd})
 
     # --- Outputs --------------------------------------------------------------------------------------------
 
@@ -273,9 +306,17 @@ class DahlFrictionObserver(LeafSystem):
             return
         state = discrete_state.get_mutable_vector(0)
         index = K_SIGMA_POS + branch
-        state.SetAtIndex(index, state.GetAtIndex(index) + k_sigma_step(
-            self.params.adaptation.k_sigma, self.period, self.params.sigma0, self._error.Eval(context)[1],
-            context.get_discrete_state(0).GetAtIndex(0)))
+        state.SetAtIndex(
+            index,
+            state.GetAtIndex(index)
+            + k_sigma_step(
+                self.params.adaptation.k_sigma,
+                self.period,
+                self.params.sigma0,
+                self._error.Eval(context)[1],
+                context.get_discrete_state(0).GetAtIndex(0),
+            ),
+        )
 
     def _update_parameters(self, context, discrete_state):
         """z_hat and the parameter law over one period with the adapted Fc and sigma0."""
@@ -284,12 +325,23 @@ class DahlFrictionObserver(LeafSystem):
         v = self._velocity.Eval(context)[0]
         sigma0, level = adapted_model(x, v)
         k_z = injection(p, sigma0, v, level, *self.tracking_errors(context, v)) if p.rho is not None else 0.0
-        self._parameter_law.step(x, v=v, sigma0=sigma0, level=level, k_z=k_z, time=context.get_time(),
-                                 friction_error=self._error.Eval(context)[1])
+        self._parameter_law.step(
+            x,
+            v=v,
+            sigma0=sigma0,
+            level=level,
+            k_z=k_z,
+            time=context.get_time(),
+            friction_error=self._error.Eval(context)[1],
+        )
         discrete_state.get_mutable_vector().SetFromVector(x)
 
 
 def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
     """K_z of Eq. 9 [rad/s]: -s (sigma0 / rho) (1 + s1 sigma1 |v| / g(v)) (eps + rho2 eps_v), s = injection_sign."""
-    return -p.injection_sign * (sigma0 / p.rho) * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level) * (
-        eps + p.rho2 * eps_v)
+    return (
+        -p.injection_sign
+        * (sigma0 / p.rho)
+        * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level)
+        * (eps + p.rho2 * eps_v)
+    )

@@ -41,12 +41,16 @@ class FilteredDerivativeParameters:
             raise ConfigError(f"{where}.period must be > 0 (or null: the control period), got {self.period!r}")
 
 
-def filter_coefficients(corner: float, period: float, where: str = "observers.filtered_derivative") -> tuple[float, float]:
+def filter_coefficients(
+    corner: float, period: float, where: str = "observers.filtered_derivative"
+) -> tuple[float, float]:
     """(pole, gain) of v_k = pole v_k-1 + gain (y_k - y_k-1): (1 - wc h, wc) for ``corner`` wc [rad/s] and
     ``period`` h [s]; a ConfigError naming ``where`` when forward Euler is unstable there (wc h >= 2)."""
     if not corner * period < 2.0:
-        raise ConfigError(f"{where}.corner {corner} rad/s is too high for the period {period} s: forward Euler needs "
-                          f"corner * period < 2, got {corner * period:.3g}")
+        raise ConfigError(
+            f"{where}.corner {corner} rad/s is too high for the period {period} s: forward Euler needs "
+            f"corner * period < 2, got {corner * period:.3g}"
+        )
     return 1.0 - corner * period, corner
 
 
@@ -79,8 +83,9 @@ class FilteredDerivative(LeafSystem):
         self._angles = self.DeclareVectorInputPort("measured_angles_rad", 2)
         self._state = self.DeclareDiscreteState(5)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareVectorOutputPort("state_estimate", 4, self._calc, prerequisites_of_calc={
-            self.xd_ticket(), self._angles.ticket()})
+        self.DeclareVectorOutputPort(
+            "state_estimate", 4, self._calc, prerequisites_of_calc={self.xd_ticket(), self._angles.ticket()}
+        )
 
     def _velocity(self, state: np.ndarray, angles: np.ndarray) -> np.ndarray:
         if state[4] == 0.0:
@@ -91,12 +96,14 @@ class FilteredDerivative(LeafSystem):
         state = context.get_discrete_state(self._state).value()
         angles = self._angles.Eval(context)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([angles, self._velocity(state, angles), [1.0]]))
+            np.concatenate([angles, self._velocity(state, angles), [1.0]])
+        )
 
     def _calc(self, context, output: BasicVector):
         angles = self._angles.Eval(context)
-        output.SetFromVector(np.concatenate([angles, self._velocity(context.get_discrete_state(self._state).value(),
-                                                                    angles)]))
+        output.SetFromVector(
+            np.concatenate([angles, self._velocity(context.get_discrete_state(self._state).value(), angles)])
+        )
 
 
 __all__ = ["FilteredDerivativeParameters", "filter_coefficients", "filtered_derivative", "FilteredDerivative"]

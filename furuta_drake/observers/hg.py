@@ -41,8 +41,9 @@ class HighGainParameters:
         for name in ("a1", "a2"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ConfigError(f"{where}.{name} must be > 0 for s^2 + a1 s + a2 to be Hurwitz (Eq. 6), "
-                                  f"got {value!r}")
+                raise ConfigError(
+                    f"{where}.{name} must be > 0 for s^2 + a1 s + a2 to be Hurwitz (Eq. 6), got {value!r}"
+                )
         for name in ("eps_theta", "eps_phi"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -62,8 +63,9 @@ def high_gain_matrix(params: HighGainParameters) -> np.ndarray:
 
 def high_gain_eigenvalues(params: HighGainParameters) -> np.ndarray:
     """The designed error poles [1/s]: the roots of s^2 + (a1/eps) s + a2/eps^2 for [theta, phi]."""
-    return np.concatenate([np.roots([1.0, params.a1 / eps, params.a2 / eps**2])
-                           for eps in (params.eps_theta, params.eps_phi)])
+    return np.concatenate(
+        [np.roots([1.0, params.a1 / eps, params.a2 / eps**2]) for eps in (params.eps_theta, params.eps_phi)]
+    )
 
 
 def high_gain_error_matrix(A: np.ndarray, params: HighGainParameters) -> np.ndarray:
@@ -89,6 +91,10 @@ class HighGainObserver(DiscreteLinearObserver):
         A, B_F = model_matrices(rig_or_AB)
         self.params = params
         DiscreteLinearObserver.__init__(
-            self, continuous_high_gain_observer(A, B_F, params), period,
-            inputs=[("measured_angles_rad", 2), ("arm_torque_Nm", 1)], outputs=[("state_estimate", 4)],
-            name="hg_observer")
+            self,
+            continuous_high_gain_observer(A, B_F, params),
+            period,
+            inputs=[("measured_angles_rad", 2), ("arm_torque_Nm", 1)],
+            outputs=[("state_estimate", 4)],
+            name="hg_observer",
+        )

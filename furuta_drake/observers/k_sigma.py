@@ -52,8 +52,9 @@ def adapting_branch(p: KSigmaAdaptationParameters, time: float, v: float) -> int
     return 0 if v > 0 else 1
 
 
-def k_sigma_step(p: KSigmaAdaptationParameters, period: float, sigma0: float, friction_error: float,
-                 bristle: float) -> float:
+def k_sigma_step(
+    p: KSigmaAdaptationParameters, period: float, sigma0: float, friction_error: float, bristle: float
+) -> float:
     """Eq. 18 over one ``period`` [s] (explicit Euler): -h gamma eps_hat_F sigma0 z_hat, eps_hat_F [N m] the arm
     entry of the VFE's friction error, sigma0 [N m/rad] and z_hat [rad] the Dahl observer's."""
     return period * (-p.gamma * friction_error * sigma0 * bristle)

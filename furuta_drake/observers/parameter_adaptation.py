@@ -59,8 +59,13 @@ class ParameterAdaptationParameters:
     excitation_threshold: float = 0.02  # adapt theta_i while mean(psi_i^2) > this * Fc^2 [-]
 
     def validate(self, where: str = "observers.dahl.adaptation.parameters") -> None:
-        for name in ("gamma_coulomb", "gamma_sigma0", "velocity_threshold", "excitation_window",
-                     "excitation_threshold"):
+        for name in (
+            "gamma_coulomb",
+            "gamma_sigma0",
+            "velocity_threshold",
+            "excitation_window",
+            "excitation_threshold",
+        ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"{where}.{name} must be > 0, got {value!r}")
@@ -94,8 +99,9 @@ class ParameterAdaptationLaw:
         self._filter_a, filter_b = zero_order_hold(M, N, period)
         self._filter_b = filter_b[:, 0]
 
-    def step(self, x: np.ndarray, *, v: float, sigma0: float, level: float, k_z: float, time: float,
-             friction_error: float) -> None:
+    def step(
+        self, x: np.ndarray, *, v: float, sigma0: float, level: float, k_z: float, time: float, friction_error: float
+    ) -> None:
         """Advance the state ``x`` (in place) over one period from ``time`` [s]: z_hat by the exact Dahl step
         with the injection ``k_z`` [rad/s] of Eq. 9, the sensitivities, filters and excitation measures, and the
         log-parameters where the data excite them. ``sigma0`` and ``level`` are :func:`adapted_model` of ``x``,
@@ -110,8 +116,9 @@ class ParameterAdaptationLaw:
         filters = x[FILTERS].reshape(6, 3)  # column i: H's state for parameter i (a view of x)
         filtered = filters[5]  # H's output, the arm entry of eps_hat_F: read after the filters' step below
         x[FILTERS] = (self._filter_a @ filters + np.outer(self._filter_b, psi)).ravel()
-        x[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]] = (self._forget * x[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]]
-                                                + (1.0 - self._forget) * filtered**2)
+        x[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]] = (
+            self._forget * x[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]] + (1.0 - self._forget) * filtered**2
+        )
         # Propagate z_hat and the sensitivities over the period with the current parameters (exact steps).
         rate = sigma0 * abs(v) / level
         gain = held_input_gain(rate, h)

@@ -39,16 +39,18 @@ class VfeParameters:
 
     def validate(self, where: str = "observers.vfe") -> None:
         if len(self.eigenvalues) != 6:
-            raise ConfigError(f"{where}.eigenvalues must list 6 eigenvalues of G (Eq. 12), "
-                              f"got {len(self.eigenvalues)}")
+            raise ConfigError(f"{where}.eigenvalues must list 6 eigenvalues of G (Eq. 12), got {len(self.eigenvalues)}")
         for i, value in enumerate(self.eigenvalues):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value < 0):
-                raise ConfigError(f"{where}.eigenvalues[{i}] must be a negative real (a stable G, Eq. 12), "
-                                  f"got {value!r}")
+                raise ConfigError(
+                    f"{where}.eigenvalues[{i}] must be a negative real (a stable G, Eq. 12), got {value!r}"
+                )
         for value in self.eigenvalues:
             if self.eigenvalues.count(value) > 2:
-                raise ConfigError(f"{where}.eigenvalues repeats {value} {self.eigenvalues.count(value)} times; "
-                                  f"two angle measurements allow at most 2")
+                raise ConfigError(
+                    f"{where}.eigenvalues repeats {value} {self.eigenvalues.count(value)} times; "
+                    f"two angle measurements allow at most 2"
+                )
         if self.period is not None and not (math.isfinite(self.period) and self.period > 0):
             raise ConfigError(f"{where}.period must be > 0 (or null: the control period), got {self.period!r}")
 
@@ -73,8 +75,7 @@ def vfe_gains(A: np.ndarray, B_F: np.ndarray, eigenvalues) -> np.ndarray:
         K_F = place_poles(A_F.T, C_F.T, wanted).gain_matrix.T
     placed = np.sort(np.linalg.eigvals(A_F - K_F @ C_F).real)
     if not np.allclose(placed, wanted, rtol=1e-6, atol=0.0):
-        raise ConfigError(f"observers.vfe.eigenvalues {wanted.tolist()} could not be placed (got "
-                          f"{placed.tolist()})")
+        raise ConfigError(f"observers.vfe.eigenvalues {wanted.tolist()} could not be placed (got {placed.tolist()})")
     return K_F
 
 
@@ -95,8 +96,9 @@ def friction_error_response(A: np.ndarray, B_F: np.ndarray, K_F: np.ndarray) -> 
     return M, np.concatenate([B_F[:, 1], np.zeros(2)]).reshape(6, 1)
 
 
-def continuous_vfe_observer(A: np.ndarray, B_F: np.ndarray, params: VfeParameters,
-                            pendulum_friction_input: bool = False) -> LinearSystem:
+def continuous_vfe_observer(
+    A: np.ndarray, B_F: np.ndarray, params: VfeParameters, pendulum_friction_input: bool = False
+) -> LinearSystem:
     """Eq. 11 as a continuous LinearSystem: input [y_theta, y_phi, u, F_hat_phi] (then F_hat_theta with
     ``pendulum_friction_input``: a friction observer on the pendulum too), output [x_hat, eps_hat_F]; its input
     matrix's first two columns are K_F."""
@@ -116,8 +118,9 @@ class VfeObserver(DiscreteLinearObserver):
     ``pendulum_friction_estimate_Nm`` (F_hat_theta, Eq. 10's full F_hat); outputs ``state_estimate`` (x_hat
     [rad, rad/s]) and ``friction_error_estimate_Nm`` (eps_hat_F = [pendulum, arm]). ``gains`` is K_F = [K1; K2]."""
 
-    def __init__(self, rig_or_AB, params: VfeParameters | None = None, *, period: float,
-                 pendulum_friction_input: bool = False):
+    def __init__(
+        self, rig_or_AB, params: VfeParameters | None = None, *, period: float, pendulum_friction_input: bool = False
+    ):
         params = params or VfeParameters()
         params.validate()
         require_control_period(params.period, period, "observers.vfe.period")
@@ -129,5 +132,10 @@ class VfeObserver(DiscreteLinearObserver):
         if pendulum_friction_input:
             inputs.append(("pendulum_friction_estimate_Nm", 1))
         DiscreteLinearObserver.__init__(
-            self, continuous, period, inputs=inputs,
-            outputs=[("state_estimate", 4), ("friction_error_estimate_Nm", 2)], name="vfe_observer")
+            self,
+            continuous,
+            period,
+            inputs=inputs,
+            outputs=[("state_estimate", 4), ("friction_error_estimate_Nm", 2)],
+            name="vfe_observer",
+        )

@@ -41,14 +41,33 @@ from furuta_drake.controllers.swingup import catch_time, wrap_angle
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.observers.filtered_derivative import FilteredDerivativeParameters, filtered_derivative
 from furuta_drake.simulate import SimulationResult, simulate
-from furuta_drake.studies.real_data import (OSCILLATING_SWINGUP, SWINGUPS, TRAIN_SWINGUP, RealRuns,
-                                            balancing_samples, catch_index, log_result, reference_velocity,
-                                            run_diagnosis, voltage_of, write_segment)
+from furuta_drake.studies.real_data import (
+    OSCILLATING_SWINGUP,
+    SWINGUPS,
+    TRAIN_SWINGUP,
+    RealRuns,
+    balancing_samples,
+    catch_index,
+    log_result,
+    reference_velocity,
+    run_diagnosis,
+    voltage_of,
+    write_segment,
+)
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 LIMIT_CYCLE_MIN_HZ = 3.0  # [Hz] the balancing limit cycle is looked for above this
-FIGURES = ("catch_time", "peak_arm_angle", "theta_rms", "phi_rms", "voltage_rms", "limit_cycle_hz",
-           "limit_cycle_amplitude", "theta_mean", "phi_mean")
+FIGURES = (
+    "catch_time",
+    "peak_arm_angle",
+    "theta_rms",
+    "phi_rms",
+    "voltage_rms",
+    "limit_cycle_hz",
+    "limit_cycle_amplitude",
+    "theta_mean",
+    "phi_mean",
+)
 CORNER_BOUNDS = (5.0, 400.0)  # [rad/s] the search interval of the velocity filter's corner
 SPREAD_COUNTS = (-2, -1, 1, 2)  # [counts] the simulated catch time is also read from starts this far off
 
@@ -60,21 +79,23 @@ def fit_velocity_corner(log: RunLog, params: QuanserSwingUpParameters) -> float:
     upper = min(CORNER_BOUNDS[1], 1.99 / log.sample_period)
 
     def error(corner: float) -> float:
-        voltage, mode, _ = quanser_command(params, np.column_stack([angles, filtered_derivative(
-            angles, log.sample_period, corner)]))
+        voltage, mode, _ = quanser_command(
+            params, np.column_stack([angles, filtered_derivative(angles, log.sample_period, corner)])
+        )
         balance = mode == 1
         return float(np.sqrt(np.mean((voltage[balance] - log.input[balance]) ** 2)))
 
-    return float(minimize_scalar(error, bounds=(CORNER_BOUNDS[0], upper), method="bounded",
-                                 options={"xatol": 1e-3}).x)
+    return float(minimize_scalar(error, bounds=(CORNER_BOUNDS[0], upper), method="bounded", options={"xatol": 1e-3}).x)
 
 
 def rest_direction(log: RunLog, params: QuanserSwingUpParameters) -> int:
     """The first kick's direction of a real run: the ``rest_direction`` whose command at the first sample (at
     rest) is nearest the logged voltage."""
     state = [log.theta[0], log.phi[0], 0.0, 0.0]
-    errors = {s: abs(float(quanser_command(dataclasses.replace(params, rest_direction=s), state)[0]) - log.input[0])
-              for s in (1, -1)}
+    errors = {
+        s: abs(float(quanser_command(dataclasses.replace(params, rest_direction=s), state)[0]) - log.input[0])
+        for s in (1, -1)
+    }
     return min(errors, key=errors.get)
 
 
@@ -85,16 +106,19 @@ def controller_fit(log: RunLog, params: QuanserSwingUpParameters, corner: float)
     (``swing``, ``balance``)."""
     params = dataclasses.replace(params, rest_direction=rest_direction(log, params))
     angles = np.column_stack([log.theta, log.phi])
-    sources = {"voltage_rmse": reference_velocity(log),
-               "voltage_rmse_server_filter": filtered_derivative(angles, log.sample_period, corner)}
+    sources = {
+        "voltage_rmse": reference_velocity(log),
+        "voltage_rmse_server_filter": filtered_derivative(angles, log.sample_period, corner),
+    }
     out = {"voltage_rms": _rms(log.input), "samples": int(log.time.size)}
     for key, velocity in sources.items():
         voltage, mode, _ = quanser_command(params, np.column_stack([angles, velocity]))
         error = voltage - log.input
         out[key] = _rms(error)
         for name, mask in (("swing", mode == 0), ("balance", mode == 1)):
-            out.setdefault(name, {"samples": int(mask.sum()), "voltage_rms": _rms(log.input[mask])})[key] = \
-                _rms(error[mask])
+            out.setdefault(name, {"samples": int(mask.sum()), "voltage_rms": _rms(log.input[mask])})[key] = _rms(
+                error[mask]
+            )
     return out
 
 
@@ -102,15 +126,18 @@ def _rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(values)))) if np.size(values) else float("nan")
 
 
-def run_config(model: SimulationConfig, log: RunLog, params: QuanserSwingUpParameters, corner: float
-               ) -> SimulationConfig:
+def run_config(
+    model: SimulationConfig, log: RunLog, params: QuanserSwingUpParameters, corner: float
+) -> SimulationConfig:
     """The real run's experiment on ``model``: its first sample's angles at rest, its length, its first kick's
     direction, the server's velocity filter at ``corner``."""
     return quanser_swingup_config(
-        model, initial_state=[log.theta[0], log.phi[0], 0.0, 0.0],
+        model,
+        initial_state=[log.theta[0], log.phi[0], 0.0, 0.0],
         duration=float(log.time[-1] - log.time[0] + log.sample_period),
         params=dataclasses.replace(params, rest_direction=rest_direction(log, params)),
-        velocity_filter=FilteredDerivativeParameters(corner=corner))
+        velocity_filter=FilteredDerivativeParameters(corner=corner),
+    )
 
 
 def closed_loop_figures(result: SimulationResult, voltage: np.ndarray) -> dict:
@@ -123,14 +150,19 @@ def closed_loop_figures(result: SimulationResult, voltage: np.ndarray) -> dict:
         figures["peak_arm_angle"] = float(np.max(np.abs(phi)))
         return figures
     figures["catch_time"] = float(catch_time(result))
-    figures["peak_arm_angle"] = float(np.max(np.abs(phi[:k + 1])))
+    figures["peak_arm_angle"] = float(np.max(np.abs(phi[: k + 1])))
     window = balancing_samples(result)
     if window is None:
         return figures
     balance = wrap_angle(theta[window])
     period = float(result.time[1] - result.time[0])
-    figures.update(theta_rms=_rms(balance), phi_rms=_rms(phi[window]), voltage_rms=_rms(voltage[window]),
-                   theta_mean=float(np.mean(balance)), phi_mean=float(np.mean(phi[window])))
+    figures.update(
+        theta_rms=_rms(balance),
+        phi_rms=_rms(phi[window]),
+        voltage_rms=_rms(voltage[window]),
+        theta_mean=float(np.mean(balance)),
+        phi_mean=float(np.mean(phi[window])),
+    )
     frequency, amplitude = limit_cycle(balance, period)
     figures.update(limit_cycle_hz=frequency, limit_cycle_amplitude=amplitude)
     return figures
@@ -179,12 +211,20 @@ class ClosedLoopStudy:
     corner: float = float("nan")
     models: list[str] = field(default_factory=list)
 
-    def add_model(self, runs: RealRuns, name: str, model: SimulationConfig, params: QuanserSwingUpParameters,
-                  spread: bool = True, progress=None) -> None:
+    def add_model(
+        self,
+        runs: RealRuns,
+        name: str,
+        model: SimulationConfig,
+        params: QuanserSwingUpParameters,
+        spread: bool = True,
+        progress=None,
+    ) -> None:
         """Simulate every run on one more model (``sim_{name}`` rows) and recompute the gap table."""
         logs = list(dict.fromkeys(row["log"] for row in self.rows))
-        rows, taped, configs = closed_loop_rows(runs, {name: model}, params, self.corner, logs, spread=spread,
-                                                with_real=False, progress=progress)
+        rows, taped, configs = closed_loop_rows(
+            runs, {name: model}, params, self.corner, logs, spread=spread, with_real=False, progress=progress
+        )
         order = {log: k for k, log in enumerate(logs)}
         self.rows = sorted(self.rows + rows, key=lambda row: order[row["log"]])
         self.runs.update(taped)
@@ -197,13 +237,27 @@ def fit_controller(runs: RealRuns, params: QuanserSwingUpParameters) -> tuple[fl
     """(corner, controller_fit.json): the velocity filter's corner fitted on the train swing-up, then the
     controller's fit (:func:`controller_fit`) on every swing-up."""
     corner = fit_velocity_corner(runs.logs[TRAIN_SWINGUP], params)
-    return corner, {"velocity_filter_corner": corner, "logs": {
-        name: {"part": runs.part(name), **controller_fit(runs.logs[name], params, corner)}
-        for name in SWINGUPS if name in runs.logs}}
+    return corner, {
+        "velocity_filter_corner": corner,
+        "logs": {
+            name: {"part": runs.part(name), **controller_fit(runs.logs[name], params, corner)}
+            for name in SWINGUPS
+            if name in runs.logs
+        },
+    }
 
 
-def closed_loop_rows(runs: RealRuns, models: dict[str, SimulationConfig], params: QuanserSwingUpParameters,
-                     corner: float, logs, *, spread: bool = True, with_real: bool = True, progress=None):
+def closed_loop_rows(
+    runs: RealRuns,
+    models: dict[str, SimulationConfig],
+    params: QuanserSwingUpParameters,
+    corner: float,
+    logs,
+    *,
+    spread: bool = True,
+    with_real: bool = True,
+    progress=None,
+):
     """The rows of every run of ``logs`` (real first when ``with_real``, then simulated on each model), with the
     simulated catch time's range over starts ``SPREAD_COUNTS`` encoder counts off the logged pendulum angle
     (``catch_time_min``, ``catch_time_max``; the real run's own catch time for both, and for a simulation without
@@ -215,8 +269,16 @@ def closed_loop_rows(runs: RealRuns, models: dict[str, SimulationConfig], params
             real = log_result(log, params)
             taped[("real", name)] = (real, log.input)
             figures = closed_loop_figures(real, log.input)
-            rows.append({"log": name, "part": runs.part(name), "source": "real", **figures,
-                         "catch_time_min": figures["catch_time"], "catch_time_max": figures["catch_time"]})
+            rows.append(
+                {
+                    "log": name,
+                    "part": runs.part(name),
+                    "source": "real",
+                    **figures,
+                    "catch_time_min": figures["catch_time"],
+                    "catch_time_max": figures["catch_time"],
+                }
+            )
         for model_name, model in models.items():
             config = run_config(model, log, params, corner)
             result = simulate(config)
@@ -229,21 +291,35 @@ def closed_loop_rows(runs: RealRuns, models: dict[str, SimulationConfig], params
                 for offset in SPREAD_COUNTS:
                     start = [config.initial_state[0] + offset * count, *config.initial_state[1:]]
                     catches.append(catch_time(simulate(dataclasses.replace(config, initial_state=start))))
-            rows.append({"log": name, "part": runs.part(name), "source": source, **figures,
-                         "catch_time_min": float(np.min(catches)), "catch_time_max": float(np.max(catches))})
+            rows.append(
+                {
+                    "log": name,
+                    "part": runs.part(name),
+                    "source": source,
+                    **figures,
+                    "catch_time_min": float(np.min(catches)),
+                    "catch_time_max": float(np.max(catches)),
+                }
+            )
             reproduce.report_progress(progress, f"closed loop: {name} on the {model_name} model")
     return rows, taped, configs
 
 
-def study(runs: RealRuns, models: dict[str, SimulationConfig], params: QuanserSwingUpParameters | None = None,
-          logs=SWINGUPS, spread: bool = True, progress=None) -> ClosedLoopStudy:
+def study(
+    runs: RealRuns,
+    models: dict[str, SimulationConfig],
+    params: QuanserSwingUpParameters | None = None,
+    logs=SWINGUPS,
+    spread: bool = True,
+    progress=None,
+) -> ClosedLoopStudy:
     """The controller's fit on every swing-up, then each run of ``logs`` real and simulated on every model of
     ``models`` (e.g. {'nominal': config, 'fitted': config}; 'nominal' is the reference of the gap table)."""
     params = params or QuanserSwingUpParameters()
     corner, fit = fit_controller(runs, params)
-    rows, taped, configs = closed_loop_rows(runs, models, params, corner, [name for name in logs
-                                                                           if name in runs.logs],
-                                            spread=spread, progress=progress)
+    rows, taped, configs = closed_loop_rows(
+        runs, models, params, corner, [name for name in logs if name in runs.logs], spread=spread, progress=progress
+    )
     return ClosedLoopStudy(rows, fit, gap_table(rows, list(models)), taped, configs, corner, list(models))
 
 
@@ -288,6 +364,22 @@ def balancing_diagnosis(runs: RealRuns, corrected_rig, folder: Path, small: bool
     return run_diagnosis(rig_path, train, heldout, small, progress), train, heldout
 
 
-__all__ = ["LIMIT_CYCLE_MIN_HZ", "FIGURES", "SPREAD_COUNTS", "fit_velocity_corner", "rest_direction",
-           "controller_fit", "run_config", "closed_loop_figures", "spectrum", "balancing_spectrum", "limit_cycle", "ClosedLoopStudy", "fit_controller",
-           "closed_loop_rows", "study", "gap_table", "balancing_diagnosis"]
+__all__ = [
+    "LIMIT_CYCLE_MIN_HZ",
+    "FIGURES",
+    "SPREAD_COUNTS",
+    "fit_velocity_corner",
+    "rest_direction",
+    "controller_fit",
+    "run_config",
+    "closed_loop_figures",
+    "spectrum",
+    "balancing_spectrum",
+    "limit_cycle",
+    "ClosedLoopStudy",
+    "fit_controller",
+    "closed_loop_rows",
+    "study",
+    "gap_table",
+    "balancing_diagnosis",
+]

@@ -32,12 +32,12 @@ from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, b
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
 from furuta_drake.diagnosis.candidates import rig_model
+from furuta_drake.diagnosis.corrected import model_config
 from furuta_drake.diagnosis.log_writers import write_log
 from furuta_drake.diagnosis.logs import RunLog, load_logs, load_rig
-from furuta_drake.diagnosis.corrected import model_config
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
+from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.linearization import equilibrium_angle
 from furuta_drake.metrics import butterworth_velocity_reference
 from furuta_drake.rig import RigParameters
@@ -78,8 +78,9 @@ def load_real_runs(names=SWINGUPS + (CHIRP,), rig_path: Path = QUBE_REAL_RIG) ->
     return RealRuns({log.name: log for log in logs}, rig, Path(rig_path))
 
 
-def log_result(log: RunLog, params: QuanserSwingUpParameters | None = None, theta_offset: float = 0.0,
-               samples: slice = slice(None)) -> SimulationResult:
+def log_result(
+    log: RunLog, params: QuanserSwingUpParameters | None = None, theta_offset: float = 0.0, samples: slice = slice(None)
+) -> SimulationResult:
     """A real run seen as a simulation tape: ``measured`` the encoder angles (theta minus ``theta_offset``),
     ``torque`` the torque-equivalent command kt V / R, ``state`` unknown (NaN), the ``swingup_mode`` the
     controller's balance predicate gives on the angles (:func:`~furuta_drake.controllers.quanser_swingup.balancing`,
@@ -88,10 +89,14 @@ def log_result(log: RunLog, params: QuanserSwingUpParameters | None = None, thet
     theta, phi = log.theta[samples], log.phi[samples]
     time = log.time[samples] - log.time[samples][0]
     mode = balancing(params, theta).astype(float)[:, None]
-    return SimulationResult(time=time, state=np.full((time.size, 4), np.nan),
-                            measured=np.column_stack([theta - theta_offset, phi]),
-                            torque=log.torque_command[samples], true_friction=np.full((time.size, 2), np.nan),
-                            signals={"swingup_mode": mode})
+    return SimulationResult(
+        time=time,
+        state=np.full((time.size, 4), np.nan),
+        measured=np.column_stack([theta - theta_offset, phi]),
+        torque=log.torque_command[samples],
+        true_friction=np.full((time.size, 2), np.nan),
+        signals={"swingup_mode": mode},
+    )
 
 
 def voltage_of(result: SimulationResult, rig: RigParameters) -> np.ndarray:
@@ -128,8 +133,9 @@ def chirp_blocks(log: RunLog) -> tuple[np.ndarray, np.ndarray]:
     """(train, held-out) sample masks of ``log``: its hanging segment cut into blocks by
     :func:`~furuta_drake.diagnosis.split.split_heldout`; the rest of the log (large swings) is in neither."""
     segment = hanging_samples(log)
-    part = dataclasses.replace(log, time=log.time[segment], theta=log.theta[segment], phi=log.phi[segment],
-                               input=log.input[segment])
+    part = dataclasses.replace(
+        log, time=log.time[segment], theta=log.theta[segment], phi=log.phi[segment], input=log.input[segment]
+    )
     train, heldout, _ = split_heldout([part])
     masks = []
     for blocks in (train, heldout):
@@ -145,8 +151,9 @@ def reference_velocity(log: RunLog, cutoff_hz: float = REFERENCE_CUTOFF_HZ) -> n
     return butterworth_velocity_reference(np.column_stack([log.theta, log.phi]), log.sample_period, cutoff_hz)
 
 
-def reference_properties(rig: RigParameters, period: float, motion_hz: float,
-                         cutoff_hz: float = REFERENCE_CUTOFF_HZ) -> dict[str, float]:
+def reference_properties(
+    rig: RigParameters, period: float, motion_hz: float, cutoff_hz: float = REFERENCE_CUTOFF_HZ
+) -> dict[str, float]:
     """What the reference keeps and what it lets through, computed on synthetic signals: the gain on a sinusoid
     of ``motion_hz`` (amplitude of the reference over the true velocity's) and the RMS [rad/s] of the velocity a
     quantised ramp (constant true velocity) leaves, at ``rig.counts_per_rev`` and ``period``."""
@@ -159,8 +166,12 @@ def reference_properties(rig: RigParameters, period: float, motion_hz: float,
     count = rig.encoder_resolution
     ramp = count * np.round((0.37 * time) / count)  # 0.37 rad/s: not a multiple of one count per sample
     noise = butterworth_velocity_reference(ramp[:, None], period, cutoff_hz)[inner, 0] - 0.37
-    return {"cutoff_hz": cutoff_hz, "motion_hz": motion_hz, "gain_at_motion": gain,
-            "quantisation_rms": float(np.sqrt(np.mean(noise**2)))}
+    return {
+        "cutoff_hz": cutoff_hz,
+        "motion_hz": motion_hz,
+        "gain_at_motion": gain,
+        "quantisation_rms": float(np.sqrt(np.mean(noise**2))),
+    }
 
 
 def nominal_model_config(runs: RealRuns) -> SimulationConfig:
@@ -172,8 +183,15 @@ def write_segment(path: Path, log: RunLog, samples: slice, rig: RigParameters) -
     """``samples`` of ``log`` as a log file in the rig's own convention (theta times ``theta_direction`` again, so
     that the diagnosis reads it as it reads the original), time from 0."""
     time = log.time[samples]
-    return write_log(path, {"time": time - time[0], "voltage": log.input[samples],
-                            "theta": log.theta[samples] * rig.theta_direction, "phi": log.phi[samples]})
+    return write_log(
+        path,
+        {
+            "time": time - time[0],
+            "voltage": log.input[samples],
+            "theta": log.theta[samples] * rig.theta_direction,
+            "phi": log.phi[samples],
+        },
+    )
 
 
 def runs_of(mask: np.ndarray) -> list[slice]:
@@ -200,13 +218,38 @@ def run_diagnosis(rig_path: Path, train: list, heldout: list, small: bool, progr
     """:func:`~furuta_drake.diagnosis.pipeline.diagnose` with the studies' settings: every candidate and the
     command's settings, or (``small``) ``SMALL_CANDIDATES`` with quick settings and no Drake replay."""
     settings = dataclasses.replace(FAST, replay=False, max_effects=2) if small else DiagnosisSettings()
-    return diagnose(rig=rig_path, train=train, heldout=heldout, settings=settings,
-                    candidates=list(SMALL_CANDIDATES) if small else None, progress=progress)
+    return diagnose(
+        rig=rig_path,
+        train=train,
+        heldout=heldout,
+        settings=settings,
+        candidates=list(SMALL_CANDIDATES) if small else None,
+        progress=progress,
+    )
 
 
 __all__ = [
-    "TRAIN_SWINGUP", "HELDOUT_SWINGUPS", "OSCILLATING_SWINGUP", "CHIRP", "SWINGUPS", "LINEAR_RANGE", "SETTLE",
-    "REFERENCE_CUTOFF_HZ", "RealRuns", "load_real_runs", "log_result", "voltage_of", "catch_index",
-    "balancing_samples", "hanging_samples", "chirp_blocks", "reference_velocity", "reference_properties",
-    "nominal_model_config", "write_segment", "runs_of", "diagnose_corrected_model", "run_diagnosis",
+    "TRAIN_SWINGUP",
+    "HELDOUT_SWINGUPS",
+    "OSCILLATING_SWINGUP",
+    "CHIRP",
+    "SWINGUPS",
+    "LINEAR_RANGE",
+    "SETTLE",
+    "REFERENCE_CUTOFF_HZ",
+    "RealRuns",
+    "load_real_runs",
+    "log_result",
+    "voltage_of",
+    "catch_index",
+    "balancing_samples",
+    "hanging_samples",
+    "chirp_blocks",
+    "reference_velocity",
+    "reference_properties",
+    "nominal_model_config",
+    "write_segment",
+    "runs_of",
+    "diagnose_corrected_model",
+    "run_diagnosis",
 ]

@@ -25,8 +25,17 @@ from furuta_drake.config import SimulationConfig
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.linearization import Equilibrium, equilibrium_angle, observer_model
 from furuta_drake.observers.dahl import DahlObserverParameters
-from furuta_drake.studies.real_data import (CHIRP, SWINGUPS, RealRuns, balancing_samples, catch_index, chirp_blocks,
-                                            hanging_samples, log_result, reference_velocity)
+from furuta_drake.studies.real_data import (
+    CHIRP,
+    SWINGUPS,
+    RealRuns,
+    balancing_samples,
+    catch_index,
+    chirp_blocks,
+    hanging_samples,
+    log_result,
+    reference_velocity,
+)
 
 SMALL_HG_EPS = (0.005, 0.01, 0.02)  # [s] the small run's HG candidates
 SMALL_VFE_SCALES = (1.0, 2.0, 3.0)  # the small run's VFE candidates
@@ -87,16 +96,34 @@ def segments(runs: RealRuns) -> list[Segment]:
         samples = slice(catch, None)
         result = log_result(log, theta_offset=equilibrium_angle(log.theta[catch], "upright"), samples=samples)
         judged = np.zeros(result.time.size, bool)
-        judged[window.start - catch:] = True
-        out.append(Segment(name, "train" if runs.part(name) == "train" else "heldout", "upright", result,
-                           reference_velocity(log)[samples], judged, float(log.time[catch])))
+        judged[window.start - catch :] = True
+        out.append(
+            Segment(
+                name,
+                "train" if runs.part(name) == "train" else "heldout",
+                "upright",
+                result,
+                reference_velocity(log)[samples],
+                judged,
+                float(log.time[catch]),
+            )
+        )
     if CHIRP in runs.logs:
         chirp = runs.logs[CHIRP]
         samples = hanging_samples(chirp)
         result = log_result(chirp, theta_offset=equilibrium_angle(chirp.theta[0], "hanging"), samples=samples)
         for part, mask in zip(("train", "heldout"), chirp_blocks(chirp)):
-            out.append(Segment(CHIRP, part, "hanging", result, reference_velocity(chirp)[samples], mask[samples],
-                               float(chirp.time[0])))
+            out.append(
+                Segment(
+                    CHIRP,
+                    part,
+                    "hanging",
+                    result,
+                    reference_velocity(chirp)[samples],
+                    mask[samples],
+                    float(chirp.time[0]),
+                )
+            )
     return out
 
 
@@ -106,29 +133,35 @@ def dahl_of(friction: JointFrictionParameters) -> DahlObserverParameters | None:
     if friction.model == "none" or max(friction.coulomb_pos, friction.coulomb_neg) <= 0:
         return None
     lugre = friction.model == "lugre"
-    return DahlObserverParameters(coulomb_pos=friction.coulomb_pos, coulomb_neg=friction.coulomb_neg,
-                                  sigma0=friction.sigma0, sigma1=friction.sigma1 if lugre else 0.0,
-                                  static_pos=friction.static_pos, static_neg=friction.static_neg,
-                                  stribeck_velocity=friction.stribeck_velocity,
-                                  sigma2=friction.viscous if lugre else 0.0)
+    return DahlObserverParameters(
+        coulomb_pos=friction.coulomb_pos,
+        coulomb_neg=friction.coulomb_neg,
+        sigma0=friction.sigma0,
+        sigma1=friction.sigma1 if lugre else 0.0,
+        static_pos=friction.static_pos,
+        static_neg=friction.static_neg,
+        stribeck_velocity=friction.stribeck_velocity,
+        sigma2=friction.viscous if lugre else 0.0,
+    )
 
 
 def model_observers(config: SimulationConfig) -> ModelObservers:
     """The observers' view of a model config: (A, B_F) at both equilibria with the motor's back-EMF and the
     Dahl observer of its arm friction."""
-    return ModelObservers(config, dahl_of(config.friction.arm),
-                          {eq: observer_model(config.rig, eq) for eq in ("upright", "hanging")})
+    return ModelObservers(
+        config, dahl_of(config.friction.arm), {eq: observer_model(config.rig, eq) for eq in ("upright", "hanging")}
+    )
 
 
 def replay(segment: Segment, model: ModelObservers, kwargs: dict) -> dict:
     """:func:`~furuta_drake.reproduce.replay_observers` on ``segment`` with ``model``'s linearisation, the
     observers started at its first sample at rest."""
     config = dataclasses.replace(
-        model.config, initial_state=[float(segment.result.measured[0, 0]), float(segment.result.measured[0, 1]),
-                                     0.0, 0.0],
-        observers=dataclasses.replace(model.config.observers, start_at_initial_state=True))
-    return reproduce.replay_observers(segment.result, config, model=model.linearizations[segment.equilibrium],
-                                      **kwargs)
+        model.config,
+        initial_state=[float(segment.result.measured[0, 0]), float(segment.result.measured[0, 1]), 0.0, 0.0],
+        observers=dataclasses.replace(model.config.observers, start_at_initial_state=True),
+    )
+    return reproduce.replay_observers(segment.result, config, model=model.linearizations[segment.equilibrium], **kwargs)
 
 
 def candidates(model: ModelObservers, small: bool) -> list[tuple[str, str, float, dict]]:
@@ -151,31 +184,57 @@ def study(runs: RealRuns, models: dict[str, SimulationConfig], small: bool = Fal
             train = [s for s in parts if s.equilibrium == equilibrium and s.part == "train"]
             mine = []
             for observer, parameter, value, kwargs in candidates(model, small):
-                errors = [reproduce.velocity_errors(replay(s, model, kwargs)[observer][s.judged, 2:],
-                                                    {"butterworth": s.reference[s.judged]}) for s in train]
-                mine.append({"model": model_name, "equilibrium": equilibrium, "observer": observer,
-                             "parameter": parameter, "value": value,
-                             **{key: float(np.mean([e[key] for e in errors])) for key in errors[0]}})
+                errors = [
+                    reproduce.velocity_errors(
+                        replay(s, model, kwargs)[observer][s.judged, 2:], {"butterworth": s.reference[s.judged]}
+                    )
+                    for s in train
+                ]
+                mine.append(
+                    {
+                        "model": model_name,
+                        "equilibrium": equilibrium,
+                        "observer": observer,
+                        "parameter": parameter,
+                        "value": value,
+                        **{key: float(np.mean([e[key] for e in errors])) for key in errors[0]},
+                    }
+                )
             reproduce.mark_best(mine, "phi_dot_mse_butterworth")
             sweep += mine
             best = {row["observer"]: row for row in mine if row["best"]}
             tuned[(model_name, equilibrium)] = {observer: row["value"] for observer, row in best.items()}
             chosen = {}
             for observer, row in best.items():
-                chosen.update(next(c[3] for c in candidates(model, small)
-                                   if c[0] == observer and c[2] == row["value"]))
+                chosen.update(next(c[3] for c in candidates(model, small) if c[0] == observer and c[2] == row["value"]))
             for segment in (s for s in parts if s.equilibrium == equilibrium and s.part == "heldout"):
                 replayed = replay(segment, model, chosen)
                 estimates[(model_name, segment.log)] = {"segment": segment, **replayed}
                 for observer in ("hg", "vfe"):
-                    errors = reproduce.velocity_errors(replayed[observer][segment.judged, 2:],
-                                                       {"butterworth": segment.reference[segment.judged]})
-                    rows.append({"observer": observer.upper(), "model": model_name, "log": segment.log,
-                                 "phi_dot_mse": errors["phi_dot_mse_butterworth"],
-                                 "theta_dot_mse": errors["theta_dot_mse_butterworth"]})
+                    errors = reproduce.velocity_errors(
+                        replayed[observer][segment.judged, 2:], {"butterworth": segment.reference[segment.judged]}
+                    )
+                    rows.append(
+                        {
+                            "observer": observer.upper(),
+                            "model": model_name,
+                            "log": segment.log,
+                            "phi_dot_mse": errors["phi_dot_mse_butterworth"],
+                            "theta_dot_mse": errors["theta_dot_mse_butterworth"],
+                        }
+                    )
             reproduce.report_progress(progress, f"observers: {model_name} model, {equilibrium}")
     return ObserverStudy(rows, sweep, tuned, estimates, parts)
 
 
-__all__ = ["Segment", "ModelObservers", "ObserverStudy", "segments", "dahl_of", "model_observers", "replay",
-           "candidates", "study"]
+__all__ = [
+    "Segment",
+    "ModelObservers",
+    "ObserverStudy",
+    "segments",
+    "dahl_of",
+    "model_observers",
+    "replay",
+    "candidates",
+    "study",
+]

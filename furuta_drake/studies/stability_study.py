@@ -17,8 +17,11 @@ from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.studies import Study
 
-LOOPS = (("HG + Dahl (paper)", "hg", 1), ("VFE + Dahl, K_z as printed", "vfe", 1),
-         ("VFE + Dahl, K_z reversed", "vfe", -1))
+LOOPS = (
+    ("HG + Dahl (paper)", "hg", 1),
+    ("VFE + Dahl, K_z as printed", "vfe", 1),
+    ("VFE + Dahl, K_z reversed", "vfe", -1),
+)
 K_GRID = np.geomspace(0.25, 4.0, 61)
 SIGMA0_FACTORS = np.geomspace(0.25, 4.0, 25)  # true sigma0 / the observer's
 GAINS_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0)  # the VFE eigenvalues of the observer-gain map, times the default
@@ -48,52 +51,102 @@ def adaptive_loop_config(config):
 def study(seed: int = 0, small: bool = False) -> Study:
     """Linearized stability maps, stable frozen-K_sigma ranges, common Lyapunov intervals and basins."""
     base = reproduce.paper_rig_config(seed=seed)
-    hg_config = dataclasses.replace(reproduce.with_velocity_source(base, "hg"),
-                                    observers=dataclasses.replace(base.observers, run=[]))
-    loops = {label: stability.linear_loop(base, observer, discrete=True, injection_sign=sign)
-             for label, observer, sign in LOOPS}
+    hg_config = dataclasses.replace(
+        reproduce.with_velocity_source(base, "hg"), observers=dataclasses.replace(base.observers, run=[])
+    )
+    loops = {
+        label: stability.linear_loop(base, observer, discrete=True, injection_sign=sign)
+        for label, observer, sign in LOOPS
+    }
     intervals = {label: stability.stable_intervals(loop) for label, loop in loops.items()}
     nominal = {label: loop.decay_rate(1.0) for label, loop in loops.items()}
     reversed_label = LOOPS[2][0]
     reversed_interval = stability.interval_containing(intervals[reversed_label], 1.0)
     continuous = stability.linear_loop(base, "vfe", injection_sign=-1)
     continuous_interval = stability.interval_containing(stability.stable_intervals(continuous), 1.0)
-    certified = (stability.widest_common_lyapunov(continuous, continuous_interval, steps=4 if small else 8)
-                 if continuous_interval else None)
+    certified = (
+        stability.widest_common_lyapunov(continuous, continuous_interval, steps=4 if small else 8)
+        if continuous_interval
+        else None
+    )
 
     factors = SIGMA0_FACTORS[::4] if small else SIGMA0_FACTORS
-    maps = {label: np.array([_rates(stability.linear_loop(_with_true_sigma0(base, f), observer, True,
-                                                          injection_sign=sign)) for f in factors])
-            for label, observer, sign in LOOPS}
+    maps = {
+        label: np.array(
+            [
+                _rates(stability.linear_loop(_with_true_sigma0(base, f), observer, True, injection_sign=sign))
+                for f in factors
+            ]
+        )
+        for label, observer, sign in LOOPS
+    }
     at_one = np.argmin(np.abs(K_GRID - 1.0))
     stable_factors = factors[maps[reversed_label][:, at_one] < 0]
     scales = GAINS_VFE_SCALES[::2] if small else GAINS_VFE_SCALES
-    gains = {f"VFE eigenvalues x{s}": _rates(stability.linear_loop(
-        dataclasses.replace(base, observers=dataclasses.replace(base.observers, vfe=dataclasses.replace(
-            base.observers.vfe, eigenvalues=[s * e for e in base.observers.vfe.eigenvalues]))),
-        "vfe", True, injection_sign=-1)) for s in scales}
-    gains.update({f"HG eps {eps * 1e3:g} ms": _rates(stability.linear_loop(
-        dataclasses.replace(base, observers=dataclasses.replace(base.observers, hg=dataclasses.replace(
-            base.observers.hg, eps_theta=eps, eps_phi=eps))), "hg", True))
-        for eps in (GAINS_HG_EPS[::2] if small else GAINS_HG_EPS)})
+    gains = {
+        f"VFE eigenvalues x{s}": _rates(
+            stability.linear_loop(
+                dataclasses.replace(
+                    base,
+                    observers=dataclasses.replace(
+                        base.observers,
+                        vfe=dataclasses.replace(
+                            base.observers.vfe, eigenvalues=[s * e for e in base.observers.vfe.eigenvalues]
+                        ),
+                    ),
+                ),
+                "vfe",
+                True,
+                injection_sign=-1,
+            )
+        )
+        for s in scales
+    }
+    gains.update(
+        {
+            f"HG eps {eps * 1e3:g} ms": _rates(
+                stability.linear_loop(
+                    dataclasses.replace(
+                        base,
+                        observers=dataclasses.replace(
+                            base.observers, hg=dataclasses.replace(base.observers.hg, eps_theta=eps, eps_phi=eps)
+                        ),
+                    ),
+                    "hg",
+                    True,
+                )
+            )
+            for eps in (GAINS_HG_EPS[::2] if small else GAINS_HG_EPS)
+        }
+    )
 
     region = stability.lyapunov_region(base, directions=200 if small else 1500, seed=seed)
     thetas = np.linspace(-0.3, 0.3, 5) if small else np.linspace(-0.36, 0.36, 13)
     theta_dots = np.array([-0.25, 0.0, 0.25]) if small else np.array([-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0])
     duration = 1.5 if small else 2.0
-    basin_loops = {"HG + Dahl, K_sigma = 1 (paper)": hg_config, "VFE + Dahl + K_sigma adaptation": adaptive_loop_config(base)}
+    basin_loops = {
+        "HG + Dahl, K_sigma = 1 (paper)": hg_config,
+        "VFE + Dahl + K_sigma adaptation": adaptive_loop_config(base),
+    }
     if small:
         basin_loops = dict(list(basin_loops.items())[1:])
-    basins = {label: stability.basin_map(config, thetas, theta_dots, duration, workers=1 if small else 2)
-              for label, config in basin_loops.items()}
+    basins = {
+        label: stability.basin_map(config, thetas, theta_dots, duration, workers=1 if small else 2)
+        for label, config in basin_loops.items()
+    }
     grid = np.array([[theta, 0.0, theta_dot, 0.0] for theta_dot in theta_dots for theta in thetas])
     inside = region.contains(grid).reshape(len(theta_dots), len(thetas))
     at_rest = np.argmin(np.abs(theta_dots))
 
     def basin_figures(basin):
         caught_at_rest = thetas[basin[at_rest]]
-        return (float(basin.mean()), float(np.min(np.abs(thetas[~basin[at_rest]]))) if (~basin[at_rest]).any()
-                else float(np.max(np.abs(caught_at_rest))), int(basin[inside].sum()))
+        return (
+            float(basin.mean()),
+            float(np.min(np.abs(thetas[~basin[at_rest]])))
+            if (~basin[at_rest]).any()
+            else float(np.max(np.abs(caught_at_rest))),
+            int(basin[inside].sum()),
+        )
 
     paper_basin = basins.get("HG + Dahl, K_sigma = 1 (paper)")
     ours_basin = basins["VFE + Dahl + K_sigma adaptation"]
@@ -101,55 +154,108 @@ def study(seed: int = 0, small: bool = False) -> Study:
     ours_b = basin_figures(ours_basin)
     hg_label, printed_label = LOOPS[0][0], LOOPS[1][0]
     rows = [
-        {"metric": "linearized decay rate at K_sigma = 1 (1 kHz loop; < 0 stable)", "paper": nominal[hg_label],
-         "extension": nominal[printed_label], "unit": "1/s",
-         "note": f"K_z as printed; reversed K_z: {nominal[reversed_label]:.3f} 1/s"},
-        {"metric": "stable frozen K_sigma range, K_z as printed", "paper": None, "extension": None, "unit": "-",
-         "note": f"HG: {_stable_range_text(intervals[hg_label])}; VFE: {_stable_range_text(intervals[printed_label])}"},
-        {"metric": "stable frozen K_sigma range, K_z reversed: low end", "paper": None,
-         "extension": float(reversed_interval[0]) if reversed_interval else None, "unit": "-",
-         "note": f"VFE: {_stable_range_text(intervals[reversed_label])}; the adapted K_sigma of Figs. 6-7 is 1.33-2.0"},
-        {"metric": "stable frozen K_sigma range, K_z reversed: high end", "paper": None,
-         "extension": float(reversed_interval[1]) if reversed_interval else None, "unit": "-", "note": ""},
-        {"metric": "K_sigma interval with a common quadratic Lyapunov function (continuous, K_z reversed)",
-         "paper": None, "extension": None if certified is None else float(certified[1] - certified[0]), "unit": "-",
-         "note": "none" if certified is None else f"[{certified[0]:.2f}, {certified[1]:.2f}]: any K_sigma(t) in it"},
-        {"metric": "true sigma0 / observer sigma0 stable at K_sigma = 1 (K_z reversed)", "paper": None,
-         "extension": float(stable_factors.max()) if stable_factors.size else None, "unit": "-",
-         "note": (f"stable for factors {stable_factors.min():.2f}-{stable_factors.max():.2f} of the grid "
-                  f"{factors.min():.2f}-{factors.max():.2f}") if stable_factors.size else "none"},
-        {"metric": "basin: fraction of the (theta0, theta_dot0) grid caught", "paper": paper_b[0],
-         "extension": ours_b[0], "unit": "-",
-         "note": f"{len(thetas)} x {len(theta_dots)} grid, phi0 = phi_dot0 = 0, {duration} s runs, nonlinear 1 kHz loop"},
-        {"metric": "basin: first |theta0| at rest not caught (or largest caught)", "paper": paper_b[1],
-         "extension": ours_b[1], "unit": "rad", "note": "the paper starts at |theta0| <= 0.05 rad"},
-        {"metric": "Lyapunov estimate (true-state LQR, torque limit): |theta0| at rest", "paper": region.theta_extent(),
-         "extension": region.theta_extent(), "unit": "rad",
-         "note": f"sampled dV/dt < 0 ({region.samples} points); Drake's RegionOfAttraction on a cubic fit did not "
-                 f"finish (Clarabel: numerical error; CSDP > 4 min)"},
-        {"metric": "grid states inside the Lyapunov estimate that the loop catches", "paper": paper_b[2],
-         "extension": ours_b[2], "unit": "states",
-         "note": f"of {int(inside.sum())} inside; the estimate is of the true-state loop, the observers start at zero"},
+        {
+            "metric": "linearized decay rate at K_sigma = 1 (1 kHz loop; < 0 stable)",
+            "paper": nominal[hg_label],
+            "extension": nominal[printed_label],
+            "unit": "1/s",
+            "note": f"K_z as printed; reversed K_z: {nominal[reversed_label]:.3f} 1/s",
+        },
+        {
+            "metric": "stable frozen K_sigma range, K_z as printed",
+            "paper": None,
+            "extension": None,
+            "unit": "-",
+            "note": f"HG: {_stable_range_text(intervals[hg_label])}; "
+            f"VFE: {_stable_range_text(intervals[printed_label])}",
+        },
+        {
+            "metric": "stable frozen K_sigma range, K_z reversed: low end",
+            "paper": None,
+            "extension": float(reversed_interval[0]) if reversed_interval else None,
+            "unit": "-",
+            "note": f"VFE: {_stable_range_text(intervals[reversed_label])}; the adapted K_sigma of Figs. 6-7 is "
+            "1.33-2.0",
+        },
+        {
+            "metric": "stable frozen K_sigma range, K_z reversed: high end",
+            "paper": None,
+            "extension": float(reversed_interval[1]) if reversed_interval else None,
+            "unit": "-",
+            "note": "",
+        },
+        {
+            "metric": "K_sigma interval with a common quadratic Lyapunov function (continuous, K_z reversed)",
+            "paper": None,
+            "extension": None if certified is None else float(certified[1] - certified[0]),
+            "unit": "-",
+            "note": "none" if certified is None else f"[{certified[0]:.2f}, {certified[1]:.2f}]: any K_sigma(t) in it",
+        },
+        {
+            "metric": "true sigma0 / observer sigma0 stable at K_sigma = 1 (K_z reversed)",
+            "paper": None,
+            "extension": float(stable_factors.max()) if stable_factors.size else None,
+            "unit": "-",
+            "note": (
+                f"stable for factors {stable_factors.min():.2f}-{stable_factors.max():.2f} of the grid "
+                f"{factors.min():.2f}-{factors.max():.2f}"
+            )
+            if stable_factors.size
+            else "none",
+        },
+        {
+            "metric": "basin: fraction of the (theta0, theta_dot0) grid caught",
+            "paper": paper_b[0],
+            "extension": ours_b[0],
+            "unit": "-",
+            "note": f"{len(thetas)} x {len(theta_dots)} grid, phi0 = phi_dot0 = 0, {duration} s runs, nonlinear 1 kHz "
+            "loop",
+        },
+        {
+            "metric": "basin: first |theta0| at rest not caught (or largest caught)",
+            "paper": paper_b[1],
+            "extension": ours_b[1],
+            "unit": "rad",
+            "note": "the paper starts at |theta0| <= 0.05 rad",
+        },
+        {
+            "metric": "Lyapunov estimate (true-state LQR, torque limit): |theta0| at rest",
+            "paper": region.theta_extent(),
+            "extension": region.theta_extent(),
+            "unit": "rad",
+            "note": f"sampled dV/dt < 0 ({region.samples} points); Drake's RegionOfAttraction on a cubic fit did not "
+            f"finish (Clarabel: numerical error; CSDP > 4 min)",
+        },
+        {
+            "metric": "grid states inside the Lyapunov estimate that the loop catches",
+            "paper": paper_b[2],
+            "extension": ours_b[2],
+            "unit": "states",
+            "note": f"of {int(inside.sum())} inside; the estimate is of the true-state loop, "
+            "the observers start at zero",
+        },
     ]
     summary = (
         f"In presliding the Dahl friction is a spring (sigma0 = {base.friction.arm.sigma0:g} N m/rad) and the loop is "
         f"linear. With Eq. 9's injection as printed, neither loop is locally stable at the upright: the HG loop's "
-        f"decay rate is {nominal[hg_label]:+.1f} 1/s (the compensation -F_hat is a model error the HG observer does not "
-        f"see), the nested VFE loop's {nominal[printed_label]:+.3f} 1/s, a slow real mode that grows as sigma0/rho: K_z "
-        f"is an integral action on eps_phi whose sign suits a positive position stiffness, while the balancing LQR's "
-        f"K_phi < 0. Reversing K_z makes the nested loop stable for frozen K_sigma in "
+        f"decay rate is {nominal[hg_label]:+.1f} 1/s (the compensation -F_hat is a model error the HG observer does "
+        f"not see), the nested VFE loop's {nominal[printed_label]:+.3f} 1/s, a slow real mode that grows as "
+        f"sigma0/rho: K_z is an integral action on eps_phi whose sign suits a positive position stiffness, while the "
+        f"balancing LQR's K_phi < 0. Reversing K_z makes the nested loop stable for frozen K_sigma in "
         f"{_stable_range_text(intervals[reversed_label])} (the adapted 1.33-2.0 at the edge) and a common Lyapunov "
         f"function covers {'none' if certified is None else f'[{certified[0]:.2f}, {certified[1]:.2f}]'}; "
-        f"the HG loop stays unstable. The nonlinear loops still balance (friction saturates at Fc: a small limit cycle) "
-        f"and catch from rest up to about {ours_b[1]:.2f} rad; the quadratic estimate ({region.theta_extent():.3f} rad "
-        f"at rest) is conservative at rest, but it is the true-state loop's: of the {int(inside.sum())} grid states inside "
-        f"it the nested loop catches {ours_b[2]} (its observers start at zero velocity, which a start with "
-        f"|theta_dot0| near 1 rad/s makes wrong for the first tenths of a second).")
-    figures = {"stability_decay_maps": _plot_maps(maps, factors),
-               "stability_observer_gains": _plot_gains(gains),
-               "stability_basin": _plot_basins(basins, thetas, theta_dots, region)}
-    return Study(title="Stability of the nested observers with adaptation", rows=rows, summary=summary,
-                       figures=figures)
+        f"the HG loop stays unstable. The nonlinear loops still balance (friction saturates at Fc: a small limit "
+        f"cycle) and catch from rest up to about {ours_b[1]:.2f} rad; the quadratic estimate "
+        f"({region.theta_extent():.3f} rad at rest) is conservative at rest, but it is the true-state loop's: of the "
+        f"{int(inside.sum())} grid states inside it the nested loop catches {ours_b[2]} (its observers start at zero "
+        f"velocity, which a start with |theta_dot0| near 1 rad/s makes wrong for the first tenths of a second)."
+    )
+    figures = {
+        "stability_decay_maps": _plot_maps(maps, factors),
+        "stability_observer_gains": _plot_gains(gains),
+        "stability_basin": _plot_basins(basins, thetas, theta_dots, region),
+    }
+    return Study(title="Stability of the nested observers with adaptation", rows=rows, summary=summary, figures=figures)
 
 
 def _plot_maps(maps: dict, factors: np.ndarray):
@@ -170,8 +276,12 @@ def _plot_gains(gains: dict):
     for label, rates in gains.items():
         ax.plot(K_GRID, np.clip(rates, -5, 5), label=label)
     ax.axhline(0.0, color="k", lw=0.8)
-    ax.set(xscale="log", xlabel="frozen K_sigma", ylabel="decay rate [1/s], clipped to +-5",
-           title="1 kHz loop at the upright (VFE: K_z reversed)")
+    ax.set(
+        xscale="log",
+        xlabel="frozen K_sigma",
+        ylabel="decay rate [1/s], clipped to +-5",
+        title="1 kHz loop at the upright (VFE: K_z reversed)",
+    )
     ax.legend(fontsize=7)
     fig.tight_layout()
     return fig

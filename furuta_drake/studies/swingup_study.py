@@ -16,11 +16,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from furuta_drake import reproduce
-from furuta_drake.studies import Study
-from furuta_drake.results import write_log_csv
-from furuta_drake.simulate import simulate
 from furuta_drake.config import swingup_config
 from furuta_drake.controllers.swingup import BALANCE, catch_time, pendulum_energy, wrap_angle
+from furuta_drake.results import write_log_csv
+from furuta_drake.simulate import simulate
+from furuta_drake.studies import Study
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 SETTLE = 1.0  # [s] after the catch before the balance figures are read
@@ -30,8 +30,11 @@ START_OFFSETS = (-0.3, -0.1, -0.02, 0.02, 0.1, 0.3)  # [rad] starts theta0 = pi 
 def swingup_rig_config(seed: int = 0, duration: float = 10.0):
     """The reproduction's rig (``reproduce.paper_rig_config``) without its excitation torque, HG and VFE running."""
     config = reproduce.paper_rig_config(seed=seed, duration=duration)
-    return dataclasses.replace(config, excitation=dataclasses.replace(config.excitation, torque_rms=0.0),
-                               observers=dataclasses.replace(config.observers, run=["hg", "vfe"]))
+    return dataclasses.replace(
+        config,
+        excitation=dataclasses.replace(config.excitation, torque_rms=0.0),
+        observers=dataclasses.replace(config.observers, run=["hg", "vfe"]),
+    )
 
 
 def study(seed: int = 0, small: bool = False) -> Study:
@@ -45,31 +48,73 @@ def study(seed: int = 0, small: bool = False) -> Study:
     limit = config.controller.lqr.torque_limit
     swing = ours.time < (t_ours if math.isfinite(t_ours) else math.inf)
     balance = ours.time > t_ours + SETTLE if math.isfinite(t_ours) else np.zeros(ours.time.size, bool)
-    rms = {(name, phase): _velocity_rms(ours, name, mask) for name in ours.estimates
-           for phase, mask in (("swing", swing), ("balance", balance))}
+    rms = {
+        (name, phase): _velocity_rms(ours, name, mask)
+        for name in ours.estimates
+        for phase, mask in (("swing", swing), ("balance", balance))
+    }
 
     rows = [
-        _row("time to catch from hanging", _finite(t_paper), _finite(t_ours), "s",
-             f"swing-up controller on the paper's HG vs on the kinematic HG; None: no catch in {duration:g} s"),
-        _row("max |phi| before the catch", _max_abs(paper.state[:, 1], paper, t_paper),
-             _max_abs(ours.state[:, 1], ours, t_ours), "rad", "same two runs"),
-        _row("max |torque command|", float(np.max(np.abs(paper.torque))), float(np.max(np.abs(ours.torque))), "N m",
-             f"rig limit {limit:g} N m"),
+        _row(
+            "time to catch from hanging",
+            _finite(t_paper),
+            _finite(t_ours),
+            "s",
+            f"swing-up controller on the paper's HG vs on the kinematic HG; None: no catch in {duration:g} s",
+        ),
+        _row(
+            "max |phi| before the catch",
+            _max_abs(paper.state[:, 1], paper, t_paper),
+            _max_abs(ours.state[:, 1], ours, t_ours),
+            "rad",
+            "same two runs",
+        ),
+        _row(
+            "max |torque command|",
+            float(np.max(np.abs(paper.torque))),
+            float(np.max(np.abs(ours.torque))),
+            "N m",
+            f"rig limit {limit:g} N m",
+        ),
     ]
-    for phase, what in (("swing", "during the swing (before the catch)"),
-                        ("balance", f"balancing ({SETTLE:g} s after the catch on)")):
+    for phase, what in (
+        ("swing", "during the swing (before the catch)"),
+        ("balance", f"balancing ({SETTLE:g} s after the catch on)"),
+    ):
         for index, joint in ((0, "theta_dot"), (1, "phi_dot")):
-            rows.append(_row(f"{joint} RMS error {what}, HG vs VFE + Dahl", rms[("hg", phase)][index],
-                             rms[("vfe", phase)][index], "rad/s", "both observers on the kinematic-HG-controlled run"))
-            rows.append(_row(f"{joint} RMS error {what}, HG vs kinematic HG", rms[("hg", phase)][index],
-                             rms[("kinematic_hg", phase)][index], "rad/s", "the kinematic HG feeds the controller"))
+            rows.append(
+                _row(
+                    f"{joint} RMS error {what}, HG vs VFE + Dahl",
+                    rms[("hg", phase)][index],
+                    rms[("vfe", phase)][index],
+                    "rad/s",
+                    "both observers on the kinematic-HG-controlled run",
+                )
+            )
+            rows.append(
+                _row(
+                    f"{joint} RMS error {what}, HG vs kinematic HG",
+                    rms[("hg", phase)][index],
+                    rms[("kinematic_hg", phase)][index],
+                    "rad/s",
+                    "the kinematic HG feeds the controller",
+                )
+            )
     caught = None
     if not small:
-        caught = sum(math.isfinite(catch_time(simulate(swingup_config(config, duration=duration,
-                                                                      theta0=math.pi + offset))))
-                     for offset in START_OFFSETS)
-        rows.append(_row(f"starts caught within {duration:g} s", None, caught, "of " + str(len(START_OFFSETS)),
-                         "theta0 = pi + " + ", ".join(f"{o:g}" for o in START_OFFSETS) + " rad"))
+        caught = sum(
+            math.isfinite(catch_time(simulate(swingup_config(config, duration=duration, theta0=math.pi + offset))))
+            for offset in START_OFFSETS
+        )
+        rows.append(
+            _row(
+                f"starts caught within {duration:g} s",
+                None,
+                caught,
+                "of " + str(len(START_OFFSETS)),
+                "theta0 = pi + " + ", ".join(f"{o:g}" for o in START_OFFSETS) + " rad",
+            )
+        )
 
     summary = (
         f"From hanging on the paper's rig the energy swing-up, fed by a high-gain observer on the kinematic model "
@@ -77,24 +122,32 @@ def study(seed: int = 0, small: bool = False) -> Study:
         f"{_max_abs(ours.state[:, 1], ours, t_ours):.2f} rad and |u| <= {limit:g} N m; fed by the paper's HG it "
         + (f"catches at {t_paper:.2f} s." if math.isfinite(t_paper) else f"does not catch in {duration:g} s.")
         + f" Over the swing the paper's HG, built on the upright linearization, is off by "
-        f"{rms[('hg', 'swing')][0]:.2f} rad/s RMS on theta_dot (VFE + Dahl {rms[('vfe', 'swing')][0]:.2f}, kinematic HG "
-        f"{rms[('kinematic_hg', 'swing')][0]:.2f})"
+        f"{rms[('hg', 'swing')][0]:.2f} rad/s RMS on theta_dot (VFE + Dahl {rms[('vfe', 'swing')][0]:.2f}, "
+        f"kinematic HG {rms[('kinematic_hg', 'swing')][0]:.2f})"
     )
     if balance.any():
-        summary += (f"; after a catch at theta = {ours.state[-1, 0] - wrap_angle(ours.state[-1, 0]):.2f} rad the "
-                    f"HG stays biased ({rms[('hg', 'balance')][0]:.2f} rad/s: alpha1 theta counts the turn) while the "
-                    f"VFE's eps_hat_F absorbs the constant model error ({rms[('vfe', 'balance')][0]:.3f} rad/s).")
+        summary += (
+            f"; after a catch at theta = {ours.state[-1, 0] - wrap_angle(ours.state[-1, 0]):.2f} rad the "
+            f"HG stays biased ({rms[('hg', 'balance')][0]:.2f} rad/s: alpha1 theta counts the turn) while the "
+            f"VFE's eps_hat_F absorbs the constant model error ({rms[('vfe', 'balance')][0]:.3f} rad/s)."
+        )
     else:
         summary += "."
     if caught is not None:
-        summary += (f" From perturbed starts {caught} of {len(START_OFFSETS)} are caught within {duration:g} s; the "
-                    f"time to catch varies from start to start, as the pendulum's energy alone is not conserved "
-                    f"while the arm moves.")
+        summary += (
+            f" From perturbed starts {caught} of {len(START_OFFSETS)} are caught within {duration:g} s; the "
+            f"time to catch varies from start to start, as the pendulum's energy alone is not conserved "
+            f"while the arm moves."
+        )
         summary += " " + _diagnose(ours, config)
 
-    return Study(title="Swing-up and catch", rows=rows, summary=summary,
-                       figures={"swingup_states": plot_swingup(ours, config), "swingup_energy": plot_energy(ours, config)},
-                       logs={"swingup": ours})
+    return Study(
+        title="Swing-up and catch",
+        rows=rows,
+        summary=summary,
+        figures={"swingup_states": plot_swingup(ours, config), "swingup_energy": plot_energy(ours, config)},
+        logs={"swingup": ours},
+    )
 
 
 def _velocity_rms(result, name: str, mask: np.ndarray) -> np.ndarray:
@@ -114,7 +167,9 @@ def _max_abs(signal: np.ndarray, result, t_catch: float) -> float:
 
 
 def _row(metric: str, paper, extension, unit: str, note: str) -> dict:
-    as_float = (lambda v: None if v is None or not math.isfinite(v) else float(v))
+    def as_float(v):
+        return None if v is None or not math.isfinite(v) else float(v)
+
     return {"metric": metric, "paper": as_float(paper), "extension": as_float(extension), "unit": unit, "note": note}
 
 
@@ -130,12 +185,14 @@ def _diagnose(result, config) -> str:
         report = diagnose(rig=directory / "rig.yaml", train=[directory / "swingup.csv"]).to_json()
     arm = config.friction.arm
     ranks = {entry["effect"]: i + 1 for i, entry in enumerate(report["ranking"])}
-    return (f"The diagnosis of the swing-up log against the frictionless nominal rig says {report['verdict']} "
-            f"(effects {', '.join(report['effects'])}; held-out gap {report['gap']['nominal']['heldout']:.2f} -> "
-            f"{report['gap']['with_effects']['heldout']:.2f} counts), where the truth is arm Dahl friction "
-            f"{arm.coulomb_pos:g}/{arm.coulomb_neg:g} N m (arm_coulomb_friction ranks "
-            f"{ranks.get('arm_coulomb_friction')}, friction_asymmetry {ranks.get('friction_asymmetry')}); with one "
-            f"log, blocks spread over it are held out, swing and balancing alike.")
+    return (
+        f"The diagnosis of the swing-up log against the frictionless nominal rig says {report['verdict']} "
+        f"(effects {', '.join(report['effects'])}; held-out gap {report['gap']['nominal']['heldout']:.2f} -> "
+        f"{report['gap']['with_effects']['heldout']:.2f} counts), where the truth is arm Dahl friction "
+        f"{arm.coulomb_pos:g}/{arm.coulomb_neg:g} N m (arm_coulomb_friction ranks "
+        f"{ranks.get('arm_coulomb_friction')}, friction_asymmetry {ranks.get('friction_asymmetry')}); with one "
+        f"log, blocks spread over it are held out, swing and balancing alike."
+    )
 
 
 def plot_swingup(result, config):
@@ -161,10 +218,20 @@ def plot_energy(result, config):
     """The pendulum energy E (Astrom-Furuta) of the true state and of the controller's estimate, in units of m g l."""
     fig, ax = plt.subplots(figsize=(9, 4))
     mgl = config.rig.gravity_torque
-    ax.plot(result.time, pendulum_energy(config.rig, result.state[:, 0], result.state[:, 2]) / mgl, "k", lw=1.0,
-            label="true state")
-    ax.plot(result.time, result.signals["pendulum_energy_J"][:, 0] / mgl, "tab:orange", lw=0.8,
-            label="controller (kinematic HG)")
+    ax.plot(
+        result.time,
+        pendulum_energy(config.rig, result.state[:, 0], result.state[:, 2]) / mgl,
+        "k",
+        lw=1.0,
+        label="true state",
+    )
+    ax.plot(
+        result.time,
+        result.signals["pendulum_energy_J"][:, 0] / mgl,
+        "tab:orange",
+        lw=0.8,
+        label="controller (kinematic HG)",
+    )
     ax.set_ylabel("E / (m g l) [-]")
     ax.set_xlabel("time [s]")
     ax.legend(fontsize=8)

@@ -17,7 +17,9 @@ from furuta_drake.diagnosis.log_writers import write_log
 
 HERE = Path(__file__).resolve().parent
 QUBE_RIG_TEXT = (QUBE_DATA / "rig.yaml").read_text()
-THETA_MINUS = "theta_direction: -1         # these logs count theta opposite to the paper's convention (checked on the data)"
+THETA_MINUS = (
+    "theta_direction: -1         # these logs count theta opposite to the paper's convention (checked on the data)"
+)
 
 LUND_RIG = """\
 # The Lund pendulum of the paper (furuta_drake.rig.lund_rig) as a furuta-drake rig file.
@@ -38,8 +40,14 @@ def synthetic_rows(n: int = 300, period: float = 1e-3) -> list[list[str]]:
     rows = []
     for k in range(n):
         t = k * period
-        rows.append([f"{t:.3f}", f"{0.02 * math.sin(2 * math.pi * 1.5 * t):.6f}",
-                     f"{0.1 * math.sin(2 * math.pi * 0.5 * t):.6f}", f"{0.01 * math.cos(2 * math.pi * t):.6f}"])
+        rows.append(
+            [
+                f"{t:.3f}",
+                f"{0.02 * math.sin(2 * math.pi * 1.5 * t):.6f}",
+                f"{0.1 * math.sin(2 * math.pi * 0.5 * t):.6f}",
+                f"{0.01 * math.cos(2 * math.pi * t):.6f}",
+            ]
+        )
     return rows
 
 
@@ -80,11 +88,15 @@ def synthetic_logs() -> None:
     write_rows("log_irregular_period.csv", header, edited(80, 0, "0.0802"))  # 1.2 ms then 0.8 ms; line 82
     write_rows("log_time_gap.csv", header, rows[:100] + rows[120:])  # 20 samples missing before line 102
     # The arm turned near +pi and logged wrapped into (-pi, pi]: it jumps to -pi at file line 139.
-    write_rows("log_wrapped_phi.csv", header,
-               [[t, theta, f"{math.remainder(float(phi) + 3.1, 2 * math.pi):.6f}", u] for t, theta, phi, u in rows])
+    write_rows(
+        "log_wrapped_phi.csv",
+        header,
+        [[t, theta, f"{math.remainder(float(phi) + 3.1, 2 * math.pi):.6f}", u] for t, theta, phi, u in rows],
+    )
     truncated = "".join(",".join(r) + "\n" for r in rows[:250])
-    (HERE / "log_truncated.csv").write_text(",".join(header) + "\n" + truncated + rows[250][0] + ","
-                                            + rows[250][1][:3])  # cut mid-row at line 252, no newline
+    (HERE / "log_truncated.csv").write_text(
+        ",".join(header) + "\n" + truncated + rows[250][0] + "," + rows[250][1][:3]
+    )  # cut mid-row at line 252, no newline
 
 
 def qube_logs() -> None:
@@ -94,12 +106,16 @@ def qube_logs() -> None:
     wrapped = np.angle(np.exp(1j * chirp["theta"]))  # hanging at +pi: the swing wraps between +pi and -pi
     write_qube("log_wrapped_theta.csv", dict(chirp, theta=wrapped), swing)
     start = chirp["time"] < 1.2
-    write_qube("log_degrees_hanging.csv",
-               dict(chirp, theta=np.degrees(chirp["theta"]), phi=np.degrees(chirp["phi"])), start)
+    write_qube(
+        "log_degrees_hanging.csv", dict(chirp, theta=np.degrees(chirp["theta"]), phi=np.degrees(chirp["phi"])), start
+    )
     satbal = read_qube("swingup_250Hz_10s_satbal.csv")
     balancing = (satbal["time"] >= 4.0) & (satbal["time"] < 5.6)  # 400 samples, within 6 degrees of upright
-    write_qube("log_degrees_balancing.csv",
-               dict(satbal, theta=np.degrees(satbal["theta"]), phi=np.degrees(satbal["phi"])), balancing)
+    write_qube(
+        "log_degrees_balancing.csv",
+        dict(satbal, theta=np.degrees(satbal["theta"]), phi=np.degrees(satbal["phi"])),
+        balancing,
+    )
     swingup = read_qube("swingup_250Hz_10s_a.csv")
     kick = swingup["time"] < 2.0  # 500 samples of the energy swing-up: the arm answers the voltage clearly
     write_qube("log_phi_reversed.csv", dict(swingup, phi=-swingup["phi"]), kick)
@@ -108,8 +124,10 @@ def qube_logs() -> None:
 def other_formats() -> None:
     """Parquet and MCAP copies of the synthetic torque log, one with a column missing, and files that are not
     Parquet or MCAP at all."""
-    columns = {name: np.array([float(row[j]) for row in synthetic_rows()])
-               for j, name in enumerate(["time", "theta", "phi", "torque"])}
+    columns = {
+        name: np.array([float(row[j]) for row in synthetic_rows()])
+        for j, name in enumerate(["time", "theta", "phi", "torque"])
+    }
     write_log(HERE / "good_torque.mcap", columns, topic="/furuta/log")
     write_log(HERE / "log_missing_theta.parquet", {k: v for k, v in columns.items() if k != "theta"})
     (HERE / "log_not_parquet.parquet").write_text("time,theta,phi,torque\n0,0,0,0\n")
@@ -121,8 +139,10 @@ def rigs() -> None:
     (HERE / "rig_lund.yaml").write_text(LUND_RIG)
     (HERE / "rig_qube.yaml").write_text(QUBE_RIG_TEXT)
     (HERE / "rig_qube_theta_plus.yaml").write_text(
-        QUBE_RIG_TEXT.replace(THETA_MINUS, "theta_direction: 1          # wrong for these logs (they count theta the "
-                                           "other way)"))
+        QUBE_RIG_TEXT.replace(
+            THETA_MINUS, "theta_direction: 1          # wrong for these logs (they count theta the other way)"
+        )
+    )
     edits = {
         "rig_misspelt_key.yaml": ("arm_length: 0.25", "arm_lenght: 0.25"),
         "rig_negative_mass.yaml": ("pendulum_mass: 0.033172", "pendulum_mass: -0.033172"),

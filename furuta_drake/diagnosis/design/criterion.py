@@ -27,7 +27,11 @@ import numpy as np
 
 from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, Scales, apply_effects
 from furuta_drake.diagnosis.gap import (
-    Windows, fixed_state_residuals, make_windows, project_out_states, projected_residuals,
+    Windows,
+    fixed_state_residuals,
+    make_windows,
+    project_out_states,
+    projected_residuals,
 )
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
@@ -64,13 +68,14 @@ class Parametrised:
         effects, i = dict(self.effects), 0
         for name in self.fitted:
             size = len(self.effects[name].values)
-            effects[name] = Effect(self.effects[name].form, tuple(x[i:i + size]))
+            effects[name] = Effect(self.effects[name].form, tuple(x[i : i + size]))
             i += size
         return apply_effects(self.nominal, effects)
 
 
-def experiment_windows(angles: np.ndarray, commands: np.ndarray, period: float, rig: RigParameters
-                       ) -> tuple[Windows, Windows]:
+def experiment_windows(
+    angles: np.ndarray, commands: np.ndarray, period: float, rig: RigParameters
+) -> tuple[Windows, Windows]:
     """(train, held-out) windows of D experiment logs: ``angles`` (N, 2, D) [rad], ``commands`` (D, N) [N m];
     each log is cut in two halves, the first trains."""
     samples = commands.shape[1]
@@ -79,14 +84,24 @@ def experiment_windows(angles: np.ndarray, commands: np.ndarray, period: float, 
     parts = ([], [])
     for d in range(commands.shape[0]):
         for logs, cut in zip(parts, (slice(0, half), slice(half, samples))):
-            logs.append(RunLog(name=f"experiment {d}", path="", time=time[cut], theta=angles[cut, 0, d],
-                               phi=angles[cut, 1, d], input_kind="torque", input=commands[d, cut],
-                               sample_period=period))
+            logs.append(
+                RunLog(
+                    name=f"experiment {d}",
+                    path="",
+                    time=time[cut],
+                    theta=angles[cut, 0, d],
+                    phi=angles[cut, 1, d],
+                    input_kind="torque",
+                    input=commands[d, cut],
+                    sample_period=period,
+                )
+            )
     return make_windows(parts[0], rig), make_windows(parts[1], rig)
 
 
-def _columns(param: Parametrised, x: np.ndarray, windows: Windows, raw, states, jacobians, counts: int
-             ) -> list[np.ndarray]:
+def _columns(
+    param: Parametrised, x: np.ndarray, windows: Windows, raw, states, jacobians, counts: int
+) -> list[np.ndarray]:
     """Per log (h, 2, W, P): the residuals' change per unit of each parameter at fixed initial states, with what
     the states can absorb projected out."""
     low, high = param.bounds()
@@ -97,8 +112,9 @@ def _columns(param: Parametrised, x: np.ndarray, windows: Windows, raw, states, 
         shifted = x.copy()
         shifted[i] += step
         moved = fixed_state_residuals(param.model(shifted), windows, states, counts)
-        columns.append([project_out_states(np.nan_to_num(new - old), J) / step
-                        for new, old, J in zip(moved, raw, jacobians)])
+        columns.append(
+            [project_out_states(np.nan_to_num(new - old), J) / step for new, old, J in zip(moved, raw, jacobians)]
+        )
     return [np.stack([column[log] for column in columns], axis=-1) for log in range(len(raw))]
 
 
@@ -112,8 +128,9 @@ def _step(r: np.ndarray, C: np.ndarray) -> np.ndarray:
     return -np.linalg.solve(normal, (A / scale).T @ b) / scale
 
 
-def linearised_noncentrality(param: Parametrised, train: Windows, heldout: Windows, counts: int,
-                             truth_variance: float) -> np.ndarray:
+def linearised_noncentrality(
+    param: Parametrised, train: Windows, heldout: Windows, counts: int, truth_variance: float
+) -> np.ndarray:
     """(D,) lambda of the module docstring for the D logs of ``train`` and ``heldout``: one Gauss-Newton step of
     the rival ``param`` per log from its hypothesis' parameters, the held-out residual predicted linearly."""
     x0 = param.x0

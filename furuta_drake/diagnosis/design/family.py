@@ -54,7 +54,7 @@ class Family:
         """1 / P [Hz]."""
         return 1.0 / min(PERIOD_S, self.duration / 2.0)
 
-    def base(self) -> "Family":
+    def base(self) -> Family:
         """The same family over two periods: the experiment the search simulates (a longer one repeats it)."""
         return Family(min(self.duration, 2.0 / self.fundamental), self.period, self.inertia, self.damping)
 
@@ -123,8 +123,18 @@ class Family:
         """The design's parameters for design.json: the bands with their amplitude (in ``unit``) and components."""
         frequencies, band, _ = self.components()
         edges = self.band_edges
-        return {"fundamental_hz": self.fundamental, "periods": self.duration * self.fundamental, "ramp_s": self.ramp,
-                "phases": "Schroeder",
-                "bands": [{"low_hz": float(edges[b]), "high_hz": float(edges[b + 1]),
-                           "components": int(np.sum(band == b)), f"amplitude_{unit}": float(amplitudes[b])}
-                          for b in range(BANDS)]}
+        return {
+            "fundamental_hz": self.fundamental,
+            "periods": self.duration * self.fundamental,
+            "ramp_s": self.ramp,
+            "phases": "Schroeder",
+            "bands": [
+                {
+                    "low_hz": float(edges[b]),
+                    "high_hz": float(edges[b + 1]),
+                    "components": int(np.sum(band == b)),
+                    f"amplitude_{unit}": float(amplitudes[b]),
+                }
+                for b in range(BANDS)
+            ],
+        }

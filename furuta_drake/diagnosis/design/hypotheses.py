@@ -79,7 +79,7 @@ def entry_effects(entry: dict) -> dict[str, Effect]:
     out = {}
     for name in names:
         prefix = f"{name}." if len(names) > 1 else ""
-        params = {key[len(prefix):]: value for key, value in entry["params"].items() if key.startswith(prefix)}
+        params = {key[len(prefix) :]: value for key, value in entry["params"].items() if key.startswith(prefix)}
         out[name] = effect_from_params(name, params)
     return out
 
@@ -119,58 +119,97 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
         if any(h.name == name for h in hypotheses):
             return
         hypotheses.append(Hypothesis(name, effects, apply_effects(nominal, effects), role))
-        pairs.append(Pair(0, len(hypotheses) - 1, step, {k: accepted[k] for k in steps[:step - 1]}, new, why, nested))
+        pairs.append(Pair(0, len(hypotheses) - 1, step, {k: accepted[k] for k in steps[: step - 1]}, new, why, nested))
 
     if targets:
         limits = {limit["effect"]: limit for limit in report["detection_limits"]}
         scales = scales_of(train_logs, nominal)
         for name, size in targets:
             if name in accepted or law_of(name) & set(accepted):
-                raise ConfigError(f"--target {name}={size:g}: the diagnosis already accepted {name} (or a variant "
-                                  f"of its law)")
+                raise ConfigError(
+                    f"--target {name}={size:g}: the diagnosis already accepted {name} (or a variant of its law)"
+                )
             effect, increment = _target_effect(name, size, scales, hypotheses[0].model)
             limit = limits.get(name, {}).get("value")
             if limit is not None and _target_effect(name, limit, scales, hypotheses[0].model)[1] <= increment:
-                notes.append(f"--target {name}={size:g}: these logs already detect it (detection limit {limit:.4g} "
-                             f"{INJECTIONS[name].param}); no experiment is needed for it")
+                notes.append(
+                    f"--target {name}={size:g}: these logs already detect it (detection limit {limit:.4g} "
+                    f"{INJECTIONS[name].param}); no experiment is needed for it"
+                )
                 continue
-            add({**accepted, name: effect}, "target", len(steps) + 1, ("", name),
+            add(
+                {**accepted, name: effect},
+                "target",
+                len(steps) + 1,
+                ("", name),
                 f"{name} at {INJECTIONS[name].param} = {size:g}, below what these logs detect "
-                f"({'not detected at any size' if limit is None else f'limit {limit:.4g}'})", nested=True)
+                f"({'not detected at any size' if limit is None else f'limit {limit:.4g}'})",
+                nested=True,
+            )
     else:
         chosen_at = {k + 1: name for k, name in enumerate(steps)}
         for pair in report.get("confusable", []):
             chosen, other = pair["effects"]
             step = next((k for k, name in chosen_at.items() if name == chosen), None)
-            entry = _entry(ranked, steps[:step - 1] + [other], step) if step else None
+            entry = _entry(ranked, steps[: step - 1] + [other], step) if step else None
             if entry is not None:
-                add(_rival(accepted, steps, step, entry), "rival", step, (chosen, other),
-                    f"confusable at step {step}: {pair['why']}", nested=False)
+                add(
+                    _rival(accepted, steps, step, entry),
+                    "rival",
+                    step,
+                    (chosen, other),
+                    f"confusable at step {step}: {pair['why']}",
+                    nested=False,
+                )
         for step, chosen in chosen_at.items():
             reference = _entry(ranked, steps[:step], step)
             for entry in ranked if reference else []:
                 other = entry["effect"].split("+")[-1]
-                if (entry["step"] == step and other != chosen
-                        and entry["effect"].split("+")[:-1] == steps[:step - 1]
-                        and entry["heldout_reduction"] >= reference["heldout_reduction"] - NEAR):
-                    add(_rival(accepted, steps, step, entry), "rival", step,
-                        (chosen, other), f"at step {step}, {other} reduces the nominal held-out gap by "
+                if (
+                    entry["step"] == step
+                    and other != chosen
+                    and entry["effect"].split("+")[:-1] == steps[: step - 1]
+                    and entry["heldout_reduction"] >= reference["heldout_reduction"] - NEAR
+                ):
+                    add(
+                        _rival(accepted, steps, step, entry),
+                        "rival",
+                        step,
+                        (chosen, other),
+                        f"at step {step}, {other} reduces the nominal held-out gap by "
                         f"{entry['heldout_reduction']:.1%}, within {NEAR:.0%} of {chosen}'s "
-                        f"{reference['heldout_reduction']:.1%}", nested=False)
-        following = sorted((entry for entry in ranked if entry["step"] == len(steps) + 1
-                            and entry["effect"].split("+")[:-1] == steps
-                            and (entry["reduction_over_previous"] or 0.0) >= NEXT_STEP_REDUCTION),
-                           key=lambda entry: -entry["reduction_over_previous"])
+                        f"{reference['heldout_reduction']:.1%}",
+                        nested=False,
+                    )
+        following = sorted(
+            (
+                entry
+                for entry in ranked
+                if entry["step"] == len(steps) + 1
+                and entry["effect"].split("+")[:-1] == steps
+                and (entry["reduction_over_previous"] or 0.0) >= NEXT_STEP_REDUCTION
+            ),
+            key=lambda entry: -entry["reduction_over_previous"],
+        )
         for entry in following[:MAX_NEXT_STEP]:
             other = entry["effect"].split("+")[-1]
-            add({**accepted, other: entry_effects(entry)[other]}, "rival", len(steps) + 1, ("", other),
+            add(
+                {**accepted, other: entry_effects(entry)[other]},
+                "rival",
+                len(steps) + 1,
+                ("", other),
                 f"{other} reduces the held-out gap the accepted model leaves by {entry['reduction_over_previous']:.1%}"
-                f" without being accepted", nested=True)
+                f" without being accepted",
+                nested=True,
+            )
     if not pairs:
-        raise ConfigError("nothing to separate: the diagnosis has no confusable pair, no rival within "
-                          f"{NEAR:.0%} of the accepted model and no next-step candidate; name an effect and a size "
-                          "with --target effect=value" if not targets else
-                          "nothing to separate: every --target is already detected by the diagnosis' logs")
+        raise ConfigError(
+            "nothing to separate: the diagnosis has no confusable pair, no rival within "
+            f"{NEAR:.0%} of the accepted model and no next-step candidate; name an effect and a size "
+            "with --target effect=value"
+            if not targets
+            else "nothing to separate: every --target is already detected by the diagnosis' logs"
+        )
     return Hypotheses(nominal, hypotheses, pairs, notes)
 
 

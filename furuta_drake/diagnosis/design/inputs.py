@@ -24,9 +24,13 @@ from furuta_drake.errors import ConfigError, FurutaError
 from furuta_drake.rig import RigParameters
 
 # The keys of report.json the design reads, each with the keys its entries need.
-REPORT_KEYS = {"verdict": None, "effects": None, "ranking": ("effect", "params", "step", "status",
-                                                             "heldout_reduction", "reduction_over_previous"),
-               "steps": ("effect",), "detection_limits": ("effect", "param", "value")}
+REPORT_KEYS = {
+    "verdict": None,
+    "effects": None,
+    "ranking": ("effect", "params", "step", "status", "heldout_reduction", "reduction_over_previous"),
+    "steps": ("effect",),
+    "detection_limits": ("effect", "param", "value"),
+}
 
 
 @dataclass(frozen=True)
@@ -53,10 +57,12 @@ def read_diagnosis(directory: str | Path) -> DiagnosisRecord:
     """Read and check a diagnosis output directory (module docstring)."""
     directory = Path(directory)
     if not directory.is_dir():
-        raise ConfigError(f"{directory}: no such diagnosis directory (--diagnosis expects the --out directory "
-                          f"of furuta-drake diagnose)" if not directory.exists() else
-                          f"{directory}: is not a directory (--diagnosis expects the --out directory of "
-                          f"furuta-drake diagnose)")
+        raise ConfigError(
+            f"{directory}: no such diagnosis directory (--diagnosis expects the --out directory "
+            f"of furuta-drake diagnose)"
+            if not directory.exists()
+            else f"{directory}: is not a directory (--diagnosis expects the --out directory of furuta-drake diagnose)"
+        )
     report_path, config_path = directory / "report.json", directory / "config.yaml"
     for path in (report_path, config_path):
         if not path.is_file():
@@ -78,13 +84,24 @@ def read_diagnosis(directory: str | Path) -> DiagnosisRecord:
     heldout = [_checked_input(entry, config_path, f"heldout[{i}]") for i, entry in enumerate(inputs["heldout"])]
     recorded = ((config.get("options") or {}).get("log_format")) or {}
     try:
-        log_format = LogFormat(columns=dict(recorded.get("columns") or {}),
-                               angle_unit=recorded.get("angle_unit") or "rad", topic=recorded.get("topic"))
+        log_format = LogFormat(
+            columns=dict(recorded.get("columns") or {}),
+            angle_unit=recorded.get("angle_unit") or "rad",
+            topic=recorded.get("topic"),
+        )
         logs = load_logs(train + heldout, rig, rig_path, log_format)
     except FurutaError as err:
         raise ConfigError(f"{config_path}: a log it records no longer loads: {err}") from None
-    return DiagnosisRecord(directory, report, hashlib.sha256(text).hexdigest(), rig, rig_path, logs[:len(train)],
-                           logs[len(train):], inputs)
+    return DiagnosisRecord(
+        directory,
+        report,
+        hashlib.sha256(text).hexdigest(),
+        rig,
+        rig_path,
+        logs[: len(train)],
+        logs[len(train) :],
+        inputs,
+    )
 
 
 def _check_report(report, path: Path) -> None:
@@ -92,13 +109,16 @@ def _check_report(report, path: Path) -> None:
         raise ConfigError(f"{path}: expected a JSON object")
     for key, entry_keys in REPORT_KEYS.items():
         if key not in report:
-            raise ConfigError(f"{path}: no '{key}' key: written by another version of furuta-drake diagnose; "
-                              f"run the diagnosis again")
+            raise ConfigError(
+                f"{path}: no '{key}' key: written by another version of furuta-drake diagnose; run the diagnosis again"
+            )
         for i, entry in enumerate(report[key] if entry_keys else []):
             missing = [k for k in entry_keys if k not in entry]
             if missing:
-                raise ConfigError(f"{path}: {key}[{i}] has no '{missing[0]}': written by another version of "
-                                  f"furuta-drake diagnose; run the diagnosis again")
+                raise ConfigError(
+                    f"{path}: {key}[{i}] has no '{missing[0]}': written by another version of "
+                    f"furuta-drake diagnose; run the diagnosis again"
+                )
 
 
 def _inputs(config, path: Path) -> dict:
@@ -116,9 +136,11 @@ def _checked_input(entry, config_path: Path, key: str) -> Path:
         raise ConfigError(f"{config_path}: {key} must have 'path' and 'sha256'")
     path = Path(entry["path"])
     if not path.is_file():
-        raise ConfigError(f"{config_path}: {key} {path} is missing (the design reads the diagnosis' inputs where "
-                          f"it recorded them)")
+        raise ConfigError(
+            f"{config_path}: {key} {path} is missing (the design reads the diagnosis' inputs where it recorded them)"
+        )
     if hashlib.sha256(path.read_bytes()).hexdigest() != entry["sha256"]:
-        raise ConfigError(f"{config_path}: {key} {path} changed since the diagnosis (its sha256 differs); run the "
-                          f"diagnosis again")
+        raise ConfigError(
+            f"{config_path}: {key} {path} changed since the diagnosis (its sha256 differs); run the diagnosis again"
+        )
     return path

@@ -17,13 +17,16 @@ the family's bands) is one no experiment of the family separates: it leaves the 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
 from furuta_drake.diagnosis.design.criterion import (
-    Parametrised, experiment_windows, linearised_noncentrality, refit_residuals,
+    Parametrised,
+    experiment_windows,
+    linearised_noncentrality,
+    refit_residuals,
 )
 from furuta_drake.diagnosis.design.family import BANDS, Family
 from furuta_drake.diagnosis.design.hypotheses import Hypotheses
@@ -117,9 +120,18 @@ class Evaluator:
     hanging : the runs start hanging (the pendulum's excursion is from pi), else upright.
     """
 
-    def __init__(self, family: Family, hypotheses: Hypotheses, rig: RigParameters, scales, bounds: Bounds,
-                 runner: Runner, unit_command: Callable[[np.ndarray], np.ndarray],
-                 aimed_motion: Callable[[np.ndarray], np.ndarray] | None, hanging: bool):
+    def __init__(
+        self,
+        family: Family,
+        hypotheses: Hypotheses,
+        rig: RigParameters,
+        scales,
+        bounds: Bounds,
+        runner: Runner,
+        unit_command: Callable[[np.ndarray], np.ndarray],
+        aimed_motion: Callable[[np.ndarray], np.ndarray] | None,
+        hanging: bool,
+    ):
         self.family, self.hypotheses, self.rig, self.scales, self.bounds = family, hypotheses, rig, scales, bounds
         self.runner, self.unit_command, self.aimed_motion, self.hanging = runner, unit_command, aimed_motion, hanging
 
@@ -127,8 +139,7 @@ class Evaluator:
         unit = self.unit_command(shapes)  # (D, N) at level 1
         limits = [self.bounds.command / np.maximum(np.abs(unit).max(axis=1), 1e-300)]
         if self.aimed_motion is not None:
-            limits.append(SAFETY * self.bounds.arm / np.maximum(np.abs(self.aimed_motion(shapes)).max(axis=1),
-                                                                 1e-300))
+            limits.append(SAFETY * self.bounds.arm / np.maximum(np.abs(self.aimed_motion(shapes)).max(axis=1), 1e-300))
         levels = np.min(limits, axis=0)
         used = sorted({d.truth for d in directions} | {d.rival for d in directions})
         for _ in range(RESCALES + 1):
@@ -136,27 +147,44 @@ class Evaluator:
             runs = {h: self.runner(self.hypotheses.hypotheses[h].model, commands) for h in used}
             peaks = {h: self._peaks(*runs[h]) for h in used}
             with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = np.min([np.minimum(SAFETY * self.bounds.arm / peaks[h]["arm"],
-                                           SAFETY * self.bounds.pendulum / peaks[h]["pendulum"]) for h in used],
-                               axis=0)
+                ratio = np.min(
+                    [
+                        np.minimum(
+                            SAFETY * self.bounds.arm / peaks[h]["arm"],
+                            SAFETY * self.bounds.pendulum / peaks[h]["pendulum"],
+                        )
+                        for h in used
+                    ],
+                    axis=0,
+                )
             ratio = np.where(np.isnan(ratio), 0.0, ratio)
             command_ok = np.all([peaks[h]["command"] <= self.bounds.command * (1 + 1e-9) for h in used], axis=0)
             if np.all((ratio >= 1.0) & command_ok):
                 break
             levels = levels * np.minimum(ratio, 1.0) * np.where(command_ok, 1.0, 0.9)
         feasible = (ratio >= 1.0) & command_ok & (levels > 0)
-        candidates = [Candidate(shapes[d], float(levels[d]), commands[d],
-                                {h: (runs[h][0][:, :, d], runs[h][1][d]) for h in used},
-                                {h: {key: float(value[d]) for key, value in peaks[h].items()} for h in used},
-                                bool(feasible[d])) for d in range(shapes.shape[0])]
+        candidates = [
+            Candidate(
+                shapes[d],
+                float(levels[d]),
+                commands[d],
+                {h: (runs[h][0][:, :, d], runs[h][1][d]) for h in used},
+                {h: {key: float(value[d]) for key, value in peaks[h].items()} for h in used},
+                bool(feasible[d]),
+            )
+            for d in range(shapes.shape[0])
+        ]
         self._score([c for c in candidates if c.feasible], directions)
         return candidates
 
     def _peaks(self, angles: np.ndarray, logged: np.ndarray) -> dict[str, np.ndarray]:
         """(D,) peak |phi|, pendulum excursion from rest and |command| (NaN for a diverged run)."""
         rest = np.pi if self.hanging else 0.0
-        return {"arm": np.max(np.abs(angles[:, 1]), axis=0), "pendulum": np.max(np.abs(angles[:, 0] - rest), axis=0),
-                "command": np.max(np.abs(logged), axis=1)}
+        return {
+            "arm": np.max(np.abs(angles[:, 1]), axis=0),
+            "pendulum": np.max(np.abs(angles[:, 0] - rest), axis=0),
+            "command": np.max(np.abs(logged), axis=1),
+        }
 
     def _score(self, candidates: list[Candidate], directions: list[Direction]) -> None:
         if not candidates:
@@ -169,8 +197,9 @@ class Evaluator:
             variance = sensor_variance(self.hypotheses.hypotheses[truth].model, counts)
             for direction in (d for d in directions if d.truth == truth):
                 rival = self.hypotheses.hypotheses[direction.rival]
-                values = linearised_noncentrality(Parametrised(self.hypotheses.nominal, rival.effects, self.scales),
-                                                  train, heldout, counts, variance)
+                values = linearised_noncentrality(
+                    Parametrised(self.hypotheses.nominal, rival.effects, self.scales), train, heldout, counts, variance
+                )
                 for candidate, value in zip(candidates, values):
                     candidate.noncentrality[direction] = float(value)
 
@@ -182,29 +211,46 @@ class Evaluator:
                 angles, logged = candidate.runs[direction.truth]
                 train, heldout = experiment_windows(angles[:, :, None], logged[None], self.family.period, self.rig)
                 rival = self.hypotheses.hypotheses[direction.rival]
-                fit = refit_residuals(Parametrised(self.hypotheses.nominal, rival.effects, self.scales), train,
-                                      heldout, counts, iterations)
+                fit = refit_residuals(
+                    Parametrised(self.hypotheses.nominal, rival.effects, self.scales),
+                    train,
+                    heldout,
+                    counts,
+                    iterations,
+                )
                 variance = sensor_variance(self.hypotheses.hypotheses[direction.truth].model, counts)
                 candidate.refined[direction] = float(np.sum(fit.residuals[1:] ** 2) / variance)
 
 
-def optimise(evaluator: Evaluator, hypotheses: Hypotheses, generations: int, population: int, iterations: int,
-             seed: int, progress: Callable[[str], None] | None = None) -> Search:
+def optimise(
+    evaluator: Evaluator,
+    hypotheses: Hypotheses,
+    generations: int,
+    population: int,
+    iterations: int,
+    seed: int,
+    progress: Callable[[str], None] | None = None,
+) -> Search:
     """The cross-entropy search of the module docstring; ``iterations``: refit steps of the elite's scores."""
     rng = np.random.default_rng(seed)
     directions = directions_of(hypotheses)
-    first = np.vstack([np.eye(BANDS), np.full((1, BANDS), 1.0 / BANDS),
-                       rng.dirichlet(np.ones(BANDS), max(population - BANDS - 1, 0))])
+    first = np.vstack(
+        [np.eye(BANDS), np.full((1, BANDS), 1.0 / BANDS), rng.dirichlet(np.ones(BANDS), max(population - BANDS - 1, 0))]
+    )
     candidates = evaluator(first, directions)
     feasible = [c for c in candidates if c.feasible]
-    inseparable = [d for d in directions if max((c.noncentrality.get(d, 0.0) for c in feasible), default=0.0)
-                   < SEPARABLE]
+    inseparable = [
+        d for d in directions if max((c.noncentrality.get(d, 0.0) for c in feasible), default=0.0) < SEPARABLE
+    ]
     active = [d for d in directions if d not in inseparable]
     generation, elite = candidates, []
     for number in range(1, generations + 1):
         if number > 1:
-            draws = [rng.dirichlet(CONCENTRATION * c.shape + 0.2) for c in elite
-                     for _ in range(int(np.ceil(population / len(elite))))][:population]
+            draws = [
+                rng.dirichlet(CONCENTRATION * c.shape + 0.2)
+                for c in elite
+                for _ in range(int(np.ceil(population / len(elite))))
+            ][:population]
             generation = evaluator(np.array(draws), directions)
             candidates += generation
         if not active:
@@ -213,9 +259,11 @@ def optimise(evaluator: Evaluator, hypotheses: Hypotheses, generations: int, pop
         evaluator.refine(ranked, active, iterations)
         elite = sorted((c for c in candidates if c.refined), key=lambda c: -c.score(active, refined=True))[:ELITE]
         if progress:
-            progress(f"generation {number}: {sum(c.feasible for c in generation)}/{len(generation)} designs within "
-                     f"the bounds; best weakest noncentrality "
-                     f"{max((c.score(active, refined=True) for c in elite), default=0.0):.3g}")
+            progress(
+                f"generation {number}: {sum(c.feasible for c in generation)}/{len(generation)} designs within "
+                f"the bounds; best weakest noncentrality "
+                f"{max((c.score(active, refined=True) for c in elite), default=0.0):.3g}"
+            )
         if not elite:
             break
     best = elite[0] if elite and active else None

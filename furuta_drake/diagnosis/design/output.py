@@ -50,12 +50,16 @@ def experiment_csv(design: Design) -> str:
     period = design.period
     if design.mode == "balancing":
         gain = ", ".join(f"{v:.6g}" for v in design.excitation["lqr_gain"])
-        how = (f"# dither [{unit}] to ADD to the output of furuta-drake's LQR balancing the pendulum upright (gain "
-               f"K = [{gain}] on [theta, phi, theta_dot, phi_dot], designed on the rig file), from rest upright, "
-               f"one value per {period:g} s sample; then stop the dither")
+        how = (
+            f"# dither [{unit}] to ADD to the output of furuta-drake's LQR balancing the pendulum upright (gain "
+            f"K = [{gain}] on [theta, phi, theta_dot, phi_dot], designed on the rig file), from rest upright, "
+            f"one value per {period:g} s sample; then stop the dither"
+        )
     else:
-        how = (f"# open-loop command [{unit}]: play it as is from rest with the pendulum hanging, one value per "
-               f"{period:g} s sample, then zero")
+        how = (
+            f"# open-loop command [{unit}]: play it as is from rest with the pendulum hanging, one value per "
+            f"{period:g} s sample, then zero"
+        )
     rows = "".join(f"{k * period:.6f},{value + 0.0:.6g}\n" for k, value in enumerate(values))
     return f"{how}\ntime,{column}\n{rows}"
 
@@ -71,18 +75,35 @@ def design_json(design: Design) -> dict:
         "mode": design.mode,
         "duration_s": design.duration,
         "sample_period_s": design.period,
-        "input": {"column": column, "unit": unit, "limit": design.bounds.command * scale,
-                  "file": "experiment.csv" if design.command is not None else None},
-        "hypotheses": [{"name": h.name, "role": h.role,
-                        "effects": {name: describe(name, effect, nominal) for name, effect in h.effects.items()}}
-                       for h in design.hypotheses.hypotheses],
+        "input": {
+            "column": column,
+            "unit": unit,
+            "limit": design.bounds.command * scale,
+            "file": "experiment.csv" if design.command is not None else None,
+        },
+        "hypotheses": [
+            {
+                "name": h.name,
+                "role": h.role,
+                "effects": {name: describe(name, effect, nominal) for name, effect in h.effects.items()},
+            }
+            for h in design.hypotheses.hypotheses
+        ],
         "pairs": design.pairs,
-        "responses": {name: {"peak_arm_angle_rad": run.peaks["arm"],
-                             "peak_pendulum_excursion_rad": run.peaks["pendulum"],
-                             f"peak_command_{unit.replace(' ', '_')}": run.peaks["command"] * scale,
-                             "evaluated_by": "drake"} for name, run in design.runs.items()},
-        "bounds": {"arm_angle_rad": design.bounds.arm, "pendulum_excursion_rad": design.bounds.pendulum,
-                   f"command_{unit.replace(' ', '_')}": design.bounds.command * scale},
+        "responses": {
+            name: {
+                "peak_arm_angle_rad": run.peaks["arm"],
+                "peak_pendulum_excursion_rad": run.peaks["pendulum"],
+                f"peak_command_{unit.replace(' ', '_')}": run.peaks["command"] * scale,
+                "evaluated_by": "drake",
+            }
+            for name, run in design.runs.items()
+        },
+        "bounds": {
+            "arm_angle_rad": design.bounds.arm,
+            "pendulum_excursion_rad": design.bounds.pendulum,
+            f"command_{unit.replace(' ', '_')}": design.bounds.command * scale,
+        },
         "excitation": design.excitation,
         "seed": design.settings.seed,
         "search": design.search,
@@ -93,10 +114,15 @@ def design_json(design: Design) -> dict:
 
 def _config(design: Design) -> dict:
     record = design.record
-    return {"diagnosis": {"path": str(record.directory), "report_sha256": record.report_sha256},
-            "rig": record.inputs["rig"], "train": record.inputs["train"], "heldout": record.inputs["heldout"],
-            "options": design.options, "versions": versions(), "seeds": {"search": design.settings.seed,
-                                                                          "noise": design.settings.seed}}
+    return {
+        "diagnosis": {"path": str(record.directory), "report_sha256": record.report_sha256},
+        "rig": record.inputs["rig"],
+        "train": record.inputs["train"],
+        "heldout": record.inputs["heldout"],
+        "options": design.options,
+        "versions": versions(),
+        "seeds": {"search": design.settings.seed, "noise": design.settings.seed},
+    }
 
 
 def design_markdown(document: dict) -> str:
@@ -106,54 +132,100 @@ def design_markdown(document: dict) -> str:
     if document["status"] != "design":
         lines += [f"**No experiment** ({document['status']}): {document['reason']}.", ""]
     else:
-        how = ("a dither added to the LQR balancing the upright" if document["mode"] == "balancing" else
-               "played open loop from rest with the pendulum hanging")
-        lines += [f"`experiment.csv`: {document['duration_s']:g} s of `{document['input']['column']}` [{unit}], "
-                  f"{how}, one value per {document['sample_period_s']:g} s. Record it like the diagnosis' logs, "
-                  f"then run the diagnosis again with its first half added to `--train` and its second half to "
-                  f"`--heldout`.", "", "![command and predicted responses](design.png)", ""]
+        how = (
+            "a dither added to the LQR balancing the upright"
+            if document["mode"] == "balancing"
+            else "played open loop from rest with the pendulum hanging"
+        )
+        lines += [
+            f"`experiment.csv`: {document['duration_s']:g} s of `{document['input']['column']}` [{unit}], "
+            f"{how}, one value per {document['sample_period_s']:g} s. Record it like the diagnosis' logs, "
+            f"then run the diagnosis again with its first half added to `--train` and its second half to "
+            f"`--heldout`.",
+            "",
+            "![command and predicted responses](design.png)",
+            "",
+        ]
     lines += ["## Hypotheses", "", "| hypothesis | role | effects |", "|---|---|---|"]
     for h in document["hypotheses"]:
-        effects = "; ".join(f"{name}: " + ", ".join(f"{k} = {_fmt(v)}" for k, v in params.items())
-                            for name, params in h["effects"].items()) or "-"
+        effects = (
+            "; ".join(
+                f"{name}: " + ", ".join(f"{k} = {_fmt(v)}" for k, v in params.items())
+                for name, params in h["effects"].items()
+            )
+            or "-"
+        )
         lines.append(f"| `{h['name']}` | {h['role']} | {effects} |")
     if document["pairs"]:
-        lines += ["", "## What the experiment separates", "",
-                  "| truth | rival | noncentrality | held-out gap difference [counts] (90 %) | detection "
-                  "probability |", "|---|---|---:|---:|---:|"]
+        lines += [
+            "",
+            "## What the experiment separates",
+            "",
+            "| truth | rival | noncentrality | held-out gap difference [counts] (90 %) | detection probability |",
+            "|---|---|---:|---:|---:|",
+        ]
         for pair in document["pairs"]:
             for d in pair["directions"]:
                 diff = d["gap_difference_all_heldout"]
-                lines.append(f"| `{d['truth']}` | `{d['rival']}` | {_fmt(d['noncentrality'])} | "
-                             f"{_fmt(diff['median'])} [{_fmt(diff['interval90'][0])}, {_fmt(diff['interval90'][1])}]"
-                             f" | {d['detection_probability']:.0%} |")
-        lines += ["", "The noncentrality is the expected log-likelihood ratio of the experiment's held-out half "
-                  "under the truth's encoder noise, once the rival is refit and every window's initial state "
-                  "re-projected; the gap difference (rival minus truth) is over all held-out windows the new "
-                  "diagnosis would judge; the detection probability is the share of noise draws in which its rule "
-                  "picks the truth and no longer finds the two confusable.", ""]
+                lines.append(
+                    f"| `{d['truth']}` | `{d['rival']}` | {_fmt(d['noncentrality'])} | "
+                    f"{_fmt(diff['median'])} [{_fmt(diff['interval90'][0])}, {_fmt(diff['interval90'][1])}]"
+                    f" | {d['detection_probability']:.0%} |"
+                )
+        lines += [
+            "",
+            "The noncentrality is the expected log-likelihood ratio of the experiment's held-out half "
+            "under the truth's encoder noise, once the rival is refit and every window's initial state "
+            "re-projected; the gap difference (rival minus truth) is over all held-out windows the new "
+            "diagnosis would judge; the detection probability is the share of noise draws in which its rule "
+            "picks the truth and no longer finds the two confusable.",
+            "",
+        ]
         for pair in document["pairs"]:
             lines.append(f"- `{pair['hypotheses'][0]}` vs `{pair['hypotheses'][1]}`: {pair['why']}")
     if document["responses"]:
-        lines += ["", "## Predicted responses (Drake)", "", f"| hypothesis | peak arm angle [rad] | peak pendulum "
-                  f"excursion [rad] | peak command [{unit}] |", "|---|---:|---:|---:|"]
+        lines += [
+            "",
+            "## Predicted responses (Drake)",
+            "",
+            f"| hypothesis | peak arm angle [rad] | peak pendulum excursion [rad] | peak command [{unit}] |",
+            "|---|---:|---:|---:|",
+        ]
         for name, r in document["responses"].items():
             command = next(v for k, v in r.items() if k.startswith("peak_command"))
-            lines.append(f"| `{name}` | {_fmt(r['peak_arm_angle_rad'])} | {_fmt(r['peak_pendulum_excursion_rad'])} "
-                         f"| {_fmt(command)} |")
+            lines.append(
+                f"| `{name}` | {_fmt(r['peak_arm_angle_rad'])} | {_fmt(r['peak_pendulum_excursion_rad'])} "
+                f"| {_fmt(command)} |"
+            )
     bounds = document["bounds"]
-    lines += ["", f"Bounds under every hypothesis: arm angle {_fmt(bounds['arm_angle_rad'])} rad, pendulum "
-              f"excursion {_fmt(bounds['pendulum_excursion_rad'])} rad, command "
-              f"{_fmt(next(v for k, v in bounds.items() if k.startswith('command')))} {unit}.", ""]
+    lines += [
+        "",
+        f"Bounds under every hypothesis: arm angle {_fmt(bounds['arm_angle_rad'])} rad, pendulum "
+        f"excursion {_fmt(bounds['pendulum_excursion_rad'])} rad, command "
+        f"{_fmt(next(v for k, v in bounds.items() if k.startswith('command')))} {unit}.",
+        "",
+    ]
     if document["excitation"].get("bands"):
-        lines += ["## Excitation", "", f"{document['excitation']['family']}; fundamental "
-                  f"{_fmt(document['excitation']['fundamental_hz'])} Hz, "
-                  f"{_fmt(document['excitation']['periods'])} periods, ramps of {_fmt(document['excitation']['ramp_s'])} s, "
-                  f"{document['excitation']['phases']} phases; seed {document['seed']}.", "",
-                  "| band [Hz] | components | amplitude |", "|---|---:|---:|"]
+        lines += [
+            "## Excitation",
+            "",
+            f"{document['excitation']['family']}; fundamental "
+            f"{_fmt(document['excitation']['fundamental_hz'])} Hz, "
+            f"{_fmt(document['excitation']['periods'])} periods, ramps of {_fmt(document['excitation']['ramp_s'])} s, "
+            f"{document['excitation']['phases']} phases; seed {document['seed']}.",
+            "",
+            "| band [Hz] | components | amplitude |",
+            "|---|---:|---:|",
+        ]
         for band in document["excitation"]["bands"]:
-            amplitude = next((f"{_fmt(v)} {k.split('_', 1)[1].replace('_', ' ')}" for k, v in band.items()
-                              if k.startswith("amplitude")), "")
+            amplitude = next(
+                (
+                    f"{_fmt(v)} {k.split('_', 1)[1].replace('_', ' ')}"
+                    for k, v in band.items()
+                    if k.startswith("amplitude")
+                ),
+                "",
+            )
             lines.append(f"| {_fmt(band['low_hz'])}-{_fmt(band['high_hz'])} | {band['components']} | {amplitude} |")
     if document["notes"]:
         lines += ["", "## Notes", ""] + [f"- {note}" for note in document["notes"]]

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -20,11 +20,19 @@ from furuta_drake.diagnosis.design.family import Family
 from furuta_drake.diagnosis.design.hypotheses import Hypotheses, parse_target, read_hypotheses
 from furuta_drake.diagnosis.design.inputs import DiagnosisRecord, read_diagnosis
 from furuta_drake.diagnosis.design.optimise import (
-    SAFETY, Bounds, Candidate, Evaluator, Search, optimise,
+    SAFETY,
+    Bounds,
+    Candidate,
+    Evaluator,
+    Search,
+    optimise,
 )
 from furuta_drake.diagnosis.design.predict import RIVAL, TRUTH, predict_direction
 from furuta_drake.diagnosis.design.rollout import (
-    drake_run, nominal_lqr_gain, surrogate_closed_loop, surrogate_runs,
+    drake_run,
+    nominal_lqr_gain,
+    surrogate_closed_loop,
+    surrogate_runs,
 )
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, window_samples
@@ -104,9 +112,16 @@ class Design:
     options: dict = field(default_factory=dict)
 
 
-def design_experiment(diagnosis: str | Path, *, duration: float | None = None, balancing: bool = False,
-                      targets: list[str] = (), arm_bound: float = 1.0, settings: DesignSettings = DesignSettings(),
-                      progress: Callable[[str], None] | None = None) -> Design:
+def design_experiment(
+    diagnosis: str | Path,
+    *,
+    duration: float | None = None,
+    balancing: bool = False,
+    targets: list[str] = (),
+    arm_bound: float = 1.0,
+    settings: DesignSettings = DesignSettings(),
+    progress: Callable[[str], None] | None = None,
+) -> Design:
     """Design the experiment that separates a diagnosis' competing hypotheses.
 
     Parameters
@@ -123,8 +138,7 @@ def design_experiment(diagnosis: str | Path, *, duration: float | None = None, b
     settings : sizes and seeds (:class:`DesignSettings`); progress : called with a line per stage.
     """
     settings.validate()
-    if duration is not None and not (isinstance(duration, (int, float)) and math.isfinite(duration)
-                                     and duration > 0):
+    if duration is not None and not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         raise ConfigError(f"--duration must be a positive number of seconds, got {duration!r}")
     if not (isinstance(arm_bound, (int, float)) and math.isfinite(arm_bound) and arm_bound > 0):
         raise ConfigError(f"--arm-bound must be a positive angle [rad], got {arm_bound!r}")
@@ -134,63 +148,118 @@ def design_experiment(diagnosis: str | Path, *, duration: float | None = None, b
     horizon, smooth = window_samples(period, rig)
     shortest = 2 * (horizon + 2 * smooth + 1) * period
     if duration is not None and duration < shortest:
-        raise ConfigError(f"--duration {duration:g} s is too short: each half of the experiment must hold a gap "
-                          f"window of this rig ({shortest:.3g} s in all)")
+        raise ConfigError(
+            f"--duration {duration:g} s is too short: each half of the experiment must hold a gap "
+            f"window of this rig ({shortest:.3g} s in all)"
+        )
     hypotheses = read_hypotheses(record.report, rig, record.train, parsed)
     mode = "balancing" if balancing else "hanging"
     say = progress or (lambda line: None)
     say(f"{len(hypotheses.hypotheses)} hypotheses, {len(hypotheses.pairs)} pairs to separate")
     scales = scales_of(record.train, hypotheses.nominal)
     accepted = hypotheses.hypotheses[0].model
-    family = Family(float(duration or AUTO_DURATION), period, accepted.a,
-                    accepted.back_emf_damping + accepted.arm_friction.viscous)
+    family = Family(
+        float(duration or AUTO_DURATION), period, accepted.a, accepted.back_emf_damping + accepted.arm_friction.viscous
+    )
     bounds = Bounds(float(arm_bound), PENDULUM_BOUND[mode], rig.torque_limit)
     gain = nominal_lqr_gain(rig) if balancing else None
     base = family.base()
     if balancing:
-        evaluator = Evaluator(base, hypotheses, rig, scales, bounds,
-                              lambda model, dithers: surrogate_closed_loop(model, gain, dithers, period,
-                                                                           rig.torque_limit, rig.counts_per_rev),
-                              base.torque_dither, None, hanging=False)
+        evaluator = Evaluator(
+            base,
+            hypotheses,
+            rig,
+            scales,
+            bounds,
+            lambda model, dithers: surrogate_closed_loop(
+                model, gain, dithers, period, rig.torque_limit, rig.counts_per_rev
+            ),
+            base.torque_dither,
+            None,
+            hanging=False,
+        )
     else:
-        evaluator = Evaluator(base, hypotheses, rig, scales, bounds,
-                              lambda model, commands: (surrogate_runs(model, commands, period), commands),
-                              base.feedforward, base.arm_motion, hanging=True)
-    search = optimise(evaluator, hypotheses, settings.generations, settings.population, settings.refit_iterations,
-                      settings.seed, say)
+        evaluator = Evaluator(
+            base,
+            hypotheses,
+            rig,
+            scales,
+            bounds,
+            lambda model, commands: (surrogate_runs(model, commands, period), commands),
+            base.feedforward,
+            base.arm_motion,
+            hanging=True,
+        )
+    search = optimise(
+        evaluator, hypotheses, settings.generations, settings.population, settings.refit_iterations, settings.seed, say
+    )
     torque_per_volt = record.train[0].torque_per_volt if record.input_kind == "voltage" else 1.0
-    common = dict(mode=mode, period=period, input_kind=record.input_kind, torque_per_volt=torque_per_volt,
-                  bounds=bounds, hypotheses=hypotheses, record=record, settings=settings,
-                  notes=list(hypotheses.notes), search=_search_summary(search),
-                  options={"duration": duration, "mode": mode, "targets": list(targets), "arm_bound": arm_bound,
-                           "settings": dataclasses.asdict(settings)})
+    common = dict(
+        mode=mode,
+        period=period,
+        input_kind=record.input_kind,
+        torque_per_volt=torque_per_volt,
+        bounds=bounds,
+        hypotheses=hypotheses,
+        record=record,
+        settings=settings,
+        notes=list(hypotheses.notes),
+        search=_search_summary(search),
+        options={
+            "duration": duration,
+            "mode": mode,
+            "targets": list(targets),
+            "arm_bound": arm_bound,
+            "settings": dataclasses.asdict(settings),
+        },
+    )
     if not search.directions:
-        return Design("no_separation", "no experiment separates them: " + _inseparable_text(search, hypotheses),
-                      duration=family.duration, command=None, excitation={}, pairs=[], runs={}, **common)
+        return Design(
+            "no_separation",
+            "no experiment separates them: " + _inseparable_text(search, hypotheses),
+            duration=family.duration,
+            command=None,
+            excitation={},
+            pairs=[],
+            runs={},
+            **common,
+        )
     if search.best is None:
-        return Design("refused", f"no design of the family keeps the arm within {bounds.arm:g} rad, the pendulum "
-                      f"within {bounds.pendulum:g} rad of {'the upright' if balancing else 'hanging'} and the "
-                      f"command within {bounds.command:.4g} N m under every hypothesis",
-                      duration=family.duration, command=None, excitation={}, pairs=[], runs={}, **common)
+        return Design(
+            "refused",
+            f"no design of the family keeps the arm within {bounds.arm:g} rad, the pendulum "
+            f"within {bounds.pendulum:g} rad of {'the upright' if balancing else 'hanging'} and the "
+            f"command within {bounds.command:.4g} N m under every hypothesis",
+            duration=family.duration,
+            command=None,
+            excitation={},
+            pairs=[],
+            runs={},
+            **common,
+        )
     if search.inseparable:
-        common["notes"].append("left out, no experiment of the family separates them: "
-                               + _inseparable_text(search, hypotheses))
+        common["notes"].append(
+            "left out, no experiment of the family separates them: " + _inseparable_text(search, hypotheses)
+        )
     design = _final(search, family, balancing, gain, common, scales, say)
     if duration is None and design.status == "design":
         needed = [pair["suggested_duration_s"] for pair in design.pairs]
         longer = max((d for d in needed if d is not None), default=family.duration)
         if longer > family.duration:
             say(f"repeating the experiment to {longer:g} s")
-            design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales,
-                            say)
+            design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales, say)
     for pair in design.pairs:
         if pair["detection_probability"] < SETTLES:
             longer = pair["suggested_duration_s"]
             design.notes.append(
                 f"{' vs '.join(pair['hypotheses'])}: predicted detection probability "
-                f"{pair['detection_probability']:.0%}, below {SETTLES:.0%}; " + (
+                f"{pair['detection_probability']:.0%}, below {SETTLES:.0%}; "
+                + (
                     f"the same experiment repeated to {longer:g} s would reach it (--duration {longer:g})"
-                    if longer else f"not reached by repeating it up to {REPEATS[-1]} times"))
+                    if longer
+                    else f"not reached by repeating it up to {REPEATS[-1]} times"
+                )
+            )
     return design
 
 
@@ -199,26 +268,62 @@ def _final(search: Search, family: Family, balancing: bool, gain, common: dict, 
     down if a bound is left) and its outcome predicted; ``refused`` when it still leaves a bound."""
     hypotheses, bounds = common["hypotheses"], common["bounds"]
     played = (family.torque_dither if balancing else family.feedforward)(search.best.amplitudes)[0]
-    best, runs = _checked_in_drake(dataclasses.replace(search.best, command=played), family, hypotheses,
-                                   common["record"].rig, bounds, balancing, gain, common["settings"], say)
-    excitation = {"family": "band-limited multisine " + ("torque dither added to the LQR" if balancing else
-                                                          "arm motion played as feedforward torque"),
-                  **family.describe(best.amplitudes, "N_m" if balancing else "rad")}
+    best, runs = _checked_in_drake(
+        dataclasses.replace(search.best, command=played),
+        family,
+        hypotheses,
+        common["record"].rig,
+        bounds,
+        balancing,
+        gain,
+        common["settings"],
+        say,
+    )
+    excitation = {
+        "family": "band-limited multisine "
+        + ("torque dither added to the LQR" if balancing else "arm motion played as feedforward torque"),
+        **family.describe(best.amplitudes, "N_m" if balancing else "rad"),
+    }
     if balancing:
         excitation["lqr_gain"] = [float(v) for v in np.ravel(gain)]
     common = {**common, "notes": list(common["notes"])}
     if runs is None:
-        return Design("refused", "the best design leaves a bound under some hypothesis in Drake even scaled down: "
-                      + _violations(best.peaks, bounds, hypotheses), duration=family.duration, command=None,
-                      excitation=excitation, pairs=[], runs={}, **common)
+        return Design(
+            "refused",
+            "the best design leaves a bound under some hypothesis in Drake even scaled down: "
+            + _violations(best.peaks, bounds, hypotheses),
+            duration=family.duration,
+            command=None,
+            excitation=excitation,
+            pairs=[],
+            runs={},
+            **common,
+        )
     say("predicting the diagnosis' outcome")
     pairs = _predicted_pairs(search, runs, hypotheses, common["record"], scales, common["settings"], family.duration)
-    return Design("design", "", duration=family.duration, command=best.command, excitation=excitation, pairs=pairs,
-                  runs={hypotheses.hypotheses[h].name: run for h, run in runs.items()}, **common)
+    return Design(
+        "design",
+        "",
+        duration=family.duration,
+        command=best.command,
+        excitation=excitation,
+        pairs=pairs,
+        runs={hypotheses.hypotheses[h].name: run for h, run in runs.items()},
+        **common,
+    )
 
 
-def _checked_in_drake(best: Candidate, family: Family, hypotheses: Hypotheses, rig, bounds: Bounds, balancing: bool,
-                      gain, settings: DesignSettings, say) -> tuple[Candidate, dict[int, Run] | None]:
+def _checked_in_drake(
+    best: Candidate,
+    family: Family,
+    hypotheses: Hypotheses,
+    rig,
+    bounds: Bounds,
+    balancing: bool,
+    gain,
+    settings: DesignSettings,
+    say,
+) -> tuple[Candidate, dict[int, Run] | None]:
     """The best design played in Drake on every hypothesis it was checked on; scaled down (by the worst ratio,
     with the search's safety margin) while a bound is left, at most ``DRAKE_RESCALES`` times. None for the
     runs when it still leaves one."""
@@ -227,20 +332,34 @@ def _checked_in_drake(best: Candidate, family: Family, hypotheses: Hypotheses, r
         for h in best.runs:
             say(f"checking the design in Drake on {hypotheses.hypotheses[h].name}")
             try:
-                result = drake_run(rig, hypotheses.hypotheses[h].model, best.command, family.duration, balancing,
-                                   settings.seed, gain)
+                result = drake_run(
+                    rig, hypotheses.hypotheses[h].model, best.command, family.duration, balancing, settings.seed, gain
+                )
             except SimulationDiverged:
-                runs[h] = Run(np.zeros(0), np.zeros((0, 2)), np.zeros(0), {"arm": np.inf, "pendulum": np.inf,
-                                                                           "command": np.inf})
+                runs[h] = Run(
+                    np.zeros(0), np.zeros((0, 2)), np.zeros(0), {"arm": np.inf, "pendulum": np.inf, "command": np.inf}
+                )
                 continue
             angles = result.state[:, :2]
             rest = 0.0 if balancing else np.pi
-            runs[h] = Run(result.time, angles, result.torque, {
-                "arm": float(np.max(np.abs(angles[:, 1]))), "pendulum": float(np.max(np.abs(angles[:, 0] - rest))),
-                "command": float(np.max(np.abs(result.torque)))})
-        ratio = min(min(bounds.arm / max(run.peaks["arm"], 1e-300),
-                        bounds.pendulum / max(run.peaks["pendulum"], 1e-300),
-                        bounds.command * (1 + 1e-9) / max(run.peaks["command"], 1e-300)) for run in runs.values())
+            runs[h] = Run(
+                result.time,
+                angles,
+                result.torque,
+                {
+                    "arm": float(np.max(np.abs(angles[:, 1]))),
+                    "pendulum": float(np.max(np.abs(angles[:, 0] - rest))),
+                    "command": float(np.max(np.abs(result.torque))),
+                },
+            )
+        ratio = min(
+            min(
+                bounds.arm / max(run.peaks["arm"], 1e-300),
+                bounds.pendulum / max(run.peaks["pendulum"], 1e-300),
+                bounds.command * (1 + 1e-9) / max(run.peaks["command"], 1e-300),
+            )
+            for run in runs.values()
+        )
         best = dataclasses.replace(best, peaks={h: run.peaks for h, run in runs.items()})
         if ratio >= 1.0:
             return best, runs
@@ -249,8 +368,15 @@ def _checked_in_drake(best: Candidate, family: Family, hypotheses: Hypotheses, r
     return best, None
 
 
-def _predicted_pairs(search: Search, runs: dict[int, Run], hypotheses: Hypotheses, record: DiagnosisRecord,
-                     scales, settings: DesignSettings, duration: float) -> list[dict]:
+def _predicted_pairs(
+    search: Search,
+    runs: dict[int, Run],
+    hypotheses: Hypotheses,
+    record: DiagnosisRecord,
+    scales,
+    settings: DesignSettings,
+    duration: float,
+) -> list[dict]:
     """Per pair: its hypotheses, why, and per informative direction the exact noncentrality and the predicted
     outcome of the rule (:mod:`furuta_drake.diagnosis.design.predict`) on the Drake runs, with the duration
     (a multiple of ``duration`` in ``REPEATS``) at which the outcome would be detected in ``SETTLES`` of the draws
@@ -275,30 +401,57 @@ def _predicted_pairs(search: Search, runs: dict[int, Run], hypotheses: Hypothese
         for direction in directions:
             truth, rival = hypotheses.hypotheses[direction.truth], hypotheses.hypotheses[direction.rival]
             run = runs[direction.truth]
-            train, heldout = experiment_windows(run.angles[:, :, None], run.command[None], record.rig.sample_period,
-                                                rig)
-            fits = {key: refit_residuals(Parametrised(hypotheses.nominal, effects, scales), train, heldout, counts,
-                                         settings.refit_iterations)
-                    for key, effects in ((TRUTH, truth.effects), (RIVAL, rival.effects),
-                                         ("previous", pair.previous))}
+            train, heldout = experiment_windows(
+                run.angles[:, :, None], run.command[None], record.rig.sample_period, rig
+            )
+            fits = {
+                key: refit_residuals(
+                    Parametrised(hypotheses.nominal, effects, scales), train, heldout, counts, settings.refit_iterations
+                )
+                for key, effects in ((TRUTH, truth.effects), (RIVAL, rival.effects), ("previous", pair.previous))
+            }
             new = dict(zip((TRUTH, RIVAL), pair.new if direction.truth == pair.first else pair.new[::-1]))
-            arguments = (fits[TRUTH], fits[RIVAL], fits["previous"],
-                         {TRUTH: old_excess(truth.effects), RIVAL: old_excess(rival.effects),
-                          "previous": old_excess(pair.previous)},
-                         new, pair.nested, pair.step == 1, truth.model, counts, settings.draws, settings.bootstrap,
-                         settings.seed)
+            arguments = (
+                fits[TRUTH],
+                fits[RIVAL],
+                fits["previous"],
+                {
+                    TRUTH: old_excess(truth.effects),
+                    RIVAL: old_excess(rival.effects),
+                    "previous": old_excess(pair.previous),
+                },
+                new,
+                pair.nested,
+                pair.step == 1,
+                truth.model,
+                counts,
+                settings.draws,
+                settings.bootstrap,
+                settings.seed,
+            )
             outcome = predict_direction(*arguments)
             repeats = 1
             if outcome["detection_probability"] < SETTLES:
-                repeats = next((r for r in REPEATS
-                                if predict_direction(*arguments, replicas=r)["detection_probability"] >= SETTLES),
-                               None)
+                repeats = next(
+                    (
+                        r
+                        for r in REPEATS
+                        if predict_direction(*arguments, replicas=r)["detection_probability"] >= SETTLES
+                    ),
+                    None,
+                )
             outcome["suggested_duration_s"] = None if repeats is None else duration * repeats
             squared = fits[RIVAL].residuals[1:] ** 2
-            entry["directions"].append({"truth": truth.name, "rival": rival.name,
-                                        "noncentrality": float(np.sum(squared) / fits[TRUTH].variance),
-                                        "rms_difference_counts": float(np.sqrt(np.mean(squared))),
-                                        "separable": direction in search.directions, **outcome})
+            entry["directions"].append(
+                {
+                    "truth": truth.name,
+                    "rival": rival.name,
+                    "noncentrality": float(np.sum(squared) / fits[TRUTH].variance),
+                    "rms_difference_counts": float(np.sqrt(np.mean(squared))),
+                    "separable": direction in search.directions,
+                    **outcome,
+                }
+            )
         entry["detection_probability"] = min(d["detection_probability"] for d in entry["directions"])
         needed = [d["suggested_duration_s"] for d in entry["directions"]]
         entry["suggested_duration_s"] = None if None in needed else max(needed)
@@ -308,19 +461,26 @@ def _predicted_pairs(search: Search, runs: dict[int, Run], hypotheses: Hypothese
 
 def _search_summary(search: Search) -> dict:
     feasible = [c for c in search.candidates if c.feasible]
-    return {"designs_evaluated": len(search.candidates), "within_bounds": len(feasible),
-            "criterion": "the smallest noncentrality over every pair's informative directions (surrogate: one "
-                         "linearised refit of the rival on the train half ranks a generation, iterated refits score "
-                         "its best designs)",
-            "best_weakest_noncentrality": None if search.best is None else search.best.score(search.directions,
-                                                                                            refined=True)}
+    return {
+        "designs_evaluated": len(search.candidates),
+        "within_bounds": len(feasible),
+        "criterion": "the smallest noncentrality over every pair's informative directions (surrogate: one "
+        "linearised refit of the rival on the train half ranks a generation, iterated refits score "
+        "its best designs)",
+        "best_weakest_noncentrality": None
+        if search.best is None
+        else search.best.score(search.directions, refined=True),
+    }
 
 
 def _inseparable_text(search: Search, hypotheses: Hypotheses) -> str:
     names = {(d.truth, d.rival) for d in search.inseparable}
-    return "; ".join(f"{hypotheses.hypotheses[t].name} (as the truth) and {hypotheses.hypotheses[r].name}: their "
-                     f"held-out windows differ by less than the noise of one sample over the whole experiment, once "
-                     f"the rival's parameters and initial states are refit" for t, r in sorted(names))
+    return "; ".join(
+        f"{hypotheses.hypotheses[t].name} (as the truth) and {hypotheses.hypotheses[r].name}: their "
+        f"held-out windows differ by less than the noise of one sample over the whole experiment, once "
+        f"the rival's parameters and initial states are refit"
+        for t, r in sorted(names)
+    )
 
 
 def _violations(peaks: dict[int, dict[str, float]], bounds: Bounds, hypotheses: Hypotheses) -> str:
@@ -330,4 +490,3 @@ def _violations(peaks: dict[int, dict[str, float]], bounds: Bounds, hypotheses: 
             if not peak[key] <= limit * (1 + 1e-9):
                 parts.append(f"{hypotheses.hypotheses[h].name}: {key} {peak[key]:.3g} > {limit:.3g}")
     return "; ".join(parts)
-

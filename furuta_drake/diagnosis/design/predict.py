@@ -42,13 +42,27 @@ def _excess(refit: Refit, noise: np.ndarray) -> np.ndarray:
 
 
 def _summary(values: np.ndarray) -> dict:
-    return {"median": float(np.median(values)), "interval90": [float(np.quantile(values, 0.05)),
-                                                               float(np.quantile(values, 0.95))]}
+    return {
+        "median": float(np.median(values)),
+        "interval90": [float(np.quantile(values, 0.05)), float(np.quantile(values, 0.95))],
+    }
 
 
-def predict_direction(truth: Refit, rival: Refit, previous: Refit, old: dict[str, np.ndarray], new: dict[str, str],
-                      nested: bool, first_effect: bool, truth_model: Model, counts: int, draws: int,
-                      resamples: int, seed: int, replicas: int = 1) -> dict:
+def predict_direction(
+    truth: Refit,
+    rival: Refit,
+    previous: Refit,
+    old: dict[str, np.ndarray],
+    new: dict[str, str],
+    nested: bool,
+    first_effect: bool,
+    truth_model: Model,
+    counts: int,
+    draws: int,
+    resamples: int,
+    seed: int,
+    replicas: int = 1,
+) -> dict:
     """The predicted outcome of one direction (module docstring).
 
     ``old``: per-window excess [counts^2] of ``truth``, ``rival`` and ``"previous"`` on the diagnosis' held-out
@@ -63,8 +77,9 @@ def predict_direction(truth: Refit, rival: Refit, previous: Refit, old: dict[str
     models = {TRUTH: truth, RIVAL: rival, "previous": previous}
     detected, experiment, combined, gaps = [], [], [], {TRUTH: [], RIVAL: []}
     for draw in range(draws):
-        noises = [rng.uniform(-0.5 * step, 0.5 * step, shape) + white * rng.standard_normal(shape)
-                  for _ in range(replicas)]
+        noises = [
+            rng.uniform(-0.5 * step, 0.5 * step, shape) + white * rng.standard_normal(shape) for _ in range(replicas)
+        ]
         fresh = {key: np.concatenate([_excess(refit, noise) for noise in noises]) for key, refit in models.items()}
         for key in gaps:
             gaps[key].append(float(gap_of(fresh[key].mean())))
@@ -72,16 +87,21 @@ def predict_direction(truth: Refit, rival: Refit, previous: Refit, old: dict[str
         both = Bootstrap(pooled[TRUTH].size, resamples, seed + 1 + draw)
         alone = Bootstrap(fresh[TRUTH].size, resamples, seed + 1 + draw)
         combined.append(gap_of(pooled[RIVAL][both.index].mean(axis=1)) - gap_of(pooled[TRUTH][both.index].mean(axis=1)))
-        experiment.append(gap_of(fresh[RIVAL][alone.index].mean(axis=1)) - gap_of(fresh[TRUTH][alone.index].mean(axis=1)))
+        experiment.append(
+            gap_of(fresh[RIVAL][alone.index].mean(axis=1)) - gap_of(fresh[TRUTH][alone.index].mean(axis=1))
+        )
         detected.append(_detected(both, pooled, new, nested, first_effect))
-    return {"heldout_gap": {key: float(np.median(value)) for key, value in gaps.items()},
-            "gap_difference": _summary(np.concatenate(experiment)),
-            "gap_difference_all_heldout": _summary(np.concatenate(combined)),
-            "detection_probability": float(np.mean(detected))}
+    return {
+        "heldout_gap": {key: float(np.median(value)) for key, value in gaps.items()},
+        "gap_difference": _summary(np.concatenate(experiment)),
+        "gap_difference_all_heldout": _summary(np.concatenate(combined)),
+        "detection_probability": float(np.mean(detected)),
+    }
 
 
-def _detected(bootstrap: Bootstrap, excess: dict[str, np.ndarray], new: dict[str, str], nested: bool,
-              first_effect: bool) -> bool:
+def _detected(
+    bootstrap: Bootstrap, excess: dict[str, np.ndarray], new: dict[str, str], nested: bool, first_effect: bool
+) -> bool:
     """Whether the rule, on these per-window excesses, tells the truth from the rival (module docstring)."""
     if at_floor(excess["previous"]):
         return False
@@ -91,8 +111,7 @@ def _detected(bootstrap: Bootstrap, excess: dict[str, np.ndarray], new: dict[str
     # The rule's keys are the effects each model adds (its parsimony counts their parameters); the chosen one
     # enters on a lenient bound and is kept when it reduces the model without it by the margin.
     evidence = {new[TRUTH]: truth, new[RIVAL]: bootstrap.evidence(excess["previous"], excess[RIVAL])}
-    if choose(evidence, {name: name for name in evidence}, margin=ENTRY) != new[TRUTH] \
-            or truth.lower_bound <= MARGIN:
+    if choose(evidence, {name: name for name in evidence}, margin=ENTRY) != new[TRUTH] or truth.lower_bound <= MARGIN:
         return False
     if law_of(new[TRUTH]) == law_of(new[RIVAL]):  # variants of one law are never confusable: the choice stands
         return True

@@ -34,24 +34,46 @@ def surrogate_runs(model: Model, commands: np.ndarray, period: float) -> np.ndar
     return predict_windows(model, x0, padded.ravel(), starts, samples, period, substeps_for(period))
 
 
-def drake_config(rig: RigParameters, model: Model, command: np.ndarray, duration: float, balancing: bool,
-                 seed: int, lqr_gain: np.ndarray | None = None) -> SimulationConfig:
+def drake_config(
+    rig: RigParameters,
+    model: Model,
+    command: np.ndarray,
+    duration: float,
+    balancing: bool,
+    seed: int,
+    lqr_gain: np.ndarray | None = None,
+) -> SimulationConfig:
     """The simulate config that plays ``command`` [N m] on ``model`` (a hypothesis of ``rig``): open loop from
     rest hanging, or with ``balancing`` added to the LQR of gain ``lqr_gain`` (the rig file's) from rest
     upright."""
     from furuta_drake.diagnosis.corrected import model_config
 
     config = model_config(rig, model)
-    controller = dataclasses.replace(config.controller, mode="lqr" if balancing else "open_loop",
-                                     gain=None if lqr_gain is None else [float(v) for v in np.ravel(lqr_gain)])
+    controller = dataclasses.replace(
+        config.controller,
+        mode="lqr" if balancing else "open_loop",
+        gain=None if lqr_gain is None else [float(v) for v in np.ravel(lqr_gain)],
+    )
     return dataclasses.replace(
-        config, controller=controller, excitation=ExcitationConfig(command=[float(v) for v in command]),
-        initial_state=list(UPRIGHT if balancing else HANGING), duration=duration, seed=seed,
-        monitor=MonitorConfig(theta_bound=None))
+        config,
+        controller=controller,
+        excitation=ExcitationConfig(command=[float(v) for v in command]),
+        initial_state=list(UPRIGHT if balancing else HANGING),
+        duration=duration,
+        seed=seed,
+        monitor=MonitorConfig(theta_bound=None),
+    )
 
 
-def drake_run(rig: RigParameters, model: Model, command: np.ndarray, duration: float, balancing: bool, seed: int,
-              lqr_gain: np.ndarray | None = None):
+def drake_run(
+    rig: RigParameters,
+    model: Model,
+    command: np.ndarray,
+    duration: float,
+    balancing: bool,
+    seed: int,
+    lqr_gain: np.ndarray | None = None,
+):
     """:func:`drake_config` simulated: the :class:`~furuta_drake.simulate.SimulationResult`."""
     from furuta_drake.simulate import simulate
 
@@ -65,8 +87,9 @@ def nominal_lqr_gain(rig: RigParameters) -> np.ndarray:
     return build_furuta_diagram(SimulationConfig.from_rig(rig.replace(effects=None))).lqr_gain
 
 
-def surrogate_closed_loop(model: Model, gain: np.ndarray, dithers: np.ndarray, period: float, limit: float,
-                          counts: int) -> tuple[np.ndarray, np.ndarray]:
+def surrogate_closed_loop(
+    model: Model, gain: np.ndarray, dithers: np.ndarray, period: float, limit: float, counts: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(angles (N, 2, D) [rad], logged commands (D, N) [N m]) of ``model`` balanced from rest upright by the LQR
     u_k = sat(-K [theta_k, phi_k, theta_dot_k, phi_dot_k] + dither_k) (encoder angles of ``counts`` per
     revolution, true velocities, as the project's LQR reads them; ``limit`` [N m]), one dither per row of
@@ -77,7 +100,11 @@ def surrogate_closed_loop(model: Model, gain: np.ndarray, dithers: np.ndarray, p
     :func:`~furuta_drake.diagnosis.surrogate.predict_windows`.
     """
     from furuta_drake.diagnosis.surrogate import (
-        _accelerations, _acts, _delayed_command, applied_torque, bristle_step,
+        _accelerations,
+        _acts,
+        _delayed_command,
+        applied_torque,
+        bristle_step,
     )
     from furuta_drake.friction import bristle_friction_torque
 
