@@ -186,6 +186,34 @@ def bristle_path(path: np.ndarray, p: JointFrictionParameters, period: float) ->
     return z
 
 
+def rk4_substep(
+    model: Model, x: np.ndarray, z: np.ndarray, tau: np.ndarray, dt: float, arm: bool, pendulum: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """One RK4 substep of length ``dt`` [s] of every column of ``x`` (4, W) under the applied torque ``tau``
+    (W,) [N m] held over it; ``z`` (W,) is the arm's bristle state (Dahl or LuGre arm only, else unused).
+    ``arm``, ``pendulum``: whether each joint's friction acts (:func:`_acts`). At every stage the bristle is its
+    exact step from the substep's start over the stage's arm displacement (:func:`bristle_step`), so the stiff
+    bristle needs no step of its own. Returns the state and bristle at the substep's end."""
+    p = model.arm_friction
+    bristles = p.has_bristles
+
+    def stage(state):
+        torque = tau
+        if bristles:
+            torque = tau + bristle_friction_torque(bristle_step(z, state[1] - x[1], state[3], p), state[3], p)
+        return _accelerations(model, state, torque, arm, pendulum)
+
+    k1 = stage(x)
+    k2 = stage(x + 0.5 * dt * k1)
+    k3 = stage(x + 0.5 * dt * k2)
+    k4 = stage(x + dt * k3)
+    x_next = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+    if bristles:
+        moved = x_next[1] - x[1]
+        z = bristle_step(z, moved, moved / dt, p)
+    return x_next, z
+
+
 def predict_windows(
     model: Model,
     x0: np.ndarray,
@@ -201,7 +229,7 @@ def predict_windows(
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
     (a Dahl or LuGre arm only: at every RK4 stage the bristle is its exact step from the substep's start over the
-    stage's arm displacement, :func:`bristle_step`, so the stiff bristle needs no step of its own).
+    stage's arm displacement, :func:`rk4_substep`).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The fixed-step
     RK4 is written here because scipy's ODE solvers integrate one system at a time: here one step advances
     every window at once, as numpy arrays over windows.
@@ -220,29 +248,11 @@ def predict_windows(
             held[i] = held[i] + (start - held[i]) * mean
     torque = applied_torque(model, held)
     arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
-    bristles = model.arm_friction.has_bristles
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     out = np.empty((horizon, 2, x.shape[1]))
     out[0] = x[:2]
-    half = 0.5 * dt
-    p = model.arm_friction
-
-    def stage(state, z0, phi0, tau):
-        if bristles:  # the bristle at this stage: its exact step from the substep's start over the displacement
-            tau = tau + bristle_friction_torque(bristle_step(z0, state[1] - phi0, state[3], p), state[3], p)
-        return _accelerations(model, state, tau, arm, pendulum)
-
     for i in range(steps):
-        tau = torque[i]
-        k1 = stage(x, z, x[1], tau)
-        k2 = stage(x + half * k1, z, x[1], tau)
-        k3 = stage(x + half * k2, z, x[1], tau)
-        k4 = stage(x + dt * k3, z, x[1], tau)
-        x_next = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if bristles:
-            moved = x_next[1] - x[1]
-            z = bristle_step(z, moved, moved / dt, p)
-        x = x_next
+        x, z = rk4_substep(model, x, z, torque[i], dt, arm, pendulum)
         if (i + 1) % substeps == 0:
             out[(i + 1) // substeps] = x[:2]
     return out

@@ -99,14 +99,7 @@ def surrogate_closed_loop(
     map, Dahl or LuGre bristle) are stepped one sample at a time, with the same RK4 substeps as
     :func:`~furuta_drake.diagnosis.surrogate.predict_windows`.
     """
-    from furuta_drake.diagnosis.surrogate import (
-        _accelerations,
-        _acts,
-        _delayed_command,
-        applied_torque,
-        bristle_step,
-    )
-    from furuta_drake.friction import bristle_friction_torque
+    from furuta_drake.diagnosis.surrogate import _acts, _delayed_command, applied_torque, rk4_substep
 
     dithers = np.atleast_2d(dithers)
     designs, samples = dithers.shape
@@ -118,14 +111,8 @@ def surrogate_closed_loop(
     x = np.tile(np.asarray(UPRIGHT, dtype=float)[:, None], (1, designs))
     lag_state, z = np.zeros(designs), np.zeros(designs)
     arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
-    bristles, p = model.arm_friction.has_bristles, model.arm_friction
     resolution = 2 * np.pi / counts
     K = np.ravel(gain)
-
-    def stage(state, z0, phi0, tau):
-        if bristles:  # as predict_windows: the bristle's exact step from the substep's start
-            tau = tau + bristle_friction_torque(bristle_step(z0, state[1] - phi0, state[3], p), state[3], p)
-        return _accelerations(model, state, tau, arm, pendulum)
 
     angles, logged = np.empty((samples, 2, designs)), np.empty((designs, samples))
     for k in range(samples):
@@ -140,14 +127,5 @@ def surrogate_closed_loop(
                 decay = np.exp(-dt / model.lag)
                 start, lag_state = lag_state, held + (lag_state - held) * decay
                 held = held + (start - held) * model.lag / dt * (1.0 - decay)
-            tau = applied_torque(model, held)
-            k1 = stage(x, z, x[1], tau)
-            k2 = stage(x + 0.5 * dt * k1, z, x[1], tau)
-            k3 = stage(x + 0.5 * dt * k2, z, x[1], tau)
-            k4 = stage(x + dt * k3, z, x[1], tau)
-            x_next = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-            if bristles:
-                moved = x_next[1] - x[1]
-                z = bristle_step(z, moved, moved / dt, p)
-            x = x_next
+            x, z = rk4_substep(model, x, z, applied_torque(model, held), dt, arm, pendulum)
     return angles, logged
