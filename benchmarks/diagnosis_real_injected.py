@@ -21,8 +21,13 @@ report's ``effects`` (beside whatever the baseline needs); cogging, outside the 
 is ``unexplained`` or no effect beyond the baseline's is named for it. Sizes scale with the rig (fractions of
 m g l and of the sample period), as the validation suite's do, and ``--scale`` multiplies them all.
 
+Each row also sets the injected size against the detection limit the baseline's report states for that effect
+(``size_over_limit``): an effect injected below the limit these very logs can show is expected to be missed, and
+the summary counts the cases at or above it apart.
+
 Run from the repository root: ``python benchmarks/diagnosis_real_injected.py --out /tmp/injected``. Writes
-``OUT/results.json`` (one row per case) and ``OUT/config.json``; prints the table.
+``OUT/results.json`` (one row per case) and ``OUT/config.json``; prints the table. ``--rescore`` scores the
+reports already in ``OUT/reports`` again without diagnosing.
 """
 
 from __future__ import annotations
@@ -60,6 +65,18 @@ class Injection:
     size: str
     data: Callable[[dict, RigParameters], dict] | None = None  # log columns -> log columns
     rig: Callable[[RigParameters], RigParameters] | None = None
+    value: float | None = None  # the size in the unit of the effect's detection limit (its main parameter)
+
+
+def size_over_limit(name: str, value: float | None, limit: float | None) -> float | None:
+    """How many times its detection limit an injected size is (a gain's distance from 1; an encoder's coarseness)."""
+    if value is None or limit is None:
+        return None
+    if name == "torque_gain_error":
+        return abs(value - 1.0) / abs(limit - 1.0)
+    if name == "encoder_quantization":
+        return limit / value
+    return value / limit
 
 
 def _read(path: Path) -> dict[str, np.ndarray]:
@@ -159,39 +176,51 @@ def injections(rig: RigParameters, scale: float) -> list[Injection]:
             "arm_viscous_friction",
             f"b = {0.8 * s * arm:.3g} N m s/rad",
             torque_effect(lambda phi, rate: -0.8 * s * arm * rate),
+            value=0.8 * s * arm,
         ),
         Injection(
             "arm_coulomb_friction",
             f"Fc = {0.1 * s * mgl:.3g} N m",
             torque_effect(lambda phi, rate: -0.1 * s * mgl * np.tanh(rate / 0.05)),
+            value=0.1 * s * mgl,
         ),
         Injection(
             "arm_spring",
             f"k = {0.25 * s * mgl:.3g} N m/rad, phi0 = 0.1 rad",
             torque_effect(lambda phi, rate: -0.25 * s * mgl * (phi - 0.1)),
+            value=0.25 * s * mgl,
         ),
         Injection(
             "input_delay",
             f"{max(1, round(2 * s))} samples = {max(1, round(2 * s)) * period:.3g} s",
             delay(max(1, round(2 * s))),
+            value=max(1, round(2 * s)) * period,
         ),
-        Injection("actuator_lag", f"tau = {3 * s * period:.3g} s", lag(3 * s * period)),
+        Injection("actuator_lag", f"tau = {3 * s * period:.3g} s", lag(3 * s * period), value=3 * s * period),
         Injection(
             "torque_gain_error",
             f"gain = {1 - 0.2 * s:.3g}",
             lambda c, r: {**c, "voltage": c["voltage"] / (1 - 0.2 * s)},
+            value=1 - 0.2 * s,
         ),
         Injection(
             "actuator_deadzone",
             f"w = {0.3 * s:.3g} V = {0.3 * s / volts:.3g} N m (subtract)",
             lambda c, r: {**c, "voltage": c["voltage"] + 0.3 * s * np.sign(c["voltage"])},
+            value=0.3 * s / volts,
         ),
         Injection(
             "encoder_quantization",
             f"{rig.counts_per_rev // max(2, round(4 * s))} counts/rev",
             requantise(max(2, round(4 * s))),
+            value=rig.counts_per_rev // max(2, round(4 * s)),
         ),
-        Injection("measurement_noise", f"{1.5 * s:.3g} counts", noise(1.5 * s)),
+        Injection(
+            "measurement_noise",
+            f"{1.5 * s:.3g} counts",
+            noise(1.5 * s),
+            value=1.5 * s * 2 * np.pi / rig.counts_per_rev,
+        ),
         Injection(
             "inertia_mismatch",
             "rig file: pendulum mass x 1.25, arm inertia x 0.8",
@@ -222,12 +251,38 @@ def write_case(injection: Injection, rig: RigParameters, folder: Path) -> tuple[
     return rig_path, [paths[n] for n in TRAIN], [paths[n] for n in HELDOUT]
 
 
+def score(injection: Injection, report: dict, baseline: dict, seconds: float | None) -> dict:
+    """One row of the table from a case's ``report.json``, judged against the baseline's report: named, and the
+    injected size against the detection limit the baseline states for that effect."""
+    effects, before = report["effects"], baseline["effects"]
+    if injection.name == "cogging_torque":  # right when no vocabulary effect is invented for it
+        named = report["verdict"] == "unexplained" or set(effects) <= set(before)
+    else:
+        named = injection.name == "baseline" or injection.name in effects
+    limit = next((d for d in baseline["detection_limits"] if d["effect"] == injection.name), None)
+    return {
+        "case": injection.name,
+        "size": injection.size,
+        "verdict": report["verdict"],
+        "effects": effects,
+        "new_beside_baseline": sorted(set(effects) - set(before)),
+        "named": named,
+        "heldout_reduction": report["gap"]["heldout_reduction"],
+        "fitted": next((s["params"] for s in report["steps"] if s["effect"] == injection.name), None),
+        "confusable": report.get("confusable", []),
+        "detection_limit": limit,
+        "size_over_limit": size_over_limit(injection.name, injection.value, limit and limit["value"]),
+        "seconds": seconds,
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--scale", type=float, default=1.0, help="multiplies every injected size")
     parser.add_argument("--only", nargs="+", help="the cases to run (their effect names)")
     parser.add_argument("--workers", type=int)
+    parser.add_argument("--rescore", action="store_true", help="score the reports already in OUT/reports again")
     args = parser.parse_args(argv)
     rig = load_rig(QUBE_REAL_RIG)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -235,40 +290,46 @@ def main(argv: list[str] | None = None) -> int:
     for injection in injections(rig, args.scale):
         if args.only and injection.name not in args.only and injection.name != "baseline":
             continue
-        rig_path, train, heldout = write_case(injection, rig, args.out / "cases" / injection.name)
-        start = time.perf_counter()
-        diagnosis = diagnose(rig=rig_path, train=train, heldout=heldout, workers=args.workers)
-        write_report(args.out / "reports" / injection.name, diagnosis, force=True)
-        if injection.name == "baseline":
-            baseline = diagnosis.effects
-        if injection.name == "cogging_torque":  # right when no vocabulary effect is invented for it
-            named = diagnosis.verdict == "unexplained" or set(diagnosis.effects) <= set(baseline or [])
-        else:
-            named = injection.name == "baseline" or injection.name in diagnosis.effects
-        steps = {step.effect: step.params for step in diagnosis.steps}
-        row = {
-            "case": injection.name,
-            "size": injection.size,
-            "verdict": diagnosis.verdict,
-            "effects": diagnosis.effects,
-            "new_beside_baseline": sorted(set(diagnosis.effects) - set(baseline or [])),
-            "named": named,
-            "heldout_reduction": diagnosis.gap.heldout_reduction,
-            "fitted": steps.get(injection.name),
-            "confusable": diagnosis.confusable,
-            "seconds": time.perf_counter() - start,
-        }
+        folder, seconds = args.out / "reports" / injection.name, None
+        if not args.rescore:
+            rig_path, train, heldout = write_case(injection, rig, args.out / "cases" / injection.name)
+            start = time.perf_counter()
+            diagnosis = diagnose(rig=rig_path, train=train, heldout=heldout, workers=args.workers)
+            write_report(folder, diagnosis, force=True)
+            seconds = time.perf_counter() - start
+        elif not (folder / "report.json").is_file():
+            continue
+        report = json.loads((folder / "report.json").read_text())
+        baseline = baseline or report
+        row = score(injection, report, baseline, seconds)
         rows.append(row)
+        ratio = "" if row["size_over_limit"] is None else f"{row['size_over_limit']:.2g}x limit"
         print(
-            f"{injection.name:<22} {injection.size:<44} -> {diagnosis.verdict:<22} {','.join(diagnosis.effects):<60} "
-            f"{'named' if named else 'MISSED'} ({row['heldout_reduction']:.0%}, {row['seconds']:.0f} s)",
+            f"{injection.name:<22} {injection.size:<44} {ratio:<10} -> {row['verdict']:<22} "
+            f"{','.join(row['effects']):<60} {'named' if row['named'] else 'MISSED'} ({row['heldout_reduction']:.0%}"
+            f"{'' if seconds is None else f', {seconds:.0f} s'})",
             flush=True,
         )
     scored = [row for row in rows if row["case"] != "baseline"]
     named = sum(row["named"] for row in scored)
-    print(f"\nbaseline effects: {baseline}; injected effects named: {named}/{len(scored)}")
+    above = [row for row in scored if row["size_over_limit"] is None or row["size_over_limit"] >= 1.0]
+    print(
+        f"\nbaseline effects: {baseline['effects']}; injected effects named: {named}/{len(scored)}; "
+        f"at or above the baseline's detection limit (or without one): {sum(r['named'] for r in above)}/{len(above)}"
+    )
     (args.out / "results.json").write_text(
-        json.dumps({"baseline": baseline, "named": named, "cases": len(scored), "rows": rows}, indent=2, default=str)
+        json.dumps(
+            {
+                "baseline": baseline["effects"],
+                "named": named,
+                "cases": len(scored),
+                "named_at_or_above_limit": sum(r["named"] for r in above),
+                "cases_at_or_above_limit": len(above),
+                "rows": rows,
+            },
+            indent=2,
+            default=str,
+        )
         + "\n"
     )
     (args.out / "config.json").write_text(
