@@ -27,6 +27,7 @@ from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
 
 JOINT_REFITS = 3  # at a later step, the candidates fitted again together with the earlier effects
+PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together
 STATIC_EXCESS = 0.1  # a Stribeck fit whose static level is within 10 % of its Coulomb level has no Stribeck part
 
 
@@ -126,7 +127,9 @@ def select_effects(
             **options,
         )
 
-    for step in range(1, settings.max_effects + 1):
+    step = 0
+    while len(selection.kept) < settings.max_effects:
+        step = len(selection.kept) + 1
         held = selection.final
         previous = held.heldout.per_window if held else nominal_gap.per_window
         if step > 1 and at_floor(previous):
@@ -157,6 +160,11 @@ def select_effects(
         added = {name: name.split("+")[-1] for name in fitted}
         per_window = {name: result.heldout.per_window for name, result in fitted.items()}
         chosen = choose(evidence, added, ENTRY, previous, per_window, bootstrap)
+        if chosen is None and step == 1 and not selection.quiet and settings.max_effects > 1:
+            pair = _enter_pair(fitted, task, lambda tasks, before=previous: fit(tasks, 2, before), selection)
+            if pair is not None:
+                selection.kept += pair
+                continue
         if chosen is None:
             break
         refitted = _refit_forms(fitted[chosen], task(added[chosen], held), run)
@@ -172,6 +180,37 @@ def select_effects(
         selection.kept.append(added[chosen])
     _backward(selection, bootstrap, nominal_gap, task, fit)
     return selection
+
+
+def _enter_pair(
+    fitted: dict[str, FitResult],
+    task: Callable,
+    fit: Callable,
+    selection: Selection,
+) -> list[str] | None:
+    """Two effects that enter together when neither enters alone: each masks the other, so that alone neither
+    fit reduces the held-out gap (an inertia error beside a spring, say). The ``PAIR_ENTRY`` candidates with the
+    lowest train gap (of different laws) are fitted together in pairs, each from its single fit; the pair with
+    the largest reduction enters when the lower bound of that reduction exceeds ``ENTRY``, its better single fit
+    first. The backward pass then judges each of the two against the model holding the other."""
+    ranked = sorted(fitted, key=lambda name: fitted[name].train_gap)
+    best = []
+    for name in ranked:
+        if not any(law_of(name) & law_of(other) for other in best):
+            best.append(name)
+        if len(best) == PAIR_ENTRY:
+            break
+    pairs = [(first, second) for i, first in enumerate(best) for second in best[i + 1 :]]
+    joint = [r for r in fit([task(second, fitted[first]) for first, second in pairs]) if not r.failure]
+    if not joint:
+        return None
+    winner = max(joint, key=lambda r: selection.over_previous[r.name].reduction)
+    if selection.over_previous[winner.name].lower_bound <= ENTRY:
+        return None
+    first, second = sorted(winner.effects, key=lambda name: fitted[name].train_gap)
+    if selection.model([first]) is None or selection.model([first, second]) is None:
+        return None
+    return [first, second]
 
 
 def _backward(
