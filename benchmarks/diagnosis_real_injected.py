@@ -17,9 +17,10 @@ Real logs carry an unknown mix of effects, but a known one can be added to them.
 
 Each case is diagnosed with the rig file (perturbed for the inertia case) on the same train and held-out logs
 as the untouched baseline, whose own effects stay in the data: an injected effect is named when it is in the
-report's ``effects`` (beside whatever the baseline needs); cogging, outside the vocabulary, is right when the gap
-is ``unexplained`` or no effect beyond the baseline's is named for it. Sizes scale with the rig (fractions of
-m g l and of the sample period), as the validation suite's do, and ``--scale`` multiplies them all.
+report's ``effects`` (beside whatever the baseline needs; a variant of its law counts, as asymmetric friction
+for Coulomb friction: the rig's own friction adds to the injected one); cogging, outside the vocabulary, is right
+when the gap is ``unexplained`` or no effect beyond the baseline's is named for it. Sizes scale with the rig
+(fractions of m g l and of the sample period), as the validation suite's do, and ``--scale`` multiplies them all.
 
 Each row also sets the injected size against the detection limit the baseline's report states for that effect
 (``size_over_limit``): an effect injected below the limit these very logs can show is expected to be missed, and
@@ -44,6 +45,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
+from furuta_drake.diagnosis.candidates import law_of
 from furuta_drake.diagnosis.logs import load_rig
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
@@ -257,8 +259,8 @@ def score(injection: Injection, report: dict, baseline: dict, seconds: float | N
     effects, before = report["effects"], baseline["effects"]
     if injection.name == "cogging_torque":  # right when no vocabulary effect is invented for it
         named = report["verdict"] == "unexplained" or set(effects) <= set(before)
-    else:
-        named = injection.name == "baseline" or injection.name in effects
+    else:  # named, or a variant of its law (asymmetric friction for Coulomb friction: the rig has its own)
+        named = injection.name == "baseline" or any(effect in law_of(injection.name) for effect in effects)
     limit = next((d for d in baseline["detection_limits"] if d["effect"] == injection.name), None)
     return {
         "case": injection.name,
@@ -268,7 +270,7 @@ def score(injection: Injection, report: dict, baseline: dict, seconds: float | N
         "new_beside_baseline": sorted(set(effects) - set(before)),
         "named": named,
         "heldout_reduction": report["gap"]["heldout_reduction"],
-        "fitted": next((s["params"] for s in report["steps"] if s["effect"] == injection.name), None),
+        "fitted": next((s["params"] for s in report["steps"] if s["effect"] in law_of(injection.name)), None),
         "confusable": report.get("confusable", []),
         "detection_limit": limit,
         "size_over_limit": size_over_limit(injection.name, injection.value, limit and limit["value"]),

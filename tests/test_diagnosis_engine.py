@@ -15,7 +15,7 @@ from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quanti
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import replay_gap
-from furuta_drake.diagnosis.select import MARGIN, Bootstrap, at_floor, choose, confusable
+from furuta_drake.diagnosis.select import MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.suite import run_configs, with_effect
 from furuta_drake.diagnosis.surrogate import Model, _accelerations
@@ -463,3 +463,22 @@ def test_parameters_fitted_at_a_bound_of_their_range_are_named():
         "arm_stribeck.stribeck_velocity (upper)",
     ]
     assert at_bounds(("arm_stribeck",), ["presliding"], np.array([0.01, 0.5, 0.1, 0.01]), low, high) == []
+
+
+def test_a_second_effect_of_clear_size_on_a_small_uneven_remainder_is_kept_a_small_one_is_not():
+    """Beside a strong first effect the remaining gap is small and carried unevenly by the windows (stick-slip
+    episodes), so the bootstrap bound of a second effect's reduction is wide. An effect that removes a quarter of
+    the remaining gap, unevenly over the windows, earns its place; one that removes a tenth does not, however
+    significant, nor does one whose reduction lies in the two worst windows only."""
+    rng = np.random.default_rng(3)
+    remainder = rng.exponential(0.2, 60) ** 2  # per-window excess [counts^2] left by the first effect
+    quarter = remainder * rng.uniform(0.0, 1.125, 60)  # on average 0.5625 = 0.75^2: the RMS gap falls by 1/4
+    tenth = remainder * 0.9**2
+    worst_two = remainder.copy()
+    worst_two[np.argsort(remainder)[-2:]] *= 0.1
+    _, evidence = _evidence(remainder, {"quarter": quarter, "tenth": tenth, "worst_two": worst_two})
+    assert 0.2 < evidence["quarter"].reduction < 0.3
+    assert evidence["quarter"].lower_bound < MARGIN  # a 20 % lower bound would turn it away
+    assert is_kept(evidence["quarter"])
+    assert evidence["tenth"].lower_bound > 0.05 and not is_kept(evidence["tenth"])
+    assert not is_kept(evidence["worst_two"])

@@ -26,7 +26,7 @@ from furuta_drake.diagnosis.candidates import CANDIDATES, PRESLIDING_STARTS, UNI
 from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS
 from furuta_drake.diagnosis.gap import Windows, fixed_state_residuals, project_out_states, projected_residuals
 from furuta_drake.diagnosis.result import DetectionLimit
-from furuta_drake.diagnosis.select import CLOSES, MARGIN, Bootstrap, at_floor
+from furuta_drake.diagnosis.select import CLOSES, Bootstrap, at_floor, is_kept
 from furuta_drake.diagnosis.surrogate import Model, sensor_variance
 
 BISECTIONS = 14  # halvings of the log-scale bracket: the limit to within about 1 % of its bracket's ratio
@@ -166,7 +166,7 @@ class _Judge:
         if at_floor(synthetic):
             return False
         evidence = self.bootstrap.evidence(synthetic, truth)
-        return evidence.lower_bound > MARGIN and (not self.first or evidence.reduction >= CLOSES)
+        return is_kept(evidence) and (not self.first or evidence.reduction >= CLOSES)
 
     def injected(self, effect_model: Model) -> list[np.ndarray]:
         count = 2 * np.pi / self.counts

@@ -16,8 +16,9 @@ place against the model holding all the others:
   significantly (Coulomb before Stribeck or asymmetry when the data cannot tell them apart). Entry is lenient because
   effects mask each other: with three strong effects acting, none alone may
   explain much;
-- an effect is *kept* when the 5 % lower bound of the reduction it brings to the model holding all the other
-  kept effects exceeds ``MARGIN``; the weakest one that does not is dropped, and the others judged again;
+- an effect is *kept* (:func:`is_kept`) when the reduction it brings to the model holding all the other kept effects
+  is at least ``MARGIN`` and that reduction's 5 % lower bound exceeds ``ENTRY``: large enough to matter, and
+  significant; the weakest one that is not is dropped, and the others judged again;
 - two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
   difference of their reductions holds 0: the data explain them equally well, and the report says so;
 - the verdict is ``unexplained`` when the nominal model is not within the noise and the accepted effects together
@@ -48,9 +49,10 @@ def threshold_note(bootstrap: int, seed: int) -> str:
         f"is below {FLOOR_COUNTS} counts; the candidate with the largest reduction over the model holding the earlier "
         f"effects enters when the 5 % lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
         f"{PARSIMONY:.0%} of it is preferred; when none enters first, the best pair of the three best train fits "
-        f"may enter together on the same bound); an effect is kept when the 5 % lower bound of the reduction it "
-        f"brings to the model holding all the other kept effects exceeds {MARGIN:.0%}, else the weakest is "
-        f"dropped; the verdict is none when no effect is kept and the nominal gap is below {FLOOR_COUNTS} counts or "
+        f"may enter together on the same bound); an effect is kept when the reduction it brings to the model "
+        f"holding all the other kept effects is at least {MARGIN:.0%} with a 5 % lower bound above {ENTRY:.0%}, "
+        f"else the weakest is dropped; the verdict is none when no effect is kept and the nominal gap is below "
+        f"{FLOOR_COUNTS} counts or "
         f"twice its bootstrap standard error; two supported candidates of different laws whose "
         f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
         f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
@@ -152,6 +154,13 @@ def choose(
     return min(simpler, key=lambda name: (n_params(new[name]), -evidence[name].reduction)) if simpler else best
 
 
+def is_kept(evidence: Evidence) -> bool:
+    """Whether an effect whose removal costs ``evidence`` earns its place: a reduction of at least ``MARGIN`` of
+    the gap of the model without it, with a 5 % lower bound above ``ENTRY`` (a second effect beside a strong
+    first one shares a small remaining gap, so its bound is wide even when its size is clear)."""
+    return evidence.reduction >= MARGIN and evidence.lower_bound > ENTRY
+
+
 def confusable(
     chosen: str,
     evidence: dict[str, Evidence],
@@ -164,7 +173,7 @@ def confusable(
     ``{"effects": [chosen's effect, other's effect], "why": ...}``."""
     out = []
     for name in order(evidence):
-        if name == chosen or evidence[name].lower_bound <= MARGIN or new[name] in law_of(new[chosen]):
+        if name == chosen or not is_kept(evidence[name]) or new[name] in law_of(new[chosen]):
             continue
         low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
         if low <= 0.0 <= high:

@@ -16,12 +16,12 @@ from furuta_drake.diagnosis.parallel import Failure
 from furuta_drake.diagnosis.select import (
     CLOSES,
     ENTRY,
-    MARGIN,
     Bootstrap,
     Evidence,
     at_floor,
     choose,
     confusable,
+    is_kept,
 )
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
@@ -217,8 +217,9 @@ def _backward(
     selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task: Callable, fit: Callable
 ) -> None:
     """Drop, one at a time, the kept effect whose removal costs the least while that cost's lower bound is not
-    above ``MARGIN``: every effect finally kept reduces the held-out gap of the model holding all the others by
-    the rule's margin (an effect that entered beside a stronger one it masked must earn its place)."""
+    enough (:func:`~furuta_drake.diagnosis.select.is_kept`): every effect finally kept reduces the held-out gap of
+    the model holding all the others by the rule's margin (an effect that entered beside a stronger one it
+    masked must earn its place)."""
     while selection.kept:
         final = selection.final
         without = {}
@@ -242,10 +243,10 @@ def _backward(
             # (a model without it that failed to fit leaves the effect judged against the nominal model)
             reference = model.heldout.per_window if model else nominal_gap.per_window
             without[name] = bootstrap.evidence(reference, final.heldout.per_window)
-        weakest = min(selection.kept, key=lambda name: without[name].lower_bound)
-        if without[weakest].lower_bound > MARGIN:
+        failing = [name for name in selection.kept if not is_kept(without[name])]
+        if not failing:
             break
-        selection.kept.remove(weakest)
+        selection.kept.remove(min(failing, key=lambda name: without[name].lower_bound))
     selection.over_others = {name: without[name] for name in selection.kept}
     models = [nominal_gap] + [model.heldout for model in selection.accepted]
     selection.over_step = [

@@ -28,7 +28,7 @@ import numpy as np
 from furuta_drake.diagnosis.candidates import law_of
 from furuta_drake.diagnosis.design.criterion import Refit
 from furuta_drake.diagnosis.gap import project_out_states
-from furuta_drake.diagnosis.select import CLOSES, ENTRY, MARGIN, Bootstrap, at_floor, choose, gap_of
+from furuta_drake.diagnosis.select import CLOSES, ENTRY, Bootstrap, at_floor, choose, gap_of, is_kept
 from furuta_drake.diagnosis.surrogate import Model
 
 TRUTH, RIVAL = "truth", "rival"
@@ -107,11 +107,11 @@ def _detected(
         return False
     truth = bootstrap.evidence(excess["previous"], excess[TRUTH])
     if nested:
-        return truth.lower_bound > MARGIN and (not first_effect or truth.reduction >= CLOSES)
+        return is_kept(truth) and (not first_effect or truth.reduction >= CLOSES)
     # The rule's keys are the effects each model adds (its parsimony counts their parameters); the chosen one
     # enters on a lenient bound and is kept when it reduces the model without it by the margin.
     evidence = {new[TRUTH]: truth, new[RIVAL]: bootstrap.evidence(excess["previous"], excess[RIVAL])}
-    if choose(evidence, {name: name for name in evidence}, margin=ENTRY) != new[TRUTH] or truth.lower_bound <= MARGIN:
+    if choose(evidence, {name: name for name in evidence}, margin=ENTRY) != new[TRUTH] or not is_kept(truth):
         return False
     if law_of(new[TRUTH]) == law_of(new[RIVAL]):  # variants of one law are never confusable: the choice stands
         return True
