@@ -262,6 +262,7 @@ def score(injection: Injection, report: dict, baseline: dict, seconds: float | N
     else:  # named, or a variant of its law (asymmetric friction for Coulomb friction: the rig has its own)
         named = injection.name == "baseline" or any(effect in law_of(injection.name) for effect in effects)
     limit = next((d for d in baseline["detection_limits"] if d["effect"] == injection.name), None)
+    same_law = [s["params"] for s in baseline["steps"] if s["effect"] in law_of(injection.name)]
     return {
         "case": injection.name,
         "size": injection.size,
@@ -272,6 +273,10 @@ def score(injection: Injection, report: dict, baseline: dict, seconds: float | N
         "heldout_reduction": report["gap"]["heldout_reduction"],
         "fitted": next((s["params"] for s in report["steps"] if s["effect"] in law_of(injection.name)), None),
         "confusable": report.get("confusable", []),
+        "in_baseline": injection.name != "baseline" and any(e in law_of(injection.name) for e in before),
+        "baseline_fitted": next(
+            (s["params"] for s in baseline["steps"] if s["effect"] in law_of(injection.name)), None
+        ),
         "detection_limit": limit,
         "size_over_limit": size_over_limit(injection.name, injection.value, limit and limit["value"]),
         "seconds": seconds,
@@ -308,16 +313,19 @@ def main(argv: list[str] | None = None) -> int:
         ratio = "" if row["size_over_limit"] is None else f"{row['size_over_limit']:.2g}x limit"
         print(
             f"{injection.name:<22} {injection.size:<44} {ratio:<10} -> {row['verdict']:<22} "
-            f"{','.join(row['effects']):<60} {'named' if row['named'] else 'MISSED'} ({row['heldout_reduction']:.0%}"
+            f"{','.join(row['effects']):<60} {'named' if row['named'] else 'MISSED'}"
+            f"{' (the baseline has it too)' if row['in_baseline'] else ''} ({row['heldout_reduction']:.0%}"
             f"{'' if seconds is None else f', {seconds:.0f} s'})",
             flush=True,
         )
     scored = [row for row in rows if row["case"] != "baseline"]
     named = sum(row["named"] for row in scored)
     above = [row for row in scored if row["size_over_limit"] is None or row["size_over_limit"] >= 1.0]
+    apart = [row for row in scored if not row["in_baseline"]]
     print(
         f"\nbaseline effects: {baseline['effects']}; injected effects named: {named}/{len(scored)}; "
-        f"at or above the baseline's detection limit (or without one): {sum(r['named'] for r in above)}/{len(above)}"
+        f"at or above the baseline's detection limit (or without one): {sum(r['named'] for r in above)}/{len(above)}; "
+        f"of a law the baseline does not hold: {sum(r['named'] for r in apart)}/{len(apart)}"
     )
     (args.out / "results.json").write_text(
         json.dumps(
@@ -327,6 +335,8 @@ def main(argv: list[str] | None = None) -> int:
                 "cases": len(scored),
                 "named_at_or_above_limit": sum(r["named"] for r in above),
                 "cases_at_or_above_limit": len(above),
+                "named_apart_from_baseline": sum(r["named"] for r in apart),
+                "cases_apart_from_baseline": len(apart),
                 "rows": rows,
             },
             indent=2,
