@@ -274,9 +274,7 @@ def score(injection: Injection, report: dict, baseline: dict, seconds: float | N
         "fitted": next((s["params"] for s in report["steps"] if s["effect"] in law_of(injection.name)), None),
         "confusable": report.get("confusable", []),
         "in_baseline": injection.name != "baseline" and any(e in law_of(injection.name) for e in before),
-        "baseline_fitted": next(
-            (s["params"] for s in baseline["steps"] if s["effect"] in law_of(injection.name)), None
-        ),
+        "baseline_fitted": same_law[0] if same_law else None,
         "detection_limit": limit,
         "size_over_limit": size_over_limit(injection.name, injection.value, limit and limit["value"]),
         "seconds": seconds,
