@@ -204,7 +204,7 @@ def test_design_refuses_bad_input_with_one_line(case, tmp_path, capsys):
 def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
     """--balancing searches on the surrogate stepped under the LQR: with a lag and Dahl arm friction it follows
     the Drake diagram of the same model and gain to within an encoder count."""
-    from furuta_drake.diagnosis.design.rollout import drake_run, nominal_lqr_gain, surrogate_closed_loop
+    from furuta_drake.diagnosis.design.rollout import nominal_lqr_gain, surrogate_closed_loop
 
     rig = lund_rig()
     model = apply_effects(
@@ -214,7 +214,7 @@ def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
     gain = nominal_lqr_gain(rig)
     dither = Family(2.0, rig.sample_period, model.a, 0.0).torque_dither(np.full((1, 5), 0.02))
     angles, _ = surrogate_closed_loop(model, gain, dither, rig.sample_period, rig.torque_limit, rig.counts_per_rev)
-    result = drake_run(rig, model, dither[0], 2.0, True, 0, gain)
+    result = simulate(drake_config(rig, model, dither[0], 2.0, True, 0, gain))
     assert np.max(np.abs(result.state[:, 0])) > 0.01  # the dither moves the pendulum
     count = 2 * np.pi / rig.counts_per_rev
     assert np.max(np.abs(angles[: result.time.size, :, 0] - result.state[:, :2])) < count

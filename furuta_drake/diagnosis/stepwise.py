@@ -127,7 +127,6 @@ def select_effects(
             **options,
         )
 
-    step = 0
     while len(selection.kept) < settings.max_effects:
         step = len(selection.kept) + 1
         held = selection.final
@@ -207,10 +206,7 @@ def _enter_pair(
     winner = max(joint, key=lambda r: selection.over_previous[r.name].reduction)
     if selection.over_previous[winner.name].lower_bound <= ENTRY:
         return None
-    first, second = sorted(winner.effects, key=lambda name: fitted[name].train_gap)
-    if selection.model([first]) is None or selection.model([first, second]) is None:
-        return None
-    return [first, second]
+    return sorted(winner.effects, key=lambda name: fitted[name].train_gap)
 
 
 def _backward(

@@ -29,7 +29,7 @@ from furuta_drake.diagnosis.design.optimise import (
 )
 from furuta_drake.diagnosis.design.predict import RIVAL, TRUTH, predict_direction
 from furuta_drake.diagnosis.design.rollout import (
-    drake_run,
+    drake_config,
     nominal_lqr_gain,
     surrogate_closed_loop,
     surrogate_runs,
@@ -37,6 +37,7 @@ from furuta_drake.diagnosis.design.rollout import (
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, window_samples
 from furuta_drake.errors import ConfigError, SimulationDiverged
+from furuta_drake.simulate import simulate
 
 PENDULUM_BOUND = {"hanging": 0.5, "balancing": 0.2}  # [rad] from hanging or from the upright
 DRAKE_RESCALES = 2
@@ -332,8 +333,16 @@ def _checked_in_drake(
         for h in best.runs:
             say(f"checking the design in Drake on {hypotheses.hypotheses[h].name}")
             try:
-                result = drake_run(
-                    rig, hypotheses.hypotheses[h].model, best.command, family.duration, balancing, settings.seed, gain
+                result = simulate(
+                    drake_config(
+                        rig,
+                        hypotheses.hypotheses[h].model,
+                        best.command,
+                        family.duration,
+                        balancing,
+                        settings.seed,
+                        gain,
+                    )
                 )
             except SimulationDiverged:
                 runs[h] = Run(

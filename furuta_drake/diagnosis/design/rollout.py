@@ -2,7 +2,7 @@
 
 :func:`surrogate_runs` integrates many commands at once from rest with the surrogate the diagnosis fits with
 (:func:`~furuta_drake.diagnosis.surrogate.predict_windows`, one window as long as the experiment);
-:func:`drake_run` plays one command on the Drake diagram of a hypothesis
+:func:`drake_config` plays one command on the Drake diagram of a hypothesis
 (:func:`~furuta_drake.diagnosis.corrected.model_config`: MultibodyPlant, the friction system and the actuator
 chain), open loop from rest hanging or, for ``balancing``, added to the project's LQR of the rig file's nominal
 model balancing the upright.
@@ -63,21 +63,6 @@ def drake_config(
         seed=seed,
         monitor=MonitorConfig(theta_bound=None),
     )
-
-
-def drake_run(
-    rig: RigParameters,
-    model: Model,
-    command: np.ndarray,
-    duration: float,
-    balancing: bool,
-    seed: int,
-    lqr_gain: np.ndarray | None = None,
-):
-    """:func:`drake_config` simulated: the :class:`~furuta_drake.simulate.SimulationResult`."""
-    from furuta_drake.simulate import simulate
-
-    return simulate(drake_config(rig, model, command, duration, balancing, seed, lqr_gain))
 
 
 def nominal_lqr_gain(rig: RigParameters) -> np.ndarray:
