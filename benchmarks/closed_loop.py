@@ -63,6 +63,7 @@ from scipy.linalg import expm
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagnosis.surrogate import Model, _accelerations
 from furuta_drake.diagram import build_furuta_diagram
+from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
@@ -208,10 +209,11 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     adaptation = dahl.adaptation.k_sigma if adapt else None
     sigma0 = dahl.sigma0
 
-    model = Model.from_rig(rig)  # the package's closed-form equations, frictionless like this loop
+    frictionless = JointFrictionParameters()  # the package's closed-form equations, frictionless like this loop
+    model = Model.from_rig(rig).replace(arm_friction=frictionless, pendulum_friction=frictionless)
 
     def dynamics(t, x, u):
-        return _accelerations(model, x, u, arm_friction=False, pendulum_friction=False)
+        return _accelerations(model, x, u)
 
     def quantise(x):
         return np.array([count * round(x[0] / count), count * round(x[1] / count)])

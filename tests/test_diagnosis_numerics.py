@@ -12,15 +12,9 @@ from furuta_drake.diagnosis.gap import make_windows, projected_residuals, subste
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import WindowReplayer
 from furuta_drake.diagnosis.suite import run_configs, with_effect
-from furuta_drake.diagnosis.surrogate import (
-    REGULARIZATION_VELOCITY,
-    Model,
-    _accelerations,
-    bristle_friction_torque,
-    bristle_step,
-    predict_windows,
-)
-from furuta_drake.friction import FrictionParameters, JointFrictionParameters
+from furuta_drake.diagnosis.surrogate import REGULARIZATION_VELOCITY, Model, _accelerations, predict_windows
+from furuta_drake.diagnosis.surrogate_kernel import bristle_step, pack_friction
+from furuta_drake.friction import FrictionParameters, JointFrictionParameters, bristle_friction_torque
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate
 from furuta_drake.world import add_furuta_world
@@ -135,11 +129,11 @@ def test_surrogate_dynamics_with_friction_and_motor_equal_the_multibody_plant(se
         derivatives = diagram.EvalTimeDerivatives(context).CopyToVector()
         drake = world.to_paper @ derivatives[:4]
         tau = np.array(u + bristle_friction_torque(z, x[3], model.arm_friction))
-        # As predict_windows calls it: the static law only where a joint has one (the pendulum's).
-        surrogate = _accelerations(model, x, tau, arm_friction=False, pendulum_friction=True)
+        # The static law acts only where a joint has one (the pendulum's); the arm's bristle torque is in tau.
+        surrogate = _accelerations(model, x, tau)
         np.testing.assert_allclose(surrogate, drake, rtol=1e-9, atol=1e-9 * np.max(np.abs(drake)))
         move = 1e-9  # [rad]: the step's own curvature is sigma0 move / (2 Fc) ~ 2e-7 relative
-        step = bristle_step(np.array([z]), np.sign(x[3]) * move, x[3], model.arm_friction)[0]
+        step = bristle_step(z, np.sign(x[3]) * move, x[3], pack_friction(model.arm_friction))
         assert (step - z) / move * abs(x[3]) == pytest.approx(derivatives[4], rel=1e-5)
 
 

@@ -84,7 +84,8 @@ def surrogate_closed_loop(
     map, Dahl or LuGre bristle) are stepped one sample at a time, with the same RK4 substeps as
     :func:`~furuta_drake.diagnosis.surrogate.predict_windows`.
     """
-    from furuta_drake.diagnosis.surrogate import _acts, _delayed_command, applied_torque, rk4_substep
+    from furuta_drake.diagnosis.surrogate import _delayed_command, applied_torque, rk4_substep
+    from furuta_drake.diagnosis.surrogate_kernel import lag_filter
 
     dithers = np.atleast_2d(dithers)
     designs, samples = dithers.shape
@@ -95,7 +96,6 @@ def surrogate_closed_loop(
     starts = COMMAND_PAD + np.arange(designs) * width
     x = np.tile(np.asarray(UPRIGHT, dtype=float)[:, None], (1, designs))
     lag_state, z = np.zeros(designs), np.zeros(designs)
-    arm, pendulum = _acts(model.arm_friction), _acts(model.pendulum_friction)
     resolution = 2 * np.pi / counts
     K = np.ravel(gain)
 
@@ -109,8 +109,7 @@ def surrogate_closed_loop(
         for i in range(substeps):
             held = _delayed_command(history, starts, k * period + i * dt, dt, period, model.delay)
             if model.lag > 0:
-                decay = np.exp(-dt / model.lag)
-                start, lag_state = lag_state, held + (lag_state - held) * decay
-                held = held + (start - held) * model.lag / dt * (1.0 - decay)
-            x, z = rk4_substep(model, x, z, applied_torque(model, held), dt, arm, pendulum)
+                filtered, lag_state = lag_filter(held[None, :], lag_state, model.lag, dt)
+                held = filtered[0]
+            x, z = rk4_substep(model, x, z, applied_torque(model, held), dt)
     return angles, logged

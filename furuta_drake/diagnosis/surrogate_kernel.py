@@ -1,0 +1,234 @@
+"""The surrogate's right-hand side and RK4, compiled (numba): one loop over windows and substeps in machine code.
+
+The diagnosis fits many short windows with few parameters, so a numpy step over a few hundred windows is spent in
+the interpreter's overhead of each array operation; a compiled scalar loop does the same arithmetic without it.
+The laws are those of :mod:`furuta_drake.friction` written for one float (the Drake systems there also take
+AutoDiffXd, which compiled code cannot); ``tests/test_surrogate_kernel.py`` pins each one to its counterpart
+there, and the rigid body to Drake's MultibodyPlant.
+
+Parameters travel as flat float arrays (:func:`pack`): ``rigid`` = [a, b, c, d, back-EMF damping, spring k,
+spring k3, spring phi_0]; one friction row per joint, laid out as the ``F_*`` indices below.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from furuta_drake.friction import JointFrictionParameters
+
+NONE, STATIC, DAHL, LUGRE = 0.0, 1.0, 2.0, 3.0  # friction row kinds
+F_KIND, F_FC_POS, F_FC_NEG, F_STRIBECK, F_FS_POS, F_FS_NEG, F_VS, F_VISCOUS, F_SIGMA0, F_SIGMA1, F_VREG = range(11)
+_KINDS = {"none": NONE, "static": STATIC, "dahl": DAHL, "lugre": LUGRE}
+
+
+def pack_friction(p: JointFrictionParameters) -> np.ndarray:
+    """One joint's friction as a kernel row (the layout of the ``F_*`` indices)."""
+    stribeck = p.static_pos is not None or p.static_neg is not None
+    static_pos, static_neg = p.static_levels
+    return np.array(
+        [
+            _KINDS[p.model],
+            p.coulomb_pos,
+            p.coulomb_neg,
+            float(stribeck),
+            static_pos,
+            static_neg,
+            p.stribeck_velocity,
+            p.viscous,
+            p.sigma0,
+            p.sigma1,
+            p.regularization_velocity,
+        ]
+    )
+
+
+def pack(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rigid, arm friction row, pendulum friction row) of a surrogate :class:`~.surrogate.Model`."""
+    rigid = np.array(
+        [
+            model.a,
+            model.b,
+            model.c,
+            model.d,
+            model.back_emf_damping,
+            model.spring_stiffness,
+            model.spring_cubic,
+            model.spring_equilibrium,
+        ]
+    )
+    return rigid, pack_friction(model.arm_friction), pack_friction(model.pendulum_friction)
+
+
+@njit(cache=True, inline="always")
+def _by_direction(v, positive, negative):
+    return positive if v > 0 else negative
+
+
+@njit(cache=True, inline="always")
+def stribeck_level(v, f):
+    """g(v) of :func:`furuta_drake.friction.stribeck_curve` [N m]."""
+    coulomb = _by_direction(v, f[F_FC_POS], f[F_FC_NEG])
+    if f[F_STRIBECK] == 0.0:
+        return coulomb
+    static = _by_direction(v, f[F_FS_POS], f[F_FS_NEG])
+    return coulomb + (static - coulomb) * math.exp(-((v / f[F_VS]) ** 2))
+
+
+@njit(cache=True, inline="always")
+def static_torque(v, f):
+    """:func:`furuta_drake.friction.static_friction_torque` [N m]."""
+    return -(stribeck_level(v, f) * math.tanh(v / f[F_VREG]) + f[F_VISCOUS] * v)
+
+
+@njit(cache=True, inline="always")
+def bristle_torque(z, v, f):
+    """:func:`furuta_drake.friction.bristle_friction_torque` [N m]."""
+    torque = f[F_SIGMA0] * z + f[F_VISCOUS] * v
+    if f[F_KIND] == LUGRE and f[F_SIGMA1] != 0.0:
+        torque += f[F_SIGMA1] * (v - f[F_SIGMA0] * abs(v) * z / stribeck_level(v, f))
+    return -torque
+
+
+@njit(cache=True, inline="always")
+def bristle_step(z, displacement, velocity, f):
+    """The bristle after the joint moved by ``displacement`` [rad] at ``velocity`` [rad/s] in one direction: Dahl's
+    exact step over the path (:func:`furuta_drake.friction.dahl_exact_step` with v dt = displacement), towards the
+    direction's Coulomb level (Dahl) or the Stribeck level g of the velocity held (LuGre) [rad]."""
+    if f[F_KIND] == DAHL:
+        level = max(_by_direction(displacement, f[F_FC_POS], f[F_FC_NEG]), 1e-12)
+    else:
+        level = max(stribeck_level(velocity, f), 1e-12)
+    sigma0 = f[F_SIGMA0]
+    steady = 0.0 if displacement == 0.0 else math.copysign(level / sigma0, displacement)
+    return steady + (z - steady) * math.exp(-sigma0 * abs(displacement) / level)
+
+
+@njit(cache=True, inline="always")
+def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum):
+    """x' of the Furuta model (:mod:`~furuta_drake.diagnosis.surrogate`) under the arm torque ``tau`` [N m]; a
+    joint's static friction law acts where its row is static (a bristle's torque comes in ``tau``)."""
+    a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
+    s, co = math.sin(theta), math.cos(theta)
+    sc = s * co
+    tau_phi = tau
+    if arm[F_KIND] == STATIC:
+        tau_phi += static_torque(phi_dot, arm)
+    tau_phi -= rigid[4] * phi_dot
+    stretch = phi - rigid[7]
+    tau_phi -= (rigid[5] + rigid[6] * stretch * stretch) * stretch
+    m12, m22 = c * co, a + b * s * s
+    r1 = d * s + b * sc * phi_dot * phi_dot
+    if pendulum[F_KIND] == STATIC:
+        r1 += static_torque(theta_dot, pendulum)
+    r2 = c * s * theta_dot * theta_dot - 2.0 * b * sc * theta_dot * phi_dot + tau_phi
+    det = b * m22 - m12 * m12
+    return theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (b * r2 - m12 * r1) / det
+
+
+@njit(cache=True)
+def derivatives(x, tau, rigid, arm, pendulum):
+    """:func:`derivative` of every column of ``x`` (4, W) under ``tau`` (W,)."""
+    out = np.empty_like(x)
+    for w in range(x.shape[1]):
+        out[0, w], out[1, w], out[2, w], out[3, w] = derivative(
+            x[0, w], x[1, w], x[2, w], x[3, w], tau[w], rigid, arm, pendulum
+        )
+    return out
+
+
+@njit(cache=True, inline="always")
+def _stage(x0, x1, x2, x3, phi_start, z, tau, bristles, rigid, arm, pendulum):
+    if bristles:
+        tau = tau + bristle_torque(bristle_step(z, x1 - phi_start, x3, arm), x3, arm)
+    return derivative(x0, x1, x2, x3, tau, rigid, arm, pendulum)
+
+
+@njit(cache=True, inline="always")
+def _values(row, n):
+    """The first ``n`` entries of a parameter row as a tuple (passed by value in the loops)."""
+    if n == 8:
+        return (row[0], row[1], row[2], row[3], row[4], row[5], row[6], row[7])
+    return (row[0], row[1], row[2], row[3], row[4], row[5], row[6], row[7], row[8], row[9], row[10])
+
+
+@njit(cache=True)
+def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum):
+    """RK4 of every window from ``x0`` (4, W) and the arm's bristle ``z0`` (W,) under ``torque`` (steps, W)
+    [N m] held over each substep of ``dt`` [s]. At every stage the bristle (a Dahl or LuGre arm) is its exact
+    step from the substep's start over the stage's arm displacement (:func:`bristle_step`), so the stiff bristle
+    needs no step of its own. Returns (the angles after every ``substeps`` substeps (steps / substeps + 1, 2, W),
+    row 0 the start; the final states (4, W); the final bristles (W,))."""
+    steps, width = torque.shape
+    out = np.empty((steps // substeps + 1, 2, width))
+    final, final_z = np.empty((4, width)), np.empty(width)
+    rigid, arm, pendulum = _values(rigid, 8), _values(arm, 11), _values(pendulum, 11)
+    bristles = arm[F_KIND] == DAHL or arm[F_KIND] == LUGRE
+    h = 0.5 * dt
+    columns = np.ascontiguousarray(torque.T)
+    for w in range(width):
+        t, p, td, pd, z = x0[0, w], x0[1, w], x0[2, w], x0[3, w], z0[w]
+        out[0, 0, w], out[0, 1, w] = t, p
+        row, substep = 0, 0
+        for i in range(steps):
+            tau = columns[w, i]
+            a0, a1, a2, a3 = _stage(t, p, td, pd, p, z, tau, bristles, rigid, arm, pendulum)
+            b0, b1, b2, b3 = _stage(
+                t + h * a0, p + h * a1, td + h * a2, pd + h * a3, p, z, tau, bristles, rigid, arm, pendulum
+            )
+            c0, c1, c2, c3 = _stage(
+                t + h * b0, p + h * b1, td + h * b2, pd + h * b3, p, z, tau, bristles, rigid, arm, pendulum
+            )
+            d0, d1, d2, d3 = _stage(
+                t + dt * c0, p + dt * c1, td + dt * c2, pd + dt * c3, p, z, tau, bristles, rigid, arm, pendulum
+            )
+            sixth = dt / 6.0
+            p_next = p + sixth * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+            t += sixth * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
+            td += sixth * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
+            pd += sixth * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
+            if bristles:
+                moved = p_next - p
+                z = bristle_step(z, moved, moved / dt, arm)
+            p = p_next
+            substep += 1
+            if substep == substeps:
+                row, substep = row + 1, 0
+                out[row, 0, w], out[row, 1, w] = t, p
+        final[0, w], final[1, w], final[2, w], final[3, w], final_z[w] = t, p, td, pd, z
+    return out, final, final_z
+
+
+@njit(cache=True)
+def bristle_path(path, period, f):
+    """The arm's bristle [rad] at every sample of an arm angle ``path`` sampled every ``period`` [s], from z = 0 at
+    the first sample (:func:`bristle_step` per sample)."""
+    out = np.empty(path.size)
+    z, previous = 0.0, path[0]
+    for i in range(path.size):
+        moved = path[i] - previous
+        if moved != 0.0:
+            z = bristle_step(z, moved, moved / period, f)
+        out[i], previous = z, path[i]
+    return out
+
+
+@njit(cache=True)
+def lag_filter(held, state, time_constant, dt):
+    """A first-order lag of ``time_constant`` [s] applied exactly to the input ``held`` (steps, W) held over each
+    substep of ``dt`` [s], from the filter states ``state`` (W,): each substep takes the filter's mean over it.
+    Returns (the filtered input, the filter states at the end)."""
+    decay = math.exp(-dt / time_constant)
+    mean = time_constant / dt * (1.0 - decay)  # the mean of exp(-t / lag) over [0, dt)
+    out = np.empty_like(held)
+    final = state.copy()
+    for w in range(held.shape[1]):
+        y = final[w]
+        for i in range(held.shape[0]):
+            u = held[i, w]
+            out[i, w] = u + (y - u) * mean
+            y = u + (y - u) * decay
+        final[w] = y
+    return out, final

@@ -1,0 +1,83 @@
+"""The compiled surrogate kernel against the laws it restates: each friction law against
+:mod:`furuta_drake.friction` (the one the Drake systems use), the bristle step against the Dahl law's exact
+solution, and the lag filter against the first-order lag's closed form."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from furuta_drake.diagnosis import surrogate_kernel as kernel
+from furuta_drake.friction import (
+    JointFrictionParameters,
+    bristle_friction_torque,
+    dahl_exact_step,
+    static_friction_torque,
+    stribeck_curve,
+)
+
+levels = st.floats(1e-4, 1e-2)
+velocities = st.floats(-20.0, 20.0)
+
+
+@st.composite
+def joints(draw, model):
+    coulomb_pos, coulomb_neg = draw(levels), draw(levels)
+    stribeck = model != "dahl" and draw(st.booleans())
+    return JointFrictionParameters(
+        model=model,
+        coulomb_pos=coulomb_pos,
+        coulomb_neg=coulomb_neg,
+        static_pos=coulomb_pos * draw(st.floats(1.0, 3.0)) if stribeck else None,
+        static_neg=coulomb_neg * draw(st.floats(1.0, 3.0)) if stribeck else None,
+        stribeck_velocity=draw(st.floats(0.01, 1.0)),
+        viscous=draw(st.floats(0.0, 1e-3)),
+        sigma0=draw(st.floats(0.1, 50.0)),
+        sigma1=draw(st.floats(0.0, 0.05)) if model == "lugre" else 0.0,
+        regularization_velocity=draw(st.floats(1e-3, 0.1)),
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(joints("static"), velocities)
+def test_static_law_is_the_friction_modules(p, v):
+    row = kernel.pack_friction(p)
+    assert kernel.stribeck_level(v, row) == pytest.approx(stribeck_curve(v, p), rel=1e-12)
+    assert kernel.static_torque(v, row) == pytest.approx(static_friction_torque(v, p), rel=1e-12, abs=1e-18)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.sampled_from(["dahl", "lugre"]).flatmap(joints), velocities, st.floats(-1.0, 1.0))
+def test_bristle_torque_is_the_friction_modules(p, v, fraction):
+    z = fraction * p.bristle_bound
+    assert kernel.bristle_torque(z, v, kernel.pack_friction(p)) == pytest.approx(
+        bristle_friction_torque(z, v, p), rel=1e-12, abs=1e-18
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(joints("dahl"), st.floats(-0.5, 0.5), st.floats(-1.0, 1.0))
+def test_dahl_bristle_step_is_the_exact_solution_over_the_path(p, displacement, fraction):
+    """Dahl's law is rate independent: over a monotone move the bristle is the exact solution at frozen
+    direction, whatever the speed."""
+    z = fraction * p.bristle_bound
+    level = p.coulomb_pos if displacement > 0 else p.coulomb_neg
+    expected = dahl_exact_step(z, displacement, 1.0, p.sigma0, level)
+    row = kernel.pack_friction(p)
+    for speed in (0.1, 10.0):
+        assert kernel.bristle_step(z, displacement, speed, row) == pytest.approx(expected, rel=1e-12, abs=1e-18)
+    assert abs(kernel.bristle_step(z, displacement, 1.0, row)) <= p.bristle_bound * (1 + 1e-12)
+
+
+def test_lag_filter_is_the_first_order_lags_closed_form():
+    """A step from 0 to 1 into a lag of 5 ms from rest, in 1 ms substeps: each substep's output is the mean of
+    1 - exp(-t / T) over it, and the final state is 1 - exp(-t_end / T)."""
+    time_constant, dt, steps = 5e-3, 1e-3, 20
+    filtered, state = kernel.lag_filter(np.ones((steps, 1)), np.zeros(1), time_constant, dt)
+    for i in range(steps):
+        start, end = i * dt, (i + 1) * dt
+        mean = 1.0 - time_constant / dt * (math.exp(-start / time_constant) - math.exp(-end / time_constant))
+        assert filtered[i, 0] == pytest.approx(mean, rel=1e-12)
+    assert state[0] == pytest.approx(1.0 - math.exp(-steps * dt / time_constant), rel=1e-12)
