@@ -81,3 +81,25 @@ def test_lag_filter_is_the_first_order_lags_closed_form():
         mean = 1.0 - time_constant / dt * (math.exp(-start / time_constant) - math.exp(-end / time_constant))
         assert filtered[i, 0] == pytest.approx(mean, rel=1e-12)
     assert state[0] == pytest.approx(1.0 - math.exp(-steps * dt / time_constant), rel=1e-12)
+
+
+def test_a_windows_lag_state_is_the_filtered_command_history():
+    """A 12 ms lag on a 1 kHz chirp: the lag's state at each window start is the first-order filter of the whole
+    command up to there (scipy's lsim of 1 / (T s + 1) on the held command, from rest at the log's start) to
+    within the e^-5 of the pre-roll's truncation, where the command at the start is far off."""
+    from scipy.signal import lsim
+
+    from furuta_drake.diagnosis.surrogate import Model, lag_states
+    from furuta_drake.rig import qube_servo2_rig
+
+    period, lag = 1e-3, 0.012
+    time = np.arange(3000) * period
+    command = 0.02 * np.sin(2 * np.pi * (1.0 + 4.0 * time) * time)
+    starts = np.array([400, 1100, 1800, 2500])
+    model = Model.from_rig(qube_servo2_rig()).replace(lag=lag)
+    fine = np.arange(0, time[-1], period / 50)
+    _, exact, _ = lsim(([1.0], [lag, 1.0]), command[np.floor(fine / period + 1e-9).astype(int)], fine)
+    expected = np.interp(time[starts], fine, exact)
+    states = lag_states(model, command, starts, period, 1)
+    np.testing.assert_allclose(states, expected, atol=math.exp(-5) * np.ptp(command))
+    assert np.max(np.abs(command[starts] - expected)) > 10 * math.exp(-5) * np.ptp(command)

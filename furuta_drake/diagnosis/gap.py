@@ -25,7 +25,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
-from furuta_drake.diagnosis.surrogate import Model, bristle_path, predict_windows, sensor_variance
+from furuta_drake.diagnosis.surrogate import HISTORY, Model, bristle_path, predict_windows, sensor_variance
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, linearized_upright
 
@@ -112,7 +112,7 @@ class Windows:
         return out
 
 
-COMMAND_PAD = 64  # samples of padding between logs in a batch (more than the largest fitted delay)
+COMMAND_PAD = HISTORY  # samples of padding between logs in a batch: a window never reads the previous log
 
 
 @dataclass

@@ -18,9 +18,9 @@ from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.diagnosis.corrected import model_actuator, model_disturbance, model_rig
-from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals
+from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, substeps_for
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
-from furuta_drake.diagnosis.surrogate import Model, sensor_variance
+from furuta_drake.diagnosis.surrogate import Model, lag_states, sensor_variance
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.world import add_furuta_world
@@ -64,18 +64,19 @@ class WindowReplayer:
         self,
         start_time: float,
         x0: np.ndarray,
-        command_at_start: float,
+        lag_at_start: float,
         times: np.ndarray,
         bristle: float | None = None,
     ) -> np.ndarray:
-        """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (lag filter at the command, the
-        arm's Dahl bristle at ``bristle``). Every window starts with a fresh integrator, so its result does not
+        """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (the lag filter at
+        ``lag_at_start``, :func:`~furuta_drake.diagnosis.surrogate.lag_states`; the arm's Dahl bristle at
+        ``bristle``). Every window starts with a fresh integrator, so its result does not
         depend on the step size the previous window ended with."""
         ApplySimulatorConfig(self.integrator, self.simulator)
         self.context.SetTimeStateAndParametersFrom(self.default_context)
         self.context.SetTime(start_time)
         if self.lag:
-            self.context.get_mutable_continuous_state_vector().SetFromVector(self._with_lag_state(command_at_start))
+            self.context.get_mutable_continuous_state_vector().SetFromVector(self._with_lag_state(lag_at_start))
         if bristle is not None:  # the arm's is the friction system's only bristle (the pendulum's is static)
             self.friction.GetMyMutableContextFromRoot(self.context).get_mutable_continuous_state_vector().SetFromVector(
                 [bristle]
@@ -101,11 +102,17 @@ def _replay_log(task) -> np.ndarray:
     model, rig, log, horizon, starts, x0, measured = task
     count = 2 * np.pi / rig.counts_per_rev
     replayer = WindowReplayer(model, rig, log.time, log.torque_command)
+    period = log.sample_period
+    lags = (
+        lag_states(model, log.torque_command, starts, period, substeps_for(period))
+        if model.lag > 0
+        else np.zeros(starts.size)
+    )
     r = np.empty_like(measured)
     for w, start in enumerate(starts):
         times = log.time[start : start + horizon]
         predicted = replayer.replay(
-            log.time[start], x0[:4, w], log.torque_command[start], times, float(x0[4, w]) if x0.shape[0] > 4 else None
+            log.time[start], x0[:4, w], float(lags[w]), times, float(x0[4, w]) if x0.shape[0] > 4 else None
         )
         r[:, :, w] = (measured[:, :, w] - predicted) / count
     return r

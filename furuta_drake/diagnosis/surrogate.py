@@ -27,6 +27,9 @@ from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import RigParameters
 
 REGULARIZATION_VELOCITY = 0.02  # [rad/s] smooth sign(v) for the static friction laws of the diagnosis models
+LAG_PREROLL = 5.0  # time constants of command history the lag filter runs over before a window (e^-5 of its
+# initial error left)
+HISTORY = 256  # samples of command history a window may read before its start (delay, lag pre-roll)
 
 
 @dataclass(frozen=True)
@@ -158,6 +161,17 @@ def rk4_substep(
     return x_next, z_next
 
 
+def lag_states(model: Model, command: np.ndarray, starts: np.ndarray, period: float, substeps: int) -> np.ndarray:
+    """The actuator lag's state [N m] at each window start (W,): its filter run over the (delayed) command's last
+    ``LAG_PREROLL`` time constants, at most ``HISTORY`` samples, from the command there. The command's past is
+    known, so the lag's state is not a hidden state to estimate (a start at the current command misreads every
+    window that opens while the command moves)."""
+    dt = period / substeps
+    early = np.arange(-min(int(np.ceil(LAG_PREROLL * model.lag / dt)), HISTORY * substeps), 0) * dt
+    past = _delayed_command(command, np.asarray(starts)[None, :], early[:, None], dt, period, model.delay)
+    return kernel.lag_filter(past, past[0].copy(), model.lag, dt)[1]
+
+
 def predict_windows(
     model: Model,
     x0: np.ndarray,
@@ -170,7 +184,8 @@ def predict_windows(
 ) -> np.ndarray:
     """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
 
-    ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period);
+    ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period), with
+    ``HISTORY`` samples before every start (the delay and the lag read the command's past);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
     (a Dahl or LuGre arm only).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
@@ -183,8 +198,8 @@ def predict_windows(
     steps = (horizon - 1) * substeps
     times = (np.arange(steps) * dt)[:, None]
     held = _delayed_command(command, starts[None, :], times, dt, period, model.delay)  # (steps, W)
-    if model.lag > 0:  # the lag's state starts at the held command (the window's past is not known)
-        held = kernel.lag_filter(held, command[starts].astype(float), model.lag, dt)[0]
+    if model.lag > 0:
+        held = kernel.lag_filter(held, lag_states(model, command, starts, period, substeps), model.lag, dt)[0]
     torque = np.ascontiguousarray(applied_torque(model, held), dtype=float)
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     return kernel.integrate(np.ascontiguousarray(x), z, torque, dt, substeps, *kernel.pack(model))[0]
