@@ -1,6 +1,7 @@
-"""The selection's pair entry: when no single effect enters first because each masks the other, the candidates
-with the lowest train gaps (one per law) are fitted together in pairs, and the pair enters on the same held-out
-rule a single effect does."""
+"""The selection's rules on fakes of the fits: the pair entry (when no single effect enters first because each
+masks the other, the candidates with the lowest train gaps, one per law, are fitted together in pairs and the pair
+enters on the same held-out rule a single effect does), the exchange of a kept effect for a runner-up of its step,
+and the parsimony rule at the floor."""
 
 from __future__ import annotations
 
@@ -9,8 +10,8 @@ import numpy as np
 from furuta_drake.diagnosis.candidates import Effect
 from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.gap import GapResult
-from furuta_drake.diagnosis.select import ENTRY, Bootstrap
-from furuta_drake.diagnosis.stepwise import Selection, _enter_pair
+from furuta_drake.diagnosis.select import ENTRY, FLOOR_COUNTS, Bootstrap, choose
+from furuta_drake.diagnosis.stepwise import Selection, _enter_pair, _exchange
 
 WINDOWS = 200
 NOMINAL = np.full(WINDOWS, 1.0)  # excess squared residual per held-out window [counts^2]
@@ -73,3 +74,89 @@ def test_no_pair_enters_when_none_reduces_the_gap_beyond_the_entry_bound():
     assert 1 - np.sqrt(0.96) < ENTRY
     selection, task, fit, _ = _run({frozenset(["inertia_mismatch", "arm_spring"]): 0.96}, singles)
     assert _enter_pair(singles, task, fit, selection) is None
+
+
+def _model(effects: list[str], excess: float, seed: int) -> FitResult:
+    """A fitted model of ``effects`` whose held-out windows have excess squared residuals about ``excess``."""
+    noise = 1 + 0.05 * np.random.default_rng(seed).standard_normal(WINDOWS)
+    return FitResult("+".join(effects), {name: Effect("", (1.0,)) for name in effects}, 0.5, _gap(excess * noise))
+
+
+def _exchange_case(joint_excess: dict[frozenset, float], final_excess: float = 0.3):
+    """Coulomb friction and an input delay kept (held-out excess ``final_excess``); the delay's runners-up at its
+    step were an actuator lag and a spring, the friction's a torque gain. Returns the selection, the exchange's
+    fakes and the models asked for."""
+    bootstrap = Bootstrap(WINDOWS, 500, 0)
+    kept = ["input_delay", "arm_coulomb_friction"]
+    tried = [(1, _model([name], 0.6, i)) for i, name in enumerate(kept)] + [(2, _model(kept, final_excess, 9))]
+    selection = Selection(_gap(NOMINAL), tried, kept=list(kept))
+    selection.runners_up = {
+        "input_delay": [("actuator_lag", Effect("", (0.01,))), ("arm_spring", Effect("", (0.001,)))],
+        "arm_coulomb_friction": [("torque_gain_error", Effect("", (0.9,)))],
+    }
+    asked = []
+
+    def task(new, held, start):
+        asked.append(frozenset([*held.effects, new]))
+        return (new, held)
+
+    def fit(tasks, step, before):
+        results = []
+        for i, (new, held) in enumerate(tasks):
+            effects = [*held.effects, new]
+            results.append(_model(effects, joint_excess.get(frozenset(effects), final_excess), 20 + i))
+            selection.tried.append((step, results[-1]))
+        return results
+
+    return selection, bootstrap, task, fit, asked
+
+
+def test_a_runner_up_that_explains_the_data_clearly_better_beside_the_others_replaces_the_kept_effect():
+    """Beside the friction the lag leaves a tenth of the delay's excess: it replaces the delay."""
+    better = {frozenset(["arm_coulomb_friction", "actuator_lag"]): 0.03}
+    selection, bootstrap, task, fit, asked = _exchange_case(better)
+    assert _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
+    assert selection.kept == ["arm_coulomb_friction", "actuator_lag"]
+    assert selection.exchanges[0]["out"] == "input_delay" and selection.exchanges[0]["in"] == "actuator_lag"
+    assert set(asked) == {
+        frozenset(["arm_coulomb_friction", "actuator_lag"]),
+        frozenset(["arm_coulomb_friction", "arm_spring"]),
+        frozenset(["input_delay", "torque_gain_error"]),
+    }
+
+
+def test_no_exchange_when_the_runners_up_explain_the_data_no_better():
+    """A lag leaving 97 % of the delay's excess (a 1.5 % smaller gap) is within the bootstrap's noise."""
+    selection, bootstrap, task, fit, _ = _exchange_case({frozenset(["arm_coulomb_friction", "actuator_lag"]): 0.29})
+    assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
+    assert selection.kept == ["input_delay", "arm_coulomb_friction"] and not selection.exchanges
+
+
+def test_no_exchange_is_tried_when_the_final_model_is_at_the_floor():
+    selection, bootstrap, task, fit, asked = _exchange_case({}, final_excess=0.1 * FLOOR_COUNTS**2)
+    assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
+    assert not asked
+
+
+def _at_floor(excess: float, seed: int) -> np.ndarray:
+    return excess + 1e-4 * np.random.default_rng(seed).standard_normal(WINDOWS)
+
+
+def test_at_the_floor_a_simpler_law_is_preferred_only_while_the_data_cannot_tell_it_from_the_best():
+    """Three friction laws at the floor (every reduction 1): Stribeck with the lowest excess, Coulomb friction a
+    third of the floor's square above it (preferred: fewer parameters, not beaten beyond the floor's resolution),
+    viscous friction ten floors' squares above it (beaten: a stand-in measurably further from the data)."""
+    bootstrap = Bootstrap(WINDOWS, 500, 0)
+    floor = FLOOR_COUNTS**2
+    per_window = {
+        "arm_stribeck": _at_floor(-12 * floor, 1),
+        "arm_coulomb_friction": _at_floor(-12 * floor + floor / 3, 2),
+        "arm_viscous_friction": _at_floor(-2 * floor, 3),
+    }
+    evidence = {name: bootstrap.evidence(NOMINAL, excess) for name, excess in per_window.items()}
+    assert all(e.reduction == 1.0 for e in evidence.values())
+    names = {name: name for name in per_window}
+    assert choose(evidence, names, ENTRY, NOMINAL, per_window, bootstrap) == "arm_coulomb_friction"
+    per_window["arm_coulomb_friction"] = _at_floor(-7 * floor, 2)  # now five floors' squares above Stribeck
+    evidence = {name: bootstrap.evidence(NOMINAL, excess) for name, excess in per_window.items()}
+    assert choose(evidence, names, ENTRY, NOMINAL, per_window, bootstrap) == "arm_stribeck"

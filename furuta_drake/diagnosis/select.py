@@ -12,10 +12,11 @@ place against the model holding all the others:
   nominal model is within the noise and no effect is accepted;
 - a candidate *enters* when the 5 % lower bound of its reduction over the model holding the earlier effects
   exceeds ``ENTRY``: the candidate with the largest reduction, replaced by one with fewer parameters when that
-  one is within ``PARSIMONY`` of it, or when it is a variant of the same law that the best does not beat
-  significantly (Coulomb before Stribeck or asymmetry when the data cannot tell them apart). Entry is lenient because
-  effects mask each other: with three strong effects acting, none alone may
-  explain much;
+  one is within ``PARSIMONY`` of it (at the floor, where reductions are all 1: when its mean excess squared
+  residual is not larger by more than ``FLOOR_COUNTS``^2 beyond the bootstrap interval), or when it is a variant
+  of the same law that the best does not beat significantly (Coulomb before Stribeck or asymmetry when the data
+  cannot tell them apart). Entry is lenient because effects mask each other: with three strong effects acting,
+  none alone may explain much;
 - an effect is *kept* (:func:`is_kept`) when the reduction it brings to the model holding all the other kept effects
   is at least ``MARGIN`` and that reduction's 5 % lower bound exceeds ``ENTRY``: large enough to matter, and
   significant; the weakest one that is not is dropped, and the others judged again;
@@ -48,8 +49,10 @@ def threshold_note(bootstrap: int, seed: int) -> str:
         f"{seed}). Effects enter one at a time, at most three: nothing more enters once a model's held-out gap "
         f"is below {FLOOR_COUNTS} counts; the candidate with the largest reduction over the model holding the earlier "
         f"effects enters when the 5 % lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
-        f"{PARSIMONY:.0%} of it is preferred; when none enters first, the best pair of the three best train fits "
-        f"may enter together on the same bound); an effect is kept when the reduction it brings to the model "
+        f"{PARSIMONY:.0%} of it is preferred, or at the floor one whose mean excess squared residual is not larger "
+        f"by more than {FLOOR_COUNTS}^2 counts^2 beyond a {CONFUSABLE_LEVEL:.0%} bootstrap interval; when none "
+        f"enters first, the best pair of the three best train fits may enter together on the same bound); an "
+        f"effect is kept when the reduction it brings to the model "
         f"holding all the other kept effects is at least {MARGIN:.0%} with a 5 % lower bound above {ENTRY:.0%}, "
         f"else the weakest is dropped; a kept effect is exchanged for one of the two best other-law candidates of "
         f"the step it entered at when the model holding that one and the other kept effects reduces the final "
@@ -104,6 +107,20 @@ class Bootstrap:
         gap = float(gap_of(per_window.mean()))
         return at_floor(per_window) or gap < 2.0 * float(np.std(gap_of(per_window[self.index].mean(axis=1))))
 
+    def excess_difference_interval(self, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
+        """The ``CONFUSABLE_LEVEL`` interval of the mean excess squared residual of ``first`` minus that of
+        ``second`` [counts^2]: what tells models apart when both gaps are clipped at the floor."""
+        difference = first[self.index].mean(axis=1) - second[self.index].mean(axis=1)
+        tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
+        return float(np.quantile(difference, tail)), float(np.quantile(difference, 1.0 - tail))
+
+    def beats_at_floor(self, better: np.ndarray, worse: np.ndarray) -> bool:
+        """Whether the model of ``better`` explains the data beyond doubt better than that of ``worse`` where
+        reductions cannot tell (both at the floor): the ``CONFUSABLE_LEVEL`` interval of their difference of mean
+        excess squared residuals lies above ``FLOOR_COUNTS``^2, the floor's own resolution (each window's initial
+        states are refitted per model, a hidden bristle state too, so a richer model gains a little below it)."""
+        return self.excess_difference_interval(worse, better)[0] > FLOOR_COUNTS**2
+
     def difference_interval(self, reference: np.ndarray, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
         """The ``CONFUSABLE_LEVEL`` interval of reduction(first) - reduction(second), both over ``reference``."""
         difference = self.reductions(reference, first) - self.reductions(reference, second)
@@ -138,7 +155,10 @@ def choose(
     """The candidate among ``evidence`` (over the ``previous`` model) whose reduction's lower bound exceeds
     ``margin``: the best, or a simpler one within ``PARSIMONY`` of it or, when it is a variant of the best one's
     law, one the best does not beat beyond the ``CONFUSABLE_LEVEL`` interval of their difference (given the
-    per-window excesses and the bootstrap); None when none is. ``new``: each candidate's added effect, whose
+    per-window excesses and the bootstrap). When the best is at the floor, where every reduction is 1, a simpler
+    one must not be beaten there (:meth:`Bootstrap.beats_at_floor`: a viscous friction standing in for a small
+    Coulomb friction sits at the floor too, but measurably further from the data).
+    None when none is. ``new``: each candidate's added effect, whose
     parameters the parsimony rule counts."""
     supported = [name for name in order(evidence) if evidence[name].lower_bound > margin]
     if not supported:
@@ -146,6 +166,8 @@ def choose(
     best = supported[0]
 
     def as_good(name):
+        if bootstrap is not None and at_floor(per_window[best]):  # every reduction there is 1: the excess tells
+            return not bootstrap.beats_at_floor(per_window[best], per_window[name])
         if evidence[name].reduction >= evidence[best].reduction - PARSIMONY:
             return True
         if bootstrap is None or new[name] not in law_of(new[best]):
@@ -177,16 +199,22 @@ def confusable(
     for name in order(evidence):
         if name == chosen or not is_kept(evidence[name]) or new[name] in law_of(new[chosen]):
             continue
-        low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
-        if low <= 0.0 <= high:
+        if at_floor(per_window[chosen]):  # both reductions are 1 there: the excess residuals tell them apart
+            low, high = bootstrap.excess_difference_interval(per_window[name], per_window[chosen])
+            difference = f"mean excess squared residuals, [{low:+.3g}, {high:+.3g}] counts^2"
+            alike = not bootstrap.beats_at_floor(per_window[chosen], per_window[name])
+        else:
+            low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
+            difference = f"reductions, [{100 * low:+.1f}, {100 * high:+.1f}] points"
+            alike = low <= 0.0 <= high
+        if alike:
             out.append(
                 {
                     "effects": [new[chosen], new[name]],
                     "why": (
                         f"held-out reductions {evidence[chosen].reduction:.1%} ({new[chosen]}) and "
                         f"{evidence[name].reduction:.1%} ({new[name]}): the {CONFUSABLE_LEVEL:.0%} bootstrap interval "
-                        f"of "
-                        f"their difference, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0"
+                        f"of the difference of their {difference}, holds 0"
                     ),
                 }
             )

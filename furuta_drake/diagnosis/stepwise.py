@@ -225,7 +225,7 @@ def _exchange(
     forms (a friction's form was chosen beside the effect now replaced); the best exchange is made. Returns
     whether one was."""
     final = selection.final
-    if final is None:
+    if final is None or at_floor(final.heldout.per_window):  # nothing left to explain better
         return False
     taken = set().union(*(law_of(name) for name in selection.kept))
     best = None
