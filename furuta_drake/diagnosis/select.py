@@ -155,9 +155,9 @@ def choose(
     """The candidate among ``evidence`` (over the ``previous`` model) whose reduction's lower bound exceeds
     ``margin``: the best, or a simpler one within ``PARSIMONY`` of it or, when it is a variant of the best one's
     law, one the best does not beat beyond the ``CONFUSABLE_LEVEL`` interval of their difference (given the
-    per-window excesses and the bootstrap). When the best is at the floor, where every reduction is 1, the first
-    condition reads: not beaten there (:meth:`Bootstrap.beats_at_floor`; a viscous friction standing in for a
-    small Coulomb friction sits at the floor too, but measurably further from the data).
+    per-window excesses and the bootstrap). When the best is at the floor, where every reduction is 1, a simpler
+    one of another law must instead not be beaten there (:meth:`Bootstrap.beats_at_floor`; a viscous friction
+    standing in for a small Coulomb friction sits at the floor too, but measurably further from the data).
     None when none is. ``new``: each candidate's added effect, whose
     parameters the parsimony rule counts."""
     supported = [name for name in order(evidence) if evidence[name].lower_bound > margin]
@@ -166,12 +166,12 @@ def choose(
     best = supported[0]
 
     def as_good(name):
-        if bootstrap is not None and at_floor(per_window[best]):  # every reduction there is 1: the excess tells
-            if not bootstrap.beats_at_floor(per_window[best], per_window[name]):
-                return True
-        elif evidence[name].reduction >= evidence[best].reduction - PARSIMONY:
+        same_law = new[name] in law_of(new[best])
+        if bootstrap is not None and at_floor(per_window[best]) and not same_law:  # reductions are 1 there
+            return not bootstrap.beats_at_floor(per_window[best], per_window[name])
+        if evidence[name].reduction >= evidence[best].reduction - PARSIMONY:
             return True
-        if bootstrap is None or new[name] not in law_of(new[best]):
+        if bootstrap is None or not same_law:
             return False
         return bootstrap.difference_interval(previous, per_window[best], per_window[name])[0] <= 0.0
 
