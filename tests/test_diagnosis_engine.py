@@ -412,11 +412,16 @@ def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_i
         np.testing.assert_allclose(_accelerations(model, x, np.array(0.0)), drake, rtol=1e-9, atol=1e-12)
 
 
-def test_a_stribeck_fit_without_static_excess_is_named_coulomb_friction():
+def test_a_stribeck_fit_without_static_excess_or_an_asymmetry_with_equal_levels_is_named_coulomb_friction():
     from furuta_drake.diagnosis.stepwise import _vocabulary_name
 
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.0105, 0.1, 1e-3))) == "arm_coulomb_friction"
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.02, 0.1, 1e-3))) == "arm_stribeck"
+    # an asymmetry whose levels differ by 0.03 % is none; one of 28 % is
+    assert _vocabulary_name("friction_asymmetry", Effect("presliding", (0.00975, 0.009753, 2e-3))) == (
+        "arm_coulomb_friction"
+    )
+    assert _vocabulary_name("friction_asymmetry", Effect("smooth", (0.00138, 0.00177, 0.02))) == "friction_asymmetry"
 
 
 @settings(max_examples=30, deadline=None)

@@ -10,7 +10,7 @@ import numpy as np
 from furuta_drake.diagnosis.candidates import Effect
 from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.gap import GapResult
-from furuta_drake.diagnosis.select import ENTRY, FLOOR_COUNTS, Bootstrap, choose
+from furuta_drake.diagnosis.select import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
 from furuta_drake.diagnosis.stepwise import Selection, _enter_pair, _exchange
 
 WINDOWS = 200
@@ -164,3 +164,16 @@ def test_at_the_floor_a_simpler_law_is_preferred_only_while_the_data_cannot_tell
     assert chosen() == "arm_coulomb_friction"
     per_window["arm_viscous_friction"] = _at_floor(-12 * floor + floor / 3, 3)
     assert chosen() == "arm_viscous_friction"
+
+
+def test_a_large_relative_reduction_of_a_gap_at_the_floors_resolution_earns_no_place():
+    """A tiny effect that takes a gap just above the floor (0.031 counts; windows' excesses spread as widely as
+    their mean) to zero reduces it by 100 % with a tight bound, but removes no more excess squared residual than
+    the floor resolves: not kept. Three times that excess removed is."""
+    bootstrap = Bootstrap(WINDOWS, 500, 0)
+    floor = FLOOR_COUNTS**2
+    spread = np.random.default_rng(4).exponential(1.0, WINDOWS)
+    without, with_it = 1.05 * floor * spread / spread.mean(), _at_floor(0.0, 2)
+    evidence = bootstrap.evidence(without, with_it)
+    assert evidence.reduction > 0.9 and evidence.lower_bound > ENTRY and not is_kept(evidence)
+    assert is_kept(bootstrap.evidence(3 * without, with_it))

@@ -12,14 +12,15 @@ place against the model holding all the others:
   nominal model is within the noise and no effect is accepted;
 - a candidate *enters* when the 5 % lower bound of its reduction over the model holding the earlier effects
   exceeds ``ENTRY``: the candidate with the largest reduction, replaced by one with fewer parameters when that
-  one is within ``PARSIMONY`` of it (at the floor, where reductions are all 1: when its mean excess squared
-  residual is not larger by more than ``FLOOR_COUNTS``^2 beyond the bootstrap interval), or when it is a variant
-  of the same law that the best does not beat significantly (Coulomb before Stribeck or asymmetry when the data
-  cannot tell them apart). Entry is lenient because effects mask each other: with three strong effects acting,
-  none alone may explain much;
+  one is within ``PARSIMONY`` of it (at the floor, where reductions are all 1, one of another law: when its
+  mean excess squared residual is not larger by more than ``FLOOR_COUNTS``^2 beyond the bootstrap interval), or
+  when it is a variant of the same law that the best does not beat significantly (Coulomb before Stribeck or
+  asymmetry when the data cannot tell them apart). Entry is lenient because effects mask each other: with three
+  strong effects acting, none alone may explain much;
 - an effect is *kept* (:func:`is_kept`) when the reduction it brings to the model holding all the other kept effects
-  is at least ``MARGIN`` and that reduction's 5 % lower bound exceeds ``ENTRY``: large enough to matter, and
-  significant; the weakest one that is not is dropped, and the others judged again;
+  is at least ``MARGIN``, that reduction's 5 % lower bound exceeds ``ENTRY`` and the excess squared residual it
+  removes exceeds ``FLOOR_COUNTS``^2 at its 5 % lower bound: large enough to matter, significant, and above the
+  floor's resolution; the weakest one that is not is dropped, and the others judged again;
 - two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
   difference of their reductions holds 0: the data explain them equally well, and the report says so;
 - the verdict is ``unexplained`` when the nominal model is not within the noise and the accepted effects together
@@ -53,7 +54,8 @@ def threshold_note(bootstrap: int, seed: int) -> str:
         f"by more than {FLOOR_COUNTS}^2 counts^2 beyond a {CONFUSABLE_LEVEL:.0%} bootstrap interval; when none "
         f"enters first, the best pair of the three best train fits may enter together on the same bound); an "
         f"effect is kept when the reduction it brings to the model "
-        f"holding all the other kept effects is at least {MARGIN:.0%} with a 5 % lower bound above {ENTRY:.0%}, "
+        f"holding all the other kept effects is at least {MARGIN:.0%} with a 5 % lower bound above {ENTRY:.0%} "
+        f"and removes more than {FLOOR_COUNTS}^2 counts^2 of excess squared residual at its 5 % lower bound, "
         f"else the weakest is dropped; a kept effect is exchanged for one of the two best other-law candidates of "
         f"the step it entered at when the model holding that one and the other kept effects reduces the final "
         f"model's held-out gap with a 5 % lower bound above {ENTRY:.0%}; the verdict is none when no effect is "
@@ -78,6 +80,7 @@ class Evidence:
     reduction: float  # 1 - gap / gap(reference)
     lower_bound: float  # 5 % bootstrap lower bound of the reduction
     excess: float  # mean excess squared residual [counts^2], ties below the floor
+    excess_drop: float  # 5 % bootstrap lower bound of the excess squared residual removed [counts^2]
 
 
 class Bootstrap:
@@ -99,6 +102,7 @@ class Bootstrap:
             float(point),
             float(np.quantile(self.reductions(reference, candidate), 0.05)),
             float(candidate.mean()),
+            self.excess_difference_interval(reference, candidate)[0],
         )
 
     def within_noise(self, per_window: np.ndarray) -> bool:
@@ -116,10 +120,8 @@ class Bootstrap:
 
     def beats_at_floor(self, better: np.ndarray, worse: np.ndarray) -> bool:
         """Whether the model of ``better`` explains the data beyond doubt better than that of ``worse`` where
-        reductions cannot tell (both at the floor): the ``CONFUSABLE_LEVEL`` interval of their difference of mean
-        excess squared residuals lies above ``FLOOR_COUNTS``^2, the floor's own resolution (each window's initial
-        states are refitted per model, a hidden bristle state too, so a richer model gains a little below it)."""
-        return self.excess_difference_interval(worse, better)[0] > FLOOR_COUNTS**2
+        reductions cannot tell (both at the floor): :func:`beyond_resolution` of the excess it removes."""
+        return beyond_resolution(self.excess_difference_interval(worse, better)[0])
 
     def difference_interval(self, reference: np.ndarray, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
         """The ``CONFUSABLE_LEVEL`` interval of reduction(first) - reduction(second), both over ``reference``."""
@@ -179,11 +181,21 @@ def choose(
     return min(simpler, key=lambda name: (n_params(new[name]), -evidence[name].reduction)) if simpler else best
 
 
+def beyond_resolution(excess_drop: float) -> bool:
+    """Whether a removed excess squared residual's lower bound [counts^2] exceeds ``FLOOR_COUNTS``^2, the floor's
+    own resolution: each window's initial states are refitted per model (a hidden bristle state too), and the
+    surrogate's friction differs from a real or simulated one by a few hundredths of a count, so below it a
+    richer model or a tiny extra effect fits what no effect explains."""
+    return excess_drop > FLOOR_COUNTS**2
+
+
 def is_kept(evidence: Evidence) -> bool:
     """Whether an effect whose removal costs ``evidence`` earns its place: a reduction of at least ``MARGIN`` of
     the gap of the model without it, with a 5 % lower bound above ``ENTRY`` (a second effect beside a strong
-    first one shares a small remaining gap, so its bound is wide even when its size is clear)."""
-    return evidence.reduction >= MARGIN and evidence.lower_bound > ENTRY
+    first one shares a small remaining gap, so its bound is wide even when its size is clear), removing more
+    excess squared residual than the floor resolves (:func:`beyond_resolution`: a small remaining gap's large
+    relative reductions are no evidence below it)."""
+    return evidence.reduction >= MARGIN and evidence.lower_bound > ENTRY and beyond_resolution(evidence.excess_drop)
 
 
 def confusable(
