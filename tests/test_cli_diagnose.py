@@ -61,7 +61,8 @@ def test_ctrl_c_leaves_no_output_and_says_so(tmp_path):
 
     rig = lund_rig()
     (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
-    write_log_csv(simulate(run_configs(rig, 21, 4.0)["hanging"]), tmp_path / "train.csv")
+    # 16 s of log: the diagnosis takes about three times the 6 s before the interrupt (a 4 s log's can end sooner)
+    write_log_csv(simulate(run_configs(rig, 21, 16.0)["hanging"]), tmp_path / "train.csv")
     process = subprocess.Popen(
         [
             sys.executable,
