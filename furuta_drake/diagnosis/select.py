@@ -184,8 +184,8 @@ def choose(
 def beyond_resolution(excess_drop: float) -> bool:
     """Whether a removed excess squared residual's lower bound [counts^2] exceeds ``FLOOR_COUNTS``^2, the floor's
     own resolution: each window's initial states are refitted per model (a hidden bristle state too), and the
-    surrogate's friction differs from a real or simulated one by a few hundredths of a count, so below it a
-    richer model or a tiny extra effect fits what no effect explains."""
+    surrogate's friction differs slightly from a real or simulated one, so below it a richer model or a tiny extra
+    effect fits what no effect explains."""
     return excess_drop > FLOOR_COUNTS**2
 
 
