@@ -89,34 +89,35 @@ class Bootstrap:
     def __init__(self, windows: int, resamples: int, seed: int):
         self.index = np.random.default_rng(seed).integers(0, windows, (resamples, windows))
 
+    def means(self, per_window: np.ndarray) -> np.ndarray:
+        """Bootstrap values of the mean excess squared residual [counts^2]."""
+        return per_window[self.index].mean(axis=1)
+
     def reductions(self, reference: np.ndarray, candidate: np.ndarray) -> np.ndarray:
         """Bootstrap values of 1 - gap(candidate) / gap(reference)."""
-        return 1.0 - gap_of(candidate[self.index].mean(axis=1)) / np.maximum(
-            gap_of(reference[self.index].mean(axis=1)), 1e-12
-        )
+        return _reductions(self.means(reference), self.means(candidate))
 
     def evidence(self, reference: np.ndarray, candidate: np.ndarray) -> Evidence:
         point = 1.0 - gap_of(candidate.mean()) / max(float(gap_of(reference.mean())), 1e-12)
+        before, after = self.means(reference), self.means(candidate)
         return Evidence(
             float(gap_of(candidate.mean())),
             float(point),
-            float(np.quantile(self.reductions(reference, candidate), 0.05)),
+            float(np.quantile(_reductions(before, after), 0.05)),
             float(candidate.mean()),
-            self.excess_difference_interval(reference, candidate)[0],
+            _interval(before - after)[0],
         )
 
     def within_noise(self, per_window: np.ndarray) -> bool:
         """The model of ``per_window`` explains the data to within their noise: its gap is below ``FLOOR_COUNTS``
         or twice its bootstrap standard error (module docstring)."""
         gap = float(gap_of(per_window.mean()))
-        return at_floor(per_window) or gap < 2.0 * float(np.std(gap_of(per_window[self.index].mean(axis=1))))
+        return at_floor(per_window) or gap < 2.0 * float(np.std(gap_of(self.means(per_window))))
 
     def excess_difference_interval(self, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
         """The ``CONFUSABLE_LEVEL`` interval of the mean excess squared residual of ``first`` minus that of
         ``second`` [counts^2]: what tells models apart when both gaps are clipped at the floor."""
-        difference = first[self.index].mean(axis=1) - second[self.index].mean(axis=1)
-        tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
-        return float(np.quantile(difference, tail)), float(np.quantile(difference, 1.0 - tail))
+        return _interval(self.means(first) - self.means(second))
 
     def beats_at_floor(self, better: np.ndarray, worse: np.ndarray) -> bool:
         """Whether the model of ``better`` explains the data beyond doubt better than that of ``worse`` where
@@ -125,9 +126,18 @@ class Bootstrap:
 
     def difference_interval(self, reference: np.ndarray, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
         """The ``CONFUSABLE_LEVEL`` interval of reduction(first) - reduction(second), both over ``reference``."""
-        difference = self.reductions(reference, first) - self.reductions(reference, second)
-        tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
-        return float(np.quantile(difference, tail)), float(np.quantile(difference, 1.0 - tail))
+        return _interval(self.reductions(reference, first) - self.reductions(reference, second))
+
+
+def _reductions(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """1 - gap(after) / gap(before) of resampled mean excesses."""
+    return 1.0 - gap_of(after) / np.maximum(gap_of(before), 1e-12)
+
+
+def _interval(values: np.ndarray) -> tuple[float, float]:
+    """The two-sided ``CONFUSABLE_LEVEL`` interval of bootstrap ``values``."""
+    tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
+    return float(np.quantile(values, tail)), float(np.quantile(values, 1.0 - tail))
 
 
 def at_floor(per_window: np.ndarray) -> bool:
@@ -214,12 +224,15 @@ def confusable(
             continue
         if at_floor(per_window[chosen]):  # both reductions are 1 there: the excess residuals tell them apart
             low, high = bootstrap.excess_difference_interval(per_window[name], per_window[chosen])
-            difference = f"mean excess squared residuals, [{low:+.3g}, {high:+.3g}] counts^2"
-            alike = not bootstrap.beats_at_floor(per_window[chosen], per_window[name])
+            alike = not beyond_resolution(low)
+            difference = (
+                f"mean excess squared residuals, [{low:+.3g}, {high:+.3g}] counts^2, stays below the floor's "
+                f"resolution ({FLOOR_COUNTS}^2 counts^2)"
+            )
         else:
             low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
-            difference = f"reductions, [{100 * low:+.1f}, {100 * high:+.1f}] points"
             alike = low <= 0.0 <= high
+            difference = f"reductions, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0"
         if alike:
             out.append(
                 {
@@ -227,7 +240,7 @@ def confusable(
                     "why": (
                         f"held-out reductions {evidence[chosen].reduction:.1%} ({new[chosen]}) and "
                         f"{evidence[name].reduction:.1%} ({new[name]}): the {CONFUSABLE_LEVEL:.0%} bootstrap interval "
-                        f"of the difference of their {difference}, holds 0"
+                        f"of the difference of their {difference}"
                     ),
                 }
             )

@@ -33,7 +33,7 @@ JOINT_REFITS = 3  # at a later step, the candidates fitted again together with t
 PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together
 EXCHANGE_RUNNERS_UP = 2  # per kept effect, the runners-up of its entry step tried in its place
 MAX_EXCHANGES = 2  # exchanges made at the most (each followed by the backward pass)
-STATIC_EXCESS = 0.1  # a Stribeck fit whose static level is within 10 % of its Coulomb level has no Stribeck part,
+LEVEL_EXCESS = 0.1  # a Stribeck fit whose static level is within 10 % of its Coulomb level has no Stribeck part,
 # and an asymmetry fit whose two levels are within 10 % of each other no asymmetry
 
 
@@ -89,9 +89,9 @@ class Selection:
 
 
 def _vocabulary_name(name: str, effect: Effect) -> str:
-    if name == "arm_stribeck" and effect.values[1] <= (1.0 + STATIC_EXCESS) * effect.values[0]:
+    if name == "arm_stribeck" and effect.values[1] <= (1.0 + LEVEL_EXCESS) * effect.values[0]:
         return "arm_coulomb_friction"
-    if name == "friction_asymmetry" and abs(effect.values[0] - effect.values[1]) <= STATIC_EXCESS * max(
+    if name == "friction_asymmetry" and abs(effect.values[0] - effect.values[1]) <= LEVEL_EXCESS * max(
         effect.values[:2]
     ):
         return "arm_coulomb_friction"

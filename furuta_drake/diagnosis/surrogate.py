@@ -109,9 +109,8 @@ def applied_torque(model: Model, command: np.ndarray) -> np.ndarray:
 
 
 def spring_torque(model: Model, phi):
-    """The arm spring's torque -(k x + k3 x^3), x = phi - phi_0 [N m]."""
-    stretch = phi - model.spring_equilibrium
-    return -(model.spring_stiffness + model.spring_cubic * stretch**2) * stretch
+    """The arm spring's torque at the arm angles ``phi`` [N m] (:func:`~.surrogate_kernel.spring_torque`)."""
+    return np.vectorize(kernel.spring_torque)(phi, model.spring_stiffness, model.spring_cubic, model.spring_equilibrium)
 
 
 def _accelerations(model: Model, x: np.ndarray, tau) -> np.ndarray:
@@ -142,23 +141,6 @@ def bristle_path(path: np.ndarray, p: JointFrictionParameters, period: float) ->
     """The arm's bristle state [rad] at every sample of a measured (smoothed) arm angle path sampled every
     ``period`` [s], from z = 0 at the first sample (the kernel's exact bristle step per sample)."""
     return kernel.bristle_path(np.ascontiguousarray(path, dtype=float), period, kernel.pack_friction(p))
-
-
-def rk4_substep(
-    model: Model, x: np.ndarray, z: np.ndarray, tau: np.ndarray, dt: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """One RK4 substep of length ``dt`` [s] of every column of ``x`` (4, W) under the applied torque ``tau``
-    (W,) [N m] held over it; ``z`` (W,) is the arm's bristle state (Dahl or LuGre arm only, else unused).
-    Returns the state and bristle at the substep's end (:func:`~.surrogate_kernel.integrate`)."""
-    _, x_next, z_next = kernel.integrate(
-        np.ascontiguousarray(x, dtype=float),
-        np.ascontiguousarray(z, dtype=float),
-        np.ascontiguousarray(np.reshape(tau, (1, -1)), dtype=float),
-        dt,
-        1,
-        *kernel.pack(model),
-    )
-    return x_next, z_next
 
 
 def lag_states(model: Model, command: np.ndarray, starts: np.ndarray, period: float, substeps: int) -> np.ndarray:

@@ -107,6 +107,13 @@ def bristle_step(z, displacement, velocity, f):
 
 
 @njit(cache=True, inline="always")
+def spring_torque(phi, stiffness, cubic, equilibrium):
+    """The arm spring's torque -(k x + k3 x^3), x = phi - phi_0 [N m]."""
+    stretch = phi - equilibrium
+    return -(stiffness + cubic * stretch * stretch) * stretch
+
+
+@njit(cache=True, inline="always")
 def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum):
     """x' of the Furuta model (:mod:`~furuta_drake.diagnosis.surrogate`) under the arm torque ``tau`` [N m]; a
     joint's static friction law acts where its row is static (a bristle's torque comes in ``tau``)."""
@@ -117,8 +124,7 @@ def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum):
     if arm[F_KIND] == STATIC:
         tau_phi += static_torque(phi_dot, arm)
     tau_phi -= rigid[4] * phi_dot
-    stretch = phi - rigid[7]
-    tau_phi -= (rigid[5] + rigid[6] * stretch * stretch) * stretch
+    tau_phi += spring_torque(phi, rigid[5], rigid[6], rigid[7])
     m12, m22 = c * co, a + b * s * s
     r1 = d * s + b * sc * phi_dot * phi_dot
     if pendulum[F_KIND] == STATIC:

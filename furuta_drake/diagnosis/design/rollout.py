@@ -84,8 +84,8 @@ def surrogate_closed_loop(
     map, Dahl or LuGre bristle) are stepped one sample at a time, with the same RK4 substeps as
     :func:`~furuta_drake.diagnosis.surrogate.predict_windows`.
     """
-    from furuta_drake.diagnosis.surrogate import _delayed_command, applied_torque, rk4_substep
-    from furuta_drake.diagnosis.surrogate_kernel import lag_filter
+    from furuta_drake.diagnosis.surrogate import _delayed_command, applied_torque
+    from furuta_drake.diagnosis.surrogate_kernel import integrate, lag_filter, pack
 
     dithers = np.atleast_2d(dithers)
     designs, samples = dithers.shape
@@ -96,6 +96,7 @@ def surrogate_closed_loop(
     starts = COMMAND_PAD + np.arange(designs) * width
     x = np.tile(np.asarray(UPRIGHT, dtype=float)[:, None], (1, designs))
     lag_state, z = np.zeros(designs), np.zeros(designs)
+    packed = pack(model)  # the kernel's parameters, once for every substep
     resolution = 2 * np.pi / counts
     K = np.ravel(gain)
 
@@ -111,5 +112,5 @@ def surrogate_closed_loop(
             if model.lag > 0:
                 filtered, lag_state = lag_filter(held[None, :], lag_state, model.lag, dt)
                 held = filtered[0]
-            x, z = rk4_substep(model, x, z, applied_torque(model, held), dt)
+            _, x, z = integrate(x, z, np.ascontiguousarray(applied_torque(model, held))[None, :], dt, 1, *packed)
     return angles, logged
