@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem, OutputPort
 from pydrake.systems.primitives import (
     Adder,
     ConstantVectorSource,
@@ -39,7 +40,7 @@ from furuta_drake.controllers.quanser_swingup import QuanserSwingUpController
 from furuta_drake.controllers.swingup import EnergySwingUpController, kinematic_model
 from furuta_drake.encoder import Encoder
 from furuta_drake.excitation import arm_reference_trajectory, torque_excitation_trajectory
-from furuta_drake.observers.dahl import DahlFrictionObserver
+from furuta_drake.observers.dahl import DahlFrictionObserver, add_dahl_adaptation
 from furuta_drake.observers.filtered_derivative import FilteredDerivative
 from furuta_drake.observers.hg import HighGainObserver, HighGainParameters
 from furuta_drake.observers.vfe import VfeObserver, friction_error_response
@@ -232,7 +233,7 @@ def add_observers(
             )
             out.compensation = hg_dahl.GetOutputPort("friction_estimate_Nm")
     if "vfe" in needed:
-        vfe, dahl, _ = add_vfe_with_dahl(
+        nested = add_vfe_with_dahl(
             builder,
             (A_model, B_F),
             config.observers.vfe,
@@ -242,15 +243,16 @@ def add_observers(
             config.observers.pendulum_friction,
             period=period,
         )
+        vfe, dahl, adapter = nested.vfe, nested.dahl, nested.adapter
         out.estimates["vfe"] = vfe.GetOutputPort("state_estimate")
         linear.append(vfe)
         adaptation = config.observers.dahl.adaptation
         if adaptation is not None and adaptation.parameters is not None:
-            out.signals["dahl_parameters"] = dahl.GetOutputPort("dahl_parameters")
+            out.signals["dahl_parameters"] = adapter.GetOutputPort("dahl_parameters")
         out.signals["friction_estimate"] = dahl.GetOutputPort("friction_estimate_Nm")
         out.signals["friction_error_estimate"] = vfe.GetOutputPort("friction_error_estimate_Nm")
         if adaptation is not None and adaptation.k_sigma is not None:
-            out.signals["K_sigma"] = dahl.GetOutputPort("K_sigma_branches")
+            out.signals["K_sigma"] = adapter.GetOutputPort("K_sigma_branches")
         if compensate and source in ("vfe", "kinematic_hg"):
             out.compensation = dahl.GetOutputPort("friction_estimate_Nm")
     if source == "derivative":
@@ -302,6 +304,17 @@ def _angles_and(builder: DiagramBuilder, name: str, measured: OutputPort, veloci
     return mux.get_output_port()
 
 
+class NestedObservers(NamedTuple):
+    """What :func:`add_vfe_with_dahl` added: the VFE observer, the arm's Dahl observer, the selector of its arm
+    velocity, and the Dahl observer's adapter (the last three None without a Dahl observer; the adapter None
+    without adaptation)."""
+
+    vfe: LeafSystem
+    dahl: DahlFrictionObserver | None
+    arm_velocity: LeafSystem | None
+    adapter: LeafSystem | None
+
+
 def add_vfe_with_dahl(
     builder: DiagramBuilder,
     model,
@@ -318,7 +331,7 @@ def add_vfe_with_dahl(
     eps_hat_F (Eq. 18, or the Fc and sigma0 law of Sec. VII); with ``pendulum_params`` a second friction
     observer on the pendulum joint feeds F_hat_theta too. ``model`` is (A, B_F) of Eq. 1-2, ``period`` the
     control period [s]. ``dahl_params`` None: a model without arm friction, F_hat held at 0 (eps_hat_F carries
-    all of it). Returns (vfe, dahl, arm_velocity), the last two None without a Dahl observer."""
+    all of it). Returns the :class:`NestedObservers` added."""
     vfe = builder.AddNamedSystem(
         "vfe_observer",
         VfeObserver(model, vfe_params, period=period, pendulum_friction_input=pendulum_params is not None),
@@ -329,9 +342,9 @@ def add_vfe_with_dahl(
     if dahl_params is None:
         zero = builder.AddNamedSystem("no_friction_model", ConstantVectorSource(np.zeros(1)))
         builder.Connect(zero.get_output_port(), vfe.GetInputPort("friction_estimate_Nm"))
-        dahl = arm_velocity = None
+        dahl = arm_velocity = adapter = None
     else:
-        dahl, arm_velocity = _add_arm_dahl(builder, vfe, dahl_params, model, measured, period)
+        dahl, arm_velocity, adapter = _add_arm_dahl(builder, vfe, dahl_params, model, measured, period)
     if pendulum_params is not None:
         pendulum, _ = add_dahl_observer(
             builder, pendulum_params, estimate, measured, "vfe", period=period, joint="pendulum"
@@ -339,27 +352,29 @@ def add_vfe_with_dahl(
         builder.Connect(
             pendulum.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("pendulum_friction_estimate_Nm")
         )
-    return vfe, dahl, arm_velocity
+    return NestedObservers(vfe, dahl, arm_velocity, adapter)
 
 
 def _add_arm_dahl(builder: DiagramBuilder, vfe, dahl_params, model, measured: OutputPort, period: float):
-    """The arm's Dahl observer nested with ``vfe`` (:func:`add_vfe_with_dahl`): (dahl, arm_velocity)."""
+    """The arm's Dahl observer nested with ``vfe`` (:func:`add_vfe_with_dahl`), with its adapter when it adapts:
+    (dahl, arm_velocity, adapter or None)."""
     estimate = vfe.GetOutputPort("state_estimate")
     adaptation = dahl_params.adaptation
-    error_response = (
-        friction_error_response(*model, vfe.gains)
-        if adaptation is not None and adaptation.parameters is not None
-        else None
+    dahl, arm_velocity = add_dahl_observer(builder, dahl_params, estimate, measured, "vfe", period=period)
+    adapter = add_dahl_adaptation(
+        builder,
+        dahl,
+        velocity=arm_velocity.get_output_port(),
+        friction_error=vfe.GetOutputPort("friction_error_estimate_Nm"),
+        name="vfe_k_sigma_adapter" if adaptation is not None and adaptation.k_sigma else "vfe_parameter_adapter",
+        error_response=(
+            friction_error_response(*model, vfe.gains)
+            if adaptation is not None and adaptation.parameters is not None
+            else None
+        ),
     )
-    dahl, arm_velocity = add_dahl_observer(
-        builder, dahl_params, estimate, measured, "vfe", period=period, error_response=error_response
-    )
-    if adaptation is not None:
-        builder.Connect(
-            vfe.GetOutputPort("friction_error_estimate_Nm"), dahl.GetInputPort("friction_error_estimate_Nm")
-        )
     builder.Connect(dahl.GetOutputPort("friction_estimate_Nm"), vfe.GetInputPort("friction_estimate_Nm"))
-    return dahl, arm_velocity
+    return dahl, arm_velocity, adapter
 
 
 def add_dahl_observer(
@@ -371,17 +386,16 @@ def add_dahl_observer(
     *,
     period: float,
     joint: str = "arm",
-    error_response=None,
 ):
     """The Dahl (or LuGre) friction observer (Eq. 8, 16) of ``joint`` on that joint's velocity in an observer's
-    ``state_estimate`` (paper order), adapting as ``params.adaptation`` says (``error_response``: its VFE's
-    ``friction_error_response``, for the Fc and sigma0 law). Returns (observer, velocity selector), named
+    ``state_estimate`` (paper order); an adapting one needs its adapter (:func:`add_dahl_adaptation`). Returns
+    (observer, velocity selector), named
     ``{prefix}_dahl_observer`` and ``{prefix}_arm_velocity`` for the arm, ``{prefix}_pendulum_dahl_observer``
     and ``{prefix}_pendulum_velocity`` for the pendulum."""
     label = prefix if joint == "arm" else f"{prefix}_pendulum"
     dahl = builder.AddNamedSystem(
         f"{label}_dahl_observer",
-        DahlFrictionObserver(params, period=period, joint=joint, error_response=error_response),
+        DahlFrictionObserver(params, period=period, joint=joint),
     )
     row = np.array([[0.0, 0.0, 0.0, 1.0]]) if joint == "arm" else np.array([[0.0, 0.0, 1.0, 0.0]])
     velocity = builder.AddNamedSystem(f"{prefix}_{joint}_velocity", MatrixGain(row))
@@ -437,6 +451,7 @@ __all__ = [
     "Observers",
     "add_observers",
     "start_at",
+    "NestedObservers",
     "add_vfe_with_dahl",
     "add_dahl_observer",
     "add_loggers",

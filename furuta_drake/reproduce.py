@@ -191,7 +191,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
         linear.append(hg_system)
     if vfe is not None:
         vfe_params, dahl_params = vfe
-        vfe_system, _, _ = add_vfe_with_dahl(
+        vfe_system = add_vfe_with_dahl(
             builder,
             (A, B_F),
             vfe_params,
@@ -200,7 +200,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
             torque.get_output_port(),
             config.observers.pendulum_friction,
             period=period,
-        )
+        ).vfe
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
         linear.append(vfe_system)
     if config.observers.start_at_initial_state:

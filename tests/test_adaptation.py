@@ -1,5 +1,6 @@
-"""K_sigma adaptation (paper Eq. 16-18, Sec. V-C) inside the Dahl observer: direction of adaptation, branches,
-activation conditions, convergence to the gain that makes F_hat the true friction; one way to switch it on."""
+"""K_sigma adaptation (paper Eq. 16-18, Sec. V-C), the K_sigma adapter beside the Dahl observer: direction of
+adaptation, branches, activation conditions, the active gain, convergence to the gain that makes F_hat the true
+friction; one way to switch it on."""
 
 import math
 
@@ -11,40 +12,36 @@ from pydrake.systems.primitives import Adder, ConstantVectorSource, Gain, LogVec
 
 from furuta_drake.config import ObserverConfig
 from furuta_drake.errors import ConfigError
-from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver, DahlObserverParameters
-from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
+from furuta_drake.observers.dahl import (
+    DahlAdaptation,
+    DahlFrictionObserver,
+    DahlObserverParameters,
+    adapting_dahl_observer,
+)
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters, KSigmaAdapter
 from furuta_drake.observers.parameter_adaptation import ParameterAdaptationParameters
 
 PERIOD = 1e-3
 SIGMA0 = 10.0  # [N m/rad]
 
 
-def k_sigma_observer(
-    params: KSigmaAdaptationParameters, *, velocity: float, friction_error: float, observer_level: float
-):
-    """A Dahl observer adapting K_sigma, its bristle settled at z_ss = Fc sign(v) / sigma0 for its own level
-    ``observer_level`` and held there (v constant and no tracking error: the exact step keeps z_ss, K_z = 0),
-    with a fixed eps_hat_F; returns it, its context, z_ss and a function advancing n periods to the branches."""
-    dahl = DahlObserverParameters(
-        coulomb_pos=observer_level, coulomb_neg=observer_level, sigma0=SIGMA0, adaptation=DahlAdaptation(k_sigma=params)
-    )
-    observer = DahlFrictionObserver(dahl, period=PERIOD)
-    context = observer.CreateDefaultContext()
-    observer.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
-    observer.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
-    observer.GetInputPort("arm_reference_rad").FixValue(context, [0.0, velocity])
-    observer.GetInputPort("friction_error_estimate_Nm").FixValue(context, [0.0, friction_error])
-    z_ss = math.copysign(observer_level, velocity) / SIGMA0
-    context.SetDiscreteState([z_ss, params.initial, params.initial])
+def k_sigma_adapter(params: KSigmaAdaptationParameters, *, velocity: float, friction_error: float, bristle: float):
+    """The K_sigma adapter with fixed inputs: the Dahl observer's z_hat held at ``bristle`` (its sliding steady
+    state), v and eps_hat_F constant; returns it, its context and a function advancing n periods to the
+    branches."""
+    adapter = KSigmaAdapter(params, period=PERIOD, sigma0=SIGMA0)
+    context = adapter.CreateDefaultContext()
+    adapter.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
+    adapter.GetInputPort("bristle_state_rad").FixValue(context, [bristle])
+    adapter.GetInputPort("friction_error_estimate_Nm").FixValue(context, [0.0, friction_error])
 
     def advance(steps: int) -> np.ndarray:
         for _ in range(steps):
-            context.SetDiscreteState(observer.EvalUniquePeriodicDiscreteUpdate(context).value())
+            context.SetDiscreteState(adapter.EvalUniquePeriodicDiscreteUpdate(context).value())
             context.SetTime(context.get_time() + PERIOD)
-        assert observer.GetOutputPort("bristle_state_rad").Eval(context)[0] == z_ss
-        return observer.GetOutputPort("K_sigma_branches").Eval(context).copy()
+        return adapter.GetOutputPort("K_sigma_branches").Eval(context).copy()
 
-    return observer, context, z_ss, advance
+    return adapter, context, advance
 
 
 # Sliding at v = +-0.5 rad/s the Dahl observer's z_hat = Fc sign(v) / sigma0 with its own (wrong) Fc. The true
@@ -65,25 +62,27 @@ def test_k_sigma_rises_when_friction_is_underestimated_and_falls_when_overestima
     z_hat = math.copysign(observer_level, v) / SIGMA0
     error = friction - (-SIGMA0 * z_hat)  # F - F_hat with K_sigma = 1
     params = KSigmaAdaptationParameters(gamma=5000.0)
-    _, _, _, advance = k_sigma_observer(params, velocity=v, friction_error=error, observer_level=observer_level)
+    adapter, context, advance = k_sigma_adapter(params, velocity=v, friction_error=error, bristle=z_hat)
     branches = advance(200)
     expected = 1.0 - 5000.0 * error * SIGMA0 * z_hat * 200 * PERIOD
     assert np.sign(branches[branch] - 1.0) == direction
     assert branches[branch] == pytest.approx(expected, rel=1e-9)
     assert branches[1 - branch] == 1.0
+    assert adapter.GetOutputPort("K_sigma").Eval(context)[0] == branches[branch]  # the gain of v's sign
 
 
 def test_frozen_below_the_velocity_threshold():
     params = KSigmaAdaptationParameters(velocity_threshold=0.1)
     for v in (0.05, -0.1):
-        _, _, _, advance = k_sigma_observer(params, velocity=v, friction_error=-0.004, observer_level=0.008)
+        _, _, advance = k_sigma_adapter(params, velocity=v, friction_error=-0.004, bristle=math.copysign(8e-4, v))
         np.testing.assert_array_equal(advance(300), [1.0, 1.0])
 
 
 def test_frozen_before_the_enable_time_and_adapting_after():
     """Enabled at t = 0.1 s: K_sigma+ is 1 for the first 100 periods, then moves at Eq. 18's rate."""
     params = KSigmaAdaptationParameters(gamma=5000.0, enable_time=0.1)
-    _, _, z_hat, advance = k_sigma_observer(params, velocity=0.5, friction_error=-0.004, observer_level=0.008)
+    z_hat = 0.008 / SIGMA0
+    _, _, advance = k_sigma_adapter(params, velocity=0.5, friction_error=-0.004, bristle=z_hat)
     np.testing.assert_array_equal(advance(100), [1.0, 1.0])
     rate = -5000.0 * -0.004 * SIGMA0 * z_hat
     assert advance(50)[0] == pytest.approx(1.0 + rate * 50 * PERIOD, rel=1e-9)
@@ -91,12 +90,22 @@ def test_frozen_before_the_enable_time_and_adapting_after():
 
 @pytest.mark.parametrize("v, branch", [(0.3, 0), (-0.3, 1)])
 def test_the_estimate_uses_the_k_sigma_of_the_velocity_sign(v, branch):
-    """F_hat = -K_sigma sigma0 z_hat (Eq. 16) with K_sigma+ while v > 0 and K_sigma- otherwise."""
-    observer, context, z_hat, _ = k_sigma_observer(
-        KSigmaAdaptationParameters(), velocity=v, friction_error=0.0, observer_level=0.012
+    """F_hat = -K_sigma sigma0 z_hat (Eq. 16) with K_sigma+ while v > 0 and K_sigma- otherwise: the adapter's
+    branches [1.3, 1.8] through its K_sigma output into the Dahl observer, wired as the diagram wires them."""
+    dahl = DahlObserverParameters(
+        coulomb_pos=0.012,
+        coulomb_neg=0.012,
+        sigma0=SIGMA0,
+        adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters()),
     )
-    context.SetDiscreteState([z_hat, 1.3, 1.8])
-    assert observer.GetOutputPort("friction_estimate_Nm").Eval(context)[0] == -[1.3, 1.8][branch] * SIGMA0 * z_hat
+    diagram, observer, adapter = adapting_dahl_observer(dahl, period=PERIOD)
+    context = diagram.CreateDefaultContext()
+    diagram.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [v])
+    diagram.GetInputPort("measured_angles_rad").FixValue(context, [0.0, 0.0])
+    z_hat = math.copysign(0.012, v) / SIGMA0
+    observer.GetMyMutableContextFromRoot(context).SetDiscreteState([z_hat])
+    adapter.GetMyMutableContextFromRoot(context).SetDiscreteState([1.3, 1.8])
+    assert diagram.GetOutputPort("friction_estimate_Nm").Eval(context)[0] == -[1.3, 1.8][branch] * SIGMA0 * z_hat
 
 
 @pytest.mark.parametrize("v, level", [(0.5, 0.012), (-0.5, 0.018)])
@@ -113,27 +122,16 @@ def test_adaptation_with_a_dahl_observer_converges_to_the_true_gain(v, level):
     velocity = builder.AddSystem(ConstantVectorSource([v]))
     angles = builder.AddSystem(ConstantVectorSource([0.0, 0.0]))
     reference = builder.AddSystem(ConstantVectorSource([0.0, v]))  # no tracking error: K_z = 0
-    truth = builder.AddSystem(
-        DahlFrictionObserver(
-            DahlObserverParameters(
-                coulomb_pos=0.012,
-                coulomb_neg=0.018,
-                sigma0=SIGMA0,
-                adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_true)),
-            ),
-            period=PERIOD,
+    truth, observer = (
+        builder.AddSystem(
+            adapting_dahl_observer(
+                DahlObserverParameters(
+                    coulomb_pos=0.012, coulomb_neg=0.018, sigma0=SIGMA0, adaptation=DahlAdaptation(k_sigma=law)
+                ),
+                period=PERIOD,
+            )[0]
         )
-    )
-    observer = builder.AddSystem(
-        DahlFrictionObserver(
-            DahlObserverParameters(
-                coulomb_pos=0.012,
-                coulomb_neg=0.018,
-                sigma0=SIGMA0,
-                adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=gamma)),
-            ),
-            period=PERIOD,
-        )
+        for law in (KSigmaAdaptationParameters(gamma=0.0, initial=k_true), KSigmaAdaptationParameters(gamma=gamma))
     )
     negate = builder.AddSystem(Gain(-1.0, 1))
     error = builder.AddSystem(Adder(2, 1))

@@ -26,11 +26,10 @@ def stepper(
     z0: float = 0.0,
 ):
     """The observer with fixed inputs; returns a function advancing n periods and returning (z_hat, F_hat).
-    ``k_sigma``: K_sigma held at that value (the one-gain law with gamma = 0); None: no adaptation (K_sigma = 1)."""
+    ``k_sigma``: the observer's K_sigma input held at that value (an adapting observer); None: no adaptation
+    (K_sigma = 1)."""
     if k_sigma is not None:
-        params = dataclasses.replace(
-            params, adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters(gamma=0.0, initial=k_sigma))
-        )
+        params = dataclasses.replace(params, adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters()))
     system = DahlFrictionObserver(params, period=PERIOD)
     context = system.CreateDefaultContext()
     system.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
@@ -38,10 +37,8 @@ def stepper(
     if reference is not None:
         system.GetInputPort("arm_reference_rad").FixValue(context, list(reference))
     if k_sigma is not None:
-        system.GetInputPort("friction_error_estimate_Nm").FixValue(context, [0.0, 0.0])
-        context.SetDiscreteState([z0, k_sigma, k_sigma])
-    else:
-        context.SetDiscreteState([z0])
+        system.GetInputPort("K_sigma").FixValue(context, [k_sigma])
+    context.SetDiscreteState([z0])
 
     def advance(steps: int):
         for _ in range(steps):

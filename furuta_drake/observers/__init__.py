@@ -2,23 +2,33 @@
 K_sigma law of Eq. 16-18, or Fc and sigma0 of Sec. VII), velocity and friction error (Eq. 11-13).
 
 HG and VFE are linear, so each is a Drake Diagram of C++ blocks (:mod:`.linear`); the Dahl observer is a Python
-LeafSystem with an exact exponential step, its adaptation laws (:mod:`.k_sigma`, :mod:`.parameter_adaptation`)
-inside it. All are discrete at the control period.
+LeafSystem with an exact exponential step, and each adaptation law is a LeafSystem of its own beside it
+(:class:`.k_sigma.KSigmaAdapter`, :class:`.parameter_adaptation.DahlParameterAdapter`). All are discrete at the
+control period.
 """
 
-from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver, DahlObserverParameters
+from furuta_drake.observers.dahl import (
+    DahlAdaptation,
+    DahlFrictionObserver,
+    DahlObserverParameters,
+    adapting_dahl_observer,
+    add_dahl_adaptation,
+)
 from furuta_drake.observers.hg import (
     HighGainObserver,
     HighGainParameters,
     high_gain_eigenvalues,
     high_gain_error_matrix,
 )
-from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
-from furuta_drake.observers.parameter_adaptation import ParameterAdaptationParameters
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters, KSigmaAdapter
+from furuta_drake.observers.parameter_adaptation import DahlParameterAdapter, ParameterAdaptationParameters
 from furuta_drake.observers.vfe import VfeObserver, VfeParameters, vfe_error_matrix, vfe_gains
 
 __all__ = [
     "DahlAdaptation",
+    "DahlParameterAdapter",
+    "adapting_dahl_observer",
+    "add_dahl_adaptation",
     "DahlFrictionObserver",
     "DahlObserverParameters",
     "HighGainObserver",
@@ -26,6 +36,7 @@ __all__ = [
     "high_gain_eigenvalues",
     "high_gain_error_matrix",
     "KSigmaAdaptationParameters",
+    "KSigmaAdapter",
     "ParameterAdaptationParameters",
     "VfeObserver",
     "VfeParameters",

@@ -37,9 +37,10 @@ observes the pendulum's friction F_theta from the pendulum velocity estimate; no
 pendulum has no actuator), so it feeds the VFE observer only and, with ``rho = None``, runs without injection.
 
 Adaptation (``DahlObserverParameters.adaptation``, an optional section): none (K_sigma = 1), the paper's
-K_sigma law (Eq. 16-18, :mod:`furuta_drake.observers.k_sigma`) or the adaptation of Fc+/- and sigma0
-(Sec. VII, :mod:`furuta_drake.observers.parameter_adaptation`). Both read the VFE observer's eps_hat_F and run
-inside this system, in one state vector [z_hat, the law's entries], so that each sample is one Python update.
+K_sigma law (Eq. 16-18, :class:`~furuta_drake.observers.k_sigma.KSigmaAdapter`) or the adaptation of Fc+/- and
+sigma0 (Sec. VII, :class:`~furuta_drake.observers.parameter_adaptation.DahlParameterAdapter`). Each law is its
+own system beside this one (:func:`add_dahl_adaptation` wires it): it reads z_hat, v and the VFE observer's
+eps_hat_F and gives this observer its gain or its parameters.
 
 Defaults: the paper's measured arm levels (0.012 N m for v > 0, 0.018 for v < 0, Sec. V-D), sigma0 = 10 N m/rad
 (``docs/paper.md``), and rho = 100 N m s/rad, rho2 = 0.1 s: a gentle injection (K_z / v of a few percent over Table I's
@@ -51,8 +52,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.primitives import PassThrough
 
 from furuta_drake.errors import ConfigError, require_control_period
 from furuta_drake.friction import (
@@ -62,25 +63,8 @@ from furuta_drake.friction import (
     held_input_gain,
     stribeck_curve,
 )
-from furuta_drake.observers.k_sigma import (
-    K_SIGMA_NEG,
-    K_SIGMA_POS,
-    KSigmaAdaptationParameters,
-    adapting_branch,
-    k_sigma_step,
-)
-from furuta_drake.observers.parameter_adaptation import (
-    LOG_FC_NEG,
-    LOG_FC_POS,
-    LOG_SIGMA0,
-    PE_FC_NEG,
-    PE_FC_POS,
-    PE_SIGMA0,
-    ParameterAdaptationLaw,
-    ParameterAdaptationParameters,
-    adapted_model,
-    initial_state,
-)
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters, KSigmaAdapter
+from furuta_drake.observers.parameter_adaptation import DahlParameterAdapter, ParameterAdaptationParameters
 
 JOINTS = ("arm", "pendulum")
 
@@ -170,24 +154,20 @@ class DahlObserverParameters:
 
 class DahlFrictionObserver(LeafSystem):
     """Eq. 8-9, 16 of one joint (the arm by default), discrete at the control period ``period`` [s] (exact step,
-    see the module docstring), with ``params.adaptation``'s law when one is given (arm only).
+    see the module docstring). An adapting observer reads its adapted model from its adapter (arm only; wired by
+    :func:`add_dahl_adaptation`).
 
     Inputs: ``{joint}_velocity_estimate_rad_per_s`` (v), ``measured_angles_rad`` ([theta, phi]; the joint's
     angle gives eps), ``arm_reference_rad`` (arm only: [phi_ref [rad], v_ref [rad/s]], zero if unconnected) and,
-    when adapting, ``friction_error_estimate_Nm`` (the VFE's eps_hat_F = [pendulum, arm] [N m]). Discrete state
-    [z_hat [rad], the law's entries]: [K_sigma+, K_sigma-] for ``k_sigma``, the log-parameters, sensitivities,
-    excitation measures and regressor filters of :mod:`~furuta_drake.observers.parameter_adaptation` for
-    ``parameters``. Outputs: ``friction_estimate_Nm`` (F_hat = -K_sigma sigma0 z_hat [N m] for Dahl, K_sigma of
-    v's sign; feeds through v for K_sigma and for LuGre's sigma1, sigma2), ``bristle_state_rad`` (z_hat), and
-    ``K_sigma_branches`` ([K_sigma+, K_sigma-]) with ``k_sigma``, ``dahl_parameters`` ([Fc+ [N m], Fc- [N m],
-    sigma0 [N m/rad]]) and ``parameter_excitation`` (the windowed mean of psi^2 per parameter [(N m)^2]) with
-    ``parameters``. ``error_response`` is (M, N) of ``vfe.friction_error_response`` for the VFE observer that
-    feeds eps_hat_F (``parameters`` only).
+    when adapting, ``K_sigma`` (Eq. 16's gain of v's sign, :class:`~furuta_drake.observers.k_sigma.KSigmaAdapter`)
+    or ``dahl_parameters`` ([Fc+ [N m], Fc- [N m], sigma0 [N m/rad]] of
+    :class:`~furuta_drake.observers.parameter_adaptation.DahlParameterAdapter`). Discrete state z_hat [rad].
+    Outputs: ``friction_estimate_Nm`` (F_hat = -K_sigma sigma0 z_hat [N m] for Dahl; feeds through v for LuGre's
+    sigma1, sigma2), ``bristle_state_rad`` (z_hat) and, with ``dahl_parameters``, ``bristle_injection_rad_per_s``
+    (K_z of Eq. 9, which the parameter law's sensitivities follow).
     """
 
-    def __init__(
-        self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm", error_response=None
-    ):
+    def __init__(self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm"):
         LeafSystem.__init__(self)
         params = params or DahlObserverParameters()
         params.validate()
@@ -206,70 +186,61 @@ class DahlFrictionObserver(LeafSystem):
         self._velocity = self.DeclareVectorInputPort(f"{joint}_velocity_estimate_rad_per_s", 1)
         self._angles = self.DeclareVectorInputPort("measured_angles_rad", 2)
         self._reference = self.DeclareVectorInputPort("arm_reference_rad", 2) if joint == "arm" else None
-        if adaptation is not None:
-            self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
+        self._gain = self._parameters = None
         xd = self.xd_ticket()
         state = {xd}
-        if adaptation is None:
-            initial, update, calc = [0.0], self._update, self._calc_friction
-            if params.sigma1 > 0 or params.sigma2 > 0:
-                state = {*state, self._velocity.ticket()}
-        elif adaptation.k_sigma is not None:
-            k_sigma = adaptation.k_sigma
-            initial, update, calc = [0.0, k_sigma.initial, k_sigma.initial], self._update_k_sigma, self._calc_k_sigma
+        if params.sigma1 > 0 or params.sigma2 > 0:
             state = {*state, self._velocity.ticket()}
-        else:
-            if error_response is None:
-                raise ConfigError(
-                    "observers.dahl.adaptation.parameters needs the VFE observer's error response (error_response)"
-                )
-            self._parameter_law = ParameterAdaptationLaw(adaptation.parameters, error_response, period)
-            initial = initial_state(params.coulomb_pos, params.coulomb_neg, params.sigma0)
-            update, calc = self._update_parameters, self._calc_adapted
-        self.DeclareDiscreteState(initial)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, update)
-        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, calc, prerequisites_of_calc=state)
-        self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle, prerequisites_of_calc={xd})
         if adaptation is not None and adaptation.k_sigma is not None:
-            self.DeclareVectorOutputPort("K_sigma_branches", 2, self._calc_branches, prerequisites_of_calc={xd})
+            self._gain = self.DeclareVectorInputPort("K_sigma", 1)
+            state = {*state, self._gain.ticket()}
         elif adaptation is not None:
-            self.DeclareVectorOutputPort("dahl_parameters", 3, self._calc_parameters, prerequisites_of_calc={xd})
-            self.DeclareVectorOutputPort("parameter_excitation", 3, self._calc_excitation, prerequisites_of_calc={xd})
+            self._parameters = self.DeclareVectorInputPort("dahl_parameters", 3)
+            state = {*state, self._parameters.ticket()}
+        self.DeclareDiscreteState([0.0])
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction, prerequisites_of_calc=state)
+        self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle, prerequisites_of_calc={xd})
+        if self._parameters is not None:
+            self.DeclareVectorOutputPort("bristle_injection_rad_per_s", 1, self._calc_injection)
 
     # --- Outputs --------------------------------------------------------------------------------------------
 
     def _model_torque(self, context, z: float) -> float:
-        """F of the observer's fixed model at z [rad]: -sigma0 z (Dahl) or the LuGre torque at v [N m]."""
+        """F of the observer's model at z [rad]: -sigma0 z (Dahl, with the adapted sigma0 when adapting) or the
+        LuGre torque at v [N m]."""
         p = self.params
         if p.sigma1 > 0 or p.sigma2 > 0:
             return bristle_friction_torque(z, self._velocity.Eval(context)[0], self._law)
+        if self._parameters is not None:
+            return -self._parameters.Eval(context)[2] * z
         return -p.sigma0 * z
 
     def _calc_friction(self, context, output: BasicVector):
-        output.SetAtIndex(0, self._model_torque(context, context.get_discrete_state(0).GetAtIndex(0)))
-
-    def _calc_k_sigma(self, context, output: BasicVector):
-        x = context.get_discrete_state_vector()
-        k_sigma = x.GetAtIndex(K_SIGMA_POS if self._velocity.Eval(context)[0] > 0 else K_SIGMA_NEG)
-        output.SetAtIndex(0, k_sigma * self._model_torque(context, x.GetAtIndex(0)))
-
-    def _calc_adapted(self, context, output: BasicVector):
-        x = context.get_discrete_state_vector().value()
-        output.SetAtIndex(0, -math.exp(x[LOG_SIGMA0]) * x[0])
+        torque = self._model_torque(context, context.get_discrete_state(0).GetAtIndex(0))
+        output.SetAtIndex(0, torque if self._gain is None else self._gain.Eval(context)[0] * torque)
 
     def _calc_bristle(self, context, output: BasicVector):
         output.SetAtIndex(0, context.get_discrete_state(0).GetAtIndex(0))
 
-    def _calc_branches(self, context, output: BasicVector):
-        output.SetFromVector(context.get_discrete_state_vector().value()[[K_SIGMA_POS, K_SIGMA_NEG]])
+    def _calc_injection(self, context, output: BasicVector):
+        v = self._velocity.Eval(context)[0]
+        output.SetAtIndex(0, self._injection(context, v, *self._model(context, v)))
 
-    def _calc_parameters(self, context, output: BasicVector):
-        output.SetFromVector(np.exp(context.get_discrete_state_vector().value()[[LOG_FC_POS, LOG_FC_NEG, LOG_SIGMA0]]))
+    # --- The update, one a sample: Eq. 8-9 ------------------------------------------------------------------
 
-    def _calc_excitation(self, context, output: BasicVector):
-        output.SetFromVector(context.get_discrete_state_vector().value()[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]])
+    def _model(self, context, v: float) -> tuple[float, float]:
+        """(sigma0 [N m/rad], the level g(v) [N m]) of the model at v: the adapter's when it adapts them."""
+        if self._parameters is not None:
+            fc_pos, fc_neg, sigma0 = self._parameters.Eval(context)
+            return sigma0, (fc_pos if v > 0 else fc_neg)
+        return self.params.sigma0, stribeck_curve(v, self._law)
 
-    # --- Updates, one a sample: Eq. 8-9, then the adaptation law's step --------------------------------------
+    def _injection(self, context, v: float, sigma0: float, level: float) -> float:
+        """K_z of Eq. 9 [rad/s] at v (0 without injection)."""
+        if self.params.rho is None:
+            return 0.0
+        return injection(self.params, sigma0, v, level, *self.tracking_errors(context, v))
 
     def tracking_errors(self, context, v: float | None = None) -> tuple[float, float]:
         """(eps, eps_v) of Eq. 9: the joint angle and velocity (``v`` when the caller has read it) minus the
@@ -283,58 +254,14 @@ class DahlFrictionObserver(LeafSystem):
         return angle, v
 
     def _update(self, context, discrete_state):
-        self._step_bristle(context, discrete_state)
-
-    def _step_bristle(self, context, discrete_state) -> float:
-        """Eq. 8-9 over one period: z_hat by the exact step with K_z held (module docstring); returns v."""
-        p = self.params
+        """Eq. 8-9 over one period: z_hat by the exact step with K_z held (module docstring)."""
         v = float(self._velocity.Eval(context)[0])  # a float: math, not numpy scalars, in the step
         z = context.get_discrete_state(0).GetAtIndex(0)
-        level = stribeck_curve(v, self._law)
-        z_next = float(dahl_exact_step(z, v, self.period, p.sigma0, level))
-        if p.rho is not None:
-            k_z = injection(p, p.sigma0, v, level, *self.tracking_errors(context, v))
-            z_next += held_input_gain(p.sigma0 * abs(v) / level, self.period) * k_z
+        sigma0, level = self._model(context, v)
+        z_next = float(dahl_exact_step(z, v, self.period, sigma0, level))
+        if self.params.rho is not None:
+            z_next += held_input_gain(sigma0 * abs(v) / level, self.period) * self._injection(context, v, sigma0, level)
         discrete_state.get_mutable_vector(0).SetAtIndex(0, z_next)
-        return v
-
-    def _update_k_sigma(self, context, discrete_state):
-        """z_hat (:meth:`_update`), then Eq. 18 on the branch of v's sign from the values before the sample."""
-        v = self._step_bristle(context, discrete_state)
-        branch = adapting_branch(self.params.adaptation.k_sigma, context.get_time(), v)
-        if branch is None:
-            return
-        state = discrete_state.get_mutable_vector(0)
-        index = K_SIGMA_POS + branch
-        state.SetAtIndex(
-            index,
-            state.GetAtIndex(index)
-            + k_sigma_step(
-                self.params.adaptation.k_sigma,
-                self.period,
-                self.params.sigma0,
-                self._error.Eval(context)[1],
-                context.get_discrete_state(0).GetAtIndex(0),
-            ),
-        )
-
-    def _update_parameters(self, context, discrete_state):
-        """z_hat and the parameter law over one period with the adapted Fc and sigma0."""
-        p = self.params
-        x = context.get_discrete_state_vector().value().copy()
-        v = self._velocity.Eval(context)[0]
-        sigma0, level = adapted_model(x, v)
-        k_z = injection(p, sigma0, v, level, *self.tracking_errors(context, v)) if p.rho is not None else 0.0
-        self._parameter_law.step(
-            x,
-            v=v,
-            sigma0=sigma0,
-            level=level,
-            k_z=k_z,
-            time=context.get_time(),
-            friction_error=self._error.Eval(context)[1],
-        )
-        discrete_state.get_mutable_vector().SetFromVector(x)
 
 
 def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
@@ -345,3 +272,77 @@ def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, 
         * (1.0 + p.sigma1_sign * p.sigma1 * abs(v) / level)
         * (eps + p.rho2 * eps_v)
     )
+
+
+def add_dahl_adaptation(
+    builder: DiagramBuilder,
+    dahl: DahlFrictionObserver,
+    *,
+    velocity: OutputPort,
+    friction_error: OutputPort,
+    name: str,
+    error_response=None,
+) -> LeafSystem | None:
+    """The adapter of ``dahl``'s ``params.adaptation`` added to ``builder`` as ``name`` (None without one), on the
+    observer's arm ``velocity`` estimate [rad/s] and the VFE's ``friction_error`` eps_hat_F [N m], wired to the
+    observer both ways. ``error_response``: that VFE's ``friction_error_response`` (the Fc and sigma0 law)."""
+    p = dahl.params
+    if p.adaptation is None:
+        return None
+    if p.adaptation.k_sigma is not None:
+        adapter = builder.AddNamedSystem(name, KSigmaAdapter(p.adaptation.k_sigma, period=dahl.period, sigma0=p.sigma0))
+        builder.Connect(adapter.GetOutputPort("K_sigma"), dahl.GetInputPort("K_sigma"))
+    else:
+        if error_response is None:
+            raise ConfigError(
+                "observers.dahl.adaptation.parameters needs the VFE observer's error response (error_response)"
+            )
+        adapter = builder.AddNamedSystem(
+            name,
+            DahlParameterAdapter(
+                p.adaptation.parameters,
+                period=dahl.period,
+                coulomb_pos=p.coulomb_pos,
+                coulomb_neg=p.coulomb_neg,
+                sigma0=p.sigma0,
+                error_response=error_response,
+            ),
+        )
+        builder.Connect(adapter.GetOutputPort("dahl_parameters"), dahl.GetInputPort("dahl_parameters"))
+        builder.Connect(
+            dahl.GetOutputPort("bristle_injection_rad_per_s"), adapter.GetInputPort("bristle_injection_rad_per_s")
+        )
+    builder.Connect(velocity, adapter.GetInputPort("arm_velocity_estimate_rad_per_s"))
+    builder.Connect(dahl.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
+    builder.Connect(friction_error, adapter.GetInputPort("friction_error_estimate_Nm"))
+    return adapter
+
+
+def adapting_dahl_observer(
+    params: DahlObserverParameters, *, period: float, error_response=None
+) -> tuple[Diagram, DahlFrictionObserver, LeafSystem | None]:
+    """The arm's Dahl observer and its adapter (:func:`add_dahl_adaptation`) as one Diagram, to run the pair on
+    its own: inputs ``arm_velocity_estimate_rad_per_s``, ``measured_angles_rad``, ``arm_reference_rad`` and
+    ``friction_error_estimate_Nm``; outputs the observer's and the adapter's, under their own names. Returns
+    (diagram, observer, adapter or None)."""
+    builder = DiagramBuilder()
+    dahl = builder.AddNamedSystem("dahl_observer", DahlFrictionObserver(params, period=period))
+    velocity = builder.AddNamedSystem("arm_velocity", PassThrough(1))
+    error = builder.AddNamedSystem("friction_error", PassThrough(2))
+    builder.ExportInput(velocity.get_input_port(), "arm_velocity_estimate_rad_per_s")
+    builder.Connect(velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
+    for name in ("measured_angles_rad", "arm_reference_rad"):
+        builder.ExportInput(dahl.GetInputPort(name), name)
+    builder.ExportInput(error.get_input_port(), "friction_error_estimate_Nm")
+    adapter = add_dahl_adaptation(
+        builder,
+        dahl,
+        velocity=velocity.get_output_port(),
+        friction_error=error.get_output_port(),
+        name="adapter",
+        error_response=error_response,
+    )
+    for system in (dahl, adapter) if adapter is not None else (dahl,):
+        for i in range(system.num_output_ports()):
+            builder.ExportOutput(system.get_output_port(i), system.get_output_port(i).get_name())
+    return builder.Build(), dahl, adapter

@@ -12,8 +12,8 @@ sliding sigma0 z_hat ~ Fc sign(v) and e ~ F - K_sigma sigma0 z_hat, so the law i
 gamma (sigma0 z_hat)^2 ~ gamma Fc^2: Euler is stable for h gamma Fc^2 < 2 and monotone below 1. The default
 gamma = 5000 / ((N m)^2 s) puts that rate at gamma Fc^2 for the paper's Coulomb levels, far inside the bound
 at 1 kHz, and slower than the VFE's eps_hat_F (eigenvalues of 20 1/s and faster), as Sec. V-B requires. The
-law runs inside the Dahl observer (:class:`furuta_drake.observers.dahl.DahlFrictionObserver`), whose state holds
-[z_hat, K_sigma+, K_sigma-].
+law is its own system, :class:`KSigmaAdapter`, beside the Dahl observer
+(:class:`furuta_drake.observers.dahl.DahlFrictionObserver`): it reads the observer's z_hat and sets its gain.
 """
 
 from __future__ import annotations
@@ -21,9 +21,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from pydrake.systems.framework import BasicVector, LeafSystem
+
 from furuta_drake.errors import ConfigError
 
-K_SIGMA_POS, K_SIGMA_NEG = 1, 2  # the branches' places in the Dahl observer's state, after z_hat
+K_SIGMA_POS, K_SIGMA_NEG = 0, 1  # the branches' places in the adapter's state
 
 
 @dataclass
@@ -60,4 +62,48 @@ def k_sigma_step(
     return period * (-p.gamma * friction_error * sigma0 * bristle)
 
 
-__all__ = ["KSigmaAdaptationParameters", "adapting_branch", "k_sigma_step", "K_SIGMA_POS", "K_SIGMA_NEG"]
+class KSigmaAdapter(LeafSystem):
+    """Eq. 18 with Sec. V-C's two branches, discrete at the control period ``period`` [s], for a Dahl observer of
+    bristle stiffness ``sigma0`` [N m/rad].
+
+    Inputs: ``arm_velocity_estimate_rad_per_s`` (v, the Dahl observer's), ``bristle_state_rad`` (its z_hat) and
+    ``friction_error_estimate_Nm`` (the VFE's eps_hat_F = [pendulum, arm] [N m]). Discrete state
+    [K_sigma+, K_sigma-]. Outputs: ``K_sigma`` (the gain of v's sign, which the observer's F_hat carries; feeds
+    through v) and ``K_sigma_branches`` ([K_sigma+, K_sigma-]).
+    """
+
+    def __init__(self, params: KSigmaAdaptationParameters, *, period: float, sigma0: float):
+        LeafSystem.__init__(self)
+        params.validate()
+        self.params, self.period, self.sigma0 = params, period, sigma0
+        self._velocity = self.DeclareVectorInputPort("arm_velocity_estimate_rad_per_s", 1)
+        self._bristle = self.DeclareVectorInputPort("bristle_state_rad", 1)
+        self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
+        self.DeclareDiscreteState([params.initial, params.initial])
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        xd = self.xd_ticket()
+        self.DeclareVectorOutputPort("K_sigma", 1, self._calc_gain, prerequisites_of_calc={xd, self._velocity.ticket()})
+        self.DeclareVectorOutputPort("K_sigma_branches", 2, self._calc_branches, prerequisites_of_calc={xd})
+
+    def _calc_gain(self, context, output: BasicVector):
+        branch = K_SIGMA_POS if self._velocity.Eval(context)[0] > 0 else K_SIGMA_NEG
+        output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(branch))
+
+    def _calc_branches(self, context, output: BasicVector):
+        output.SetFromVector(context.get_discrete_state_vector().value())
+
+    def _update(self, context, discrete_state):
+        """Eq. 18 on the branch of v's sign, from the inputs before the sample."""
+        v = float(self._velocity.Eval(context)[0])
+        branch = adapting_branch(self.params, context.get_time(), v)
+        if branch is None:
+            return
+        state = discrete_state.get_mutable_vector(0)
+        index = K_SIGMA_POS + branch
+        step = k_sigma_step(
+            self.params, self.period, self.sigma0, self._error.Eval(context)[1], self._bristle.Eval(context)[0]
+        )
+        state.SetAtIndex(index, state.GetAtIndex(index) + step)
+
+
+__all__ = ["KSigmaAdaptationParameters", "KSigmaAdapter", "adapting_branch", "k_sigma_step"]

@@ -25,8 +25,9 @@ windowed mean of psi_i^2 (exponential window ``excitation_window``); a parameter
 something about it. The one-gain law (Eq. 18) scales Fc and sigma0 together and so cannot move their ratio, the
 presliding displacement Fc / sigma0.
 
-The law runs inside the Dahl observer (:class:`furuta_drake.observers.dahl.DahlFrictionObserver`), whose state
-holds z_hat then this law's entries (the indices below).
+The law is its own system, :class:`DahlParameterAdapter`, beside the Dahl observer
+(:class:`furuta_drake.observers.dahl.DahlFrictionObserver`): it reads the observer's z_hat and injection K_z and
+gives it the adapted [Fc+, Fc-, sigma0].
 """
 
 from __future__ import annotations
@@ -35,16 +36,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
 
 from furuta_drake.controllers.lqr import zero_order_hold
 from furuta_drake.errors import ConfigError
-from furuta_drake.friction import dahl_exact_step, held_input_gain
+from furuta_drake.friction import held_input_gain
 
-# The Dahl observer's state: the bristle, the log-parameters, their sensitivities, the excitation measures, then
-# the three regressors' filter states (6 each, H's state w per parameter, in parameter order).
-Z, LOG_FC_POS, LOG_FC_NEG, LOG_SIGMA0, S_FC_POS, S_FC_NEG, S_SIGMA0, PE_FC_POS, PE_FC_NEG, PE_SIGMA0 = range(10)
+# The adapter's state: the log-parameters, their sensitivities, the excitation measures, then the three
+# regressors' filter states (6 each, H's state w per parameter, in parameter order).
+LOG_FC_POS, LOG_FC_NEG, LOG_SIGMA0, S_FC_POS, S_FC_NEG, S_SIGMA0, PE_FC_POS, PE_FC_NEG, PE_SIGMA0 = range(9)
 LOGS = [LOG_FC_POS, LOG_FC_NEG, LOG_SIGMA0]
-FILTERS = slice(10, 28)
+EXCITATION = [PE_FC_POS, PE_FC_NEG, PE_SIGMA0]
+FILTERS = slice(9, 27)
 
 
 @dataclass
@@ -74,8 +77,8 @@ class ParameterAdaptationParameters:
 
 
 def initial_state(coulomb_pos: float, coulomb_neg: float, sigma0: float) -> list[float]:
-    """The observer's state at t = 0: z_hat = 0, the log-parameters of the observer's Dahl model [N m, N m,
-    N m/rad], zero sensitivities, excitation measures and filter states."""
+    """The adapter's state at t = 0: the log-parameters of the observer's Dahl model [N m, N m, N m/rad], zero
+    sensitivities, excitation measures and filter states."""
     state = [0.0] * FILTERS.stop
     state[LOG_FC_POS], state[LOG_FC_NEG] = math.log(coulomb_pos), math.log(coulomb_neg)
     state[LOG_SIGMA0] = math.log(sigma0)
@@ -100,14 +103,22 @@ class ParameterAdaptationLaw:
         self._filter_b = filter_b[:, 0]
 
     def step(
-        self, x: np.ndarray, *, v: float, sigma0: float, level: float, k_z: float, time: float, friction_error: float
+        self,
+        x: np.ndarray,
+        *,
+        z: float,
+        v: float,
+        sigma0: float,
+        level: float,
+        k_z: float,
+        time: float,
+        friction_error: float,
     ) -> None:
-        """Advance the state ``x`` (in place) over one period from ``time`` [s]: z_hat by the exact Dahl step
-        with the injection ``k_z`` [rad/s] of Eq. 9, the sensitivities, filters and excitation measures, and the
-        log-parameters where the data excite them. ``sigma0`` and ``level`` are :func:`adapted_model` of ``x``,
-        v [rad/s] the velocity estimate, ``friction_error`` [N m] the arm entry of eps_hat_F."""
+        """Advance the state ``x`` (in place) over one period from ``time`` [s] along the observer's z_hat ``z``
+        [rad] and its injection ``k_z`` [rad/s] of Eq. 9: the sensitivities, filters and excitation measures, and
+        the log-parameters where the data excite them. ``sigma0`` and ``level`` are :func:`adapted_model` of
+        ``x``, v [rad/s] the velocity estimate, ``friction_error`` [N m] the arm entry of eps_hat_F."""
         a, h = self.params, self.period
-        z = x[Z]
         log_fc, s_fc = (LOG_FC_POS, S_FC_POS) if v > 0 else (LOG_FC_NEG, S_FC_NEG)
         # Regressors psi = theta dF_hat/dtheta (log-parameters), filtered by H like eps_hat_F, and the excitation.
         psi = np.zeros(3)
@@ -116,14 +127,11 @@ class ParameterAdaptationLaw:
         filters = x[FILTERS].reshape(6, 3)  # column i: H's state for parameter i (a view of x)
         filtered = filters[5]  # H's output, the arm entry of eps_hat_F: read after the filters' step below
         x[FILTERS] = (self._filter_a @ filters + np.outer(self._filter_b, psi)).ravel()
-        x[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]] = (
-            self._forget * x[[PE_FC_POS, PE_FC_NEG, PE_SIGMA0]] + (1.0 - self._forget) * filtered**2
-        )
-        # Propagate z_hat and the sensitivities over the period with the current parameters (exact steps).
+        x[EXCITATION] = self._forget * x[EXCITATION] + (1.0 - self._forget) * filtered**2
+        # Propagate the sensitivities over the period with the current parameters (exact steps, as z_hat's).
         rate = sigma0 * abs(v) / level
         gain = held_input_gain(rate, h)
         decay = math.exp(-rate * h)
-        x[Z] = float(dahl_exact_step(z, v, h, sigma0, level)) + gain * k_z
         x[S_FC_POS] *= decay
         x[S_FC_NEG] *= decay
         x[s_fc] += gain * sigma0 * abs(v) * z / level**2
@@ -137,4 +145,67 @@ class ParameterAdaptationLaw:
                     x[index] -= h * gamma * e * filtered[i]
 
 
-__all__ = ["ParameterAdaptationParameters", "ParameterAdaptationLaw", "adapted_model", "initial_state"]
+class DahlParameterAdapter(LeafSystem):
+    """The law of the module docstring as a system, discrete at the control period ``period`` [s], for the Dahl
+    observer of ``coulomb_pos``, ``coulomb_neg`` [N m] and ``sigma0`` [N m/rad] whose eps_hat_F comes from a VFE
+    observer with error response ``error_response`` (M, N).
+
+    Inputs: ``arm_velocity_estimate_rad_per_s`` (v), ``bristle_state_rad`` (z_hat), ``bristle_injection_rad_per_s``
+    (K_z) and ``friction_error_estimate_Nm`` (eps_hat_F = [pendulum, arm] [N m]). Discrete state: the entries
+    above. Outputs: ``dahl_parameters`` ([Fc+ [N m], Fc- [N m], sigma0 [N m/rad]], which the observer runs on)
+    and ``parameter_excitation`` (the windowed mean of psi^2 per parameter [(N m)^2]).
+    """
+
+    def __init__(
+        self,
+        params: ParameterAdaptationParameters,
+        *,
+        period: float,
+        coulomb_pos: float,
+        coulomb_neg: float,
+        sigma0: float,
+        error_response,
+    ):
+        LeafSystem.__init__(self)
+        self._law = ParameterAdaptationLaw(params, error_response, period)
+        self._velocity = self.DeclareVectorInputPort("arm_velocity_estimate_rad_per_s", 1)
+        self._bristle = self.DeclareVectorInputPort("bristle_state_rad", 1)
+        self._injection = self.DeclareVectorInputPort("bristle_injection_rad_per_s", 1)
+        self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
+        self.DeclareDiscreteState(initial_state(coulomb_pos, coulomb_neg, sigma0))
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("dahl_parameters", 3, self._calc_parameters, prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort("parameter_excitation", 3, self._calc_excitation, prerequisites_of_calc=xd)
+
+    def _calc_parameters(self, context, output: BasicVector):
+        x = context.get_discrete_state_vector().value()
+        output.SetFromVector([math.exp(x[index]) for index in LOGS])
+
+    def _calc_excitation(self, context, output: BasicVector):
+        output.SetFromVector(context.get_discrete_state_vector().value()[EXCITATION])
+
+    def _update(self, context, discrete_state):
+        x = context.get_discrete_state_vector().value().copy()
+        v = self._velocity.Eval(context)[0]
+        sigma0, level = adapted_model(x, v)
+        self._law.step(
+            x,
+            z=self._bristle.Eval(context)[0],
+            v=v,
+            sigma0=sigma0,
+            level=level,
+            k_z=self._injection.Eval(context)[0],
+            time=context.get_time(),
+            friction_error=self._error.Eval(context)[1],
+        )
+        discrete_state.get_mutable_vector().SetFromVector(x)
+
+
+__all__ = [
+    "DahlParameterAdapter",
+    "ParameterAdaptationParameters",
+    "ParameterAdaptationLaw",
+    "adapted_model",
+    "initial_state",
+]
