@@ -61,8 +61,8 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.surrogate import Model, _accelerations
 from furuta_drake.diagram import build_furuta_diagram
+from furuta_drake.effects.surrogate import Model, _accelerations
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer

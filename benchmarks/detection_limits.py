@@ -22,10 +22,10 @@ import sys
 import time
 from pathlib import Path
 
+from benchmarks.suite import run_configs
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.candidates import PRESLIDING_STARTS
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.suite import run_configs
+from furuta_drake.effects.vocabulary import PRESLIDING_STARTS
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.outputs import versions
 from furuta_drake.results import write_log_csv

@@ -1,7 +1,7 @@
 """Blind validation of ``furuta-drake diagnose``: confusion matrix, accuracy, false alarms on ``none``, median
 held-out gap reduction where right, the coverage of the 95 % parameter intervals, seconds per case.
 
-The suite (:mod:`furuta_drake.diagnosis.suite`): each vocabulary effect at two magnitudes on both rigs and the
+The suite (:mod:`benchmarks.suite`): each vocabulary effect at two magnitudes on both rigs and the
 seeds asked for, plus ``none`` cases, an effect outside the vocabulary (cogging torque, expected
 ``unexplained``) and cases with two and three effects acting together (all must be named). Its logs are simulated on
 Dask (the sweep's cluster, one case per task) into
@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.suite import CaseSpec, default_cases, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
-from furuta_drake.diagnosis.suite import CaseSpec, default_cases, verdict_is_right, write_case
 from furuta_drake.sweep import dask_client, map_on_dask
 
 QUICK = (

@@ -52,12 +52,12 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
-from furuta_drake.diagnosis.candidates import law_of
-from furuta_drake.diagnosis.logs import load_rig
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
+from furuta_drake.effects.vocabulary import law_of
 from furuta_drake.outputs import versions
 from furuta_drake.rig import RigParameters
+from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 TRAIN = ("swingup_250Hz_10s_a.csv", "chirp_10to0Hz_pos1p5V_250Hz_10s.csv")

@@ -18,7 +18,7 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from furuta_drake.diagnosis.surrogate import Model, _accelerations, predict_windows
+from furuta_drake.effects.surrogate import Model, _accelerations, predict_windows
 from furuta_drake.friction import JointFrictionParameters, bristle_derivative, bristle_friction_torque
 from furuta_drake.rig import qube_servo2_rig
 

@@ -201,10 +201,9 @@ def _simulate_config(args):
     elif args.rig is None or args.rig in ("lund", "qube_servo2"):
         config = SimulationConfig.from_rig(args.rig or "lund")
     else:
-        from furuta_drake.rig import RigParameters
-        from furuta_drake.yamlio import load_yaml_dataclass
+        from furuta_drake.rig_file import load_rig
 
-        config = SimulationConfig.from_rig(load_yaml_dataclass(args.rig, RigParameters))
+        config = SimulationConfig.from_rig(load_rig(args.rig))
     overrides = {}
     if args.duration is not None:
         overrides["duration"] = args.duration
@@ -273,7 +272,7 @@ def _check_html_path(path: Path, force: bool) -> None:
 def _run_reproduce(args) -> int:
     from tqdm import tqdm
 
-    from furuta_drake.reproduction_report import (
+    from furuta_drake.paper.report import (
         BEYOND_STUDIES,
         PAPER_EXPERIMENTS,
         ReproductionSettings,
@@ -336,7 +335,7 @@ def _run_rig(args) -> int:
     if args.template is not None:
         print(rig_template(RIGS[args.template](), f"the shipped {args.template} rig"), end="")
     else:
-        from furuta_drake.diagnosis.logs import load_rig
+        from furuta_drake.rig_file import load_rig
 
         print(format_rig_check(load_rig(args.check), str(args.check)), end="")
     return 0
@@ -386,8 +385,8 @@ def _run_diagnose(args) -> int:
 
 
 def _run_design(args) -> int:
-    from furuta_drake.diagnosis.design.output import write_design
-    from furuta_drake.diagnosis.design.pipeline import DesignSettings, design_experiment
+    from furuta_drake.design.output import write_design
+    from furuta_drake.design.pipeline import DesignSettings, design_experiment
     from furuta_drake.outputs import prepare_output_dir
 
     prepare_output_dir(args.out, force=args.force, protect=[args.diagnosis])

@@ -199,13 +199,6 @@ class RigParameters:
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
         if self.motor is not None:
             self.motor.validate(f"{where}.motor")
-        if self.effects:
-            from furuta_drake.diagnosis.candidates import rig_effects  # the vocabulary lives with the diagnosis
-
-            try:
-                rig_effects(self)
-            except ConfigError as err:
-                raise ConfigError(f"{where}.{err}") from None
 
     # Lumped constants of the Furuta equations of motion (Gaefvert 1998; docs/paper.md).
     @property

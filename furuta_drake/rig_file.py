@@ -5,6 +5,7 @@ unit, whether it is optional and how to measure or derive it. ``furuta-drake rig
 :func:`format_rig_check`: the lumped constants of paper Eq. 1, the linearization constants alpha1, alpha2,
 beta3-beta5 of Eq. 2 at the upright, its open-loop poles, and the hanging pendulum's natural frequency with the
 arm held and with the arm free, which a user compares with a pendulum-swing test on the bench.
+:func:`load_rig` reads a rig file strictly, its ``effects`` section checked against the effect vocabulary.
 """
 
 from __future__ import annotations
@@ -13,14 +14,29 @@ import dataclasses
 import math
 import re
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import yaml
 
+from furuta_drake.effects.vocabulary import rig_effects
+from furuta_drake.errors import ConfigError, read_input_text
 from furuta_drake.rig import MotorParameters, RigParameters, linearized_hanging, linearized_upright
-from furuta_drake.yamlio import field_description
+from furuta_drake.yamlio import field_description, key_lines, loads_yaml_dataclass, locate
 
 WIDTH = 110  # comment lines wrap here
+
+
+def load_rig(path: str | Path) -> RigParameters:
+    """The rig file, strictly (every required key present): unknown keys, non-physical values and effects the
+    vocabulary does not hold raise ConfigError naming file:line:key."""
+    text = read_input_text(path, "a YAML file", ConfigError)
+    rig = loads_yaml_dataclass(text, RigParameters, source=str(path))
+    try:
+        rig_effects(rig)
+    except ConfigError as err:
+        raise ConfigError(locate(str(err), str(path), key_lines(yaml.compose(text, Loader=yaml.SafeLoader)))) from None
+    return rig
 
 
 def rig_template(rig: RigParameters, title: str) -> str:

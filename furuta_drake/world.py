@@ -5,7 +5,7 @@ friction on its joints (:class:`~furuta_drake.friction.JointFriction`), the arm'
 (:func:`~furuta_drake.actuator.add_arm_disturbance`), the DC motor's back-EMF and the actuator chain
 (:func:`~furuta_drake.actuator.add_actuator`), and returns the ports a user connects: the arm torque command in,
 the true state and the friction torques out. The closed loop (:mod:`furuta_drake.diagram`), the diagnosis' Drake
-replay (:mod:`furuta_drake.diagnosis.replay`) and the stability analysis (:mod:`furuta_drake.stability`) all
+replay (:mod:`furuta_drake.diagnosis.replay`) and the stability analysis (:mod:`furuta_drake.paper.stability`) all
 build their plant this way.
 
 Sign convention (paper Eq. 3): the generalized forces on the plant are tau = [F_theta, u + F_phi] plus the arm's

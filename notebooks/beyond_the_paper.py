@@ -19,7 +19,7 @@
 # %%
 import os
 
-from furuta_drake.studies import (
+from furuta_drake.paper.studies import (
     lugre_observer_study,
     parameter_adaptation_study,
     pendulum_observer_study,

@@ -31,12 +31,11 @@ import numpy as np
 from furuta_drake.data import QUBE_REAL_DIR
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_writers import write_log
-from furuta_drake.diagnosis.logs import load_rig
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
 from furuta_drake.rig import qube_servo2_rig
-from furuta_drake.rig_file import format_rig_check, rig_template
+from furuta_drake.rig_file import format_rig_check, load_rig, rig_template
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
 WORK = Path(tempfile.mkdtemp(prefix="your_rig_"))

@@ -21,9 +21,9 @@
 # %%
 import os
 
-from furuta_drake import reproduce
+from furuta_drake.paper import reproduce
+from furuta_drake.paper.report import steady_values
 from furuta_drake.plotting import plot_fig5, plot_friction_estimates, plot_k_sigma, plot_observer_sweep
-from furuta_drake.reproduction_report import steady_values
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
 TABLE_DURATION = 4.0 if SMALL else 20.0  # [s] the paper's tests last 20 s

@@ -27,7 +27,6 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Markdown, display
 
-from furuta_drake import real_rig_report
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.observers.filtered_derivative import filtered_derivative
 from furuta_drake.plotting import (
@@ -36,8 +35,9 @@ from furuta_drake.plotting import (
     plot_real_closed_loop,
     plot_real_observers,
 )
-from furuta_drake.studies.real_closed_loop_study import balancing_spectrum, rest_direction
-from furuta_drake.studies.real_data import CHIRP, HELDOUT_SWINGUPS, TRAIN_SWINGUP, reference_velocity
+from furuta_drake.real_rig import report as real_rig_report
+from furuta_drake.real_rig.closed_loop_study import balancing_spectrum, rest_direction
+from furuta_drake.real_rig.runs import CHIRP, HELDOUT_SWINGUPS, TRAIN_SWINGUP, reference_velocity
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))
 folder = Path(tempfile.mkdtemp(prefix="real_rig_"))

@@ -2,8 +2,10 @@
 
 The guard is an audit hook (``sys.addaudithook``) that records every ``open`` of a path under the repository's
 parent directory but outside the repository itself (a sibling checkout, a data folder beside the clone), except
-the Python installation, the temporary directory and pytest's own temporary directories. A test that opened such
-a path fails at its teardown; an open outside any test (at import or collection) fails the session.
+the Python installation, pytest's own temporary directories and, in the system's temporary directory, what this
+session made there or the tools' own scratch folders (Dask's, matplotlib's). A repository cloned into the
+temporary directory is guarded like any other: what lay beside it before the session is outside. A test that
+opened such a path fails at its teardown; an open outside any test (at import or collection) fails the session.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import site
 import sys
 import sysconfig
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -32,13 +35,30 @@ _ALLOWED: list[str] = sorted(
             sys.prefix,
             sys.base_prefix,
             sys.exec_prefix,
-            tempfile.gettempdir(),
             *site.getsitepackages(),
             *sysconfig.get_paths().values(),
         )
         if p
     }
 )
+
+
+_TEMP = os.path.realpath(tempfile.gettempdir()) + os.sep
+_SESSION_START = time.time()
+_SCRATCH = {"dask-scratch-space", "matplotlib", "numba"}  # tools' scratch folders (name prefixes) in the temp dir
+
+
+def _session_scratch(path: str) -> bool:
+    """True for a path in the temporary directory under an entry this session made, or a tool's scratch folder."""
+    if not path.startswith(_TEMP):
+        return False
+    top = path[len(_TEMP) :].split(os.sep, 1)[0]
+    if any(top.startswith(prefix) for prefix in _SCRATCH):
+        return True
+    try:
+        return os.stat(_TEMP + top).st_ctime >= _SESSION_START - 1.0
+    except OSError:
+        return False
 
 
 def _is_outside_read(path) -> bool:
@@ -53,6 +73,7 @@ def _is_outside_read(path) -> bool:
         path.startswith(_GUARDED)
         and not (path + os.sep).startswith(_INSIDE)
         and not any((path + os.sep).startswith(allowed) for allowed in _ALLOWED)
+        and not _session_scratch(path)
     )
 
 

@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 import yaml
 
+from benchmarks.suite import run_configs
 from furuta_drake.cli import main
-from furuta_drake.diagnosis.candidates import Effect, Scales, apply_effects, rig_model
-from furuta_drake.diagnosis.design import pipeline
-from furuta_drake.diagnosis.design.criterion import Parametrised, experiment_windows, linearised_noncentrality
-from furuta_drake.diagnosis.design.family import Family
-from furuta_drake.diagnosis.design.rollout import drake_config, surrogate_runs
+from furuta_drake.design import pipeline
+from furuta_drake.design.criterion import Parametrised, experiment_windows, linearised_noncentrality
+from furuta_drake.design.family import Family
+from furuta_drake.design.rollout import drake_config, surrogate_runs
 from furuta_drake.diagnosis.logs import load_logs
-from furuta_drake.diagnosis.suite import run_configs
-from furuta_drake.diagnosis.surrogate import sensor_variance
+from furuta_drake.effects.surrogate import sensor_variance
+from furuta_drake.effects.vocabulary import Effect, Scales, apply_effects, rig_model
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig
 from furuta_drake.simulate import simulate
@@ -204,7 +204,7 @@ def test_design_refuses_bad_input_with_one_line(case, tmp_path, capsys):
 def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
     """--balancing searches on the surrogate stepped under the LQR: with a lag and Dahl arm friction it follows
     the Drake diagram of the same model and gain to within an encoder count."""
-    from furuta_drake.diagnosis.design.rollout import nominal_lqr_gain, surrogate_closed_loop
+    from furuta_drake.design.rollout import nominal_lqr_gain, surrogate_closed_loop
 
     rig = lund_rig()
     model = apply_effects(
@@ -223,7 +223,7 @@ def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
 def test_a_target_below_the_detection_limit_is_a_hypothesis_and_one_above_it_is_settled(case):
     """--target actuator_lag=VALUE: below the lag's detection limit it is the accepted model plus that lag (a
     nested pair); above it the logs would have shown it, so nothing is left to separate."""
-    from furuta_drake.diagnosis.design.hypotheses import parse_target, read_hypotheses
+    from furuta_drake.design.hypotheses import parse_target, read_hypotheses
     from furuta_drake.errors import ConfigError
 
     rig = lund_rig()

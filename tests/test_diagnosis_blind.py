@@ -7,9 +7,9 @@ import json
 
 import pytest
 
+from benchmarks.suite import CaseSpec, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
-from furuta_drake.diagnosis.suite import CaseSpec, verdict_is_right, write_case
 
 CASES = [
     CaseSpec("lund", (), 0, 7),

@@ -8,17 +8,17 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from benchmarks.suite import run_configs, with_effect
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, apply_effects
-from furuta_drake.diagnosis.corrected import model_rig
 from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quantization_estimate
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import replay_gap
 from furuta_drake.diagnosis.select import MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.suite import run_configs, with_effect
-from furuta_drake.diagnosis.surrogate import Model, _accelerations
+from furuta_drake.effects.corrected import model_rig
+from furuta_drake.effects.surrogate import Model, _accelerations
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate
@@ -241,7 +241,7 @@ def test_two_models_at_the_floor_are_told_apart_by_the_residual_below_it():
 
 
 def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model():
-    from furuta_drake.diagnosis.suite import VOCABULARY
+    from benchmarks.suite import VOCABULARY
 
     assert set(CANDIDATES) == set(VOCABULARY)
     model = Model.from_rig(RIGS["qube_servo2"]())
@@ -253,13 +253,13 @@ def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model
 
 
 def _scales(model):
-    from furuta_drake.diagnosis.candidates import Scales
+    from furuta_drake.effects.vocabulary import Scales
 
     return Scales(torque=model.d, command=0.05, arm_inertia=model.a, pendulum_inertia=model.b, period=2e-3)
 
 
 def test_fitted_model_is_a_simulate_config_that_runs():
-    from furuta_drake.diagnosis.corrected import model_config
+    from furuta_drake.effects.corrected import model_config
 
     rig = RIGS["lund"]()
     model = apply_effects(
@@ -303,7 +303,7 @@ def test_the_forms_of_an_actuator_effect_map_commands_as_their_names_say(effect,
     from pydrake.systems.framework import DiagramBuilder
 
     from furuta_drake.actuator import ActuatorParameters, add_actuator
-    from furuta_drake.diagnosis.surrogate import applied_torque
+    from furuta_drake.effects.surrogate import applied_torque
 
     commands = COMMANDS
     model = apply_effects(Model.from_rig(RIGS["lund"]()), {effect: Effect(form, (0.01,))})
@@ -329,7 +329,7 @@ def test_the_forms_of_an_actuator_effect_map_commands_as_their_names_say(effect,
 def test_dahl_bristle_follows_the_path_alone(level, presliding, travel, pieces):
     """Dahl (Eq. 7) from z = 0 over a monotone travel D: z = z_max (1 - exp(-D / z_max)), z_max = Fc / sigma0,
     however the travel is cut into samples (the law is rate independent)."""
-    from furuta_drake.diagnosis.surrogate import bristle_path
+    from furuta_drake.effects.surrogate import bristle_path
     from furuta_drake.friction import JointFrictionParameters
 
     p = JointFrictionParameters.dahl(level, level, level / presliding)
@@ -342,7 +342,7 @@ def test_dahl_bristle_follows_the_path_alone(level, presliding, travel, pieces):
 def test_lugre_bristle_saturates_at_the_stribeck_level_of_its_speed(speed, ratio, travel):
     """LuGre at a constant speed v is Dahl with the level g(v) = Fc + (Fs - Fc) exp(-(v / vs)^2): from z = 0
     over a travel D, z = z_max (1 - exp(-D / z_max)) with z_max = g(v) / sigma0."""
-    from furuta_drake.diagnosis.surrogate import bristle_path
+    from furuta_drake.effects.surrogate import bristle_path
     from furuta_drake.friction import JointFrictionParameters
 
     coulomb, sigma0, vs, period = 0.01, 4.0, 0.1, 1e-3
@@ -387,7 +387,7 @@ def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_i
     and the Drake world's (MultibodyPlant with the spring) agree at random states."""
     from pydrake.systems.framework import DiagramBuilder
 
-    from furuta_drake.diagnosis.corrected import model_disturbance, model_rig
+    from furuta_drake.effects.corrected import model_disturbance, model_rig
     from furuta_drake.world import add_furuta_world
 
     rig = RIGS["qube_servo2"]().replace(motor=None)

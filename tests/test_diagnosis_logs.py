@@ -15,10 +15,10 @@ from furuta_drake.diagnosis.logs import (
     ignored_columns_note,
     load_log,
     load_logs,
-    load_rig,
 )
 from furuta_drake.errors import ConfigError, LogError
 from furuta_drake.rig import lund_rig
+from furuta_drake.rig_file import load_rig
 
 QUBE_RIG = QUBE_DATA / "rig.yaml"
 QUBE_LOGS = sorted(QUBE_DATA.glob("*.csv"))

@@ -8,12 +8,12 @@ from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from scipy.optimize import least_squares
 
+from benchmarks.suite import run_configs, with_effect
 from furuta_drake.diagnosis.gap import make_windows, projected_residuals, substeps_for
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import WindowReplayer
-from furuta_drake.diagnosis.suite import run_configs, with_effect
-from furuta_drake.diagnosis.surrogate import REGULARIZATION_VELOCITY, Model, _accelerations, predict_windows
-from furuta_drake.diagnosis.surrogate_kernel import bristle_step, pack_friction
+from furuta_drake.effects.surrogate import REGULARIZATION_VELOCITY, Model, _accelerations, predict_windows
+from furuta_drake.effects.surrogate_kernel import bristle_step, pack_friction
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters, bristle_friction_torque
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate

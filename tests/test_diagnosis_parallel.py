@@ -38,10 +38,10 @@ def test_a_dask_cluster_gives_the_same_diagnosis_as_one_process(tmp_path):
 
     from distributed import LocalCluster
 
+    from benchmarks.suite import run_configs, with_effect
     from furuta_drake.diagnosis.pipeline import diagnose
     from furuta_drake.diagnosis.report import report_json
     from furuta_drake.diagnosis.settings import FAST
-    from furuta_drake.diagnosis.suite import run_configs, with_effect
     from furuta_drake.results import write_log_csv
     from furuta_drake.rig import qube_servo2_rig
     from furuta_drake.simulate import simulate

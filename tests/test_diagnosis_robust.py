@@ -9,10 +9,10 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from benchmarks.suite import OUTSIDE_VOCABULARY, VOCABULARY, run_configs, with_effect
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import check_report, write_report
 from furuta_drake.diagnosis.settings import FAST
-from furuta_drake.diagnosis.suite import OUTSIDE_VOCABULARY, VOCABULARY, run_configs, with_effect
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate

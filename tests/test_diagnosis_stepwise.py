@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import Effect
 from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.gap import GapResult
 from furuta_drake.diagnosis.select import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
 from furuta_drake.diagnosis.stepwise import Selection, _enter_pair, _exchange
+from furuta_drake.effects.vocabulary import Effect
 
 WINDOWS = 200
 NOMINAL = np.full(WINDOWS, 1.0)  # excess squared residual per held-out window [counts^2]

@@ -11,10 +11,10 @@ from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.config import ExcitationConfig
-from furuta_drake.diagnosis.corrected import model_config
 from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR, WindowReplayer
-from furuta_drake.diagnosis.surrogate import REGULARIZATION_VELOCITY, Model
 from furuta_drake.diagram import build_furuta_diagram
+from furuta_drake.effects.corrected import model_config
+from furuta_drake.effects.surrogate import REGULARIZATION_VELOCITY, Model
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.plant import plant_to_paper_permutation
 from furuta_drake.rig import qube_servo2_rig

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from furuta_drake.data import QUBE_REAL_RIG
-from furuta_drake.diagnosis.logs import load_rig
 from furuta_drake.linearization import equilibrium_angle, observer_model, plant_linearization
 from furuta_drake.rig import RIGS, linearized_hanging, linearized_upright
+from furuta_drake.rig_file import load_rig
 
 
 @pytest.fixture(scope="module")

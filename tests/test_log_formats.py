@@ -13,8 +13,9 @@ from hypothesis import strategies as st
 
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_writers import write_log
-from furuta_drake.diagnosis.logs import load_log, load_logs, load_rig
+from furuta_drake.diagnosis.logs import load_log, load_logs
 from furuta_drake.errors import ConfigError, LogError
+from furuta_drake.rig_file import load_rig
 
 QUBE_RIG = QUBE_DATA / "rig.yaml"
 SWINGUP = QUBE_DATA / "swingup_250Hz_5s_0414.csv"

@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 from furuta_drake.errors import ConfigError
 from furuta_drake.observers.dahl import DahlFrictionObserver, DahlObserverParameters
 from furuta_drake.observers.vfe import VfeObserver
+from furuta_drake.paper.studies import lugre_observer_study, pendulum_observer_study
 from furuta_drake.rig import lund_rig
-from furuta_drake.studies import lugre_observer_study, pendulum_observer_study
 
 PERIOD = 1e-3  # [s] the Lund rig's control period
 

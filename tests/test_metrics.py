@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from furuta_drake.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
+from furuta_drake.paper.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
 
 
 def test_butterworth_reference_recovers_a_slow_velocity_without_phase_lag():
@@ -50,10 +50,10 @@ def test_steady_phases_keep_the_settled_half_of_long_same_sign_phases():
 
 
 def test_butterworth_reference_at_the_real_rigs_rate_passes_a_balancing_oscillation_with_zero_phase():
-    """The real QUBE's setting (studies.real_data): 2048-count angles at 250 Hz, the 25 Hz reference. An 8 Hz
+    """The real QUBE's setting (real_rig.runs): 2048-count angles at 250 Hz, the 25 Hz reference. An 8 Hz
     oscillation (the balancing loop's) is below the cut-off: gain sin(w T) / (w T) (the central difference) times
     1/(1 + (8/25)^4) (the double pass), and no lag."""
-    from furuta_drake.studies.real_data import REFERENCE_CUTOFF_HZ
+    from furuta_drake.real_rig.runs import REFERENCE_CUTOFF_HZ
 
     T, count = 0.004, 2 * np.pi / 2048
     t = np.arange(0, 10, T)

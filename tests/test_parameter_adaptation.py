@@ -12,8 +12,8 @@ import pytest
 from furuta_drake.observers.dahl import DahlAdaptation, DahlObserverParameters, adapting_dahl_observer
 from furuta_drake.observers.parameter_adaptation import S_FC_POS, S_SIGMA0, ParameterAdaptationParameters
 from furuta_drake.observers.vfe import VfeParameters, friction_error_response, vfe_gains
+from furuta_drake.paper.studies import parameter_adaptation_study
 from furuta_drake.rig import linearized_upright, lund_rig
-from furuta_drake.studies import parameter_adaptation_study
 
 A, B_F = linearized_upright(lund_rig())
 PERIOD = 1e-3  # [s] the Lund rig's control period

@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from furuta_drake import reproduce
 from furuta_drake.config import ExcitationConfig, SimulationConfig, dump_config, quanser_swingup_config
 from furuta_drake.controllers.quanser_swingup import quanser_command
 from furuta_drake.controllers.swingup import catch_time, wrap_angle
 from furuta_drake.data import QUBE_REAL_RIG
-from furuta_drake.diagnosis.logs import load_rig
 from furuta_drake.errors import ConfigError
 from furuta_drake.linearization import observer_model
 from furuta_drake.observers.filtered_derivative import FilteredDerivativeParameters, filtered_derivative
+from furuta_drake.paper import reproduce
+from furuta_drake.rig_file import load_rig
 from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import loads_yaml_dataclass
 

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from furuta_drake import reproduce
+from furuta_drake.paper import reproduce
 from furuta_drake.simulate import simulate
 
 

@@ -12,7 +12,7 @@ import pytest
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
 from furuta_drake.controllers.swingup import catch_time
-from furuta_drake.studies.real_data import HELDOUT_SWINGUPS, SWINGUPS, load_real_runs, log_result
+from furuta_drake.real_rig.runs import HELDOUT_SWINGUPS, SWINGUPS, load_real_runs, log_result
 
 REQUIRED = [
     "catch_time",

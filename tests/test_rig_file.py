@@ -12,10 +12,9 @@ import pytest
 
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
-from furuta_drake.diagnosis.logs import load_rig
 from furuta_drake.errors import ConfigError
 from furuta_drake.rig import RIGS, MotorParameters, RigParameters, lund_rig
-from furuta_drake.rig_file import rig_check, rig_template
+from furuta_drake.rig_file import load_rig, rig_check, rig_template
 
 RIG_KEYS = [f.name for f in dataclasses.fields(RigParameters) if f.metadata.get("required")]
 MOTOR_KEYS = [f.name for f in dataclasses.fields(MotorParameters)]

@@ -8,17 +8,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake import reproduce
 from furuta_drake.analysis import separation_error
 from furuta_drake.config import ExcitationConfig
 from furuta_drake.diagram import controller_gain
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.observers.hg import high_gain_error_matrix
 from furuta_drake.observers.vfe import vfe_error_matrix, vfe_gains
-from furuta_drake.plant import make_furuta_plant
-from furuta_drake.rig import linearized_upright
-from furuta_drake.simulate import simulate
-from furuta_drake.stability import (
+from furuta_drake.paper import reproduce
+from furuta_drake.paper.stability import (
     catches,
     common_lyapunov,
     interval_containing,
@@ -27,7 +24,10 @@ from furuta_drake.stability import (
     presliding_plant,
     stable_intervals,
 )
-from furuta_drake.studies.stability_study import adaptive_loop_config
+from furuta_drake.paper.studies.stability_study import adaptive_loop_config
+from furuta_drake.plant import make_furuta_plant
+from furuta_drake.rig import linearized_upright
+from furuta_drake.simulate import simulate
 
 BASE = reproduce.paper_rig_config()
 REVERSED = linear_loop(BASE, "vfe", discrete=True, injection_sign=-1)

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis import surrogate_kernel as kernel
+from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.friction import (
     JointFrictionParameters,
     bristle_friction_torque,
@@ -89,7 +89,7 @@ def test_a_windows_lag_state_is_the_filtered_command_history():
     within the e^-5 of the pre-roll's truncation, where the command at the start is far off."""
     from scipy.signal import lsim
 
-    from furuta_drake.diagnosis.surrogate import Model, lag_states
+    from furuta_drake.effects.surrogate import Model, lag_states
     from furuta_drake.rig import qube_servo2_rig
 
     period, lag = 1e-3, 0.012

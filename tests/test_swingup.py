@@ -142,7 +142,7 @@ def test_the_kinematic_observer_is_the_swing_ups_alone():
 
 
 def test_study_small_returns_rows():
-    from furuta_drake.studies.swingup_study import study
+    from furuta_drake.paper.studies.swingup_study import study
 
     outcome = study(small=True)
     metrics = [row["metric"] for row in outcome.rows]

@@ -19,7 +19,7 @@ alpha1 theta is wrong away from the upright (at theta = pi it predicts 150 rad/s
 grows with every turn theta makes, so a catch at theta = 2 pi n fails. The swing-up loop therefore estimates
 velocities with the same high-gain structure on the kinematic model (theta_ddot = phi_ddot = 0: no gravity, no
 input, :func:`kinematic_model`; ``controller.velocity_source = 'kinematic_hg'``), which is invariant to whole
-turns; its bias is a1 eps / a2 times the true acceleration. :mod:`furuta_drake.studies.swingup_study` measures
+turns; its bias is a1 eps / a2 times the true acceleration. :mod:`furuta_drake.paper.studies.swingup_study` measures
 both against the truth.
 
 In a simulate config the swing-up is ``controller.mode = 'swingup'`` with its parameters in

@@ -22,12 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, PRESLIDING_STARTS, UNITS, Effect, Scales, apply_effects
 from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS
 from furuta_drake.diagnosis.gap import Windows, fixed_state_residuals, project_out_states, projected_residuals
 from furuta_drake.diagnosis.result import DetectionLimit
 from furuta_drake.diagnosis.select import CLOSES, Bootstrap, at_floor, is_kept
-from furuta_drake.diagnosis.surrogate import Model, sensor_variance
+from furuta_drake.effects.surrogate import Model, sensor_variance
+from furuta_drake.effects.vocabulary import CANDIDATES, PRESLIDING_STARTS, UNITS, Effect, Scales, apply_effects
 
 BISECTIONS = 14  # halvings of the log-scale bracket: the limit to within about 1 % of its bracket's ratio
 
@@ -192,7 +192,7 @@ def detection_limits(
 ) -> list[DetectionLimit]:
     """The detection limit of every vocabulary effect that is neither accepted nor a variant of an accepted
     effect's law, on the held-out ``windows`` of ``model`` (the model holding the accepted effects)."""
-    from furuta_drake.diagnosis.candidates import law_of
+    from furuta_drake.effects.vocabulary import law_of
 
     judge = _Judge(model, windows, counts, bootstrap, first=not accepted)
     taken = set().union(*(law_of(name) for name in accepted)) if accepted else set()

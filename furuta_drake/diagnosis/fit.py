@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, Scales, apply_effects
 from furuta_drake.diagnosis.gap import (
     GapResult,
     Windows,
@@ -36,7 +35,8 @@ from furuta_drake.diagnosis.gap import (
 )
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise

@@ -6,14 +6,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, describe
 from furuta_drake.diagnosis.gap import make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.result import Consistency
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import fold_split
 from furuta_drake.diagnosis.stepwise import select_effects
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import CANDIDATES, describe
 from furuta_drake.rig import RigParameters
 
 

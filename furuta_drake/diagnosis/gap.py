@@ -25,7 +25,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
-from furuta_drake.diagnosis.surrogate import HISTORY, Model, bristle_path, predict_windows, sensor_variance
+from furuta_drake.effects.surrogate import HISTORY, Model, bristle_path, predict_windows, sensor_variance
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, linearized_upright
 

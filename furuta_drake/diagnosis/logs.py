@@ -42,7 +42,6 @@ from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_readers import LOG_TIME, Where, open_log
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters
-from furuta_drake.yamlio import load_yaml_dataclass
 
 INPUT_COLUMNS = ("torque", "voltage")
 ANGLE_COLUMNS = ("theta", "phi")
@@ -90,13 +89,6 @@ class WindowResiduals:
     state: np.ndarray  # (n, 4) predicted paper-order state [theta, phi, theta_dot, phi_dot]
     torque: np.ndarray  # (n,) torque-equivalent command [N m]
     saturated: np.ndarray  # (n,) bool, |command| >= 0.98 rig torque_limit
-
-
-def load_rig(path: str | Path) -> RigParameters:
-    """The rig file, strictly (every required key present): unknown keys and non-physical values raise ConfigError
-    naming
-    file:line:key."""
-    return load_yaml_dataclass(path, RigParameters)
 
 
 def load_log(

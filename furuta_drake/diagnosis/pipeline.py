@@ -13,8 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, apply_effects, describe, rig_model
-from furuta_drake.diagnosis.corrected import fitted_rig, model_config
 from furuta_drake.diagnosis.detection import detection_limits
 from furuta_drake.diagnosis.fit import FitResult, interval, scales_of
 from furuta_drake.diagnosis.folds import consistency
@@ -27,7 +25,7 @@ from furuta_drake.diagnosis.gap import (
 )
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs, load_rig
+from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs
 from furuta_drake.diagnosis.parallel import run_tasks
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
@@ -36,7 +34,10 @@ from furuta_drake.diagnosis.select import Bootstrap, threshold_note
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, choice_text, select_effects
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.corrected import fitted_rig, model_config
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
+from furuta_drake.rig_file import load_rig
 
 UNCERTAINTY = (
     "95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "

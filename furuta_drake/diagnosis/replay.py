@@ -17,10 +17,10 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from furuta_drake.diagnosis.corrected import model_actuator, model_disturbance, model_rig
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, substeps_for
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
-from furuta_drake.diagnosis.surrogate import Model, lag_states, sensor_variance
+from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
+from furuta_drake.effects.surrogate import Model, lag_states, sensor_variance
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.world import add_furuta_world
@@ -69,7 +69,7 @@ class WindowReplayer:
         bristle: float | None = None,
     ) -> np.ndarray:
         """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (the lag filter at
-        ``lag_at_start``, :func:`~furuta_drake.diagnosis.surrogate.lag_states`; the arm's Dahl bristle at
+        ``lag_at_start``, :func:`~furuta_drake.effects.surrogate.lag_states`; the arm's Dahl bristle at
         ``bristle``). Every window starts with a fresh integrator, so its result does not
         depend on the step size the previous window ended with."""
         ApplySimulatorConfig(self.integrator, self.simulator)

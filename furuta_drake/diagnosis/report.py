@@ -31,7 +31,7 @@ from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
-from furuta_drake.diagnosis.surrogate import Model, applied_torque, spring_torque
+from furuta_drake.effects.surrogate import Model, applied_torque, spring_torque
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, to_plain
@@ -166,7 +166,7 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
 
 def _with_interval(key: str, value, intervals: dict) -> str:
     """``key = value [low, high] unit`` (the interval and unit where known)."""
-    from furuta_drake.diagnosis.candidates import UNITS
+    from furuta_drake.effects.vocabulary import UNITS
 
     unit = UNITS.get(key.split(".")[-1], "")
     if isinstance(value, str):

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, law_of
+from furuta_drake.effects.vocabulary import CANDIDATES, law_of
 
 FLOOR_COUNTS = 0.03
 ENTRY = 0.05

@@ -10,7 +10,6 @@ import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, law_of
 from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
 from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
 from furuta_drake.diagnosis.logs import RunLog
@@ -27,7 +26,8 @@ from furuta_drake.diagnosis.select import (
     order,
 )
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, law_of
 
 JOINT_REFITS = 3  # at a later step, the candidates fitted again together with the earlier effects
 PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together

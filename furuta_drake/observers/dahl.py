@@ -12,7 +12,7 @@ arm (opposite to the velocity, the package's convention), so Eq. 8's F_hat = sig
 as printed. A controller compensates with u = u_LQ - F_hat; with the printed sign of K_z an arm displaced to
 phi > phi_ref at rest makes z_hat fall and F_hat grow, so u pushes the arm back: an integral action of gain
 K_sigma sigma0^2 / rho. On a free arm that restores; in the balancing loop it does not: the LQR moves the arm
-through the pendulum (K_phi < 0), and the linearized loop at rest (:mod:`furuta_drake.stability`) has a slow
+through the pendulum (K_phi < 0), and the linearized loop at rest (:mod:`furuta_drake.paper.stability`) has a slow
 unstable mode with the printed sign and none with ``injection_sign = -1``. In the nonlinear loop the stick-slip
 limit cycle hides it, so the default stays the paper's.
 
@@ -101,7 +101,7 @@ class DahlObserverParameters:
     sigma1_sign: int = -1  # sign of the sigma1 term of Eq. 9 (printed +1; see the module docstring)
     rho: float | None = 100.0  # injection scale [N m s/rad]: K_z = -(sigma0/rho) (...) [eps + rho2 eps_v]; None: off
     rho2: float = 0.1  # velocity-error weight [s]
-    injection_sign: int = 1  # sign of K_z (Eq. 9 printed: +1); -1 reverses the injection (see furuta_drake.stability)
+    injection_sign: int = 1  # sign of K_z (Eq. 9 printed: +1); -1 reverses it (see furuta_drake.paper.stability)
     period: float | None = None  # [s] optional: the observer runs at the control period; a stated one must equal it
     static_pos: float | None = None  # LuGre Stribeck breakaway level Fs+ [N m]; None: no Stribeck (Dahl)
     static_neg: float | None = None  # Fs- [N m]

@@ -9,7 +9,7 @@ control period h (s -> (z - 1) / h):
 
 This is the velocity a Quanser QUBE's swing-up and balance controller reads (its server differentiates the
 encoder counts this way); the real QUBE logs of ``data/qube-servo2-real`` are reproduced by it to a small
-fraction of their voltage (``furuta_drake.studies.real_closed_loop_study`` fits wc on the logs). It is causal
+fraction of their voltage (``furuta_drake.real_rig.closed_loop_study`` fits wc on the logs). It is causal
 and has no computation delay: the estimate of sample k uses y_k. :func:`filtered_derivative` runs it on arrays,
 :class:`FilteredDerivative` is the Drake system (``controller.velocity_source: filtered_derivative``); both use
 :func:`filter_coefficients`.

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import dataclasses
 
-from furuta_drake import reproduce
 from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.parameter_adaptation import ParameterAdaptationParameters
+from furuta_drake.paper import reproduce
+from furuta_drake.paper.studies import Study
 from furuta_drake.plotting import plot_parameter_adaptation
 from furuta_drake.simulate import simulate
-from furuta_drake.studies import Study
 
 STARTS = {"underestimated": (0.75, 0.5), "overestimated": (1.3, 2.0)}  # (Fc factor, sigma0 factor)
 TRUE = {"Fc+": reproduce.ARM_COULOMB_POS, "Fc-": reproduce.ARM_COULOMB_NEG, "sigma0": reproduce.ARM_SIGMA0}

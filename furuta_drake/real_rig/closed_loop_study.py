@@ -5,7 +5,7 @@ experiment in simulation on the nominal model and on the model the diagnosis cor
 250 Hz sampling, the 4 V clip, 2048-count encoders, the velocity filter of the rig's server) and compares the
 runs side by side.
 
-Velocities for the check. The paper's zero-phase Butterworth reference (:func:`furuta_drake.studies.real_data.
+Velocities for the check. The paper's zero-phase Butterworth reference (:func:`furuta_drake.real_rig.runs.
 reference_velocity`) is one; the causal filtered derivative of the rig's server (:mod:`furuta_drake.observers.
 filtered_derivative`), with its corner fitted on the train swing-up's balancing voltage
 (:func:`fit_velocity_corner`), is the other, and the one the simulations use.
@@ -34,14 +34,13 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import welch
 
-from furuta_drake import reproduce
 from furuta_drake.config import SimulationConfig, quanser_swingup_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.controllers.swingup import catch_time, wrap_angle
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.observers.filtered_derivative import FilteredDerivativeParameters, filtered_derivative
-from furuta_drake.simulate import SimulationResult, simulate
-from furuta_drake.studies.real_data import (
+from furuta_drake.paper import reproduce
+from furuta_drake.real_rig.runs import (
     OSCILLATING_SWINGUP,
     SWINGUPS,
     TRAIN_SWINGUP,
@@ -54,6 +53,7 @@ from furuta_drake.studies.real_data import (
     voltage_of,
     write_segment,
 )
+from furuta_drake.simulate import SimulationResult, simulate
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 LIMIT_CYCLE_MIN_HZ = 3.0  # [Hz] the balancing limit cycle is looked for above this

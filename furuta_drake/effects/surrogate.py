@@ -1,7 +1,7 @@
 """Fast batch surrogate of the Furuta pendulum with the vocabulary's effects, for fitting candidates.
 
 Many short windows are integrated at once (fixed-step RK4 with substeps, compiled in
-:mod:`~furuta_drake.diagnosis.surrogate_kernel`). The rigid
+:mod:`~furuta_drake.effects.surrogate_kernel`). The rigid
 body is the full nonlinear Furuta model in the four lumped constants a = J_arm + m r^2, b = J_p + m l^2,
 c = m l r, d = m g l (q = [theta, phi], theta = 0 upright):
 
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis import surrogate_kernel as kernel
+from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import RigParameters
 

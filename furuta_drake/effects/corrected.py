@@ -10,8 +10,8 @@ import numpy as np
 
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, describe
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, describe
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 

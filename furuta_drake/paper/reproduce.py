@@ -24,10 +24,10 @@ from pydrake.trajectories import PiecewisePolynomial
 from furuta_drake.config import ExcitationConfig, SimulationConfig
 from furuta_drake.diagram import add_vfe_with_dahl, start_at
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
-from furuta_drake.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
 from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
+from furuta_drake.paper.metrics import butterworth_velocity_reference, squared_error_statistics, steady_phases
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import SimulationResult, simulate
 

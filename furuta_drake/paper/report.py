@@ -1,11 +1,11 @@
 """The files of ``furuta-drake reproduce``: the paper's tables and figures next to the simulated rig's.
 
-``run_reproduction`` runs the experiments of :mod:`furuta_drake.reproduce` that ``settings.only`` selects and
+``run_reproduction`` runs the experiments of :mod:`furuta_drake.paper.reproduce` that ``settings.only`` selects and
 writes, into a directory that appears complete or not at all: ``table1.csv``, ``table2.csv`` (and the
 fairness sweep ``observer_sweep.csv``), ``fig3.png`` ... ``fig7.png``, ``adaptation.json``, ``report.md``,
 ``config.yaml`` (the simulated rig, a ``simulate`` config), ``reproduction.yaml`` (these settings and the
 tuned observers) and every run's raw log with its config in ``logs/``; ``beyond`` adds ``beyond.md`` and the
-plots of the studies of :mod:`furuta_drake.studies` (the open problems of the paper's Sec. VI-VII). CSV and JSON
+plots of the studies of :mod:`furuta_drake.paper.studies` (the open problems of the paper's Sec. VI-VII). CSV and JSON
 files are byte-identical for the same settings.
 """
 
@@ -15,10 +15,10 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from furuta_drake import reproduce
 from furuta_drake.config import dump_config
 from furuta_drake.errors import ConfigError
 from furuta_drake.outputs import atomic_output_dir, versions
+from furuta_drake.paper import reproduce
 from furuta_drake.plotting import (
     plot_control_signals,
     plot_fig5,
@@ -132,7 +132,7 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
                 [{"study": study.title, **row} for study in studies for row in study.rows], staging / "beyond.csv"
             )
         if "real" in only:
-            from furuta_drake import real_rig_report
+            from furuta_drake.real_rig import report as real_rig_report
 
             outcome = real_rig_report.run_real_rig(staging, small=settings.small_real, progress=progress)
             figures["real"] = real_rig_report.write_real_rig(staging, outcome)
@@ -152,12 +152,12 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
 
 
 def run_beyond(seed: int, small: bool, progress=None) -> list:
-    """Every study of :mod:`furuta_drake.studies` (``BEYOND_STUDIES``), each on the paper's rig and ``seed``."""
+    """Every study of :mod:`furuta_drake.paper.studies` (``BEYOND_STUDIES``), each on the paper's rig and ``seed``."""
     import importlib
 
     studies = []
     for name in BEYOND_STUDIES:
-        studies.append(importlib.import_module(f"furuta_drake.studies.{name}").study(seed=seed, small=small))
+        studies.append(importlib.import_module(f"furuta_drake.paper.studies.{name}").study(seed=seed, small=small))
         reproduce.report_progress(progress, f"beyond: {name}")
     return studies
 

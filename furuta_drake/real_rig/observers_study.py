@@ -1,15 +1,15 @@
 """Study: the paper's observers on measured data. The HG observer (Eq. 4-6) and the VFE observer with the Dahl
-observer (Eq. 8-13) replayed offline (:func:`furuta_drake.reproduce.replay_observers`) on the real QUBE runs of
-:mod:`furuta_drake.studies.real_data`: the balancing part of the swing-ups, linearised at the upright, and the
+observer (Eq. 8-13) replayed offline (:func:`furuta_drake.paper.reproduce.replay_observers`) on the real QUBE runs of
+:mod:`furuta_drake.real_rig.runs`: the balancing part of the swing-ups, linearised at the upright, and the
 hanging chirp, linearised at the hanging equilibrium (:func:`furuta_drake.linearization.observer_model`), each with
 the nominal rig model and with the model the diagnosis fitted (its rigid body, and its arm friction as the Dahl
 observer's calibration when it has one; without one, F_hat = 0 and the VFE's eps_hat_F carries all the friction).
 
-Fairness as in the simulated Table II (:func:`furuta_drake.reproduce.observer_sweep`): every candidate of
-:func:`furuta_drake.reproduce.sweep_candidates` (HG eps, VFE eigenvalue scale) is replayed on the train segments of
-its equilibrium and each observer, per model and equilibrium, keeps the candidate with the lowest arm velocity
-error against the reference; the table is read on the held-out segments only. The reference is the paper's
-zero-phase Butterworth velocity at :data:`~furuta_drake.studies.real_data.REFERENCE_CUTOFF_HZ`: on a real rig there is
+Fairness as in the simulated Table II (:func:`furuta_drake.paper.reproduce.observer_sweep`): every candidate of
+:func:`furuta_drake.paper.reproduce.sweep_candidates` (HG eps, VFE eigenvalue scale) is replayed on the train
+segments of its equilibrium and each observer, per model and equilibrium, keeps the candidate with the lowest arm
+velocity error against the reference; the table is read on the held-out segments only. The reference is the paper's
+zero-phase Butterworth velocity at :data:`~furuta_drake.real_rig.runs.REFERENCE_CUTOFF_HZ`: on a real rig there is
 no true velocity, so both observers are judged against a filter of the same encoder angles they read.
 """
 
@@ -20,12 +20,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from furuta_drake import reproduce
 from furuta_drake.config import SimulationConfig
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.linearization import Equilibrium, equilibrium_angle, observer_model
 from furuta_drake.observers.dahl import DahlObserverParameters
-from furuta_drake.studies.real_data import (
+from furuta_drake.paper import reproduce
+from furuta_drake.real_rig.runs import (
     CHIRP,
     SWINGUPS,
     RealRuns,
@@ -154,7 +154,7 @@ def model_observers(config: SimulationConfig) -> ModelObservers:
 
 
 def replay(segment: Segment, model: ModelObservers, kwargs: dict) -> dict:
-    """:func:`~furuta_drake.reproduce.replay_observers` on ``segment`` with ``model``'s linearisation, the
+    """:func:`~furuta_drake.paper.reproduce.replay_observers` on ``segment`` with ``model``'s linearisation, the
     observers started at its first sample at rest."""
     config = dataclasses.replace(
         model.config,
@@ -165,7 +165,7 @@ def replay(segment: Segment, model: ModelObservers, kwargs: dict) -> dict:
 
 
 def candidates(model: ModelObservers, small: bool) -> list[tuple[str, str, float, dict]]:
-    """The fairness sweep's candidates (:func:`~furuta_drake.reproduce.sweep_candidates`) for ``model``; ``small``
+    """The fairness sweep's candidates (:func:`~furuta_drake.paper.reproduce.sweep_candidates`) for ``model``; ``small``
     keeps three of each."""
     rows = reproduce.sweep_candidates(model.config, model.dahl)
     if small:

@@ -10,7 +10,7 @@ split_heldout`) over the part where the pendulum stays within ``LINEAR_RANGE`` o
 kept from the observers' tuning and from the diagnosis, which fits on the rest of the chirp.
 
 Reference velocity (the paper's Table II): the zero-phase Butterworth filter of the encoder angles'
-derivative (:func:`furuta_drake.metrics.butterworth_velocity_reference`) at ``REFERENCE_CUTOFF_HZ``. The paper's
+derivative (:func:`furuta_drake.paper.metrics.butterworth_velocity_reference`) at ``REFERENCE_CUTOFF_HZ``. The paper's
 5 Hz suits its 1 kHz rig and slow balancing motion; on the QUBE the balancing loop's limit cycle and the start of
 the chirp lie well above 5 Hz, so a 5 Hz reference would erase much of the motion the observers must follow. The
 cut-off is set a little over twice the fastest of those motions: the double pass keeps it to within a few percent
@@ -31,16 +31,17 @@ from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, balancing
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
-from furuta_drake.diagnosis.candidates import rig_model
-from furuta_drake.diagnosis.corrected import model_config
 from furuta_drake.diagnosis.log_writers import write_log
-from furuta_drake.diagnosis.logs import RunLog, load_logs, load_rig
+from furuta_drake.diagnosis.logs import RunLog, load_logs
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
+from furuta_drake.effects.corrected import model_config
+from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.linearization import equilibrium_angle
-from furuta_drake.metrics import butterworth_velocity_reference
+from furuta_drake.paper.metrics import butterworth_velocity_reference
 from furuta_drake.rig import RigParameters
+from furuta_drake.rig_file import load_rig
 from furuta_drake.simulate import SimulationResult
 
 TRAIN_SWINGUP = "swingup_250Hz_10s_a.csv"

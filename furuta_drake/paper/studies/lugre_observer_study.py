@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import dataclasses
 
-from furuta_drake import reproduce
 from furuta_drake.friction import JointFrictionParameters
-from furuta_drake.metrics import observer_figures
+from furuta_drake.paper import reproduce
+from furuta_drake.paper.metrics import observer_figures
+from furuta_drake.paper.studies import Study
 from furuta_drake.plotting import plot_friction_estimates
 from furuta_drake.simulate import simulate
-from furuta_drake.studies import Study
 
 STRIBECK = {"static_pos": 0.020, "static_neg": 0.030, "stribeck_velocity": 0.1}  # Fs+/- [N m], vs [rad/s]
 SIGMA1 = 0.1  # [N m s/rad], about a third of the critical damping 2 sqrt(sigma0 J_arm)

@@ -2,9 +2,9 @@
 before and after the diagnosis' correction, and the files that say so.
 
 :func:`run_real_rig` runs, in order: the diagnosis that corrects the nominal model
-(:func:`furuta_drake.studies.real_data.diagnose_corrected_model`), the observers on measured data
-(:mod:`furuta_drake.studies.real_observers_study`), the controller's check against the logs and the closed loop
-real against simulated (:mod:`furuta_drake.studies.real_closed_loop_study`), then the diagnosis of the part the
+(:func:`furuta_drake.real_rig.runs.diagnose_corrected_model`), the observers on measured data
+(:mod:`furuta_drake.real_rig.observers_study`), the controller's check against the logs and the closed loop
+real against simulated (:mod:`furuta_drake.real_rig.closed_loop_study`), then the diagnosis of the part the
 corrected model leaves open (the balancing) and the closed loop once more on the model it corrects further.
 :func:`write_real_rig` writes ``real_observers.csv``, ``real_observer_sweep.csv``, ``real_closed_loop.csv``,
 ``real_closed_loop_gap.csv``, ``controller_fit.json``, the plots, both diagnoses' reports
@@ -26,17 +26,17 @@ from furuta_drake.config import SimulationConfig, dump_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.diagnosis.report import write_report_files
 from furuta_drake.observers.filtered_derivative import filtered_derivative
+from furuta_drake.paper.reproduce import PAPER_TABLE2, report_progress
 from furuta_drake.plotting import (
     plot_controller_fit,
     plot_limit_cycle_spectra,
     plot_real_closed_loop,
     plot_real_observers,
 )
-from furuta_drake.reproduce import PAPER_TABLE2, report_progress
-from furuta_drake.results import write_json, write_log_csv, write_table_csv
-from furuta_drake.studies import real_closed_loop_study, real_observers_study
-from furuta_drake.studies.real_closed_loop_study import LIMIT_CYCLE_MIN_HZ, balancing_spectrum
-from furuta_drake.studies.real_data import (
+from furuta_drake.real_rig import closed_loop_study as real_closed_loop_study
+from furuta_drake.real_rig import observers_study as real_observers_study
+from furuta_drake.real_rig.closed_loop_study import LIMIT_CYCLE_MIN_HZ, balancing_spectrum
+from furuta_drake.real_rig.runs import (
     CHIRP,
     OSCILLATING_SWINGUP,
     REFERENCE_CUTOFF_HZ,
@@ -50,6 +50,7 @@ from furuta_drake.studies.real_data import (
     reference_properties,
     reference_velocity,
 )
+from furuta_drake.results import write_json, write_log_csv, write_table_csv
 
 SMALL_SWINGUPS = (TRAIN_SWINGUP, SWINGUPS[1], OSCILLATING_SWINGUP)  # the small run's closed loop
 CLOSED = 0.5  # a figure whose gap the correction closed by less than this share "does not close"

@@ -16,8 +16,8 @@ import yaml
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from furuta_drake.diagnosis.candidates import describe
-from furuta_drake.diagnosis.design.pipeline import Design
+from furuta_drake.design.pipeline import Design
+from furuta_drake.effects.vocabulary import describe
 from furuta_drake.outputs import atomic_output_dir, versions
 
 SIGNIFICANT_DIGITS = 6

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, Scales, apply_effects
 from furuta_drake.diagnosis.gap import (
     Windows,
     fixed_state_residuals,
@@ -34,7 +33,8 @@ from furuta_drake.diagnosis.gap import (
     projected_residuals,
 )
 from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.surrogate import Model, sensor_variance
+from furuta_drake.effects.surrogate import Model, sensor_variance
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
 from furuta_drake.rig import RigParameters
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities

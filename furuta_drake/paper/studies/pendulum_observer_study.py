@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import dataclasses
 
-from furuta_drake import reproduce
 from furuta_drake.friction import JointFrictionParameters
-from furuta_drake.metrics import observer_figures
 from furuta_drake.observers.dahl import DahlObserverParameters
+from furuta_drake.paper import reproduce
+from furuta_drake.paper.metrics import observer_figures
+from furuta_drake.paper.studies import Study
 from furuta_drake.plotting import plot_velocity_estimates
 from furuta_drake.simulate import simulate
-from furuta_drake.studies import Study
 
 WORN_PENDULUM_COULOMB = 0.003  # [N m]: three times the paper rig's, a worn pendulum bearing
 WORN_PENDULUM_SIGMA0 = 2.0  # [N m/rad]

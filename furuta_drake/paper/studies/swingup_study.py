@@ -15,12 +15,12 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from furuta_drake import reproduce
 from furuta_drake.config import swingup_config
 from furuta_drake.controllers.swingup import BALANCE, catch_time, pendulum_energy, wrap_angle
+from furuta_drake.paper import reproduce
+from furuta_drake.paper.studies import Study
 from furuta_drake.results import write_log_csv
 from furuta_drake.simulate import simulate
-from furuta_drake.studies import Study
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 SETTLE = 1.0  # [s] after the catch before the balance figures are read

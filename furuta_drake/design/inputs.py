@@ -19,9 +19,10 @@ from pathlib import Path
 import yaml
 
 from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.logs import RunLog, load_logs, load_rig
+from furuta_drake.diagnosis.logs import RunLog, load_logs
 from furuta_drake.errors import ConfigError, FurutaError
 from furuta_drake.rig import RigParameters
+from furuta_drake.rig_file import load_rig
 
 # The keys of report.json the design reads, each with the keys its entries need.
 REPORT_KEYS = {

@@ -22,10 +22,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, apply_effects, law_of, rig_model
 from furuta_drake.diagnosis.detection import INJECTIONS
 from furuta_drake.diagnosis.fit import scales_of
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, law_of, rig_model
 from furuta_drake.errors import ConfigError
 
 NEAR = 0.05  # rivals within this many points of held-out reduction of the accepted model at the same step
@@ -73,7 +73,7 @@ class Hypotheses:
 def entry_effects(entry: dict) -> dict[str, Effect]:
     """The effects of a ranking entry from its ``effect`` ("a" or "a+b") and ``params`` (prefixed "a." when
     it holds several)."""
-    from furuta_drake.diagnosis.candidates import effect_from_params
+    from furuta_drake.effects.vocabulary import effect_from_params
 
     names = entry["effect"].split("+")
     out = {}

@@ -3,7 +3,7 @@
 For one direction of a pair (a hypothesis taken as the truth, the other as the rival), the three models the
 rule compares at the pair's step (the truth, the rival and the model holding the earlier effects that both are
 judged against) are refit on the experiment's train half and give noise-free residuals on its held-out half
-(:func:`~furuta_drake.diagnosis.design.criterion.refit_residuals`). Each Monte Carlo draw adds the truth's sensor
+(:func:`~furuta_drake.design.criterion.refit_residuals`). Each Monte Carlo draw adds the truth's sensor
 noise (the rounding of its encoder, uniform over a count, and its white noise), with what each model's
 re-projected initial states absorb of it projected out, appends the per-window excess of the diagnosis' own
 held-out windows (the new log joins them, it does not replace them), and applies the rule of
@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import law_of
-from furuta_drake.diagnosis.design.criterion import Refit
+from furuta_drake.design.criterion import Refit
 from furuta_drake.diagnosis.gap import project_out_states
 from furuta_drake.diagnosis.select import CLOSES, ENTRY, Bootstrap, at_floor, choose, gap_of, is_kept
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import law_of
 
 TRUTH, RIVAL = "truth", "rival"
 

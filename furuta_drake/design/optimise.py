@@ -5,7 +5,7 @@ level starts at the one the command limit and the aimed arm motion allow, and ev
 the surrogate (all candidate designs in one batch); a design whose arm angle or pendulum excursion exceeds
 ``SAFETY`` of its bound under any hypothesis is scaled down by the worst ratio and simulated again, up to
 ``RESCALES`` times; one still outside is infeasible. Feasible designs are scored by the smallest noncentrality
-over the pairs' informative directions (:mod:`furuta_drake.diagnosis.design.criterion`): every pair must be
+over the pairs' informative directions (:mod:`furuta_drake.design.criterion`): every pair must be
 separated, so the weakest decides. The cheap, linearised noncentrality ranks a generation; its ``ELITE`` best
 designs are scored again with iterated refits (a rival fitted further can mimic more), and that score chooses.
 
@@ -22,15 +22,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from furuta_drake.diagnosis.design.criterion import (
+from furuta_drake.design.criterion import (
     Parametrised,
     experiment_windows,
     linearised_noncentrality,
     refit_residuals,
 )
-from furuta_drake.diagnosis.design.family import BANDS, Family
-from furuta_drake.diagnosis.design.hypotheses import Hypotheses
-from furuta_drake.diagnosis.surrogate import sensor_variance
+from furuta_drake.design.family import BANDS, Family
+from furuta_drake.design.hypotheses import Hypotheses
+from furuta_drake.effects.surrogate import sensor_variance
 from furuta_drake.rig import RigParameters
 
 SAFETY = 0.9  # the surrogate's peaks must stay within this share of each bound (the Drake check has the rest)

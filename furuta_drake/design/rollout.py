@@ -1,9 +1,9 @@
 """A candidate experiment played on a hypothesis: fast batches on the diagnosis' surrogate, the check in Drake.
 
 :func:`surrogate_runs` integrates many commands at once from rest with the surrogate the diagnosis fits with
-(:func:`~furuta_drake.diagnosis.surrogate.predict_windows`, one window as long as the experiment);
+(:func:`~furuta_drake.effects.surrogate.predict_windows`, one window as long as the experiment);
 :func:`drake_config` plays one command on the Drake diagram of a hypothesis
-(:func:`~furuta_drake.diagnosis.corrected.model_config`: MultibodyPlant, the friction system and the actuator
+(:func:`~furuta_drake.effects.corrected.model_config`: MultibodyPlant, the friction system and the actuator
 chain), open loop from rest hanging or, for ``balancing``, added to the project's LQR of the rig file's nominal
 model balancing the upright.
 """
@@ -16,7 +16,7 @@ import numpy as np
 
 from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
 from furuta_drake.diagnosis.gap import COMMAND_PAD, substeps_for
-from furuta_drake.diagnosis.surrogate import Model, predict_windows
+from furuta_drake.effects.surrogate import Model, predict_windows
 from furuta_drake.rig import RigParameters
 
 HANGING = (np.pi, 0.0, 0.0, 0.0)  # [theta, phi, theta_dot, phi_dot]: at rest, the pendulum down
@@ -46,7 +46,7 @@ def drake_config(
     """The simulate config that plays ``command`` [N m] on ``model`` (a hypothesis of ``rig``): open loop from
     rest hanging, or with ``balancing`` added to the LQR of gain ``lqr_gain`` (the rig file's) from rest
     upright."""
-    from furuta_drake.diagnosis.corrected import model_config
+    from furuta_drake.effects.corrected import model_config
 
     config = model_config(rig, model)
     controller = dataclasses.replace(
@@ -82,10 +82,10 @@ def surrogate_closed_loop(
 
     The command depends on the state, so the surrogate's right-hand side and actuator chain (delay, lag, static
     map, Dahl or LuGre bristle) are stepped one sample at a time, with the same RK4 substeps as
-    :func:`~furuta_drake.diagnosis.surrogate.predict_windows`.
+    :func:`~furuta_drake.effects.surrogate.predict_windows`.
     """
-    from furuta_drake.diagnosis.surrogate import _delayed_command, applied_torque
-    from furuta_drake.diagnosis.surrogate_kernel import integrate, lag_filter, pack
+    from furuta_drake.effects.surrogate import _delayed_command, applied_torque
+    from furuta_drake.effects.surrogate_kernel import integrate, lag_filter, pack
 
     dithers = np.atleast_2d(dithers)
     designs, samples = dithers.shape

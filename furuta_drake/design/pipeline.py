@@ -14,12 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from furuta_drake.diagnosis.candidates import apply_effects
-from furuta_drake.diagnosis.design.criterion import Parametrised, experiment_windows, refit_residuals
-from furuta_drake.diagnosis.design.family import Family
-from furuta_drake.diagnosis.design.hypotheses import Hypotheses, parse_target, read_hypotheses
-from furuta_drake.diagnosis.design.inputs import DiagnosisRecord, read_diagnosis
-from furuta_drake.diagnosis.design.optimise import (
+from furuta_drake.design.criterion import Parametrised, experiment_windows, refit_residuals
+from furuta_drake.design.family import Family
+from furuta_drake.design.hypotheses import Hypotheses, parse_target, read_hypotheses
+from furuta_drake.design.inputs import DiagnosisRecord, read_diagnosis
+from furuta_drake.design.optimise import (
     SAFETY,
     Bounds,
     Candidate,
@@ -27,8 +26,8 @@ from furuta_drake.diagnosis.design.optimise import (
     Search,
     optimise,
 )
-from furuta_drake.diagnosis.design.predict import RIVAL, TRUTH, predict_direction
-from furuta_drake.diagnosis.design.rollout import (
+from furuta_drake.design.predict import RIVAL, TRUTH, predict_direction
+from furuta_drake.design.rollout import (
     drake_config,
     nominal_lqr_gain,
     surrogate_closed_loop,
@@ -36,6 +35,7 @@ from furuta_drake.diagnosis.design.rollout import (
 )
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, window_samples
+from furuta_drake.effects.vocabulary import apply_effects
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.simulate import simulate
 
@@ -387,7 +387,7 @@ def _predicted_pairs(
     duration: float,
 ) -> list[dict]:
     """Per pair: its hypotheses, why, and per informative direction the exact noncentrality and the predicted
-    outcome of the rule (:mod:`furuta_drake.diagnosis.design.predict`) on the Drake runs, with the duration
+    outcome of the rule (:mod:`furuta_drake.design.predict`) on the Drake runs, with the duration
     (a multiple of ``duration`` in ``REPEATS``) at which the outcome would be detected in ``SETTLES`` of the draws
     (None when none is)."""
     from furuta_drake.diagnosis.split import split_heldout

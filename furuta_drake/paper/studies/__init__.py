@@ -4,11 +4,8 @@ extension on the same simulated rig and seed (``furuta-drake reproduce --only be
 Every study of the open problems is a module ``*_study`` of this package with a function ``study(seed: int = 0,
 small: bool = False) -> Study``; ``small`` shortens it for the tests and notebooks.
 
-The real-rig studies (``furuta-drake reproduce --only real``, :mod:`furuta_drake.real_rig_report`) work on the
-real QUBE-Servo 2 runs instead (:mod:`.real_data` says which run plays which part): :mod:`.real_observers_study`
-(the paper's observers on measured data) and :mod:`.real_closed_loop_study` (the closed loop, real against
-simulated, before and after the diagnosis' correction); each ``study`` takes the runs and the models to compare
-and returns its own tables.
+The real-rig studies (``furuta-drake reproduce --only real``) work on the real QUBE-Servo 2 runs instead and live
+in :mod:`furuta_drake.real_rig`.
 """
 
 from __future__ import annotations

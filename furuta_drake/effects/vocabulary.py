@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.effects.surrogate import Model
 from furuta_drake.friction import JointFrictionParameters
 
 

@@ -1,5 +1,5 @@
 """Study: stability of the nested observers with adaptation (Sec. VI-VII's open point). The 1 kHz loop
-linearized at the upright in the presliding regime (:func:`furuta_drake.stability.linear_loop`) is swept over
+linearized at the upright in the presliding regime (:func:`furuta_drake.paper.stability.linear_loop`) is swept over
 frozen K_sigma, the true bristle stiffness sigma0 and the observer gains, for the paper's HG-based loop and the
 nested VFE + Dahl loop, with Eq. 9's injection K_z as printed and reversed; the basins of the full nonlinear loops
 (HG with Dahl compensation, K_sigma = 1; VFE + Dahl with K_sigma adaptation from t = 0) are set against a
@@ -12,10 +12,10 @@ import dataclasses
 import matplotlib.pyplot as plt
 import numpy as np
 
-from furuta_drake import reproduce, stability
 from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
-from furuta_drake.studies import Study
+from furuta_drake.paper import reproduce, stability
+from furuta_drake.paper.studies import Study
 
 LOOPS = (
     ("HG + Dahl (paper)", "hg", 1),

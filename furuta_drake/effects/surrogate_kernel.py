@@ -115,7 +115,7 @@ def spring_torque(phi, stiffness, cubic, equilibrium):
 
 @njit(cache=True, inline="always")
 def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum):
-    """x' of the Furuta model (:mod:`~furuta_drake.diagnosis.surrogate`) under the arm torque ``tau`` [N m]; a
+    """x' of the Furuta model (:mod:`~furuta_drake.effects.surrogate`) under the arm torque ``tau`` [N m]; a
     joint's static friction law acts where its row is static (a bristle's torque comes in ``tau``)."""
     a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
     s, co = math.sin(theta), math.cos(theta)

@@ -1,0 +1,1 @@
+"""Benchmarks and the validation suites (run from the repository root with PYTHONPATH=.)."""
