@@ -14,7 +14,7 @@ cases, versions). Target: >= 80 % of the targeted cases right after, no right ve
 is kept on disk (``OUT/suite``, ``OUT/before``, ``OUT/design``, ``OUT/after``) and reused when the script is run
 again with the same ``--out``.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/design_suite.py --out /tmp/design_suite``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/design_suite.py --out runs/design_suite``
 (``--only WORD ...`` keeps the cases whose name holds a word; ``--right-checks N`` sets how many right cases are
 re-run).
 """

@@ -14,7 +14,7 @@ median held-out reduction >= 50 % where right, every effect named in >= 80 % of 
 of the true parameters of right verdicts inside their 95 % intervals, <= 60 s per case of four 8 s logs at 1 kHz
 on 2 cores.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_confusion.py --out /tmp/confusion``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_confusion.py --out runs/confusion``
 (``--quick``: a handful of cases with 8 s logs; ``--suite DIR`` reuses logs written earlier).
 """
 

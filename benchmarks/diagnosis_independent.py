@@ -16,7 +16,7 @@ seeds, versions); the reports go to ``OUT/reports/<case>/``. Each case also stat
 train logs, in encoder counts: the RMS of the true angles minus the nominal rig's prediction over 100 ms windows
 restarted from the true state (balancing / hanging), and the sensor error RMS (0.29 for a rounding encoder).
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_independent.py --out /tmp/indep``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_independent.py --out runs/indep``
 (``--quick``: 6 cases; ``--only WORD ...``: the cases whose name holds a word; ``--suite DIR``: reuse logs).
 """
 
