@@ -9,7 +9,8 @@ realised with the project's true-world blocks in the limit's own form (Dahl fric
 a first-order lag, a subtracting dead zone...). An input delay is left out: the simulated world resolves delays
 to half a control period, coarser than a limit's halving.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/detection_limits.py --out runs/limits --rig qube_servo2``.
+Run from the repository root:
+``PYTHONPATH=. python benchmarks/detection_limits.py --out runs/limits --rig qube_servo2``.
 Writes ``OUT/results.json`` (the limits, every run's verdict and the counts) and ``OUT/config.json``.
 """
 

@@ -7,8 +7,8 @@ magnitudes (levels 0.2-3 of the validation suite's scale), a balancing run under
 training and the same for held-out, simulated in Drake (a balancing run that falls is replaced by a second
 hanging run: the logs must be valid, the effects may be anything). Seeded: ``--seed`` fixes every draw.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_robustness.py --cases 40 --out runs/robust``. Writes
-``OUT/results.json`` (figures, one row per case) and ``OUT/config.json``.
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_robustness.py --cases 40 --out runs/robust``.
+Writes ``OUT/results.json`` (figures, one row per case) and ``OUT/config.json``.
 """
 
 from __future__ import annotations

@@ -14,8 +14,9 @@ from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quanti
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import replay_gap
-from furuta_drake.diagnosis.select import MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
+from furuta_drake.diagnosis.rule import MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
+from furuta_drake.diagnosis.words import confusable_why
 from furuta_drake.effects.corrected import model_rig
 from furuta_drake.effects.surrogate import Model, _accelerations
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects
@@ -189,7 +190,9 @@ def test_two_laws_that_explain_the_data_alike_are_confusable_and_a_clear_winner_
     chosen = choose(evidence, added)
     pairs = confusable(chosen, evidence, added, nominal, candidates, bootstrap)
     assert [sorted(pair["effects"]) for pair in pairs] == [["actuator_lag", "input_delay"]]
-    assert "holds 0" in pairs[0]["why"]
+    low, high = pairs[0]["difference"]
+    assert low <= 0.0 <= high and not pairs[0]["at_floor"]
+    assert "holds 0" in confusable_why(pairs[0])
 
 
 def balancing_log(rig_name: str, seed: int, effect: str, level: int, duration: float) -> RunLog:

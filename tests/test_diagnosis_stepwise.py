@@ -9,7 +9,7 @@ import numpy as np
 
 from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.gap import GapResult
-from furuta_drake.diagnosis.select import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
+from furuta_drake.diagnosis.rule import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
 from furuta_drake.diagnosis.stepwise import Selection, _enter_pair, _exchange
 from furuta_drake.effects.vocabulary import Effect
 

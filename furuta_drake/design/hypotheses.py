@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 from furuta_drake.diagnosis.detection import INJECTIONS
 from furuta_drake.diagnosis.fit import scales_of
+from furuta_drake.diagnosis.rule import NEAR
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, law_of, rig_model
 from furuta_drake.errors import ConfigError
 
-NEAR = 0.05  # rivals within this many points of held-out reduction of the accepted model at the same step
 NEXT_STEP_REDUCTION = 0.1  # a next-step candidate that reduces what is left by this much is a rival
 MAX_NEXT_STEP = 3
 

@@ -7,7 +7,7 @@ judged against) are refit on the experiment's train half and give noise-free res
 noise (the rounding of its encoder, uniform over a count, and its white noise), with what each model's
 re-projected initial states absorb of it projected out, appends the per-window excess of the diagnosis' own
 held-out windows (the new log joins them, it does not replace them), and applies the rule of
-:mod:`furuta_drake.diagnosis.select` with its bootstrap:
+:mod:`furuta_drake.diagnosis.rule` with its bootstrap:
 
 - a nested pair (the truth is the rival plus one effect): detected when the truth's reduction over the rival
   has a 5 % lower bound above the margin, so the effect is kept (and, for a first effect, closes the gap);
@@ -27,7 +27,7 @@ import numpy as np
 
 from furuta_drake.design.criterion import Refit
 from furuta_drake.diagnosis.gap import project_out_states
-from furuta_drake.diagnosis.select import CLOSES, ENTRY, Bootstrap, at_floor, choose, gap_of, is_kept
+from furuta_drake.diagnosis.rule import ENTRY, Bootstrap, at_floor, choose, decide, gap_of
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import law_of
 
@@ -107,11 +107,14 @@ def _detected(
         return False
     truth = bootstrap.evidence(excess["previous"], excess[TRUTH])
     if nested:
-        return is_kept(truth) and (not first_effect or truth.reduction >= CLOSES)
+        return decide(truth, first=first_effect)
     # The rule's keys are the effects each model adds (its parsimony counts their parameters); the chosen one
-    # enters on a lenient bound and is kept when it reduces the model without it by the margin.
+    # enters on a lenient bound (with the floor's and the same law's clauses, as in the selection) and is kept
+    # when it reduces the model without it by the margin.
     evidence = {new[TRUTH]: truth, new[RIVAL]: bootstrap.evidence(excess["previous"], excess[RIVAL])}
-    if choose(evidence, {name: name for name in evidence}, margin=ENTRY) != new[TRUTH] or not is_kept(truth):
+    per_window = {new[TRUTH]: excess[TRUTH], new[RIVAL]: excess[RIVAL]}
+    chosen = choose(evidence, {name: name for name in evidence}, ENTRY, excess["previous"], per_window, bootstrap)
+    if chosen != new[TRUTH] or not decide(truth, first=first_effect):
         return False
     if law_of(new[TRUTH]) == law_of(new[RIVAL]):  # variants of one law are never confusable: the choice stands
         return True

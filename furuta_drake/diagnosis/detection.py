@@ -6,7 +6,7 @@ synthetic data are the measured angles plus the change the effect at size s make
 the model's refined initial states, with the part the initial states can absorb projected out (the residuals are
 re-projected for every model, so a state-like change is no evidence). The model is then judged on the synthetic
 data against the model holding the injected effect at its true size, which explains them exactly, with the
-acceptance rule's bootstrap (:mod:`furuta_drake.diagnosis.select`): detected when the model is not at the floor
+acceptance rule's bootstrap (:mod:`furuta_drake.diagnosis.rule`): detected when the model is not at the floor
 on them and the lower bound of the reduction exceeds the margin (and, for a first effect, the reduction reaches
 the level that closes a gap). The smallest detected size is found by bisection on a log scale. A real fit must
 also find the parameters, so a real detection needs somewhat more than this limit.
@@ -25,7 +25,7 @@ import numpy as np
 from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS
 from furuta_drake.diagnosis.gap import Windows, fixed_state_residuals, project_out_states, projected_residuals
 from furuta_drake.diagnosis.result import DetectionLimit
-from furuta_drake.diagnosis.select import CLOSES, Bootstrap, at_floor, is_kept
+from furuta_drake.diagnosis.rule import Bootstrap, at_floor, decide
 from furuta_drake.effects.surrogate import Model, sensor_variance
 from furuta_drake.effects.vocabulary import CANDIDATES, PRESLIDING_STARTS, UNITS, Effect, Scales, apply_effects
 
@@ -166,7 +166,7 @@ class _Judge:
         if at_floor(synthetic):
             return False
         evidence = self.bootstrap.evidence(synthetic, truth)
-        return is_kept(evidence) and (not self.first or evidence.reduction >= CLOSES)
+        return decide(evidence, first=self.first)
 
     def injected(self, effect_model: Model) -> list[np.ndarray]:
         count = 2 * np.pi / self.counts

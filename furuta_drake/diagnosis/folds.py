@@ -13,7 +13,7 @@ from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import fold_split
 from furuta_drake.diagnosis.stepwise import select_effects
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES, describe
+from furuta_drake.effects.vocabulary import describe
 from furuta_drake.rig import RigParameters
 
 
@@ -27,7 +27,8 @@ def consistency(
     folds: int,
 ) -> Consistency:
     """The selection repeated on ``folds`` splits of all the logs (:func:`fold_split`): each fold's verdict and
-    effects, the range of each accepted effect's parameters over the folds that accepted it, and a judgement."""
+    effects and the range of each accepted effect's parameters over the folds that accepted it (its judgement in
+    words is the report's: :func:`furuta_drake.diagnosis.words.consistency_judgement`)."""
     verdicts, effects, values = [], [], {}
     for fold in range(folds):
         train, heldout = fold_split(logs, folds, fold, rig)
@@ -49,24 +50,4 @@ def consistency(
                     if key != "form":
                         values.setdefault(f"{name}.{key}", []).append(value)
     ranges = {key: [float(min(v)), float(max(v))] for key, v in values.items()}
-    return Consistency(folds, verdicts, effects, ranges, judgement(verdicts, effects, ranges, nominal))
-
-
-def judgement(verdicts: list[str], effects: list[list[str]], ranges: dict[str, list[float]], nominal: Model) -> str:
-    """One line: how often the verdict and each effect came back, and the spread of the main parameters."""
-    folds = len(verdicts)
-    counts = {verdict: verdicts.count(verdict) for verdict in dict.fromkeys(verdicts)}
-    if len(counts) == 1:
-        text = f"same verdict ({verdicts[0]}) on {folds}/{folds} folds"
-    else:
-        text = "verdict " + ", ".join(f"{verdict} on {n}/{folds}" for verdict, n in counts.items()) + " folds"
-    named = {name: sum(name in found for found in effects) for found in effects for name in found}
-    if named and any(n < folds for n in named.values()):
-        text += "; effects " + ", ".join(f"{name} {n}/{folds}" for name, n in named.items())
-    mains = [
-        f"{name} {CANDIDATES[name].main} {low:.4g}-{high:.4g}"
-        for key, (low, high) in ranges.items()
-        for name in [key.split(".")[0]]
-        if key.split(".")[1] == CANDIDATES[name].main
-    ]
-    return text + ("; " + ", ".join(mains) if mains else "")
+    return Consistency(folds, verdicts, effects, ranges)

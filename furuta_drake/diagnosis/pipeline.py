@@ -30,10 +30,11 @@ from furuta_drake.diagnosis.parallel import run_tasks
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
-from furuta_drake.diagnosis.select import Bootstrap, threshold_note
+from furuta_drake.diagnosis.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
-from furuta_drake.diagnosis.stepwise import Selection, choice_text, select_effects
+from furuta_drake.diagnosis.stepwise import Selection, select_effects
+from furuta_drake.diagnosis.words import choice_text, confusable_why, consistency_judgement, rule_text
 from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
@@ -187,6 +188,9 @@ def diagnose(
     consistency_result = None
     if folds is not None and folds >= 2:
         consistency_result = consistency(train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds)
+        consistency_result.judgement = consistency_judgement(
+            consistency_result.verdicts, consistency_result.effects, consistency_result.params_range, nominal
+        )
     steps = []
     for name, result, over_step in zip(selection.kept, selection.accepted if final else [], selection.over_step):
         params, _ = _params(result, nominal)
@@ -251,11 +255,11 @@ def diagnose(
         steps=steps,
         uncertainty=UNCERTAINTY,
         detection_limits=limits,
-        confusable=selection.confusable,
+        confusable=[{"effects": pair["effects"], "why": confusable_why(pair)} for pair in selection.confusable],
         consistency=consistency_result,
         choice=choice_text(selection),
         holdout=holdout_note,
-        rule=threshold_note(settings.bootstrap, settings.seed),
+        rule=rule_text(settings.bootstrap, settings.seed, settings.max_effects),
         notes=notes,
         artifacts=artifacts,
     )

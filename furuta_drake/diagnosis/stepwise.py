@@ -1,7 +1,7 @@
 """The selection of effects (stage 4 of the diagnosis): forward, one effect at a time, each fitted together with
 the earlier ones and entering on the held-out rule's lenient bound; then backward, each kept only while the model
 without it is worse by the rule's margin; then exchanges, each kept effect replaced by a runner-up of the step it
-entered at when that explains the held-out data significantly better (:mod:`furuta_drake.diagnosis.select` holds
+entered at when that explains the held-out data significantly better (:mod:`furuta_drake.diagnosis.rule` holds
 the rule)."""
 
 from __future__ import annotations
@@ -14,16 +14,18 @@ from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
 from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.parallel import Failure
-from furuta_drake.diagnosis.select import (
+from furuta_drake.diagnosis.rule import (
     CLOSES,
     ENTRY,
+    LEVEL_EXCESS,
     Bootstrap,
     Evidence,
     at_floor,
     choose,
     confusable,
-    is_kept,
+    decide,
     order,
+    verdict,
 )
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
@@ -33,8 +35,6 @@ JOINT_REFITS = 3  # at a later step, the candidates fitted again together with t
 PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together
 EXCHANGE_RUNNERS_UP = 2  # per kept effect, the runners-up of its entry step tried in its place
 MAX_EXCHANGES = 2  # exchanges made at the most (each followed by the backward pass)
-LEVEL_EXCESS = 0.1  # a Stribeck fit whose static level is within 10 % of its Coulomb level has no Stribeck part,
-# and an asymmetry fit whose two levels are within 10 % of each other no asymmetry
 
 
 @dataclass
@@ -74,9 +74,7 @@ class Selection:
 
     @property
     def verdict(self) -> str:
-        if not self.closes:
-            return "none" if self.quiet else "unexplained"
-        return self.effects[0]
+        return verdict(self.effects, self.over_nominal[self.final.name].reduction if self.kept else None, self.quiet)
 
     @property
     def effects(self) -> list[str]:
@@ -89,6 +87,8 @@ class Selection:
 
 
 def _vocabulary_name(name: str, effect: Effect) -> str:
+    """A Stribeck fit whose static level is within ``LEVEL_EXCESS`` of its Coulomb level has no Stribeck part, and
+    an asymmetry fit whose two levels are that close no asymmetry: both are Coulomb friction."""
     if name == "arm_stribeck" and effect.values[1] <= (1.0 + LEVEL_EXCESS) * effect.values[0]:
         return "arm_coulomb_friction"
     if name == "friction_asymmetry" and abs(effect.values[0] - effect.values[1]) <= LEVEL_EXCESS * max(
@@ -108,7 +108,7 @@ def select_effects(
     settings: DiagnosisSettings,
     run: Callable,
 ) -> Selection:
-    """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.select`):
+    """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.rule`):
     forward, one at a time, each fitted together with the earlier ones and entering when it reduces the gap of
     the model holding them; then backward, each kept only while the model without it is worse by the rule."""
     bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
@@ -297,7 +297,7 @@ def _backward(
     selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task: Callable, fit: Callable
 ) -> None:
     """Drop, one at a time, the kept effect whose removal costs the least while that cost's lower bound is not
-    enough (:func:`~furuta_drake.diagnosis.select.is_kept`): every effect finally kept reduces the held-out gap of
+    enough (:func:`~furuta_drake.diagnosis.rule.decide`): every effect finally kept reduces the held-out gap of
     the model holding all the others by the rule's margin (an effect that entered beside a stronger one it
     masked must earn its place)."""
     while selection.kept:
@@ -323,7 +323,7 @@ def _backward(
             # (a model without it that failed to fit leaves the effect judged against the nominal model)
             reference = model.heldout.per_window if model else nominal_gap.per_window
             without[name] = bootstrap.evidence(reference, final.heldout.per_window)
-        failing = [name for name in selection.kept if not is_kept(without[name])]
+        failing = [name for name in selection.kept if not decide(without[name])]
         if not failing:
             break
         selection.kept.remove(min(failing, key=lambda name: without[name].lower_bound))
@@ -364,42 +364,3 @@ def _as_fit(task: FitTask, result) -> FitResult:
     if isinstance(result, Failure):
         return FitResult(task.name, {}, float("nan"), None, failure=result.reason)
     return result
-
-
-def choice_text(selection: Selection) -> str:
-    """Why the verdict, in one paragraph."""
-    if not selection.kept:
-        if selection.quiet:
-            return "The nominal model explains the held-out data to within their noise: no effect is needed."
-        return "No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's margin."
-    total = selection.over_nominal[selection.final.name]
-    text = (
-        f"The model holding {', '.join(selection.kept)} reduces the nominal held-out gap by {total.reduction:.1%} "
-        f"(5 % lower bound {total.lower_bound:.1%}). "
-    )
-    if len(selection.kept) > 1:
-        text += (
-            "Without each of them the held-out gap of the others' model grows: "
-            + "; ".join(
-                f"{name} brings {selection.over_others[name].reduction:.1%} (lower bound "
-                f"{selection.over_others[name].lower_bound:.1%})"
-                for name in selection.kept
-            )
-            + "."
-        )
-    for exchange in selection.exchanges:
-        evidence = exchange["evidence"]
-        text += (
-            f" {exchange['in']} replaced {exchange['out']}, which had entered before it: beside the other kept "
-            f"effects it explains the held-out data better, reducing the gap of the model holding "
-            f"{exchange['out']} by {evidence.reduction:.1%} (lower bound {evidence.lower_bound:.1%})."
-        )
-    if not selection.closes:
-        text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
-    for pair in selection.confusable:
-        text += (
-            f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "
-            f"({pair['why']}); {pair['effects'][0]} was accepted for its larger point reduction or fewer "
-            f"parameters."
-        )
-    return text

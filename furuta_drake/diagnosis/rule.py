@@ -1,4 +1,6 @@
-"""The held-out rule that accepts an effect (stage 4 of the diagnosis).
+"""The held-out rule that accepts an effect (stage 4 of the diagnosis): every threshold it uses (:data:`THRESHOLDS`,
+each with its unit and meaning) and :func:`decide`, the one judgement of an effect that the selection, the detection
+limits and the experiment design share.
 
 Significance comes from the data: each held-out window contributes its own excess squared residual, so the
 reduction of the held-out gap that a model brings over another is bootstrapped over windows (paired: the same
@@ -40,31 +42,37 @@ ENTRY = 0.05
 MARGIN = 0.2
 PARSIMONY = 0.03
 CLOSES = 0.5
-CONFUSABLE_LEVEL = 0.9  # two-sided level of the interval of a difference of reductions
+CONFUSABLE_LEVEL = 0.9
+LOWER_BOUND_QUANTILE = 0.05
+NOISE_STANDARD_ERRORS = 2.0
+LEVEL_EXCESS = 0.1
+NEAR = 0.05
 
 
-def threshold_note(bootstrap: int, seed: int) -> str:
-    """The acceptance rule in one paragraph, written into every report."""
-    return (
-        f"Held-out reductions are bootstrapped over held-out windows ({bootstrap} paired resamples, seed "
-        f"{seed}). Effects enter one at a time, at most three: nothing more enters once a model's held-out gap "
-        f"is below {FLOOR_COUNTS} counts; the candidate with the largest reduction over the model holding the earlier "
-        f"effects enters when the 5 % lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
-        f"{PARSIMONY:.0%} of it is preferred, or at the floor one whose mean excess squared residual is not larger "
-        f"by more than {FLOOR_COUNTS}^2 counts^2 beyond a {CONFUSABLE_LEVEL:.0%} bootstrap interval; when none "
-        f"enters first, the best pair of the three best train fits may enter together on the same bound); an "
-        f"effect is kept when the reduction it brings to the model "
-        f"holding all the other kept effects is at least {MARGIN:.0%} with a 5 % lower bound above {ENTRY:.0%} "
-        f"and removes more than {FLOOR_COUNTS}^2 counts^2 of excess squared residual at its 5 % lower bound, "
-        f"else the weakest is dropped; a kept effect is exchanged for one of the two best other-law candidates of "
-        f"the step it entered at when the model holding that one and the other kept effects reduces the final "
-        f"model's held-out gap with a 5 % lower bound above {ENTRY:.0%}; the verdict is none when no effect is "
-        f"kept and the nominal gap is below {FLOOR_COUNTS} counts or twice its bootstrap standard error; "
-        f"two supported candidates of different laws whose "
-        f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
-        f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
-        f"unexplained."
-    )
+@dataclass(frozen=True)
+class Threshold:
+    """A number of the rule, with its unit ("" for a fraction) and what it decides."""
+
+    name: str
+    value: float
+    unit: str
+    meaning: str
+
+
+THRESHOLDS = (
+    Threshold("FLOOR_COUNTS", FLOOR_COUNTS, "counts", "a held-out gap below it leaves nothing to explain"),
+    Threshold("ENTRY", ENTRY, "", "the 5 % lower bound of a reduction must exceed it for an effect to enter"),
+    Threshold("MARGIN", MARGIN, "", "the reduction an effect brings beside the others it must reach to be kept"),
+    Threshold("PARSIMONY", PARSIMONY, "", "a simpler candidate within this of the best reduction is preferred"),
+    Threshold("CLOSES", CLOSES, "", "accepted effects reducing the nominal gap by less leave it unexplained"),
+    Threshold("CONFUSABLE_LEVEL", CONFUSABLE_LEVEL, "", "two-sided level of the interval of a difference"),
+    Threshold("LOWER_BOUND_QUANTILE", LOWER_BOUND_QUANTILE, "", "the bootstrap quantile of a lower bound"),
+    Threshold(
+        "NOISE_STANDARD_ERRORS", NOISE_STANDARD_ERRORS, "", "a gap below this many standard errors is within the noise"
+    ),
+    Threshold("LEVEL_EXCESS", LEVEL_EXCESS, "", "two friction levels within this fraction are one (no Stribeck part)"),
+    Threshold("NEAR", NEAR, "", "a rival within this of the accepted reduction is a close rival (the design)"),
+)
 
 
 def gap_of(per_window_excess) -> np.ndarray:
@@ -103,7 +111,7 @@ class Bootstrap:
         return Evidence(
             float(gap_of(candidate.mean())),
             float(point),
-            float(np.quantile(_reductions(before, after), 0.05)),
+            float(np.quantile(_reductions(before, after), LOWER_BOUND_QUANTILE)),
             float(candidate.mean()),
             _interval(before - after)[0],
         )
@@ -112,7 +120,7 @@ class Bootstrap:
         """The model of ``per_window`` explains the data to within their noise: its gap is below ``FLOOR_COUNTS``
         or twice its bootstrap standard error (module docstring)."""
         gap = float(gap_of(per_window.mean()))
-        return at_floor(per_window) or gap < 2.0 * float(np.std(gap_of(self.means(per_window))))
+        return at_floor(per_window) or gap < NOISE_STANDARD_ERRORS * float(np.std(gap_of(self.means(per_window))))
 
     def excess_difference_interval(self, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
         """The ``CONFUSABLE_LEVEL`` interval of the mean excess squared residual of ``first`` minus that of
@@ -199,6 +207,23 @@ def beyond_resolution(excess_drop: float) -> bool:
     return excess_drop > FLOOR_COUNTS**2
 
 
+def decide(evidence: Evidence, *, first: bool = False) -> bool:
+    """The rule's judgement of one effect from ``evidence`` of the model holding it over the model without it:
+    kept (:func:`is_kept`) and, when it is the ``first`` effect (nothing else accepted), closing the gap
+    (a reduction of at least ``CLOSES``): what a diagnosis would accept. The caller checks first that the model
+    without it is not at the floor (nothing would enter there)."""
+    return is_kept(evidence) and (not first or evidence.reduction >= CLOSES)
+
+
+def verdict(effects: list[str], reduction: float | None, quiet: bool) -> str:
+    """The verdict of a selection that kept ``effects`` (in the order they entered) with the final model's
+    ``reduction`` of the nominal held-out gap: the first effect when they close it (``CLOSES``), else ``none``
+    when the nominal model is within the noise (``quiet``), else ``unexplained``."""
+    if effects and reduction is not None and reduction >= CLOSES:
+        return effects[0]
+    return "none" if quiet else "unexplained"
+
+
 def is_kept(evidence: Evidence) -> bool:
     """Whether an effect whose removal costs ``evidence`` earns its place: a reduction of at least ``MARGIN`` of
     the gap of the model without it, with a 5 % lower bound above ``ENTRY`` (a second effect beside a strong
@@ -217,31 +242,27 @@ def confusable(
     bootstrap: Bootstrap,
 ) -> list[dict]:
     """The supported candidates of other laws that explain the held-out data as well as ``chosen``, each as
-    ``{"effects": [chosen's effect, other's effect], "why": ...}``."""
+    ``{"effects": [chosen's effect, other's effect], "reductions": [theirs], "at_floor": bool, "difference":
+    [low, high]}``: the ``CONFUSABLE_LEVEL`` interval of the difference of their reductions (which holds 0), or at
+    the floor of their mean excess squared residuals [counts^2] (which stays below the floor's resolution)."""
     out = []
     for name in order(evidence):
         if name == chosen or not is_kept(evidence[name]) or new[name] in law_of(new[chosen]):
             continue
-        if at_floor(per_window[chosen]):  # both reductions are 1 there: the excess residuals tell them apart
+        floor = at_floor(per_window[chosen])
+        if floor:  # both reductions are 1 there: the excess residuals tell them apart
             low, high = bootstrap.excess_difference_interval(per_window[name], per_window[chosen])
             alike = not beyond_resolution(low)
-            difference = (
-                f"mean excess squared residuals, [{low:+.3g}, {high:+.3g}] counts^2, stays below the floor's "
-                f"resolution ({FLOOR_COUNTS}^2 counts^2)"
-            )
         else:
             low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
             alike = low <= 0.0 <= high
-            difference = f"reductions, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0"
         if alike:
             out.append(
                 {
                     "effects": [new[chosen], new[name]],
-                    "why": (
-                        f"held-out reductions {evidence[chosen].reduction:.1%} ({new[chosen]}) and "
-                        f"{evidence[name].reduction:.1%} ({new[name]}): the {CONFUSABLE_LEVEL:.0%} bootstrap interval "
-                        f"of the difference of their {difference}"
-                    ),
+                    "reductions": [evidence[chosen].reduction, evidence[name].reduction],
+                    "at_floor": floor,
+                    "difference": [low, high],
                 }
             )
     return out

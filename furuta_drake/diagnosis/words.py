@@ -1,0 +1,128 @@
+"""The report's sentences, written from the diagnosis' data: the held-out rule (from the rule's own constants), why
+the verdict, why two effects are confusable, how consistent the folds were. The computing stages return numbers;
+these functions alone put them into words for ``report.json``'s text keys and the reports."""
+
+from __future__ import annotations
+
+from furuta_drake.diagnosis.rule import (
+    CLOSES,
+    CONFUSABLE_LEVEL,
+    ENTRY,
+    FLOOR_COUNTS,
+    LOWER_BOUND_QUANTILE,
+    MARGIN,
+    NOISE_STANDARD_ERRORS,
+    PARSIMONY,
+)
+from furuta_drake.diagnosis.stepwise import EXCHANGE_RUNNERS_UP, PAIR_ENTRY, Selection
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import CANDIDATES
+
+NUMBERS = {1: "one", 2: "two", 3: "three", 4: "four", 5: "five"}
+
+
+def rule_text(bootstrap: int, seed: int, max_effects: int) -> str:
+    """The acceptance rule in one paragraph, written into every report from the rule's constants."""
+    bound = f"{100 * LOWER_BOUND_QUANTILE:g} %"
+    noise = "twice" if NOISE_STANDARD_ERRORS == 2 else f"{NOISE_STANDARD_ERRORS:g} times"
+    return (
+        f"Held-out reductions are bootstrapped over held-out windows ({bootstrap} paired resamples, seed "
+        f"{seed}). Effects enter one at a time, at most {NUMBERS.get(max_effects, max_effects)}: nothing more "
+        f"enters once a model's held-out gap "
+        f"is below {FLOOR_COUNTS} counts; the candidate with the largest reduction over the model holding the earlier "
+        f"effects enters when the {bound} lower bound of that reduction exceeds {ENTRY:.0%} (a simpler one within "
+        f"{PARSIMONY:.0%} of it is preferred, or at the floor one whose mean excess squared residual is not larger "
+        f"by more than {FLOOR_COUNTS}^2 counts^2 beyond a {CONFUSABLE_LEVEL:.0%} bootstrap interval; when none "
+        f"enters first, the best pair of the {NUMBERS[PAIR_ENTRY]} best train fits may enter together on the same "
+        f"bound); an "
+        f"effect is kept when the reduction it brings to the model "
+        f"holding all the other kept effects is at least {MARGIN:.0%} with a {bound} lower bound above {ENTRY:.0%} "
+        f"and removes more than {FLOOR_COUNTS}^2 counts^2 of excess squared residual at its {bound} lower bound, "
+        f"else the weakest is dropped; a kept effect is exchanged for one of the {NUMBERS[EXCHANGE_RUNNERS_UP]} "
+        f"best other-law candidates of "
+        f"the step it entered at when the model holding that one and the other kept effects reduces the final "
+        f"model's held-out gap with a {bound} lower bound above {ENTRY:.0%}; the verdict is none when no effect is "
+        f"kept and the nominal gap is below {FLOOR_COUNTS} counts or {noise} its bootstrap standard error; "
+        f"two supported candidates of different laws whose "
+        f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
+        f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
+        f"unexplained."
+    )
+
+
+def confusable_why(pair: dict) -> str:
+    """Why two effects are confusable (:func:`furuta_drake.diagnosis.rule.confusable`'s ``pair``), in one clause."""
+    (first, second), (r_first, r_second) = pair["effects"], pair["reductions"]
+    low, high = pair["difference"]
+    if pair["at_floor"]:
+        difference = (
+            f"mean excess squared residuals, [{low:+.3g}, {high:+.3g}] counts^2, stays below the floor's "
+            f"resolution ({FLOOR_COUNTS}^2 counts^2)"
+        )
+    else:
+        difference = f"reductions, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0"
+    return (
+        f"held-out reductions {r_first:.1%} ({first}) and {r_second:.1%} ({second}): the {CONFUSABLE_LEVEL:.0%} "
+        f"bootstrap interval of the difference of their {difference}"
+    )
+
+
+def choice_text(selection: Selection) -> str:
+    """Why the verdict, in one paragraph."""
+    if not selection.kept:
+        if selection.quiet:
+            return "The nominal model explains the held-out data to within their noise: no effect is needed."
+        return "No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's margin."
+    total = selection.over_nominal[selection.final.name]
+    text = (
+        f"The model holding {', '.join(selection.kept)} reduces the nominal held-out gap by {total.reduction:.1%} "
+        f"(5 % lower bound {total.lower_bound:.1%}). "
+    )
+    if len(selection.kept) > 1:
+        text += (
+            "Without each of them the held-out gap of the others' model grows: "
+            + "; ".join(
+                f"{name} brings {selection.over_others[name].reduction:.1%} (lower bound "
+                f"{selection.over_others[name].lower_bound:.1%})"
+                for name in selection.kept
+            )
+            + "."
+        )
+    for exchange in selection.exchanges:
+        evidence = exchange["evidence"]
+        text += (
+            f" {exchange['in']} replaced {exchange['out']}, which had entered before it: beside the other kept "
+            f"effects it explains the held-out data better, reducing the gap of the model holding "
+            f"{exchange['out']} by {evidence.reduction:.1%} (lower bound {evidence.lower_bound:.1%})."
+        )
+    if not selection.closes:
+        text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
+    for pair in selection.confusable:
+        text += (
+            f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "
+            f"({confusable_why(pair)}); {pair['effects'][0]} was accepted for its larger point reduction or fewer "
+            f"parameters."
+        )
+    return text
+
+
+def consistency_judgement(
+    verdicts: list[str], effects: list[list[str]], ranges: dict[str, list[float]], nominal: Model
+) -> str:
+    """One line: how often the verdict and each effect came back, and the spread of the main parameters."""
+    folds = len(verdicts)
+    counts = {verdict: verdicts.count(verdict) for verdict in dict.fromkeys(verdicts)}
+    if len(counts) == 1:
+        text = f"same verdict ({verdicts[0]}) on {folds}/{folds} folds"
+    else:
+        text = "verdict " + ", ".join(f"{verdict} on {n}/{folds}" for verdict, n in counts.items()) + " folds"
+    named = {name: sum(name in found for found in effects) for found in effects for name in found}
+    if named and any(n < folds for n in named.values()):
+        text += "; effects " + ", ".join(f"{name} {n}/{folds}" for name, n in named.items())
+    mains = [
+        f"{name} {CANDIDATES[name].main} {low:.4g}-{high:.4g}"
+        for key, (low, high) in ranges.items()
+        for name in [key.split(".")[0]]
+        if key.split(".")[1] == CANDIDATES[name].main
+    ]
+    return text + ("; " + ", ".join(mains) if mains else "")
