@@ -33,10 +33,8 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="furuta-drake", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-
+def _simulate_parser(sub) -> None:
+    """The ``simulate`` command's options."""
     sim = sub.add_parser("simulate", help="simulate a Furuta rig in closed loop and write its log")
     sim.add_argument("--config", type=Path, help="simulate config YAML (default: the Lund rig balancing)")
     sim.add_argument(
@@ -55,6 +53,9 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--html", type=Path, help="also save a self-contained Meshcat recording (HTML)")
     sim.set_defaults(run=_run_simulate)
 
+
+def _diagnose_parser(sub) -> None:
+    """The ``diagnose`` command's options."""
     diag = sub.add_parser("diagnose", help="diagnose the sim-to-real gap of a rig from its logs")
     diag.add_argument(
         "--rig",
@@ -95,6 +96,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     diag.set_defaults(run=_run_diagnose)
 
+
+def _design_parser(sub) -> None:
+    """The ``design`` command's options."""
     des = sub.add_parser("design", help="design the experiment that settles what a diagnosis could not decide")
     des.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
     des.add_argument("--out", type=Path, required=True, help="output directory")
@@ -135,6 +139,9 @@ def _parser() -> argparse.ArgumentParser:
     des.add_argument("--seed", type=int, default=0, help="seed of the search and of the predicted noise (default 0)")
     des.set_defaults(run=_run_design, balancing=False)
 
+
+def _rig_parser(sub) -> None:
+    """The ``rig`` command's options."""
     rig = sub.add_parser("rig", help="write an annotated rig file to start from, or check one")
     rig_action = rig.add_mutually_exclusive_group(required=True)
     rig_action.add_argument(
@@ -151,6 +158,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     rig.set_defaults(run=_run_rig)
 
+
+def _reproduce_parser(sub) -> None:
+    """The ``reproduce`` command's options."""
     rep = sub.add_parser("reproduce", help="reproduce the paper's Tables I-II and Figs. 5-7 on the simulated Lund rig")
     rep.add_argument(
         "--only",
@@ -183,6 +193,9 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--force", action="store_true", help="replace a non-empty output directory")
     rep.set_defaults(run=_run_reproduce)
 
+
+def _sweep_parser(sub) -> None:
+    """The ``sweep`` command's options."""
     sweep = sub.add_parser("sweep", help="simulate a grid or random sample of configs on Dask, write a CSV of metrics")
     sweep.add_argument("--config", type=Path, required=True, help="sweep YAML (see furuta_drake.sweep)")
     sweep.add_argument("--out", type=Path, required=True, help="output directory")
@@ -190,6 +203,13 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
     sweep.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
     sweep.set_defaults(run=_run_sweep)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="furuta-drake", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    for add in (_simulate_parser, _diagnose_parser, _design_parser, _rig_parser, _reproduce_parser, _sweep_parser):
+        add(sub)
     return parser
 
 
