@@ -47,15 +47,33 @@ ALLOWED = (
     "+ - * / ** and parentheses"
 )
 
-Torque = Callable[..., np.ndarray]  # f(theta, phi, theta_dot, phi_dot) -> torque [N m]
+
+class Torque:
+    """A checked torque expression: ``torque(theta, phi, theta_dot, phi_dot)`` [N m] on floats or numpy arrays
+    (broadcast together; a float array out), ``torque.at(x)`` at one paper-order state (a float, the Drake
+    system's per-stage call). Values outside a function's domain give nan or inf, never an exception."""
+
+    def __init__(self, evaluate: Callable[[dict], object]):
+        self._evaluate = evaluate
+
+    def __call__(self, theta, phi, theta_dot, phi_dot) -> np.ndarray:
+        values = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (theta, phi, theta_dot, phi_dot)))
+        with np.errstate(all="ignore"):
+            result = self._evaluate(dict(zip(TORQUE_VARIABLES, values)))
+        return np.broadcast_to(np.asarray(result, dtype=float), values[0].shape).copy()
+
+    def at(self, x: np.ndarray) -> float:
+        """The torque at x = [theta, phi, theta_dot, phi_dot] (a numpy array, so its entries are numpy floats)."""
+        with np.errstate(all="ignore"):
+            return float(self._evaluate(dict(zip(TORQUE_VARIABLES, x))))
 
 
 def compile_torque(expression: str, where: str) -> Torque:
-    """The torque [N m] that ``expression`` gives, as f(theta, phi, theta_dot, phi_dot) on floats or numpy arrays
-    (broadcast together; a float array out). Raises :class:`ConfigError` naming ``where`` and the offending token
-    for anything but :data:`TORQUE_VARIABLES`, :data:`FUNCTIONS` called with one argument, ``pi``, numbers and
-    + - * / ** (unary minus, parentheses). A result outside a function's domain (log of a negative number, a
-    division by zero) is nan or inf, for the caller to detect where it uses the torque."""
+    """The torque [N m] that ``expression`` gives, as a :class:`Torque` f(theta, phi, theta_dot, phi_dot). Raises
+    :class:`ConfigError` naming ``where`` and the offending token for anything but :data:`TORQUE_VARIABLES`,
+    :data:`FUNCTIONS` called with one argument, ``pi``, numbers and + - * / ** (unary minus, parentheses). A result
+    outside a function's domain (log of a negative number, a division by zero) is nan or inf, for the caller to
+    detect where it uses the torque."""
     if not isinstance(expression, str) or not expression.strip():
         raise ConfigError(f"{where}: expected a torque expression in {', '.join(TORQUE_VARIABLES)}, got {expression!r}")
     try:
@@ -64,15 +82,7 @@ def compile_torque(expression: str, where: str) -> Torque:
         raise ConfigError(f"{where}: not a valid expression ({err.msg}, column {err.offset}): {expression!r}") from None
     except (RecursionError, MemoryError, ValueError):
         raise ConfigError(f"{where}: expression too deeply nested or malformed: {expression[:80]!r}") from None
-    evaluate = _compile_node(tree.body, expression.strip(), where)
-
-    def torque(theta, phi, theta_dot, phi_dot) -> np.ndarray:
-        values = dict(zip(TORQUE_VARIABLES, np.broadcast_arrays(*map(np.asarray, (theta, phi, theta_dot, phi_dot)))))
-        with np.errstate(all="ignore"):
-            result = evaluate({name: value.astype(float) for name, value in values.items()})
-        return np.broadcast_to(np.asarray(result, dtype=float), values["theta"].shape).copy()
-
-    return torque
+    return Torque(_compile_node(tree.body, expression.strip(), where))
 
 
 def _compile_node(node: ast.AST, text: str, where: str) -> Callable[[dict], object]:
@@ -172,7 +182,7 @@ class UnmodelledTorque(LeafSystem):
         x = self._state.Eval(context)
         force = np.zeros(self._size)
         for joint, index, torque in self._joints:
-            force[index] = torque(*x)
+            force[index] = torque.at(x)
             if not math.isfinite(force[index]):
                 state = ", ".join(f"{name} = {value:.6g}" for name, value in zip(TORQUE_VARIABLES, x))
                 t = context.get_time()
@@ -184,6 +194,7 @@ class UnmodelledTorque(LeafSystem):
 __all__ = [
     "TORQUE_VARIABLES",
     "FUNCTIONS",
+    "Torque",
     "compile_torque",
     "UnmodelledTorqueParameters",
     "UnmodelledTorque",
