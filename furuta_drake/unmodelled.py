@@ -42,6 +42,7 @@ BINARY = {
     ast.Pow: operator.pow,
 }
 UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+MAX_DEPTH = 200  # syntax-tree levels (a sum of n terms is some n deep); compiling and evaluating recurse per level
 ALLOWED = (
     f"the variables {', '.join(TORQUE_VARIABLES)}, the functions {' '.join(FUNCTIONS)}, pi, numbers, "
     "+ - * / ** and parentheses"
@@ -79,10 +80,29 @@ def compile_torque(expression: str, where: str) -> Torque:
     try:
         tree = ast.parse(expression.strip(), mode="eval")
     except SyntaxError as err:
-        raise ConfigError(f"{where}: not a valid expression ({err.msg}, column {err.offset}): {expression!r}") from None
+        raise ConfigError(
+            f"{where}: not a valid expression ({err.msg}, column {err.offset}): {_shown(expression)}"
+        ) from None
     except (RecursionError, MemoryError, ValueError):
-        raise ConfigError(f"{where}: expression too deeply nested or malformed: {expression[:80]!r}") from None
+        raise ConfigError(f"{where}: expression too deeply nested or malformed: {_shown(expression)}") from None
+    if _depth(tree.body) > MAX_DEPTH:
+        raise ConfigError(f"{where}: expression nested deeper than {MAX_DEPTH} operations: {_shown(expression)}")
     return Torque(_compile_node(tree.body, expression.strip(), where))
+
+
+def _shown(expression: str) -> str:
+    """The expression quoted for a message, cut after 80 characters."""
+    return repr(expression) if len(expression) <= 80 else f"{expression[:80]!r}..."
+
+
+def _depth(tree: ast.AST) -> int:
+    """The depth of a syntax tree, walked without recursion."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    return deepest
 
 
 def _compile_node(node: ast.AST, text: str, where: str) -> Callable[[dict], object]:

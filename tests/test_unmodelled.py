@@ -2,6 +2,7 @@
 system against the plant's mass matrix (the generalised force a torque gives, the acceleration it causes)."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -157,3 +158,51 @@ def test_a_constant_torque_accelerates_the_world_as_the_mass_matrix_says(rig):
     state = P @ world.plant.GetPositionsAndVelocities(world.plant.GetMyContextFromRoot(context))
     assert state[2:] == pytest.approx(expected * t, rel=1e-3)
     assert state[:2] == pytest.approx(expected * t**2 / 2, rel=1e-3)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.text(
+        alphabet=st.sampled_from(list("thetaphi_dotsincoxgqr()[]{}.,:;'\"=<>!%&|^~@#$ +-*/0123456789e\n")), max_size=40
+    )
+)
+def test_any_text_compiles_to_a_torque_or_is_refused_with_a_config_error(text):
+    try:
+        torque = compile_torque(text, "unmodelled_torque.arm")
+    except ConfigError as err:
+        assert str(err).startswith("unmodelled_torque.arm")
+        return
+    value = torque(np.array([0.0, 0.3]), 1.5, -2.0, 0.0)  # never an exception: nan or inf where undefined
+    assert value.shape == (2,) and value.dtype == float
+
+
+leaves = st.sampled_from(["theta", "phi", "theta_dot", "phi_dot", "pi", "2", "0.5", "1e-3"])
+
+
+def _extend(children):
+    binary = st.tuples(children, st.sampled_from(["+", "-", "*", "/", "**"]), children).map(
+        lambda t: f"({t[0]} {t[1]} {t[2]})"
+    )
+    calls = st.tuples(st.sampled_from(["sin", "cos", "tan", "tanh", "exp", "log", "abs", "sign", "sqrt"]), children)
+    return binary | calls.map(lambda t: f"{t[0]}({t[1]})") | children.map(lambda c: f"-{c}")
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.recursive(leaves, _extend, max_leaves=12), st.tuples(angles, angles, speeds, speeds))
+def test_a_generated_expression_evaluates_as_numpy_does(expression, state):
+    """The reference: the same text evaluated by Python over numpy's functions (trusted text, made here)."""
+    names = dict(zip(("theta", "phi", "theta_dot", "phi_dot"), map(np.float64, state)))
+    names.update({name: getattr(np, name) for name in ("sin", "cos", "tan", "tanh", "exp", "log", "abs", "sign")})
+    names.update(sqrt=np.sqrt, pi=np.float64(np.pi))
+    numpy_numbers = re.sub(r"(?<![\w.])(\d+(?:\.\d*)?(?:e-?\d+)?)", r"np.float64(\1)", expression)
+    with np.errstate(all="ignore"):
+        expected = float(eval(numpy_numbers, {"__builtins__": {}, "np": np}, names))
+    assert float(compile_torque(expression, "t")(*state)) == pytest.approx(expected, rel=1e-12, nan_ok=True)
+
+
+def test_a_sum_of_many_terms_compiles_and_a_deeper_nesting_is_refused():
+    terms = [f"1e-4*sin({k}*phi)" for k in range(1, 151)]
+    torque = compile_torque(" + ".join(terms), "t")
+    assert float(torque(0.0, 0.3, 0.0, 0.0)) == pytest.approx(sum(1e-4 * math.sin(k * 0.3) for k in range(1, 151)))
+    with pytest.raises(ConfigError, match=r"^t: expression nested deeper than 200"):
+        compile_torque("-" * 250 + "phi", "t")
