@@ -172,8 +172,8 @@ class UnmodelledTorqueParameters:
 
     @property
     def is_empty(self) -> bool:
-        """True when neither joint has a torque."""
-        return not (self.arm.strip() or self.pendulum.strip())
+        """True when neither joint has a torque (a value that is not a string is one, for validate to refuse)."""
+        return all(isinstance(e, str) and not e.strip() for e in (self.arm, self.pendulum))
 
 
 class UnmodelledTorque(LeafSystem):

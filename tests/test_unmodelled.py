@@ -95,6 +95,7 @@ def test_the_parameters_name_the_joint_whose_expression_is_bad():
         UnmodelledTorqueParameters(arm="phi", pendulum="x").validate("rig.unmodelled_torque")
     with pytest.raises(ConfigError, match=r"^unmodelled_torque\.arm must be an expression"):
         UnmodelledTorqueParameters(arm=0.002).validate()
+    assert UnmodelledTorqueParameters(arm=" ").is_empty and not UnmodelledTorqueParameters(arm=0.002).is_empty
 
 
 def torque_system(params, rig=None):
