@@ -13,6 +13,7 @@ from __future__ import annotations
 import ast
 import math
 import operator
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -33,13 +34,39 @@ FUNCTIONS = {
     "sign": np.sign,
     "sqrt": np.sqrt,
 }
-CONSTANTS = {"pi": np.float64(math.pi)}
 BINARY = {
     ast.Add: operator.add,
     ast.Sub: operator.sub,
     ast.Mult: operator.mul,
     ast.Div: operator.truediv,
     ast.Pow: operator.pow,
+}
+
+
+def _on_floats(fast: Callable, numpy_function: Callable) -> Callable:
+    """``fast`` (Python's ``math``, an order of magnitude quicker than numpy on one float) where it is defined; numpy's
+    value (nan or inf) where it raises, so the per-state path gives what the vectorised one gives."""
+
+    def function(*args: float) -> float:
+        try:
+            return fast(*args)
+        except (ValueError, OverflowError, ZeroDivisionError):
+            with np.errstate(all="ignore"):
+                return float(numpy_function(*args))
+
+    return function
+
+
+SCALAR_FUNCTIONS = {
+    name: _on_floats(getattr(math, name), FUNCTIONS[name])
+    for name in ("sin", "cos", "tan", "tanh", "exp", "log", "sqrt")
+}
+SCALAR_FUNCTIONS["abs"] = abs
+SCALAR_FUNCTIONS["sign"] = lambda v: float((v > 0) - (v < 0)) if v == v else v  # numpy's sign: nan stays nan
+SCALAR_BINARY = {
+    **BINARY,
+    ast.Div: _on_floats(operator.truediv, np.true_divide),
+    ast.Pow: _on_floats(math.pow, np.power),  # math.pow: a negative base to a fractional power is nan, not complex
 }
 UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 MAX_DEPTH = 200  # syntax-tree levels (a sum of n terms is some n deep); compiling and evaluating recurse per level
@@ -51,11 +78,12 @@ ALLOWED = (
 
 class Torque:
     """A checked torque expression: ``torque(theta, phi, theta_dot, phi_dot)`` [N m] on floats or numpy arrays
-    (broadcast together; a float array out), ``torque.at(x)`` at one paper-order state (a float, the Drake
-    system's per-stage call). Values outside a function's domain give nan or inf, never an exception."""
+    (broadcast together; a float array out, numpy's functions), ``torque.at(x)`` at one paper-order state (a
+    float from Python's ``math``: the Drake system's per-stage call). Values outside a function's domain give nan
+    or inf, never an exception."""
 
-    def __init__(self, evaluate: Callable[[dict], object]):
-        self._evaluate = evaluate
+    def __init__(self, evaluate: Callable[[dict], object], evaluate_scalar: Callable[[dict], float]):
+        self._evaluate, self._evaluate_scalar = evaluate, evaluate_scalar
 
     def __call__(self, theta, phi, theta_dot, phi_dot) -> np.ndarray:
         values = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (theta, phi, theta_dot, phi_dot)))
@@ -63,10 +91,9 @@ class Torque:
             result = self._evaluate(dict(zip(TORQUE_VARIABLES, values)))
         return np.broadcast_to(np.asarray(result, dtype=float), values[0].shape).copy()
 
-    def at(self, x: np.ndarray) -> float:
-        """The torque at x = [theta, phi, theta_dot, phi_dot] (a numpy array, so its entries are numpy floats)."""
-        with np.errstate(all="ignore"):
-            return float(self._evaluate(dict(zip(TORQUE_VARIABLES, x))))
+    def at(self, x) -> float:
+        """The torque at x = [theta, phi, theta_dot, phi_dot]."""
+        return float(self._evaluate_scalar(dict(zip(TORQUE_VARIABLES, map(float, x)))))
 
 
 def compile_torque(expression: str, where: str) -> Torque:
@@ -87,7 +114,10 @@ def compile_torque(expression: str, where: str) -> Torque:
         raise ConfigError(f"{where}: expression too deeply nested or malformed: {_shown(expression)}") from None
     if _depth(tree.body) > MAX_DEPTH:
         raise ConfigError(f"{where}: expression nested deeper than {MAX_DEPTH} operations: {_shown(expression)}")
-    return Torque(_compile_node(tree.body, expression.strip(), where))
+    text = expression.strip()
+    return Torque(
+        _compile_node(tree.body, text, where, scalar=False), _compile_node(tree.body, text, where, scalar=True)
+    )
 
 
 def _shown(expression: str) -> str:
@@ -105,31 +135,36 @@ def _depth(tree: ast.AST) -> int:
     return deepest
 
 
-def _compile_node(node: ast.AST, text: str, where: str) -> Callable[[dict], object]:
-    """A function of the variables' values that evaluates ``node``, which must be one of the allowed forms."""
+def _compile_node(node: ast.AST, text: str, where: str, scalar: bool) -> Callable[[dict], object]:
+    """A function of the variables' values that evaluates ``node``, which must be one of the allowed forms: on
+    numpy values with numpy's functions, or (``scalar``) on Python floats with ``math``'s."""
     if isinstance(node, ast.Constant) and type(node.value) in (int, float):
-        value = np.float64(node.value)
+        number = float(node.value) if abs(node.value) <= sys.float_info.max else math.inf  # an int may not fit
+        if not math.isfinite(number):
+            raise ConfigError(f"{where}: the number {_segment(node, text)[:20]!r} is not a finite float")
+        value = number if scalar else np.float64(number)
         return lambda _: value
     if isinstance(node, ast.Name) and node.id in TORQUE_VARIABLES:
         name = node.id
         return lambda values: values[name]
-    if isinstance(node, ast.Name) and node.id in CONSTANTS:
-        value = CONSTANTS[node.id]
+    if isinstance(node, ast.Name) and node.id == "pi":
+        value = math.pi if scalar else np.float64(math.pi)
         return lambda _: value
     if isinstance(node, ast.BinOp) and type(node.op) in BINARY:
         op, left, right = (
-            BINARY[type(node.op)],
-            _compile_node(node.left, text, where),
-            _compile_node(node.right, text, where),
+            (SCALAR_BINARY if scalar else BINARY)[type(node.op)],
+            _compile_node(node.left, text, where, scalar),
+            _compile_node(node.right, text, where, scalar),
         )
         return lambda values: op(left(values), right(values))
     if isinstance(node, ast.UnaryOp) and type(node.op) in UNARY:
-        op, operand = UNARY[type(node.op)], _compile_node(node.operand, text, where)
+        op, operand = UNARY[type(node.op)], _compile_node(node.operand, text, where, scalar)
         return lambda values: op(operand(values))
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS:
         if len(node.args) != 1 or node.keywords or isinstance(node.args[0], ast.Starred):
             raise ConfigError(f"{where}: {node.func.id} takes one argument, in {_segment(node, text)!r}")
-        function, argument = FUNCTIONS[node.func.id], _compile_node(node.args[0], text, where)
+        function = (SCALAR_FUNCTIONS if scalar else FUNCTIONS)[node.func.id]
+        argument = _compile_node(node.args[0], text, where, scalar)
         return lambda values: function(argument(values))
     if isinstance(node, (ast.BinOp, ast.UnaryOp)):
         raise ConfigError(
