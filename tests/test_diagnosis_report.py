@@ -182,12 +182,17 @@ def test_directory_contents_plots_and_provenance(inputs, tmp_path):
         "effect_arm_coulomb_friction.png",
         "fitted_model.yaml",
         "fitted_rig.yaml",
+        "gap.svg",
+        "localization.svg",
         "report.html",
         "report.json",
         "report.md",
         "residual_spectra.png",
         "residuals.png",
+        "windows.svg",
     ]
+    for chart in out.glob("*.svg"):
+        assert chart.read_text().startswith("<svg") and "<text" in chart.read_text()
     for png in out.glob("*.png"):
         data = png.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
@@ -199,9 +204,9 @@ def test_directory_contents_plots_and_provenance(inputs, tmp_path):
         "](effect_arm_coulomb_friction.png)",
         "lower 95 % bootstrap bound",
         "rms 0.2 s-ahead",
-        "| 1 | 1 | `arm_coulomb_friction` | coulomb = 0.01512 N m |",
+        "| 1 | arm_coulomb_friction | coulomb = 15.1 mN m |",
         "arm velocity reversal",
-        "84.8 %",
+        "85 %",
     ):
         assert needle in markdown
     record = yaml.safe_load((out / "config.yaml").read_text())

@@ -29,6 +29,7 @@ from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs, load_rig
 from furuta_drake.diagnosis.parallel import run_tasks
+from furuta_drake.diagnosis.per_log import heldout_rms_per_log
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
@@ -239,6 +240,7 @@ def diagnose(
             reduction,
             nominal_heldout.per_signal,
             evaluated_by,
+            heldout_rms_per_log(before, after),
         ),
         ranking=ranking(selection, nominal),
         localization=localize(
