@@ -55,8 +55,17 @@ def chromium() -> str:
 
 
 def browse(page: Path, *args: str, height: int = FIRST_SCREEN) -> str:
-    command = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-               "--allow-file-access-from-files", f"--window-size={WIDTH},{height}", *args, page.as_uri()]  # fmt: skip
+    command = [
+        chromium(),
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--hide-scrollbars",
+        "--allow-file-access-from-files",
+        f"--window-size={WIDTH},{height}",
+        *args,
+        page.as_uri(),
+    ]
     return subprocess.run(command, capture_output=True, text=True, timeout=120, check=True).stdout
 
 
@@ -107,8 +116,11 @@ def fake_logs(report: dict, logs: int) -> dict:
         {"log": "run.csv", "nominal": {"theta": 1.0, "phi": 1.2}, "with_effects": {"theta": 0.3, "phi": 0.4}}
     ]
     fake["gap"]["heldout_rms_per_log"] = [
-        {**rows[i % len(rows)], "log": f"run_{i:03d}.csv", "nominal": {k: v * (1 + i % 7 / 10) for k, v in
-         rows[i % len(rows)]["nominal"].items()}}  # fmt: skip
+        {
+            **rows[i % len(rows)],
+            "log": f"run_{i:03d}.csv",
+            "nominal": {k: v * (1 + i % 7 / 10) for k, v in rows[i % len(rows)]["nominal"].items()},
+        }
         for i in range(logs)
     ]
     return json.loads(report_json(fake))

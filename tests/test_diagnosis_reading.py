@@ -46,8 +46,9 @@ def diagnosis(verdict, effects, params, nominal, after, lower_bound=None, interv
     return Diagnosis(
         verdict=verdict,
         effects=list(effects),
-        gap=GapFigures("k-step output error", {"train": nominal, "heldout": nominal}, {"train": after, "heldout": after},
-                       reduction),  # fmt: skip
+        gap=GapFigures(
+            "k-step output error", {"train": nominal, "heldout": nominal}, {"train": after, "heldout": after}, reduction
+        ),
         ranking=ranking,
         localization=LOCALIZATION,
         steps=steps,

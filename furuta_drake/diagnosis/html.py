@@ -119,11 +119,7 @@ def _first_screen(report: dict, charts: dict[str, str]) -> str:
         f"<li>{_text(what)}{':' if command else '.'}" + (f"<pre>{_text(command)}</pre>" if command else "") + "</li>"
         for what, command in words.next_steps(report)
     )
-    trust = [words.consistency_sentence(report), *words.confusable_sentences(report)]
-    trust_html = "".join(f"<p>{_text(t)}</p>" for t in trust if t) or (
-        "<p>No other effect explains the held-out data as well; run with <code>--folds K</code> to see whether "
-        "the verdict holds on other splits of the logs.</p>"
-    )
+    trust_html = "".join(f"<p>{_text(sentence)}</p>" for sentence in words.trust_sentences(report))
     side = (
         '<section class="next"><h2 id="next">What to do next</h2>'
         f'<p class="muted">Commands run from this report\'s folder.</p><ol class="next">{items}</ol>'
@@ -141,7 +137,7 @@ def _effects(report: dict) -> str:
         + _table(
             header,
             [[_Raw(f"<code>{_text(r[0])}</code>"), r[1], r[2], _Raw(f"<code>{_text(r[3])}</code>")] for r in rows],
-        )  # fmt: skip
+        )
         + '<p class="muted">The lines go under <code>effects:</code> in the rig file; <code>fitted_rig.yaml</code> '
         "holds them already.</p>"
     )

@@ -231,6 +231,14 @@ def consistency_sentence(report: dict) -> str:
     )
 
 
+def trust_sentences(report: dict) -> list[str]:
+    """How far to trust the verdict: the folds' consistency and the confusable pairs, or what would tell."""
+    sentences = [s for s in [consistency_sentence(report), *confusable_sentences(report)] if s]
+    return sentences or [
+        "No other effect explains the held-out data as well; --folds K repeats the decision on K splits of the logs."
+    ]
+
+
 def limit_sentence(limit: dict) -> str:
     """What a detection limit means: the largest size of the effect that could hide in these logs."""
     name, value, param = limit["effect"], limit["value"], limit["param"]

@@ -202,10 +202,7 @@ def report_markdown(report: dict, figures: dict[str, str]) -> str:
     ]
     for i, (what, command) in enumerate(words.next_steps(report), 1):
         lines += [f"{i}. {what}{':' if command else '.'}"] + (["", f"   `{command}`"] if command else []) + [""]
-    trust = [words.consistency_sentence(report), *words.confusable_sentences(report)]
-    lines += ["## How far to trust it", ""] + [f"- {t}" for t in trust if t] + ([] if any(trust) else [
-        "- No other effect explains the held-out data as well; `--folds K` repeats the decision on other splits."
-    ])  # fmt: skip
+    lines += ["## How far to trust it", ""] + [f"- {sentence}" for sentence in words.trust_sentences(report)]
     lines += _table_markdown("The accepted effects", *tables.effects_table(report))
     if report["verdict"] == "unexplained":
         lines += ["", "## What the gap is", "", words.where_sentence(report["localization"])]

@@ -41,13 +41,25 @@ def steps_table(report: dict) -> Table:
         ]
         for i, step in enumerate(report.get("steps", []), 1)
     ]
-    header = ["step", "effect", "held-out gap [counts]", "less than nominal", "less than the step before",
-              "brings beside the others [5 % bound]"]  # fmt: skip
+    header = [
+        "step",
+        "effect",
+        "held-out gap [counts]",
+        "less than nominal",
+        "less than the step before",
+        "brings beside the others [5 % bound]",
+    ]
     return header, rows
 
 
-RANKING_HEADER = ["step", "effect added", "its parameters: value [95 % interval]", "held-out gap [counts]",
-                  "less than nominal", "less than the step before [5 % bound]"]  # fmt: skip
+RANKING_HEADER = [
+    "step",
+    "effect added",
+    "its parameters: value [95 % interval]",
+    "held-out gap [counts]",
+    "less than nominal",
+    "less than the step before [5 % bound]",
+]
 
 
 def ranking_tables(report: dict) -> tuple[Table, Table, list[str]]:
