@@ -31,6 +31,8 @@ from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis import narrative as words
 from furuta_drake.diagnosis import report_tables as tables
+from furuta_drake.diagnosis import surrogate_kernel as kernel
+from furuta_drake.diagnosis.candidates import apply_effects, effect_from_params, rig_model
 from furuta_drake.diagnosis.formatting import number, percent
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
@@ -51,6 +53,7 @@ FRICTION_EFFECTS = (
     "pendulum_friction",
 )
 MAX_PLOT_POINTS = 20000  # per line of the residual plot; longer series are strided
+MAX_RESIDUAL_LOGS = 6  # logs drawn in the residual plot
 
 
 @dataclass
@@ -313,9 +316,10 @@ def _localization_markdown(loc: dict) -> list[str]:
 def plot_residuals(
     before: list[WindowResiduals], after: list[WindowResiduals] | None, worst: list[dict], path: Path
 ) -> None:
-    """One row per log: theta and phi residuals [counts] against time, worst windows shaded; the residuals
-    with the effects dashed."""
-    logs = sorted({w.log_name for w in before})
+    """One row per log, at most ``MAX_RESIDUAL_LOGS`` (those of the worst windows first): theta and phi residuals
+    [counts] against time, worst windows shaded; the residuals with the effects dashed."""
+    logs = list(dict.fromkeys([w["log"] for w in worst] + sorted({w.log_name for w in before})))
+    logs = [log for log in logs if any(w.log_name == log for w in before)][:MAX_RESIDUAL_LOGS]
     fig = Figure(figsize=(10, 2.4 * len(logs) + 0.6))
     axes = fig.subplots(len(logs), 1, squeeze=False)[:, 0]
     for ax, log in zip(axes, logs):
@@ -385,59 +389,45 @@ def residual_psd(windows: list[WindowResiduals], bins: int = 30) -> tuple[np.nda
 
 
 def effect_curve(effect: str, params: dict[str, float], rig: RigParameters) -> EffectCurve:
-    """The plot of a fitted effect against the rig file's nominal model (see the module docstring)."""
+    """The plot of a fitted effect against the rig file's nominal model (see the module docstring): the nominal
+    model and the model holding the effect in its own form (:func:`~.candidates.apply_effects`), evaluated by the
+    model's laws (the kernel's friction, the actuator map, the spring)."""
+    nominal = rig_model(rig)
+    fitted = apply_effects(nominal, {effect: effect_from_params(effect, params)})
     if effect in FRICTION_EFFECTS:
-        return _friction_curve(effect, params, rig)
-    limit = rig.torque_limit
-    command = np.linspace(-1.2 * limit, 1.2 * limit, 481)
-    model = Model.from_rig(rig)
+        return _friction_curve(effect, nominal, fitted)
     if effect in ("actuator_deadzone", "actuator_saturation", "torque_gain_error"):
-        fitted = {
-            "actuator_deadzone": lambda: model.replace(
-                deadzone=params["deadzone"], deadzone_form=params.get("form", "subtract")
-            ),
-            "actuator_saturation": lambda: model.replace(
-                saturation=params["limit"], saturation_form=params.get("form", "hard")
-            ),
-            "torque_gain_error": lambda: model.replace(gain=params["gain"]),
-        }[effect]()
+        command = np.linspace(-1.2 * rig.torque_limit, 1.2 * rig.torque_limit, 481)
         return EffectCurve(
             effect,
             f"Fitted {effect}: command to applied torque",
             "command [N m]",
             "applied torque [N m]",
             command,
-            {"nominal": command, "fitted": applied_torque(fitted, command)},
+            {"nominal": applied_torque(nominal, command), "fitted": applied_torque(fitted, command)},
         )
     if effect == "arm_spring":
-        spring = model.replace(
-            spring_stiffness=params["stiffness"],
-            spring_cubic=params.get("cubic_stiffness", 0.0),
-            spring_equilibrium=params.get("equilibrium", 0.0),
-        )
-        phi = np.linspace(-math.pi / 2, math.pi / 2, 361) + spring.spring_equilibrium
+        phi = np.linspace(-math.pi / 2, math.pi / 2, 361) + fitted.spring_equilibrium
         return EffectCurve(
             effect,
             "Fitted arm_spring: restoring torque",
             "phi [rad]",
             "spring torque [N m]",
             phi,
-            {"nominal": 0.0 * phi, "fitted": spring_torque(spring, phi)},
+            {"nominal": spring_torque(nominal, phi), "fitted": spring_torque(fitted, phi)},
         )
     if effect in ("actuator_lag", "input_delay"):
-        scale = params["time_constant"] if effect == "actuator_lag" else params["delay"]
+        scale = max(fitted.lag, fitted.delay)
         time = np.linspace(0.0, max(5 * scale, 10 * rig.sample_period), 501)
-        step = (time >= 0).astype(float)
-        fitted = 1.0 - np.exp(-time / scale) if effect == "actuator_lag" else (time >= scale).astype(float)
         return EffectCurve(
             effect,
             f"Fitted {effect}: response to a unit step of the command",
             "time [s]",
             "applied / commanded torque",
             time,
-            {"nominal": step, "fitted": fitted},
+            {"nominal": _step_response(nominal, time), "fitted": _step_response(fitted, time)},
         )
-    names = list(params)
+    names = [name for name, value in params.items() if not isinstance(value, str)]
     return EffectCurve(
         effect,
         f"Fitted {effect}: parameters (SI)",
@@ -447,6 +437,15 @@ def effect_curve(effect: str, params: dict[str, float], rig: RigParameters) -> E
         {"fitted": np.array([params[n] for n in names], float)},
         bars=True,
     )
+
+
+def _step_response(model: Model, time: np.ndarray) -> np.ndarray:
+    """The applied torque after a unit step of the command at t = 0: the model's transport delay, then its
+    first-order lag (none when the lag is 0)."""
+    since = time - model.delay
+    if model.lag <= 0:
+        return (since >= 0).astype(float)
+    return np.where(since >= 0, 1.0 - np.exp(-np.maximum(since, 0.0) / model.lag), 0.0)
 
 
 def plot_effect_curve(curve: EffectCurve, path: Path) -> None:
@@ -475,27 +474,24 @@ def plot_effect_curve(curve: EffectCurve, path: Path) -> None:
     _save(fig, path)
 
 
-def _friction_curve(effect: str, params: dict[str, float], rig: RigParameters) -> EffectCurve:
-    """Static friction torque against velocity: Coulomb level (one per direction), Stribeck peak, viscous."""
-    pendulum = effect == "pendulum_friction"
-    coulomb = rig.pendulum_coulomb if pendulum else rig.arm_coulomb
-    viscous = rig.pendulum_viscous if pendulum else rig.arm_viscous
+def _friction_curve(effect: str, nominal: Model, fitted: Model) -> EffectCurve:
+    """The joint's steady sliding friction torque against its velocity, the kernel's static law
+    (:func:`~.surrogate_kernel.static_torque`: Coulomb level per direction, Stribeck peak, viscous), nominal and
+    fitted."""
+    joint = "pendulum" if effect == "pendulum_friction" else "arm"
     velocity = np.linspace(-2.0, 2.0, 801)
-    nominal = coulomb * np.sign(velocity) + viscous * velocity
-    level_pos = params.get("coulomb_pos", params.get("coulomb", coulomb))
-    level_neg = params.get("coulomb_neg", params.get("coulomb", coulomb))
-    level = np.where(velocity >= 0, level_pos, level_neg)
-    if "static" in params:
-        level = level + (params["static"] - level) * np.exp(-((velocity / params["stribeck_velocity"]) ** 2))
-    fitted = level * np.sign(velocity) + params.get("viscous", viscous) * velocity
-    joint = "pendulum" if pendulum else "arm"
+
+    def law(model: Model) -> np.ndarray:
+        row = kernel.pack_friction(model.pendulum_friction if joint == "pendulum" else model.arm_friction)
+        return -np.array([kernel.static_torque(v, row) for v in velocity])
+
     return EffectCurve(
         effect,
         f"Fitted {effect}: {joint} friction torque",
         f"{joint} velocity [rad/s]",
         "friction torque [N m]",
         velocity,
-        {"nominal": nominal, "fitted": fitted},
+        {"nominal": law(nominal), "fitted": law(fitted)},
     )
 
 
