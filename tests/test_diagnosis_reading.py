@@ -127,6 +127,19 @@ def test_the_first_screen_holds_the_before_after_chart_and_the_next_step(tmp_pat
     assert markdown.index("gap.svg") < markdown.index("## What to do next") < markdown.index("## The evidence")
 
 
+def test_fold_consistency_is_said_in_words(tmp_path):
+    report = json.loads(report_json(CASES["single"].to_json()))
+    report["consistency"] = {
+        "folds": 3,
+        "verdicts": ["input_delay", "input_delay", "none"],
+        "effects": [["input_delay"], ["input_delay"], []],
+        "judgement": "verdict input_delay on 2/3, none on 1/3 folds",
+    }
+    page = report_html(report, tmp_path, {})
+    trust = page[page.index('id="trust"') : page.index('id="effects"')]
+    assert "Repeated on 3 splits of the logs, the same verdict came back 2 times" in trust
+
+
 def test_a_confusable_pair_asks_for_the_design_command(tmp_path):
     report = json.loads(report_json(CASES["single"].to_json()))
     report["confusable"] = [{"effects": ["input_delay", "actuator_lag"], "why": "their reductions overlap"}]
