@@ -30,8 +30,14 @@ def number(value, digits: int = 4) -> str:
 
 
 def percent(share, digits: int = 0) -> str:
-    """A share (0.853) as a percentage ("85 %")."""
-    return MISSING if share is None else f"{100 * float(share):.{digits}f} %"
+    """A share (0.853) as a percentage ("85 %"), one more digit within a percent of 100 % (never rounded up to
+    it)."""
+    if share is None:
+        return MISSING
+    share = float(share)
+    if 0.99 < share < 1 and digits == 0:
+        digits = 1 if share < 0.999 else 2
+    return f"{100 * share:.{digits}f} %"
 
 
 def scale_of(value, unit: str) -> tuple[float, str]:
