@@ -81,6 +81,8 @@ def gap_chart(report: dict) -> Figure:
     fig = Figure(figsize=(6.4, 0.85 + 0.32 * len(labels) * (2 if after else 1)))
     ax = fig.subplots()
     _hbars(ax, labels, before, after, unit)
+    top = float(np.nanmax(np.append(_finite(before + (after or [])), 0.0)))
+    ax.set_xlim(0, 1.05 * top if top > 0 else 1.0)
     _legend(fig, ax)
     return fig
 
@@ -106,22 +108,23 @@ def _gap_scatter(rows: list[dict]) -> Figure:
 def limits_chart(limits: list[dict]) -> Figure | None:
     """One panel per unit: the smallest size of each effect not accepted that these logs would have detected
     (gains and scales as their distance from 1 in %)."""
-    groups: dict[str, list[tuple[str, float | None]]] = {}
+    groups: dict[tuple[str, str], list[tuple[str, float | None]]] = {}
     for limit in limits:
         value, unit = limit["value"], limit["unit"]
         if unit == "-":
             value, unit = (None if value is None else 100 * abs(value - 1)), "% from 1"
-        groups.setdefault(unit, []).append((limit["effect"], value))
+        what = "largest limit detected" if limit["param"] == "limit" else "smallest size detected"
+        groups.setdefault((unit, what), []).append((limit["effect"], value))
     if not groups:
         return None
     heights = [len(rows) + 1.6 for rows in groups.values()]
     fig = Figure(figsize=(6.4, 0.28 * sum(heights) + 0.3))
     axes = fig.subplots(len(groups), 1, squeeze=False, gridspec_kw={"height_ratios": heights})[:, 0]
-    for ax, (unit, rows) in zip(axes, groups.items()):
+    for ax, ((unit, what), rows) in zip(axes, groups.items()):
         known = [v for _, v in rows if v is not None]
         factor, shown = scale_of(max(known), unit) if known else (1.0, unit)
         values = [None if v is None else v / factor for _, v in rows]
-        _hbars(ax, [name for name, _ in rows], values, None, f"smallest size detected [{shown}]")
+        _hbars(ax, [name for name, _ in rows], values, None, f"{what} [{shown}]")
         for i, value in enumerate(values):
             ax.annotate(
                 "not detected at any size" if value is None else f" {number(value, 2)}",
