@@ -157,11 +157,10 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
     figures = {}
     if artifacts.before:
         figures["windows.svg"] = (
-            "Measured angles (dots) against the rig file's (dashed) and the corrected (solid) predictions"
+            "Held-out windows, the worst and two typical: the rig file's (dashed) and the corrected (solid) "
+            "predictions against the measured angles (the zero line; shaded: one encoder count)"
         )
-        (directory / "windows.svg").write_text(
-            svg(windows_chart(artifacts.before, artifacts.after, artifacts.fitted_rig.counts_per_rev))
-        )
+        (directory / "windows.svg").write_text(svg(windows_chart(artifacts.before, artifacts.after)))
     figures["residuals.png"] = "Prediction residuals over time (worst windows shaded)"
     figures["residual_spectra.png"] = "Residual power spectral density, before and after the effects"
     plot_residuals(artifacts.before, artifacts.after, report["localization"]["windows"], directory / "residuals.png")

@@ -187,30 +187,31 @@ def chosen_windows(before: list[WindowResiduals], typical: int = TYPICAL_WINDOWS
     return [(worst, "worst window")] + [(i, "typical window") for i in picks]
 
 
-def windows_chart(before: list[WindowResiduals], after: list[WindowResiduals] | None, counts_per_rev: int) -> Figure:
-    """Measured angles [deg] against the rig file's and the corrected model's predictions over the worst and a
-    few typical held-out windows (the measurement is each prediction plus its residual)."""
+def windows_chart(before: list[WindowResiduals], after: list[WindowResiduals] | None) -> Figure:
+    """The rig file's and the corrected model's predictions against the measured angles over the worst and a few
+    typical held-out windows, drawn relative to the measurement (prediction minus measured [counts]: the
+    measurement is the zero line, its encoder step the shaded band of +-0.5 count)."""
     chosen = chosen_windows(before)
-    fig = Figure(figsize=(10, 2.1 * len(chosen) + 0.4))
+    fig = Figure(figsize=(10, 1.9 * len(chosen) + 0.5))
     axes = fig.subplots(len(chosen), 2, squeeze=False)
-    count = 360.0 / counts_per_rev  # [deg] per count
     for row, (index, label) in enumerate(chosen):
         window = before[index]
         time = np.asarray(window.time, float)
         for column, signal in enumerate(SIGNALS):
             ax = axes[row, column]
-            predicted = np.degrees(np.asarray(window.state, float)[:, column])
-            ax.plot(time, predicted + window.residual[:, column] * count, ".", ms=2.5, color=MEASURED, label="measured")
-            ax.plot(time, predicted, "--", lw=1.2, color=NOMINAL, label="rig file")
+            ax.axhspan(-0.5, 0.5, color="0.92", lw=0)
+            ax.axhline(0.0, color=MEASURED, lw=1.0, label="measured")
+            ax.plot(time, -np.asarray(window.residual)[:, column], "--", lw=1.3, color=NOMINAL, label="rig file")
             if after is not None:
-                ax.plot(time, np.degrees(after[index].state[:, column]), lw=1.2, color=CORRECTED, label="corrected")
+                corrected = -np.asarray(after[index].residual)[:, column]
+                ax.plot(time, corrected, lw=1.3, color=CORRECTED, label="with the accepted effects")
             ax.set_title(f"{label}: {window.log_name}, {time[0]:.2f}-{time[-1]:.2f} s, {signal}", fontsize=8)
-            ax.set_ylabel(f"{signal} [deg]", fontsize=8)
+            ax.set_ylabel("predicted - measured\n[counts]", fontsize=7)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=7, frameon=False)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
+    _legend(fig, axes[0, 0])
     return fig
 
 
