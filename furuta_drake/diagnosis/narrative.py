@@ -81,9 +81,9 @@ def _q(params: dict, key: str, intervals: dict | None) -> str:
     return quantity(params.get(key), UNITS.get(key, ""), interval=(intervals or {}).get(key))
 
 
-def _ratio(share: float, intervals: dict | None = None, key: str = "") -> str:
-    """A scale as words: "about 1.3 times" above 1, "about 12 % less than" below (with its interval)."""
-    text = f"about {number(share, 2)} times" if share >= 1 else f"about {percent(1 - share)} less than"
+def _ratio(share: float, intervals: dict | None = None, key: str = "", of: str = "") -> str:
+    """A scale as words: "about 1.3 times <of>" above 1, "about 12 % less than <of>" below, then its interval."""
+    text = f"about {number(share, 2)} times {of}" if share >= 1 else f"about {percent(1 - share)} less than {of}"
     interval = (intervals or {}).get(key)
     return text + (f" (95 % interval {number(interval[0], 3)} to {number(interval[1], 3)})" if interval else "")
 
@@ -102,7 +102,7 @@ def _inertia(p: dict, ci: dict | None, main_only: bool) -> str:
     if main_only:
         return text
     others = [
-        f"{what} is {_ratio(p[key], ci, key)} the rig file's"
+        f"{what} is {_ratio(p[key], ci, key, 'what the rig file says')}"
         for key, what in SCALES.items()
         if key != "arm_inertia_scale" and key in p and abs(p[key] - 1) > NOTABLE_SCALE
     ]
@@ -127,7 +127,7 @@ STATEMENTS = {
     ),
     "encoder_quantization": lambda p, ci, _: f"the encoders resolve only {number(p['counts_per_rev'], 6)} counts/rev",
     "measurement_noise": lambda p, ci, _: f"the angles carry white noise of about {_q(p, 'noise_std', ci)}",
-    "torque_gain_error": lambda p, ci, _: f"the arm gets {_ratio(p['gain'], ci, 'gain')} the commanded torque",
+    "torque_gain_error": lambda p, ci, _: f"the arm gets {_ratio(p['gain'], ci, 'gain', 'the commanded torque')}",
     "actuator_deadzone": lambda p, ci, _: f"commands under about {_q(p, 'deadzone', ci)} do not reach the arm",
     "actuator_saturation": lambda p, ci, _: f"the drive saturates at about {_q(p, 'limit', ci)}",
     "arm_spring": lambda p, ci, _: (
