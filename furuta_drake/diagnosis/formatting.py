@@ -64,11 +64,11 @@ def quantity(value, unit: str, digits: int = 2, interval=None) -> str:
     return text
 
 
-def interval_text(interval, digits: int = 4) -> str:
-    """``[low, high]`` of an interval, or an empty string when there is none."""
+def interval_text(interval, unit: str = "", digits: int = 3) -> str:
+    """``low to high`` with units ("7.9 ms to 8.3 ms"), or '' without an interval."""
     if not interval or len(interval) != 2:
         return ""
-    return f"[{number(interval[0], digits)}, {number(interval[1], digits)}]"
+    return f"{quantity(interval[0], unit, digits)} to {quantity(interval[1], unit, digits)}"
 
 
 def seconds_range(start, end) -> str:

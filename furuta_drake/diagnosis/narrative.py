@@ -325,22 +325,3 @@ def _smaller_target(report: dict) -> list[tuple[str, str]]:
             f"{DESIGN_COMMAND} --target {limit['effect']}={number(half, 3)}",
         )
     ]
-
-
-def effect_label(name: str) -> str:
-    """The vocabulary name and its plain noun ("input_delay (a delay of the command)")."""
-    return f"{name} ({NOUNS[name]})" if name in NOUNS else name
-
-
-__all__ = [
-    "Accepted",
-    "accepted_effects",
-    "verdict_sentence",
-    "effect_statement",
-    "where_sentence",
-    "confusable_sentences",
-    "consistency_sentence",
-    "limit_sentence",
-    "rig_line",
-    "next_steps",
-]

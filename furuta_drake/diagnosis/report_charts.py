@@ -10,7 +10,6 @@ written beside ``report.md``.
 from __future__ import annotations
 
 import io
-import math
 
 import matplotlib
 import numpy as np
@@ -225,4 +224,4 @@ def chart_svgs(report: dict) -> dict[str, str]:
     return {name: svg(fig) for name, fig in figures.items() if fig is not None}
 
 
-__all__ = ["chart_svgs", "gap_chart", "limits_chart", "localization_chart", "windows_chart", "svg", "math"]
+__all__ = ["chart_svgs", "gap_chart", "limits_chart", "localization_chart", "windows_chart", "svg"]

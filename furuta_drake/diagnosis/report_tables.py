@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from furuta_drake.diagnosis import narrative as words
 from furuta_drake.diagnosis.candidates import UNITS
-from furuta_drake.diagnosis.formatting import number, percent, quantity, seconds_range
+from furuta_drake.diagnosis.formatting import interval_text, number, percent, quantity, seconds_range
 from furuta_drake.diagnosis.report_rule import RULE_CONSTANTS
 
 TOP_PER_STEP = 3  # ranking entries shown per step; the rest are folded
@@ -97,14 +97,7 @@ def _ranking_row(entry: dict) -> list[str]:
 
 def _param(key: str, value, interval) -> str:
     unit = UNITS.get(key.split(".")[-1], "")
-    return quantity(value, unit, digits=3) + (f" [{interval_in(interval, unit)}]" if interval else "")
-
-
-def interval_in(interval, unit: str = "") -> str:
-    """``low to high`` with units ("7.9 ms to 8.3 ms"), or '' without an interval."""
-    if not interval or len(interval) != 2:
-        return ""
-    return f"{quantity(interval[0], unit, 3)} to {quantity(interval[1], unit, 3)}"
+    return quantity(value, unit, digits=3) + (f" [{interval_text(interval, unit)}]" if interval else "")
 
 
 def windows_table(localization: dict) -> Table:
@@ -123,7 +116,7 @@ def rule_table() -> Table:
 
 def unmodelled_table(fit: dict) -> Table:
     """The terms of an unmodelled-torque fit with their 95 % intervals."""
-    rows = [[t["term"], number(t["coefficient"]), interval_in(t.get("ci"))] for t in fit.get("terms", [])]
+    rows = [[t["term"], number(t["coefficient"]), interval_text(t.get("ci"))] for t in fit.get("terms", [])]
     return ["term", "coefficient", "95 % interval"], rows
 
 
