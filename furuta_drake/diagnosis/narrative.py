@@ -167,11 +167,9 @@ def verdict_sentence(report: dict) -> str:
             f"{nominal} counts above the encoder noise): no unmodelled effect is needed."
         )
     if report["verdict"] == "unexplained":
-        found = f" ({_joined([effect_statement(e) for e in effects])})" if effects else ""
         return (
             f"The rig file's model misses these logs (held-out gap {nominal} counts) in a way no effect of the "
-            f"vocabulary explains: the best model found{found} removes only {percent(gap['heldout_reduction'])} of "
-            f"the gap on logs {NEVER_SEEN}."
+            f"vocabulary explains: {_best_attempt(report, effects)} of the gap on logs {NEVER_SEEN}."
         )
     lower, reduction = (final_entry(report) or {}).get("evidence"), gap["heldout_reduction"]
     strength = ""
@@ -186,6 +184,18 @@ def verdict_sentence(report: dict) -> str:
         f"{_capital(_joined([effect_statement(e) for e in effects]))}; {together} "
         f"{percent(reduction)} of the gap on logs {NEVER_SEEN}{strength}."
     )
+
+
+def _best_attempt(report: dict, effects: list[Accepted]) -> str:
+    """What came closest for an unexplained gap: the accepted effects, else the best candidate tried."""
+    if effects:
+        found = _joined([effect_statement(e) for e in effects])
+        return f"the accepted effects ({found}) remove only {percent(report['gap']['heldout_reduction'])}"
+    best = next((e for e in report.get("ranking", []) if e.get("status", "ok") == "ok"), None)
+    if best is None:
+        return "no candidate could be fitted to remove any"
+    names = [NOUNS.get(name, name) for name in best["effect"].split("+")]
+    return f"the best candidate tried ({_joined(names)}) removes only {percent(best['heldout_reduction'])}"
 
 
 def where_sentence(localization: dict) -> str:
@@ -240,9 +250,10 @@ def consistency_sentence(report: dict) -> str:
 def trust_sentences(report: dict) -> list[str]:
     """How far to trust the verdict: the folds' consistency and the confusable pairs, or what would tell."""
     sentences = [s for s in [consistency_sentence(report), *confusable_sentences(report)] if s]
-    return sentences or [
-        "No other effect explains the held-out data as well; --folds K repeats the decision on K splits of the logs."
-    ]
+    if sentences:
+        return sentences
+    folds = "--folds K repeats the decision on K splits of the logs."
+    return [f"No other effect explains the held-out data as well; {folds}" if report.get("effects") else folds]
 
 
 def limit_sentence(limit: dict) -> str:
