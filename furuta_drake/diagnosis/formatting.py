@@ -59,9 +59,16 @@ def quantity(value, unit: str, digits: int = 2, interval=None) -> str:
     suffix = f" {shown}" if shown not in ("", "-") else ""
     text = number(value / factor, digits) + suffix
     if interval is not None and len(interval) == 2 and None not in interval:
-        low, high = (number(v / factor, digits) for v in interval)
+        low, high = ends(interval[0] / factor, interval[1] / factor, digits)
         text += f" (95 % interval {low} to {high}{suffix})"
     return text
+
+
+def ends(low: float, high: float, digits: int = 2) -> tuple[str, str]:
+    """An interval's ends with enough significant digits (from ``digits``, at most 5) that they differ."""
+    while digits < 5 and number(low, digits) == number(high, digits):
+        digits += 1
+    return number(low, digits), number(high, digits)
 
 
 def interval_text(interval, unit: str = "", digits: int = 3) -> str:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from furuta_drake.diagnosis.candidates import UNITS
 from furuta_drake.diagnosis.corrected import rig_entry
-from furuta_drake.diagnosis.formatting import number, percent, quantity
+from furuta_drake.diagnosis.formatting import ends, number, percent, quantity
 
 NOUNS = {
     "arm_coulomb_friction": "Coulomb friction on the arm",
@@ -34,8 +34,8 @@ NOUNS = {
 SCALES = {  # inertia_mismatch's scales: what each one scales in the rig file
     "arm_inertia_scale": "the arm's inertia",
     "pendulum_inertia_scale": "the pendulum's inertia",
-    "coupling_scale": "the arm-pendulum coupling (m l r)",
-    "gravity_scale": "the pendulum's gravity torque (m g l)",
+    "coupling_scale": "the arm-pendulum coupling m l r",
+    "gravity_scale": "the pendulum's gravity torque m g l",
 }
 NOTABLE_SCALE = 0.05  # an inertia scale further than this from 1 is stated beside the main one
 NEVER_SEEN = "the fit never saw"
@@ -81,32 +81,35 @@ def _q(params: dict, key: str, intervals: dict | None) -> str:
     return quantity(params.get(key), UNITS.get(key, ""), interval=(intervals or {}).get(key))
 
 
+def _interval(intervals: dict | None, key: str, prefix: str = "95 % interval ") -> str:
+    interval = (intervals or {}).get(key)
+    return f" ({prefix}{' to '.join(ends(*interval, 3))})" if interval else ""
+
+
 def _ratio(share: float, intervals: dict | None = None, key: str = "", of: str = "") -> str:
     """A scale as words: "about 1.3 times <of>" above 1, "about 12 % less than <of>" below, then its interval."""
     text = f"about {number(share, 2)} times {of}" if share >= 1 else f"about {percent(1 - share)} less than {of}"
-    interval = (intervals or {}).get(key)
-    return text + (f" (95 % interval {number(interval[0], 3)} to {number(interval[1], 3)})" if interval else "")
+    return text + _interval(intervals, key)
 
 
 def _inertia(p: dict, ci: dict | None, main_only: bool) -> str:
     """The arm's inertia scale as weight ("the arm is about 1.3 times heavier than the rig file says"), then the
-    other scales further than ``NOTABLE_SCALE`` from 1."""
+    other scales further than ``NOTABLE_SCALE`` from 1 (in short when ``main_only``)."""
     arm = p["arm_inertia_scale"]
     size = f"about {number(arm, 2)} times heavier" if arm >= 1 else f"about {percent(1 - arm)} lighter"
-    interval = (ci or {}).get("arm_inertia_scale")
-    text = f"the arm is {size} than the rig file says" + (
-        f" (inertia scale {number(arm, 3)}, 95 % interval {number(interval[0], 3)} to {number(interval[1], 3)})"
-        if interval
-        else ""
+    text = f"the arm is {size} than the rig file says" + _interval(
+        ci, "arm_inertia_scale", "inertia scale, 95 % interval "
     )
-    if main_only:
+    notable = [key for key in SCALES if key != "arm_inertia_scale" and key in p and abs(p[key] - 1) > NOTABLE_SCALE]
+    if not notable:
         return text
-    others = [
-        f"{what} is {_ratio(p[key], ci, key, 'what the rig file says')}"
-        for key, what in SCALES.items()
-        if key != "arm_inertia_scale" and key in p and abs(p[key] - 1) > NOTABLE_SCALE
-    ]
-    return ", ".join([text, *others])
+    if main_only:
+        sizes = sorted({number(p[key], 2) for key in notable}, key=float)
+        span = sizes[0] if len(sizes) == 1 else f"{sizes[0]} to {sizes[-1]}"
+        return f"{text} ({_joined([SCALES[key] for key in notable])} about {span} times)"
+    return ", ".join(
+        [text, *(f"{SCALES[key]} is {_ratio(p[key], ci, key, 'what the rig file says')}" for key in notable)]
+    )
 
 
 STATEMENTS = {
