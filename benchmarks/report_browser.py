@@ -78,10 +78,12 @@ def measure(page_text: str, work: Path) -> dict:
 
 
 def figures_of(directory: Path) -> dict[str, str]:
-    """The evidence figures a report directory holds, in the order write_report lists them."""
+    """The evidence figures a report directory holds, with report.md's captions, in write_report's order."""
+    linked = dict(re.findall(r"!\[([^\]]*)\]\(([^)]+)\)", (directory / "report.md").read_text()))
+    captions = {name: caption for caption, name in linked.items()}
     names = [n for n in ("windows.svg", "residuals.png", "residual_spectra.png") if (directory / n).exists()]
     names += sorted(p.name for p in directory.glob("effect_*.png"))
-    return {name: Path(name).stem.replace("_", " ") for name in names}
+    return {name: captions.get(name, Path(name).stem) for name in names}
 
 
 def check(name: str, report: dict, directory: Path, out: Path, as_written: bool) -> dict:
