@@ -32,7 +32,7 @@ from matplotlib.figure import Figure
 from furuta_drake.diagnosis import narrative as words
 from furuta_drake.diagnosis import report_tables as tables
 from furuta_drake.diagnosis import surrogate_kernel as kernel
-from furuta_drake.diagnosis.candidates import apply_effects, effect_from_params, rig_model
+from furuta_drake.diagnosis.candidates import UNITS, apply_effects, effect_from_params, rig_model
 from furuta_drake.diagnosis.formatting import number, percent
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
@@ -427,9 +427,11 @@ def effect_curve(effect: str, params: dict[str, float], rig: RigParameters) -> E
             {"nominal": _step_response(nominal, time), "fitted": _step_response(fitted, time)},
         )
     names = [name for name, value in params.items() if not isinstance(value, str)]
+    scales = [name for name in names if UNITS.get(name) == "-"]  # dimensionless: one axis, 1 = the rig file
+    names = scales or names
     return EffectCurve(
         effect,
-        f"Fitted {effect}: parameters (SI)",
+        f"Fitted {effect}: " + ("scales of the rig file's constants" if scales else "parameters (SI)"),
         "parameter",
         "value",
         names,
@@ -452,9 +454,10 @@ def plot_effect_curve(curve: EffectCurve, path: Path) -> None:
     ax = fig.subplots()
     if curve.bars:
         values = curve.curves["fitted"]
-        ax.bar(curve.x, values, color="tab:blue")
+        ax.barh(curve.x, values, color="tab:blue")
+        ax.invert_yaxis()
         for i, value in enumerate(values):
-            ax.annotate(f"{value:.4g}", (i, value), ha="center", va="bottom", fontsize=8)
+            ax.annotate(f" {value:.4g}", (value, i), va="center", fontsize=8)
     else:
         for label, y in curve.curves.items():
             ax.plot(
@@ -467,8 +470,8 @@ def plot_effect_curve(curve: EffectCurve, path: Path) -> None:
             )
         ax.legend(fontsize=8)
     ax.set_title(curve.title, fontsize=9)
-    ax.set_xlabel(curve.x_label)
-    ax.set_ylabel(curve.y_label)
+    ax.set_xlabel(curve.y_label if curve.bars else curve.x_label)
+    ax.set_ylabel(curve.x_label if curve.bars else curve.y_label)
     ax.grid(alpha=0.3)
     _save(fig, path)
 
