@@ -255,8 +255,10 @@ def trust_sentences(report: dict) -> list[str]:
     sentences = [s for s in [consistency_sentence(report), *confusable_sentences(report)] if s]
     if sentences:
         return sentences
-    folds = "--folds K repeats the decision on K splits of the logs."
-    return [f"No other effect explains the held-out data as well; {folds}" if report.get("effects") else folds]
+    folds = "run with --folds K to repeat the decision on K splits of the logs."
+    return [
+        f"No other effect explains the held-out data as well; {folds}" if report.get("effects") else _capital(folds)
+    ]
 
 
 def limit_sentence(limit: dict) -> str:

@@ -10,6 +10,7 @@ written beside ``report.md``.
 from __future__ import annotations
 
 import io
+import math
 
 import matplotlib
 import numpy as np
@@ -17,6 +18,7 @@ from matplotlib.backends.backend_svg import FigureCanvasSVG
 from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis.formatting import number, scale_of
+from furuta_drake.diagnosis.localize import SENSOR_VARIANCE
 from furuta_drake.diagnosis.logs import WindowResiduals
 
 NOMINAL, CORRECTED, MEASURED = "#9a9a9a", "#1f6fb4", "#111111"
@@ -80,7 +82,9 @@ def gap_chart(report: dict) -> Figure:
     fig = Figure(figsize=(6.4, 0.85 + 0.32 * len(labels) * (2 if after else 1)))
     ax = fig.subplots()
     _hbars(ax, labels, before, after, unit)
-    top = float(np.nanmax(np.append(_finite(before + (after or [])), 0.0)))
+    if rows:  # an RMS error at this line is the encoder's rounding alone
+        ax.axvline(math.sqrt(SENSOR_VARIANCE), color=MEASURED, ls=":", lw=1.2, label="encoder rounding alone")
+    top = float(np.nanmax(np.append(_finite(before + (after or [])), math.sqrt(SENSOR_VARIANCE) if rows else 0.0)))
     ax.set_xlim(0, 1.05 * top if top > 0 else 1.0)
     _legend(fig, ax)
     return fig
