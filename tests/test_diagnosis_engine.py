@@ -13,10 +13,10 @@ from furuta_drake.config import SimulationConfig
 from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quantization_estimate
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.record_text import confusable_why
 from furuta_drake.diagnosis.replay import replay_gap
 from furuta_drake.diagnosis.rule import MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.words import confusable_why
 from furuta_drake.effects.corrected import model_rig
 from furuta_drake.effects.surrogate import Model, _accelerations
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects

@@ -88,7 +88,7 @@ def inputs(tmp_path):
         before,
         after,
         1.0 / 12.0,
-        [effect_curve("arm_coulomb_friction", {"coulomb": 0.0151}, rig)],
+        [effect_curve("arm_coulomb_friction", {"coulomb": 0.0151, "presliding": 0.002}, rig)],
         fitted_config=rig.replace(arm_coulomb=0.0151),
         fitted_rig=rig.replace(effects={"arm_coulomb_friction": {"coulomb": 0.0151, "presliding": 0.002}}),
         record=record,
@@ -182,12 +182,17 @@ def test_directory_contents_plots_and_provenance(inputs, tmp_path):
         "effect_arm_coulomb_friction.png",
         "fitted_model.yaml",
         "fitted_rig.yaml",
+        "gap.svg",
+        "localization.svg",
         "report.html",
         "report.json",
         "report.md",
         "residual_spectra.png",
         "residuals.png",
+        "windows.svg",
     ]
+    for chart in out.glob("*.svg"):
+        assert chart.read_text().startswith("<svg") and "<text" in chart.read_text()
     for png in out.glob("*.png"):
         data = png.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
@@ -199,9 +204,9 @@ def test_directory_contents_plots_and_provenance(inputs, tmp_path):
         "](effect_arm_coulomb_friction.png)",
         "lower 95 % bootstrap bound",
         "rms 0.2 s-ahead",
-        "| 1 | 1 | `arm_coulomb_friction` | coulomb = 0.01512 N m |",
+        "| 1 | arm_coulomb_friction | coulomb = 15.1 mN m |",
         "arm velocity reversal",
-        "84.8 %",
+        "85 %",
     ):
         assert needle in markdown
     record = yaml.safe_load((out / "config.yaml").read_text())
@@ -280,13 +285,14 @@ def test_white_residual_psd_is_twice_the_variance_times_the_period():
 
 def test_effect_curves_follow_the_effect_laws():
     rig = lund_rig().replace(arm_viscous=0.001)
-    friction = effect_curve("arm_stribeck", {"coulomb": 0.01, "static": 0.02, "stribeck_velocity": 0.1}, rig)
+    stribeck = {"coulomb": 0.01, "static": 0.02, "stribeck_velocity": 0.1, "presliding": 0.001}
+    friction = effect_curve("arm_stribeck", stribeck, rig)
     v = np.asarray(friction.x)
     fitted = friction.curves["fitted"]
     assert fitted[v > 0][0] == pytest.approx(0.02, rel=2e-3)  # the static level as the arm starts to slide
     assert fitted[np.argmin(np.abs(v - 2.0))] == pytest.approx(0.01 + 0.001 * 2.0, rel=1e-6)  # Coulomb + viscous
     assert friction.curves["nominal"][np.argmin(np.abs(v - 2.0))] == pytest.approx(0.002)
-    asym = effect_curve("friction_asymmetry", {"coulomb_pos": 0.02, "coulomb_neg": 0.005}, rig)
+    asym = effect_curve("friction_asymmetry", {"coulomb_pos": 0.02, "coulomb_neg": 0.005, "presliding": 0.001}, rig)
     assert asym.curves["fitted"][0] == pytest.approx(-0.005 - 0.002)
     dead = effect_curve("actuator_deadzone", {"deadzone": 0.05}, rig)
     u = np.asarray(dead.x)
@@ -298,5 +304,6 @@ def test_effect_curves_follow_the_effect_laws():
     spring = effect_curve("arm_spring", {"stiffness": 0.1, "equilibrium": 0.2}, rig)
     phi = np.asarray(spring.x)
     assert spring.curves["fitted"][np.argmin(np.abs(phi - 1.2))] == pytest.approx(-0.1, abs=1e-3)
-    bars = effect_curve("inertia_mismatch", {"pendulum_mass": 0.04}, rig)
-    assert bars.bars and list(bars.x) == ["pendulum_mass"]
+    scales = {"arm_inertia_scale": 1.3, "pendulum_inertia_scale": 1.0, "coupling_scale": 1.0, "gravity_scale": 0.9}
+    bars = effect_curve("inertia_mismatch", scales, rig)
+    assert bars.bars and list(bars.x) == list(scales) and list(bars.curves["fitted"]) == list(scales.values())

@@ -9,7 +9,7 @@ import pytest
 from conftest import REPO
 
 from furuta_drake.diagnosis import rule
-from furuta_drake.diagnosis.words import rule_text
+from furuta_drake.diagnosis.record_text import rule_text
 
 
 def pct(value: float) -> str:

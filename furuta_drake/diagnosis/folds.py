@@ -28,7 +28,7 @@ def consistency(
 ) -> Consistency:
     """The selection repeated on ``folds`` splits of all the logs (:func:`fold_split`): each fold's verdict and
     effects and the range of each accepted effect's parameters over the folds that accepted it (its judgement in
-    words is the report's: :func:`furuta_drake.diagnosis.words.consistency_judgement`)."""
+    words is the report's: :func:`furuta_drake.diagnosis.record_text.consistency_judgement`)."""
     verdicts, effects, values = [], [], {}
     for fold in range(folds):
         train, heldout = fold_split(logs, folds, fold, rig)

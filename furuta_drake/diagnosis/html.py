@@ -1,11 +1,15 @@
 """``report.html``: the diagnosis report as one self-contained page a person opens in a browser.
 
-The page holds everything inline: CSS in a ``<style>`` element and every PNG figure as a ``data:image/png;base64``
-URI, with no script, no external stylesheet, font or image, and no link except in-page ``#anchors``, so it
-opens offline and can be mailed as one file. Its order: the verdict (first heading), the gap, the ranking of the
-candidates, where the gap is (signals, worst windows, regimes, frequency bands), every figure with its caption,
-then any further top-level keys of the report. Optional keys (a ranking entry's ``params_ci``, ``status`` or
-``reason``, the localisation's ``after``, ...) are shown when present and skipped when absent.
+The page holds everything inline: CSS in a ``<style>`` element, the charts as inline ``<svg>`` and every PNG figure
+as a ``data:image/png;base64`` URI, with no script, no external stylesheet, font or image, and no link except
+in-page ``#anchors``, so it opens offline and can be mailed as one file.
+
+Its order answers first: the verdict sentence (:func:`~furuta_drake.diagnosis.narrative.verdict_sentence`), the
+held-out error before and after per log and signal beside what to do next and how far to trust the answer; the
+accepted effects as physical statements with their intervals and rig-file lines; what the logs could not see
+(the detection limits as a chart); the unmodelled torque when the report has one. Then the evidence: measured
+against predicted windows, the steps, the candidate ranking (top entries, the rest folded), where the gap is,
+the other figures; the rule and the metric folded at the end, written from the code's constants.
 """
 
 from __future__ import annotations
@@ -15,29 +19,40 @@ import html
 import re
 from pathlib import Path
 
-SECTIONS = (
-    ("gap", "Gap"),
-    ("ranking", "Ranking of the candidates"),
-    ("localization", "Where the gap is"),
-    ("figures", "Figures"),
-)
-SHOWN_KEYS = ("verdict", "effects", "gap", "ranking", "localization")  # the rest go to "More"
-PERCENT_KEYS = ("heldout_reduction", "share_of_gap", "share_of_samples")
-NUMBER = re.compile(r"[-+]?[0-9.]+(e[-+]?[0-9]+)?( %)?")  # a formatted number: right-aligned in its cell
+from furuta_drake.diagnosis import narrative
+from furuta_drake.diagnosis import report_tables as tables
+from furuta_drake.diagnosis.formatting import number, percent
+from furuta_drake.diagnosis.report_charts import chart_svgs
+
 STYLE = """
-body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 90em; padding: 0 1em; color: #222; }
-.scroll { overflow-x: auto; }
-h1 { font-size: 1.6em; border-bottom: 2px solid #444; padding-bottom: .3em; }
-h2 { margin-top: 2em; border-bottom: 1px solid #bbb; }
-table { border-collapse: collapse; margin: .8em 0; font-size: .9em; }
-th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: left; vertical-align: top; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
+body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1200px; padding: 12px 20px; color: #222;
+       line-height: 1.4; }
+.kicker { color: #555; margin: 0; font-size: .95em; }
+h1.verdict { font-size: 1.35em; font-weight: 600; margin: .3em 0 .6em; padding: .6em .8em; background: #eef4fb;
+             border-left: 6px solid #1f6fb4; }
+h1.verdict.none { background: #eef8ee; border-color: #3a8f3a; }
+h1.verdict.unexplained { background: #fdf3e6; border-color: #d9822b; }
+.first { display: grid; grid-template-columns: minmax(0, 1.15fr) minmax(0, 1fr); gap: 20px; }
+h2 { font-size: 1.15em; margin: 1.4em 0 .4em; border-bottom: 1px solid #ccc; }
+.first h2 { margin-top: 0; }
+h3 { font-size: 1em; margin: 1em 0 .3em; }
+ol.next { padding-left: 1.2em; margin: .3em 0; }
+ol.next li { margin-bottom: .45em; }
+code, pre { background: #f3f3f3; font-size: .88em; }
+td code { background: none; }
+pre { padding: .3em .5em; margin: .2em 0; white-space: pre-wrap; overflow-wrap: anywhere; }
+.scroll { overflow-x: auto; max-width: 100%; }
+table { border-collapse: collapse; margin: .5em 0; font-size: .88em; }
+th, td { border: 1px solid #ccc; padding: .25em .5em; text-align: left; vertical-align: top; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 th { background: #f0f0f0; }
-code { background: #f4f4f4; padding: 0 .2em; }
-figure { margin: 1.5em 0; }
+svg { max-width: 100%; height: auto; }
+figure { margin: 1em 0; }
 figure img { max-width: 100%; border: 1px solid #ddd; }
-figcaption { font-style: italic; margin-top: .3em; }
-nav a { margin-right: 1em; }
+figcaption { font-size: .9em; color: #444; }
+details { margin: .6em 0; }
+summary { cursor: pointer; font-weight: 600; }
+.muted { color: #666; font-size: .9em; }
 """
 
 
@@ -47,157 +62,219 @@ def report_html(report: dict, directory: Path, figures: dict[str, str]) -> str:
     Parameters
     ----------
     report
-        the report as ``report.json`` holds it (``verdict``, ``effects``, ``gap``, ``ranking``,
-        ``localization`` and any further keys).
+        the report as ``report.json`` holds it (the spec's keys and any later ones; optional ones may be absent).
     directory
-        the directory holding the figures' PNG files.
+        the directory holding the figures' files.
     figures
-        PNG file name (in ``directory``) -> caption, in the order shown.
+        file name (in ``directory``; ``.svg`` inlined as SVG, others as base64 PNG) -> caption, in the order shown.
 
     Returns
     -------
     str
-        the page; each figure is inlined as a base64 data URI.
+        the page.
     """
-    verdict = str(report.get("verdict", "?"))
+    directory = Path(directory)
+    charts = chart_svgs(report)
     body = [
-        f"<h1>Verdict: <code>{_text(verdict)}</code></h1>",
-        _summary(report),
-        "<nav>" + "".join(f'<a href="#{key}">{title}</a>' for key, title in SECTIONS) + "</nav>",
-        _gap(report.get("gap", {})),
-        _ranking(report.get("ranking", [])),
-        _localization(report.get("localization", {})),
-        _figures(Path(directory), figures),
+        f'<p class="kicker">Sim-to-real gap diagnosis · verdict <code>{_text(report["verdict"])}</code></p>',
+        f'<h1 class="verdict {_text(report["verdict"])}" id="verdict">{_text(narrative.verdict_sentence(report))}</h1>',
+        _first_screen(report, charts),
+        _effects(report),
+        _gap_left(report, directory),
+        _limits(report, charts),
+        '<h2 id="evidence">The evidence</h2>',
+        _windows(directory, figures),
+        _steps(report),
+        _ranking(report),
+        _localization(report, charts),
+        _figures(directory, {k: v for k, v in figures.items() if k != "windows.svg"}),
+        _rule(report),
+        _notes(report),
     ]
-    extra = {key: value for key, value in report.items() if key not in SHOWN_KEYS}
-    if extra:
-        body.append('<h2 id="more">More</h2>')
-        body += [
-            f"<h3>{_text(key)}</h3>" + (_any(value) if isinstance(value, (dict, list)) else f"<p>{_any(value)}</p>")
-            for key, value in extra.items()
-        ]
     return (
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-        f"<title>Sim-to-real gap diagnosis: {_text(verdict)}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n"
-        + "\n".join(body)
-        + "\n</body>\n</html>\n"
+        f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f"<title>Sim-to-real gap diagnosis: {_text(report['verdict'])}</title>\n<style>{STYLE}</style>\n</head>\n"
+        "<body>\n" + "\n".join(part for part in body if part) + "\n</body>\n</html>\n"
     )
 
 
-def _summary(report: dict) -> str:
-    effects = ", ".join(f"<code>{_text(e)}</code>" for e in report.get("effects", [])) or "none"
-    gap = report.get("gap", {})
-    nominal = gap.get("nominal", {}).get("heldout")
-    after = gap.get("with_effects", {}).get("heldout")
-    line = f"<p>Accepted effects: {effects}."
-    if nominal is not None and after is not None:
-        line += (
-            f" Held-out gap {_number(nominal)} &rarr; {_number(after)} "
-            f"({_percent(gap.get('heldout_reduction'))} reduction)."
+def _first_screen(report: dict, charts: dict[str, str]) -> str:
+    gap = report["gap"]
+    headline = (
+        f"Held-out gap {number(gap['nominal']['heldout'], 3)} counts with the rig file"
+        + (
+            f", {number(gap['with_effects']['heldout'], 3)} with the accepted effects "
+            f"({percent(gap['heldout_reduction'])} less)"
+            if report.get("effects")
+            else ""
         )
-    return line + "</p>"
+        + "."
+    )
+    picture = (
+        '<section class="picture"><h2 id="before-after">Held-out error, before and after</h2>'
+        f'{inline_svg(charts["gap.svg"])}<p class="muted">{_text(headline)} Logs the fit never saw.</p></section>'
+    )
+    items = "".join(
+        f"<li>{_text(what)}{':' if command else '.'}" + (f"<pre>{_text(command)}</pre>" if command else "") + "</li>"
+        for what, command in narrative.next_steps(report)
+    )
+    trust_html = "".join(f"<p>{_text(sentence)}</p>" for sentence in narrative.trust_sentences(report))
+    side = (
+        '<section class="next"><h2 id="next">What to do next</h2>'
+        f'<p class="muted">Commands run from this report\'s folder.</p><ol class="next">{items}</ol>'
+        f'<h3 id="trust">How far to trust it</h3>{trust_html}</section>'
+    )
+    return f'<div class="first">{picture}{side}</div>'
 
 
-def _gap(gap: dict) -> str:
-    parts = ['<h2 id="gap">Gap</h2>']
-    if "metric" in gap:
-        parts.append(f"<p>Metric: {_text(gap['metric'])}</p>")
-    rows = [
-        [label, gap[key].get("train"), gap[key].get("heldout")]
-        for key, label in (("nominal", "nominal (rig file)"), ("with_effects", "with the accepted effects"))
-        if key in gap
-    ]
-    parts.append(_table(["model", "train", "held-out"], rows))
-    rest = {k: v for k, v in gap.items() if k not in ("metric", "nominal", "with_effects")}
-    parts += [
-        f"<p>{_text(k)}: {_value(k, v)}</p>" if not isinstance(v, (dict, list)) else f"<p>{_text(k)}:</p>{_any(v)}"
-        for k, v in rest.items()
-    ]
+def _effects(report: dict) -> str:
+    header, rows = tables.effects_table(report)
+    if not rows:
+        return ""
+    return (
+        '<h2 id="effects">The accepted effects</h2>'
+        + _table(
+            header,
+            [[_Raw(f"<code>{_text(r[0])}</code>"), r[1], r[2], _Raw(f"<code>{_text(r[3])}</code>")] for r in rows],
+        )
+        + '<p class="muted">The lines go under <code>effects:</code> in the rig file; <code>fitted_rig.yaml</code> '
+        "holds them already.</p>"
+    )
+
+
+def _gap_left(report: dict, directory: Path) -> str:
+    """For an unexplained verdict, what the gap is; the unmodelled torque when the report has one."""
+    parts = []
+    if report["verdict"] == "unexplained":
+        parts += [
+            '<h2 id="gap-left">What the gap is</h2>',
+            f"<p>{_text(narrative.where_sentence(report['localization']))} "
+            'The charts under <a href="#localization">Where the gap is</a> show it by signal, regime and band.</p>',
+        ]
+    torque = report.get("unmodelled_torque")
+    if torque:
+        parts += ['<h2 id="unmodelled-torque">The unmodelled torque</h2>', *_unmodelled(torque, directory)]
     return "\n".join(parts)
 
 
-def _ranking(ranking: list[dict]) -> str:
-    """Every key any entry has is a column; ``params`` shows ``params_ci`` beside each value when present."""
-    keys = list(dict.fromkeys(key for entry in ranking for key in entry if key != "params_ci"))
-    rows = []
-    for i, entry in enumerate(ranking, 1):
-        row = [i]
-        for key in keys:
-            if key == "params":
-                row.append(_Raw(_params(entry.get("params", {}), entry.get("params_ci", {}))))
-            else:
-                row.append(_Raw(_value(key, entry[key])) if key in entry else "")
-        rows.append(row)
-    return '<h2 id="ranking">Ranking of the candidates</h2>\n' + _table(["#"] + keys, rows)
+def _unmodelled(torque: dict, directory: Path) -> list[str]:
+    parts = []
+    for joint, fit in torque.items():
+        parts += [f"<p>{_text(tables.unmodelled_sentence(joint, fit))}</p>", _table(*tables.unmodelled_table(fit))]
+        plot = fit.get("plot")
+        if plot and (directory / plot).is_file():
+            parts.append(_figure(directory, plot, f"Unmodelled torque on the {joint}"))
+    return parts
 
 
-def _params(params: dict, intervals: dict) -> str:
-    items = []
-    for name, value in params.items():
-        interval = intervals.get(name)
-        ci = (
-            f" [{_number(interval[0])}, {_number(interval[1])}]"
-            if isinstance(interval, (list, tuple)) and len(interval) == 2
-            else ""
-        )
-        items.append(f"{_text(name)} = {_value(name, value)}{ci}")
-    return "<br>".join(items)
+def _limits(report: dict, charts: dict[str, str]) -> str:
+    limits = report.get("detection_limits", [])
+    if not limits:
+        return ""
+    intro = (
+        "No effect larger than these would have gone unseen in these logs"
+        if report["verdict"] == "none"
+        else "Effects not accepted would have been detected at these sizes"
+    )
+    items = "".join(f"<li>{_text(narrative.limit_sentence(limit))}.</li>" for limit in limits)
+    return (
+        '<h2 id="limits">What these logs could not see</h2>'
+        f"<p>{intro} (each injected into the model's own prediction of the held-out windows and judged by the "
+        "same rule); below these sizes an effect could hide:</p>"
+        f"{inline_svg(charts['detection_limits.svg'])}<details><summary>In words</summary><ul>{items}</ul></details>"
+    )
 
 
-def _localization(loc: dict) -> str:
-    after = loc.get("after") or {}
-    parts = ['<h2 id="localization">Where the gap is</h2>']
-    if "basis" in loc:
-        parts.append(f"<p>Shares of the {_text(loc['basis'])}.</p>")
-    columns = ["nominal"] + (["with the effects"] if after else [])
-    signals = loc.get("signals", {})
-    parts += [
-        "<h3>Signals</h3>",
-        _table(
-            ["signal"] + [f"share ({c})" for c in columns],
-            [
-                [name, _Raw(_percent(share))] + ([_Raw(_percent(after.get("signals", {}).get(name)))] if after else [])
-                for name, share in signals.items()
-            ],
-        ),
-    ]
-    for title, block in (("Worst time windows (nominal model)", loc), ("Worst time windows with the effects", after)):
-        if block.get("windows"):
-            parts += [f"<h3>{title}</h3>", _records(block["windows"])]
-    for key, title, match in (
-        ("regimes", "Regimes", ("regime",)),
-        ("frequency_bands", "Frequency bands [Hz]", ("low_hz", "high_hz")),
-    ):
-        rows = [dict(row) for row in loc.get(key, [])]
-        after_rows = {tuple(r.get(m) for m in match): r for r in after.get(key, [])}
-        for row in rows:
-            if after:
-                row["share_of_gap (with the effects)"] = after_rows.get(tuple(row.get(m) for m in match), {}).get(
-                    "share_of_gap"
-                )
-        if rows:
-            parts += [f"<h3>{title}</h3>", _records(rows)]
+def _windows(directory: Path, figures: dict[str, str]) -> str:
+    if "windows.svg" not in figures:
+        return ""
+    return "<h3>Measured against predicted, held-out windows</h3>" + _figure(
+        directory, "windows.svg", figures["windows.svg"]
+    )
+
+
+def _steps(report: dict) -> str:
+    header, rows = tables.steps_table(report)
+    return '<h3 id="steps">One row per accepted step</h3>' + _table(header, rows) if rows else ""
+
+
+def _ranking(report: dict) -> str:
+    (header, shown), (_, folded), failed = tables.ranking_tables(report)
+    text = (
+        '<h3 id="ranking">Candidates tried</h3><p class="muted">'
+        f"The best {tables.TOP_PER_STEP} of each step; each row names the effect its step added to the earlier "
+        "ones.</p>" + _table(header, shown)
+    )
+    if folded:
+        text += f"<details><summary>The other {len(folded)} candidates</summary>{_table(header, folded)}</details>"
+    if failed:
+        items = "".join(f"<li>{_text(line)}</li>" for line in failed)
+        text += f"<details><summary>{len(failed)} failed candidates (left out)</summary><ul>{items}</ul></details>"
+    return text
+
+
+def _localization(report: dict, charts: dict[str, str]) -> str:
+    loc = report.get("localization", {})
+    parts = ['<h3 id="localization">Where the gap is</h3>', f"<p>{_text(narrative.where_sentence(loc))}</p>"]
+    if "localization.svg" in charts:
+        parts += [
+            inline_svg(charts["localization.svg"]),
+            '<p class="muted">Shares of the '
+            + _text(loc.get("basis", "excess squared residual"))
+            + "; grey: the rig file, blue: with the accepted effects; the black tick is the regime's share of the "
+            "samples (regimes overlap).</p>",
+        ]
+    header, rows = tables.windows_table(loc)
+    if rows:
+        parts.append(f"<details><summary>The worst time windows (rig file)</summary>{_table(header, rows)}</details>")
     return "\n".join(parts)
 
 
 def _figures(directory: Path, figures: dict[str, str]) -> str:
-    parts = ['<h2 id="figures">Figures</h2>']
-    for name, caption in figures.items():
-        data = base64.b64encode((directory / name).read_bytes()).decode("ascii")
-        parts.append(
-            f'<figure id="figure-{_text(Path(name).stem)}"><img src="data:image/png;base64,{data}" '
-            f'alt="{_text(caption)}"><figcaption>{_text(caption)} ({_text(name)})</figcaption></figure>'
-        )
-    return "\n".join(parts)
+    if not figures:
+        return ""
+    return '<h3 id="figures">More figures</h3>' + "".join(
+        _figure(directory, name, caption) for name, caption in figures.items()
+    )
+
+
+def _figure(directory: Path, name: str, caption: str) -> str:
+    path = directory / name
+    if name.endswith(".svg"):
+        content = inline_svg(path.read_text())
+    else:
+        data = base64.b64encode(path.read_bytes()).decode("ascii")
+        content = f'<img src="data:image/png;base64,{data}" alt="{_text(caption)}">'
+    return f'<figure id="figure-{_text(Path(name).stem)}">{content}<figcaption>{_text(caption)}</figcaption></figure>'
+
+
+def _rule(report: dict) -> str:
+    parts = [
+        '<details id="rule"><summary>How the verdict is reached: the rule and the metric</summary>',
+        _table(*tables.rule_table()),
+        f"<p>{_text(report.get('rule', ''))}</p>" if report.get("rule") else "",
+        f"<p><b>Metric.</b> {_text(report['gap'].get('metric', ''))}"
+        + (f" ({_text(report['gap']['evaluated_by'])})" if report["gap"].get("evaluated_by") else "")
+        + ".</p>",
+        f"<p><b>Held-out data.</b> {_text(report['holdout'])}.</p>" if report.get("holdout") else "",
+        f"<p><b>Intervals.</b> {_text(report['uncertainty'])}.</p>" if report.get("uncertainty") else "",
+        f"<p><b>Why this verdict.</b> {_text(report['choice'])}</p>" if report.get("choice") else "",
+        "</details>",
+    ]
+    return "\n".join(part for part in parts if part)
+
+
+def _notes(report: dict) -> str:
+    notes = report.get("notes") or []
+    return "<h3>Notes</h3><ul>" + "".join(f"<li>{_text(n)}</li>" for n in notes) + "</ul>" if notes else ""
 
 
 class _Raw(str):
     """Cell content that is already HTML."""
 
 
-def _records(rows: list[dict]) -> str:
-    keys = list(dict.fromkeys(key for row in rows for key in row))
-    return _table(keys, [[_Raw(_value(k, row[k])) if k in row else "" for k in keys] for row in rows])
+NUMBER = re.compile(r"[-+]?[0-9.]+(e[-+]?[0-9]+)?( %)?( \[.*\])?")  # a formatted figure: right-aligned
 
 
 def _table(header: list[str], rows: list[list]) -> str:
@@ -210,42 +287,28 @@ def _cell(value) -> str:
     if isinstance(value, _Raw):
         return f'<td class="num">{value}</td>' if NUMBER.fullmatch(value) else f"<td>{value}</td>"
     if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return f'<td class="num">{_number(value)}</td>'
-    return f"<td>{_text(value)}</td>"
+        return f'<td class="num">{number(value)}</td>'
+    return f"<td>{_text(number(None) if value is None else value)}</td>"
 
 
-def _value(key: str, value) -> str:
-    """HTML of one report value: shares and reductions as percentages, other numbers to 4 digits."""
-    if isinstance(value, bool) or value is None:
-        return _text("n/a" if value is None else str(value).lower())
-    if isinstance(value, (int, float)):
-        return _percent(value) if key.startswith(PERCENT_KEYS) else _number(value)
-    if isinstance(value, (dict, list)):
-        return _any(value)
-    return _text(value)
+SVG_DROPPED = (
+    re.compile(r"<\?xml[^>]*>\s*"),
+    re.compile(r"<!DOCTYPE[^>]*>\s*"),
+    re.compile(r"<metadata>.*?</metadata>\s*", re.S),
+    re.compile(r'\s+xmlns(:\w+)?="[^"]*"'),
+)
 
 
-def _any(value) -> str:
-    """HTML of any JSON value: a list of objects as a table, an object as a key/value table, else text."""
-    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-        return _records(value)
-    if isinstance(value, list):
-        return _text(", ".join(str(v) for v in value)) if value else "-"
-    if isinstance(value, dict):
-        return _table(["key", "value"], [[k, _Raw(_value(k, v))] for k, v in value.items()])
-    return _value("", value)
-
-
-def _number(value) -> str:
-    return "n/a" if value is None else f"{value:.4g}"
-
-
-def _percent(value) -> str:
-    return "n/a" if value is None else f"{100 * value:.1f} %"
+def inline_svg(text: str) -> str:
+    """An SVG file's text as an element of the page: no prologue, metadata or namespace URIs (HTML's parser
+    gives inline ``<svg>`` its namespace)."""
+    for pattern in SVG_DROPPED:
+        text = pattern.sub("", text)
+    return text.strip()
 
 
 def _text(value) -> str:
     return html.escape(str(value), quote=True)
 
 
-__all__ = ["report_html"]
+__all__ = ["report_html", "inline_svg"]

@@ -27,6 +27,8 @@ from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs
 from furuta_drake.diagnosis.parallel import run_tasks
+from furuta_drake.diagnosis.per_log import heldout_rms_per_log
+from furuta_drake.diagnosis.record_text import choice_text, confusable_why, consistency_judgement, rule_text
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
@@ -34,7 +36,6 @@ from furuta_drake.diagnosis.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, select_effects
-from furuta_drake.diagnosis.words import choice_text, confusable_why, consistency_judgement, rule_text
 from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
@@ -252,6 +253,7 @@ def diagnose(
             reduction,
             nominal_heldout.per_signal,
             evaluated_by,
+            heldout_rms_per_log(before, after),
         ),
         ranking=ranking(selection, nominal),
         localization=localize(

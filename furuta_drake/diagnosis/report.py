@@ -29,9 +29,15 @@ import yaml
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from furuta_drake.diagnosis import narrative
+from furuta_drake.diagnosis import report_tables as tables
+from furuta_drake.diagnosis.formatting import number, percent
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.diagnosis.report_charts import chart_svgs, svg, windows_chart
+from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects.surrogate import Model, applied_torque, spring_torque
+from furuta_drake.effects.vocabulary import UNITS, apply_effects, effect_from_params, rig_model
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, to_plain
@@ -47,6 +53,7 @@ FRICTION_EFFECTS = (
     "pendulum_friction",
 )
 MAX_PLOT_POINTS = 20000  # per line of the residual plot; longer series are strided
+MAX_RESIDUAL_LOGS = 6  # logs drawn in the residual plot
 
 
 @dataclass
@@ -144,10 +151,18 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
     text = report_json(diagnosis.to_json())
     report = json.loads(text)
     (directory / "report.json").write_text(text)
-    figures = {
-        "residuals.png": "Prediction residuals over time (worst windows shaded)",
-        "residual_spectra.png": "Residual power spectral density, before and after the effects",
-    }
+    charts = chart_svgs(report)
+    for name, text in charts.items():
+        (directory / name).write_text(text)
+    figures = {}
+    if artifacts.before:
+        figures["windows.svg"] = (
+            "Held-out windows, the worst and two typical: the rig file's (dashed) and the corrected (solid) "
+            "predictions against the measured angles (the zero line; shaded: one encoder count)"
+        )
+        (directory / "windows.svg").write_text(svg(windows_chart(artifacts.before, artifacts.after)))
+    figures["residuals.png"] = "Prediction residuals over time (worst windows shaded)"
+    figures["residual_spectra.png"] = "Residual power spectral density, before and after the effects"
     plot_residuals(artifacts.before, artifacts.after, report["localization"]["windows"], directory / "residuals.png")
     plot_spectra(artifacts.before, artifacts.after, artifacts.noise_variance, directory / "residual_spectra.png")
     for curve in artifacts.curves:
@@ -161,145 +176,73 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
     (directory / "fitted_rig.yaml").write_text(dump_yaml_dataclass(artifacts.fitted_rig))
     (directory / "report.md").write_text(report_markdown(report, figures))
     (directory / "report.html").write_text(report_html(report, directory, figures))
-    return ["report.json", *figures, "config.yaml", "fitted_model.yaml", "fitted_rig.yaml", "report.md", "report.html"]
-
-
-def _with_interval(key: str, value, intervals: dict) -> str:
-    """``key = value [low, high] unit`` (the interval and unit where known)."""
-    from furuta_drake.effects.vocabulary import UNITS
-
-    unit = UNITS.get(key.split(".")[-1], "")
-    if isinstance(value, str):
-        return f"{key} = {value}"
-    text = f"{key} = {_fmt(value)}"
-    if key in intervals:
-        low, high = intervals[key]
-        text += f" [{_fmt(low)}, {_fmt(high)}]"
-    return text + (f" {unit}" if unit and unit != "-" else "")
+    written = ["config.yaml", "fitted_model.yaml", "fitted_rig.yaml", "report.md", "report.html"]
+    return ["report.json", *charts, *figures, *written]
 
 
 def report_markdown(report: dict, figures: dict[str, str]) -> str:
-    """report.md: the same content as report.json for a person, with the figures linked relatively."""
+    """report.md in the page's order, answer first: the verdict sentence, the before/after chart, what to do next,
+    how far to trust it, the accepted effects, what the logs could not see; then the evidence and the rule. The
+    charts and figures are linked relatively."""
     gap = report["gap"]
-    effects = ", ".join(f"`{e}`" for e in report["effects"]) or "none"
-    lines = ["# Sim-to-real gap diagnosis", "", f"**Verdict: `{report['verdict']}`**. Accepted effects: {effects}.", ""]
-    if report.get("choice"):
-        lines += [report["choice"], ""]
-    for pair in report.get("confusable", []):
-        lines += [f"**Confusable:** `{pair['effects'][0]}` and `{pair['effects'][1]}`: {pair['why']}.", ""]
+    lines = ["# Sim-to-real gap diagnosis", "", f"**{narrative.verdict_sentence(report)}**", ""]
     lines += [
-        "## Gap",
-        "",
-        f"Metric: {gap['metric']}",
-        "",
-        "| model | train | held-out |",
-        "|---|---:|---:|",
-        f"| nominal (rig file) | {_fmt(gap['nominal']['train'])} | {_fmt(gap['nominal']['heldout'])} |",
-        f"| with the accepted effects | {_fmt(gap['with_effects']['train'])} | "
-        f"{_fmt(gap['with_effects']['heldout'])} |",
-        "",
-        f"Held-out reduction: {_percent(gap['heldout_reduction'])} (1 - gap with effects / nominal gap, on "
-        f"held-out logs; {gap.get('evaluated_by', '')}).",
-        "",
-    ]
-    if report.get("steps"):
-        lines += [
-            "## Steps",
-            "",
-            "| step | effect accepted | held-out gap [counts] | reduction over nominal | "
-            "over the previous step | over the model of all the others [lower bound] |",
-            "|---:|---|---:|---:|---:|---:|",
-        ]
-        lines += [
-            f"| {i} | `{step['effect']}` | {_fmt(step['heldout_gap'])} | {_percent(step['heldout_reduction'])} "
-            f"| {_percent(step['reduction_over_previous'])} | {_percent(step.get('reduction_over_others'))} "
-            f"[{_percent(step.get('evidence_over_others'))}] |"
-            for i, step in enumerate(report["steps"], 1)
-        ]
-        lines.append("")
-    lines += [f"How effects are accepted: {report.get('rule', '')}", ""]
-    if report.get("holdout"):
-        lines += [f"Held-out data: {report['holdout']}", ""]
-    if report.get("uncertainty"):
-        lines += [f"Parameter intervals: {report['uncertainty']}.", ""]
-    lines += [
-        "## Ranking of the candidates",
-        "",
-        "| # | step | effect | fitted parameters: value [95 % interval] unit | held-out gap | "
-        "held-out reduction | evidence |",
-        "|---:|---:|---|---|---:|---:|---:|",
-    ]
-    ranked = [entry for entry in report["ranking"] if entry.get("status", "ok") == "ok"]
-    for i, entry in enumerate(ranked, 1):
-        params = ", ".join(_with_interval(k, v, entry.get("params_ci", {})) for k, v in entry["params"].items())
-        lines.append(
-            f"| {i} | {entry.get('step', 1)} | `{entry['effect']}` | {params} | "
-            f"{_fmt(entry['heldout_gap'])} | {_percent(entry['heldout_reduction'])} | "
-            f"{_fmt(entry['evidence'])} |"
-        )
-    failed = [entry for entry in report["ranking"] if entry.get("status", "ok") != "ok"]
-    if failed:
-        lines += ["", "Failed candidates (left out of the decision):", ""]
-        lines += [f"- `{entry['effect']}` (step {entry.get('step', 1)}): {entry.get('reason', '')}" for entry in failed]
-    accepted = next(
-        (
-            entry
-            for entry in ranked
-            if entry["effect"].split("+") == [step["effect"] for step in report.get("steps", [])]
+        f"Verdict `{report['verdict']}`. Held-out gap {number(gap['nominal']['heldout'])} counts with the rig file"
+        + (
+            f", {number(gap['with_effects']['heldout'])} with the accepted effects "
+            f"({percent(gap['heldout_reduction'])} less)."
+            if report.get("effects")
+            else "."
         ),
-        None,
-    )
-    if accepted is not None and accepted.get("at_bounds"):
-        lines += [
-            "",
-            f"The accepted fit ended at the edge of its search range: {', '.join(accepted['at_bounds'])}. "
-            "The effect's law is stretched to its limit there; it may stand in for an unmodelled effect of "
-            "a similar shape.",
-        ]
+        "",
+        "![Held-out error before and after, per log and signal](gap.svg)",
+        "",
+        "## What to do next",
+        "",
+        "Commands run from this report's folder.",
+        "",
+    ]
+    for i, (what, command) in enumerate(narrative.next_steps(report), 1):
+        lines += [f"{i}. {what}{':' if command else '.'}"] + (["", f"   `{command}`"] if command else []) + [""]
+    lines += ["## How far to trust it", ""] + [f"- {sentence}" for sentence in narrative.trust_sentences(report)]
+    lines += _table_markdown("The accepted effects", *tables.effects_table(report))
+    if report["verdict"] == "unexplained":
+        lines += ["", "## What the gap is", "", narrative.where_sentence(report["localization"])]
+    for joint, fit in (report.get("unmodelled_torque") or {}).items():
+        lines += ["", f"## The unmodelled torque on the {joint}", "", tables.unmodelled_sentence(joint, fit)]
+        lines += _table_markdown("", *tables.unmodelled_table(fit))
+        lines += ["", f"![Unmodelled torque on the {joint}]({fit['plot']})"] if fit.get("plot") else []
     if report.get("detection_limits"):
-        lines += [
-            "",
-            "## Detection limits",
-            "",
-            (
-                "No effect larger than these would have gone unseen in these logs"
-                if report["verdict"] == "none"
-                else "Effects not accepted would have been detected at these sizes"
-            )
-            + " (injected into the "
-            "model's own prediction of the held-out windows, judged by the same rule):",
-            "",
-            "| effect | parameter | smallest detected | note |",
-            "|---|---|---:|---|",
-        ]
-        lines += [
-            f"| `{limit['effect']}` | {limit['param']} | "
-            f"{_fmt(limit['value'])}{' ' + limit['unit'] if limit['value'] is not None else ''} | "
-            f"{_cell(limit.get('note', ''))} |"
-            for limit in report["detection_limits"]
-        ]
-    if report.get("consistency"):
-        consistency = report["consistency"]
-        lines += [
-            "",
-            "## Consistency across splits of the logs",
-            "",
-            consistency["judgement"] + ".",
-            "",
-            "| fold | verdict | effects |",
-            "|---:|---|---|",
-        ]
-        lines += [
-            f"| {i} | `{verdict}` | {', '.join(found) or '-'} |"
-            for i, (verdict, found) in enumerate(
-                zip(consistency["verdicts"], consistency.get("effects") or [[]] * consistency["folds"]), 1
-            )
-        ]
-    lines += _localization_markdown(report["localization"])
-    lines += ["", "## Figures", ""]
+        lines += ["", "## What these logs could not see", "", "![Detection limits](detection_limits.svg)", ""]
+        lines += [f"- {narrative.limit_sentence(limit)}." for limit in report["detection_limits"]]
+    return "\n".join(lines + _evidence_markdown(report, figures)) + "\n"
+
+
+def _evidence_markdown(report: dict, figures: dict[str, str]) -> list[str]:
+    lines = ["", "## The evidence"]
+    if "windows.svg" in figures:
+        lines += ["", f"![{figures['windows.svg']}](windows.svg)"]
+    lines += _table_markdown("Steps", *tables.steps_table(report), level="###")
+    (header, shown), (_, folded), failed = tables.ranking_tables(report)
+    lines += _table_markdown(f"Candidates tried (the best {tables.TOP_PER_STEP} of each step)", header, shown, "###")
+    if folded:
+        lines += ["", "<details><summary>The other candidates</summary>"] + _table_markdown("", header, folded)
+        lines += ["", "</details>"]
+    lines += ["", "Failed candidates (left out):", ""] + [f"- {line}" for line in failed] if failed else []
+    lines += ["", "### Where the gap is", "", narrative.where_sentence(report["localization"]), ""]
+    lines += ["![Where the gap is](localization.svg)"] + _localization_markdown(report["localization"])
+    lines += ["", "### More figures", ""]
     for name, caption in figures.items():
-        lines += [f"![{caption}]({name})", "", f"*{caption}.*", ""]
-    lines += [
+        if name != "windows.svg":
+            lines += [f"![{caption}]({name})", "", f"*{caption}.*", ""]
+    lines += _table_markdown("How the verdict is reached", *tables.rule_table())
+    lines += ["", report.get("rule", ""), "", f"Metric: {report['gap'].get('metric', '')}."]
+    lines += [f"Held-out data: {report['holdout']}."] if report.get("holdout") else []
+    lines += [f"Parameter intervals: {report['uncertainty']}."] if report.get("uncertainty") else []
+    lines += ["", f"Why this verdict: {report['choice']}"] if report.get("choice") else []
+    lines += [f"- Note: {note}" for note in report.get("notes") or []]
+    return lines + [
+        "",
         "## Files",
         "",
         "- `report.json`: this report for programs; `report.html`: this report in one file.",
@@ -309,19 +252,26 @@ def report_markdown(report: dict, figures: dict[str, str]) -> str:
         "- `fitted_rig.yaml`: the rig file with the accepted effects in its `effects:` section (a further "
         "diagnosis continues from it: `furuta-drake diagnose --rig fitted_rig.yaml ...`).",
     ]
-    return "\n".join(lines) + "\n"
+
+
+def _table_markdown(title: str, header: list[str], rows: list[list[str]], level: str = "##") -> list[str]:
+    if not rows:
+        return []
+    lines = ["", f"{level} {title}"] if title else []
+    lines += ["", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return lines + ["| " + " | ".join(_cell(cell) for cell in row) + " |" for row in rows]
 
 
 def _localization_markdown(loc: dict) -> list[str]:
     after = loc.get("after")
-    lines = ["", "## Where the gap is", ""]
+    lines = [""]
     if "basis" in loc:
         lines += [f"Shares of the {loc['basis']}.", ""]
     header = "| signal | share (nominal) |" + (" share (with effects) |" if after else "")
     lines += [header, "|---|---:|" + ("---:|" if after else "")]
     for signal in ("theta", "phi"):
-        row = f"| {signal} | {_percent(loc['signals'][signal])} |"
-        lines.append(row + (f" {_percent(after['signals'][signal])} |" if after else ""))
+        row = f"| {signal} | {percent(loc['signals'][signal])} |"
+        lines.append(row + (f" {percent(after['signals'][signal])} |" if after else ""))
     for title, block in (
         ("Worst time windows (nominal model):", loc),
         ("Worst time windows with the effects:", after or {}),
@@ -329,8 +279,8 @@ def _localization_markdown(loc: dict) -> list[str]:
         if block.get("windows"):
             lines += ["", title, "", "| log | start [s] | end [s] | share of gap | why |", "|---|---:|---:|---:|---|"]
             lines += [
-                f"| {_cell(w['log'])} | {_fmt(w['start'])} | {_fmt(w['end'])} | "
-                f"{_percent(w.get('share_of_gap'))} | {_cell(w['why'])} |"
+                f"| {_cell(w['log'])} | {number(w['start'])} | {number(w['end'])} | "
+                f"{percent(w.get('share_of_gap'))} | {_cell(w['why'])} |"
                 for w in block["windows"]
             ]
     lines += [
@@ -342,11 +292,11 @@ def _localization_markdown(loc: dict) -> list[str]:
     after_regimes = {r["regime"]: r for r in after["regimes"]} if after else {}
     for r in loc["regimes"]:
         row = (
-            f"| {r['regime']} | {_cell(r.get('definition', ''))} | {_percent(r.get('share_of_samples'))} | "
-            f"{_percent(r['share_of_gap'])} |"
+            f"| {r['regime']} | {_cell(r.get('definition', ''))} | {percent(r.get('share_of_samples'))} | "
+            f"{percent(r['share_of_gap'])} |"
         )
         if after:
-            row += f" {_percent(after_regimes.get(r['regime'], {}).get('share_of_gap'))} |"
+            row += f" {percent(after_regimes.get(r['regime'], {}).get('share_of_gap'))} |"
         lines.append(row)
     lines += [
         "",
@@ -355,9 +305,9 @@ def _localization_markdown(loc: dict) -> list[str]:
     ]
     after_bands = {(b["low_hz"], b["high_hz"]): b for b in after["frequency_bands"]} if after else {}
     for b in loc["frequency_bands"]:
-        row = f"| {_fmt(b['low_hz'])}-{_fmt(b['high_hz'])} | {_percent(b['share_of_gap'])} |"
+        row = f"| {number(b['low_hz'])}-{number(b['high_hz'])} | {percent(b['share_of_gap'])} |"
         if after:
-            row += f" {_percent(after_bands.get((b['low_hz'], b['high_hz']), {}).get('share_of_gap'))} |"
+            row += f" {percent(after_bands.get((b['low_hz'], b['high_hz']), {}).get('share_of_gap'))} |"
         lines.append(row)
     return lines
 
@@ -365,9 +315,10 @@ def _localization_markdown(loc: dict) -> list[str]:
 def plot_residuals(
     before: list[WindowResiduals], after: list[WindowResiduals] | None, worst: list[dict], path: Path
 ) -> None:
-    """One row per log: theta and phi residuals [counts] against time, worst windows shaded; the residuals
-    with the effects dashed."""
-    logs = sorted({w.log_name for w in before})
+    """One row per log, at most ``MAX_RESIDUAL_LOGS`` (those of the worst windows first): theta and phi residuals
+    [counts] against time, worst windows shaded; the residuals with the effects dashed."""
+    logs = list(dict.fromkeys([w["log"] for w in worst] + sorted({w.log_name for w in before})))
+    logs = [log for log in logs if any(w.log_name == log for w in before)][:MAX_RESIDUAL_LOGS]
     fig = Figure(figsize=(10, 2.4 * len(logs) + 0.6))
     axes = fig.subplots(len(logs), 1, squeeze=False)[:, 0]
     for ax, log in zip(axes, logs):
@@ -437,62 +388,50 @@ def residual_psd(windows: list[WindowResiduals], bins: int = 30) -> tuple[np.nda
 
 
 def effect_curve(effect: str, params: dict[str, float], rig: RigParameters) -> EffectCurve:
-    """The plot of a fitted effect against the rig file's nominal model (see the module docstring)."""
+    """The plot of a fitted effect against the rig file's nominal model (see the module docstring): the nominal
+    model and the model holding the effect in its own form (:func:`~.candidates.apply_effects`), evaluated by the
+    model's laws (the kernel's friction, the actuator map, the spring)."""
+    nominal = rig_model(rig)
+    fitted = apply_effects(nominal, {effect: effect_from_params(effect, params)})
     if effect in FRICTION_EFFECTS:
-        return _friction_curve(effect, params, rig)
-    limit = rig.torque_limit
-    command = np.linspace(-1.2 * limit, 1.2 * limit, 481)
-    model = Model.from_rig(rig)
+        return _friction_curve(effect, nominal, fitted)
     if effect in ("actuator_deadzone", "actuator_saturation", "torque_gain_error"):
-        fitted = {
-            "actuator_deadzone": lambda: model.replace(
-                deadzone=params["deadzone"], deadzone_form=params.get("form", "subtract")
-            ),
-            "actuator_saturation": lambda: model.replace(
-                saturation=params["limit"], saturation_form=params.get("form", "hard")
-            ),
-            "torque_gain_error": lambda: model.replace(gain=params["gain"]),
-        }[effect]()
+        command = np.linspace(-1.2 * rig.torque_limit, 1.2 * rig.torque_limit, 481)
         return EffectCurve(
             effect,
             f"Fitted {effect}: command to applied torque",
             "command [N m]",
             "applied torque [N m]",
             command,
-            {"nominal": command, "fitted": applied_torque(fitted, command)},
+            {"nominal": applied_torque(nominal, command), "fitted": applied_torque(fitted, command)},
         )
     if effect == "arm_spring":
-        spring = model.replace(
-            spring_stiffness=params["stiffness"],
-            spring_cubic=params.get("cubic_stiffness", 0.0),
-            spring_equilibrium=params.get("equilibrium", 0.0),
-        )
-        phi = np.linspace(-math.pi / 2, math.pi / 2, 361) + spring.spring_equilibrium
+        phi = np.linspace(-math.pi / 2, math.pi / 2, 361) + fitted.spring_equilibrium
         return EffectCurve(
             effect,
             "Fitted arm_spring: restoring torque",
             "phi [rad]",
             "spring torque [N m]",
             phi,
-            {"nominal": 0.0 * phi, "fitted": spring_torque(spring, phi)},
+            {"nominal": spring_torque(nominal, phi), "fitted": spring_torque(fitted, phi)},
         )
     if effect in ("actuator_lag", "input_delay"):
-        scale = params["time_constant"] if effect == "actuator_lag" else params["delay"]
+        scale = max(fitted.lag, fitted.delay)
         time = np.linspace(0.0, max(5 * scale, 10 * rig.sample_period), 501)
-        step = (time >= 0).astype(float)
-        fitted = 1.0 - np.exp(-time / scale) if effect == "actuator_lag" else (time >= scale).astype(float)
         return EffectCurve(
             effect,
             f"Fitted {effect}: response to a unit step of the command",
             "time [s]",
             "applied / commanded torque",
             time,
-            {"nominal": step, "fitted": fitted},
+            {"nominal": _step_response(nominal, time), "fitted": _step_response(fitted, time)},
         )
-    names = list(params)
+    names = [name for name, value in params.items() if not isinstance(value, str)]
+    scales = [name for name in names if UNITS.get(name) == "-"]  # dimensionless: one axis, 1 = the rig file
+    names = scales or names
     return EffectCurve(
         effect,
-        f"Fitted {effect}: parameters (SI)",
+        f"Fitted {effect}: " + ("scales of the rig file's constants" if scales else "parameters (SI)"),
         "parameter",
         "value",
         names,
@@ -501,14 +440,24 @@ def effect_curve(effect: str, params: dict[str, float], rig: RigParameters) -> E
     )
 
 
+def _step_response(model: Model, time: np.ndarray) -> np.ndarray:
+    """The applied torque after a unit step of the command at t = 0: the model's transport delay, then its
+    first-order lag (none when the lag is 0)."""
+    since = time - model.delay
+    if model.lag <= 0:
+        return (since >= 0).astype(float)
+    return np.where(since >= 0, 1.0 - np.exp(-np.maximum(since, 0.0) / model.lag), 0.0)
+
+
 def plot_effect_curve(curve: EffectCurve, path: Path) -> None:
     fig = Figure(figsize=(6, 4))
     ax = fig.subplots()
     if curve.bars:
         values = curve.curves["fitted"]
-        ax.bar(curve.x, values, color="tab:blue")
+        ax.barh(curve.x, values, color="tab:blue")
+        ax.invert_yaxis()
         for i, value in enumerate(values):
-            ax.annotate(f"{value:.4g}", (i, value), ha="center", va="bottom", fontsize=8)
+            ax.annotate(f" {value:.4g}", (value, i), va="center", fontsize=8)
     else:
         for label, y in curve.curves.items():
             ax.plot(
@@ -521,33 +470,30 @@ def plot_effect_curve(curve: EffectCurve, path: Path) -> None:
             )
         ax.legend(fontsize=8)
     ax.set_title(curve.title, fontsize=9)
-    ax.set_xlabel(curve.x_label)
-    ax.set_ylabel(curve.y_label)
+    ax.set_xlabel(curve.y_label if curve.bars else curve.x_label)
+    ax.set_ylabel(curve.x_label if curve.bars else curve.y_label)
     ax.grid(alpha=0.3)
     _save(fig, path)
 
 
-def _friction_curve(effect: str, params: dict[str, float], rig: RigParameters) -> EffectCurve:
-    """Static friction torque against velocity: Coulomb level (one per direction), Stribeck peak, viscous."""
-    pendulum = effect == "pendulum_friction"
-    coulomb = rig.pendulum_coulomb if pendulum else rig.arm_coulomb
-    viscous = rig.pendulum_viscous if pendulum else rig.arm_viscous
+def _friction_curve(effect: str, nominal: Model, fitted: Model) -> EffectCurve:
+    """The joint's steady sliding friction torque against its velocity, the kernel's static law
+    (:func:`~.surrogate_kernel.static_torque`: Coulomb level per direction, Stribeck peak, viscous), nominal and
+    fitted."""
+    joint = "pendulum" if effect == "pendulum_friction" else "arm"
     velocity = np.linspace(-2.0, 2.0, 801)
-    nominal = coulomb * np.sign(velocity) + viscous * velocity
-    level_pos = params.get("coulomb_pos", params.get("coulomb", coulomb))
-    level_neg = params.get("coulomb_neg", params.get("coulomb", coulomb))
-    level = np.where(velocity >= 0, level_pos, level_neg)
-    if "static" in params:
-        level = level + (params["static"] - level) * np.exp(-((velocity / params["stribeck_velocity"]) ** 2))
-    fitted = level * np.sign(velocity) + params.get("viscous", viscous) * velocity
-    joint = "pendulum" if pendulum else "arm"
+
+    def law(model: Model) -> np.ndarray:
+        row = kernel.pack_friction(model.pendulum_friction if joint == "pendulum" else model.arm_friction)
+        return -np.array([kernel.static_torque(v, row) for v in velocity])
+
     return EffectCurve(
         effect,
         f"Fitted {effect}: {joint} friction torque",
         f"{joint} velocity [rad/s]",
         "friction torque [N m]",
         velocity,
-        {"nominal": nominal, "fitted": fitted},
+        {"nominal": law(nominal), "fitted": law(fitted)},
     )
 
 
@@ -610,11 +556,3 @@ def _is_number(value) -> bool:
 def _cell(text: str) -> str:
     """Text for a Markdown table cell (a literal | would end the cell)."""
     return str(text).replace("|", "\\|")
-
-
-def _fmt(value) -> str:
-    return "n/a" if value is None else f"{value:.4g}"
-
-
-def _percent(value) -> str:
-    return "n/a" if value is None else f"{100 * value:.1f} %"

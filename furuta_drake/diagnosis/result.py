@@ -29,6 +29,7 @@ class GapFigures:
     heldout_reduction: Number  # 1 - gap(with effects) / gap(nominal), held-out
     per_signal_nominal_heldout: dict[str, Number] = field(default_factory=dict)
     evaluated_by: str = ""
+    heldout_rms_per_log: list[dict] = field(default_factory=list)  # {log, nominal, with_effects}: RMS [counts]
 
 
 @dataclass

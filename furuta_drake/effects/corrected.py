@@ -11,7 +11,7 @@ import numpy as np
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.config import SimulationConfig
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, describe
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, describe, effect_from_params
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
@@ -79,6 +79,14 @@ def model_config(
     )
 
 
+def rig_entry(name: str, params: dict) -> dict:
+    """The rig file's ``effects:`` entry of an effect reported as ``params`` (:func:`describe`'s form): its form
+    and the form's own parameters (derived entries left out)."""
+    form = effect_from_params(name, params).form
+    keep = CANDIDATES[name].form(form).params
+    return {key: value for key, value in params.items() if key == "form" or key in keep}
+
+
 def fitted_rig(
     rig: RigParameters,
     effects: dict[str, Effect],
@@ -89,12 +97,7 @@ def fitted_rig(
     ``unmodelled_torque`` expressions (when given) replacing its own."""
     stated = dict(rig.effects or {})
     for name, effect in effects.items():
-        params = describe(name, effect, nominal)
-        stated[name] = {
-            key: value
-            for key, value in params.items()
-            if key == "form" or key in CANDIDATES[name].form(effect.form).params
-        }
+        stated[name] = rig_entry(name, describe(name, effect, nominal))
     if unmodelled_torque is not None:
         rig = rig.replace(unmodelled_torque=None if unmodelled_torque.is_empty else unmodelled_torque)
     return rig.replace(effects=stated or None)

@@ -1,6 +1,7 @@
-"""The report's sentences, written from the diagnosis' data: the held-out rule (from the rule's own constants), why
-the verdict, why two effects are confusable, how consistent the folds were. The computing stages return numbers;
-these functions alone put them into words for ``report.json``'s text keys and the reports."""
+"""The text keys of ``report.json``, written from the diagnosis' data: the held-out rule (``rule``, from the rule's
+own constants), why the verdict (``choice``), why two effects are confusable (``confusable[].why``), how consistent
+the folds were (``consistency.judgement``). The computing stages return numbers; these functions put them into
+words (the reports' own sentences are :mod:`~furuta_drake.diagnosis.narrative`'s)."""
 
 from __future__ import annotations
 

@@ -1,0 +1,343 @@
+"""The report in words: the verdict sentence, each accepted effect as a physical statement, the confusable pairs,
+the detection limits and what to do next, all read from a ``report.json`` object (nothing is computed here that
+the diagnosis did not decide; :mod:`~furuta_drake.diagnosis.formatting` writes the figures).
+
+``report.md`` and ``report.html`` both open on :func:`verdict_sentence`, so a reader of either gets the same
+answer first.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from furuta_drake.diagnosis.formatting import ends, number, percent, quantity
+from furuta_drake.effects.corrected import rig_entry
+from furuta_drake.effects.vocabulary import UNITS
+
+NOUNS = {
+    "arm_coulomb_friction": "Coulomb friction on the arm",
+    "arm_viscous_friction": "viscous friction on the arm",
+    "arm_stribeck": "breakaway (Stribeck) friction on the arm",
+    "friction_asymmetry": "arm friction that differs with the direction",
+    "pendulum_friction": "friction on the pendulum joint",
+    "encoder_quantization": "a coarser encoder",
+    "measurement_noise": "noise on the angles",
+    "input_delay": "a delay of the command",
+    "torque_gain_error": "a torque gain error",
+    "actuator_deadzone": "a dead zone of the drive",
+    "actuator_lag": "a lag of the drive",
+    "actuator_saturation": "a saturation of the drive",
+    "arm_spring": "a spring on the arm",
+    "inertia_mismatch": "wrong inertias in the rig file",
+}
+SCALES = {  # inertia_mismatch's scales: what each one scales in the rig file
+    "arm_inertia_scale": "the arm's inertia",
+    "pendulum_inertia_scale": "the pendulum's inertia",
+    "coupling_scale": "the arm-pendulum coupling m l r",
+    "gravity_scale": "the pendulum's gravity torque m g l",
+}
+NOTABLE_SCALE = 0.05  # an inertia scale further than this from 1 is stated beside the main one
+NEVER_SEEN = "the fit never saw"
+DESIGN_COMMAND = "furuta-drake design --diagnosis . --out design"
+
+
+@dataclass
+class Accepted:
+    """An accepted effect: its fitted parameters and 95 % intervals in SI units, and its step of the selection."""
+
+    name: str
+    params: dict
+    intervals: dict = field(default_factory=dict)
+    step: dict | None = None
+
+
+def final_entry(report: dict) -> dict | None:
+    """The ranking entry of the model holding exactly the accepted effects (None when there is none)."""
+    wanted = set(report.get("effects", []))
+    return next(
+        (e for e in report.get("ranking", []) if wanted and set(e["effect"].split("+")) == wanted),
+        None,
+    )
+
+
+def accepted_effects(report: dict) -> list[Accepted]:
+    """The accepted effects in the report's order, their parameters from the final model's fit."""
+    entry = final_entry(report) or {}
+    steps = {step["effect"]: step for step in report.get("steps", [])}
+    several = len(report.get("effects", [])) > 1
+    out = []
+    for name in report.get("effects", []):
+        prefix = f"{name}." if several else ""
+        params = {k[len(prefix) :]: v for k, v in entry.get("params", {}).items() if k.startswith(prefix)}
+        intervals = {k[len(prefix) :]: v for k, v in entry.get("params_ci", {}).items() if k.startswith(prefix)}
+        if not params and name in steps:  # a report without the final entry: the step's own fit
+            params = {k.split(".")[-1]: v for k, v in steps[name]["params"].items() if k.startswith(prefix)}
+        out.append(Accepted(name, params, intervals, steps.get(name)))
+    return out
+
+
+def _q(params: dict, key: str, intervals: dict | None) -> str:
+    return quantity(params.get(key), UNITS.get(key, ""), interval=(intervals or {}).get(key))
+
+
+def _interval(intervals: dict | None, key: str, prefix: str = "95 % interval ") -> str:
+    interval = (intervals or {}).get(key)
+    return f" ({prefix}{' to '.join(ends(*interval, 3))})" if interval else ""
+
+
+def _ratio(share: float, intervals: dict | None = None, key: str = "", of: str = "") -> str:
+    """A scale as words: "about 1.3 times <of>" above 1, "about 12 % less than <of>" below, then its interval."""
+    text = f"about {number(share, 2)} times {of}" if share >= 1 else f"about {percent(1 - share)} less than {of}"
+    return text + _interval(intervals, key)
+
+
+def _inertia(p: dict, ci: dict | None, main_only: bool) -> str:
+    """The arm's inertia scale as weight ("the arm is about 1.3 times heavier than the rig file says"), then the
+    other scales further than ``NOTABLE_SCALE`` from 1 (in short when ``main_only``)."""
+    arm = p["arm_inertia_scale"]
+    size = f"about {number(arm, 2)} times heavier" if arm >= 1 else f"about {percent(1 - arm)} lighter"
+    text = f"the arm is {size} than the rig file says" + _interval(
+        ci, "arm_inertia_scale", "inertia scale, 95 % interval "
+    )
+    notable = [key for key in SCALES if key != "arm_inertia_scale" and key in p and abs(p[key] - 1) > NOTABLE_SCALE]
+    if not notable:
+        return text
+    if main_only:
+        sizes = sorted({number(p[key], 2) for key in notable}, key=float)
+        span = sizes[0] if len(sizes) == 1 else f"{sizes[0]} to {sizes[-1]}"
+        return f"{text} ({_joined([SCALES[key] for key in notable])} about {span} times)"
+    return ", ".join(
+        [text, *(f"{SCALES[key]} is {_ratio(p[key], ci, key, 'what the rig file says')}" for key in notable)]
+    )
+
+
+STATEMENTS = {
+    "inertia_mismatch": _inertia,
+    "input_delay": lambda p, ci, _: f"commands reach the arm about {_q(p, 'delay', ci)} late",
+    "actuator_lag": lambda p, ci, _: f"the drive follows the command with a lag of about {_q(p, 'time_constant', ci)}",
+    "arm_coulomb_friction": lambda p, ci, _: f"the arm's sliding (Coulomb) friction is about {_q(p, 'coulomb', ci)}",
+    "arm_viscous_friction": lambda p, ci, _: f"the arm's viscous friction is about {_q(p, 'viscous', ci)}",
+    "arm_stribeck": lambda p, ci, _: (
+        f"the arm's friction breaks away at about {_q(p, 'static', ci)} and slides at about {_q(p, 'coulomb', ci)}"
+    ),
+    "friction_asymmetry": lambda p, ci, _: (
+        f"the arm's Coulomb friction is about {_q(p, 'coulomb_pos', ci)} moving towards +phi and "
+        f"{_q(p, 'coulomb_neg', ci)} towards -phi"
+    ),
+    "pendulum_friction": lambda p, ci, _: (
+        f"the pendulum joint has about {_q(p, 'coulomb', ci)} of Coulomb and {_q(p, 'viscous', ci)} of viscous friction"
+    ),
+    "encoder_quantization": lambda p, ci, _: f"the encoders resolve only {number(p['counts_per_rev'], 6)} counts/rev",
+    "measurement_noise": lambda p, ci, _: f"the angles carry white noise of about {_q(p, 'noise_std', ci)}",
+    "torque_gain_error": lambda p, ci, _: f"the arm gets {_ratio(p['gain'], ci, 'gain', 'the commanded torque')}",
+    "actuator_deadzone": lambda p, ci, _: f"commands under about {_q(p, 'deadzone', ci)} do not reach the arm",
+    "actuator_saturation": lambda p, ci, _: f"the drive saturates at about {_q(p, 'limit', ci)}",
+    "arm_spring": lambda p, ci, _: (
+        f"a spring of about {_q(p, 'stiffness', ci)} pulls the arm towards phi = "
+        f"{number(math.degrees(p.get('equilibrium', 0.0)), 2)} deg"
+    ),
+}
+
+
+def effect_statement(effect: Accepted, with_intervals: bool = False) -> str:
+    """The effect as a physical statement ("commands reach the arm about 8.1 ms late"), the main parameters'
+    95 % intervals when asked; the effect's name when its parameters are missing (an old report)."""
+    statement = STATEMENTS.get(effect.name)
+    try:
+        return statement(effect.params, effect.intervals if with_intervals else None, not with_intervals)
+    except (KeyError, TypeError):
+        return NOUNS.get(effect.name, effect.name)
+
+
+def _joined(parts: list[str]) -> str:
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
+def _capital(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def verdict_sentence(report: dict) -> str:
+    """The answer in one plain sentence with its strength: what the logs show and how much of the held-out gap
+    the accepted effects remove."""
+    gap = report["gap"]
+    nominal = number(gap["nominal"]["heldout"], 2)
+    effects = accepted_effects(report)
+    if report["verdict"] == "none":
+        return (
+            f"The rig file's model already predicts the logs {NEVER_SEEN} to within their noise (held-out gap "
+            f"{nominal} counts above the encoder noise): no unmodelled effect is needed."
+        )
+    if report["verdict"] == "unexplained":
+        return (
+            f"The rig file's model misses these logs (held-out gap {nominal} counts) in a way no effect of the "
+            f"vocabulary explains: {_best_attempt(report, effects)} of the gap on logs {NEVER_SEEN}."
+        )
+    lower, reduction = (final_entry(report) or {}).get("evidence"), gap["heldout_reduction"]
+    strength = ""
+    if lower is not None:  # the bound is the selection's (surrogate) figure; the headline the Drake replay's
+        strength = (
+            f" (at least {percent(lower)} with 95 % confidence)"
+            if reduction is not None and lower <= reduction
+            else f" (bootstrap lower bound {percent(lower)})"
+        )
+    together = "together they remove" if len(effects) > 1 else "this removes"
+    return (
+        f"{_capital(_joined([effect_statement(e) for e in effects]))}; {together} "
+        f"{percent(reduction)} of the gap on logs {NEVER_SEEN}{strength}."
+    )
+
+
+def _best_attempt(report: dict, effects: list[Accepted]) -> str:
+    """What came closest for an unexplained gap: the accepted effects, else the best candidate tried."""
+    if effects:
+        found = _joined([effect_statement(e) for e in effects])
+        return f"the accepted effects ({found}) remove only {percent(report['gap']['heldout_reduction'])}"
+    best = next((e for e in report.get("ranking", []) if e.get("status", "ok") == "ok"), None)
+    if best is None:
+        return "no candidate could be fitted to remove any"
+    names = [NOUNS.get(name, name) for name in best["effect"].split("+")]
+    return f"the best candidate tried ({_joined(names)}) removes only {percent(best['heldout_reduction'])}"
+
+
+def where_sentence(localization: dict) -> str:
+    """Where the gap is: the signal holding most of it, the most over-represented regime and the largest band."""
+    signals = localization.get("signals", {})
+    if not signals:
+        return ""
+    signal = max(signals, key=lambda s: signals[s] or 0.0)
+    text = f"Most of the gap is in {signal} ({percent(signals[signal])})"
+    regimes = [r for r in localization.get("regimes", []) if (r.get("share_of_samples") or 0) > 0]
+    if regimes:
+        worst = max(regimes, key=lambda r: (r["share_of_gap"] or 0.0) / r["share_of_samples"])
+        text += (
+            f"; {percent(worst['share_of_gap'])} of it comes {_regime_phrase(worst['regime'])}, which is "
+            f"{percent(worst['share_of_samples'])} of the samples"
+        )
+    bands = localization.get("frequency_bands", [])
+    if bands:
+        band = max(bands, key=lambda b: b["share_of_gap"] or 0.0)
+        span = f"{number(band['low_hz'])}-{number(band['high_hz'])} Hz"
+        text += f"; the {span} band holds {percent(band['share_of_gap'])}"
+    return text + "."
+
+
+def _regime_phrase(regime: str) -> str:
+    return {"upright": "with the pendulum upright", "hanging": "with the pendulum hanging"}.get(
+        regime, f"in the {regime} regime" if regime != "swinging" else "while the pendulum swings"
+    )
+
+
+def confusable_sentences(report: dict) -> list[str]:
+    """Each confusable pair in words."""
+    return [
+        f"These logs cannot tell {NOUNS.get(a, a)} from {NOUNS.get(b, b)}: {pair['why']}."
+        for pair in report.get("confusable", [])
+        for a, b in [pair["effects"]]
+    ]
+
+
+def consistency_sentence(report: dict) -> str:
+    """The decision repeated on splits of the logs, in words ('' when ``--folds`` did not run)."""
+    consistency = report.get("consistency")
+    if not consistency:
+        return ""
+    same = consistency["verdicts"].count(report["verdict"])
+    return (
+        f"Repeated on {consistency['folds']} splits of the logs, the same verdict came back {same} times "
+        f"({consistency['judgement']})."
+    )
+
+
+def trust_sentences(report: dict) -> list[str]:
+    """How far to trust the verdict: the folds' consistency and the confusable pairs, or what would tell."""
+    sentences = [s for s in [consistency_sentence(report), *confusable_sentences(report)] if s]
+    if sentences:
+        return sentences
+    folds = "run with --folds K to repeat the decision on K splits of the logs."
+    return [
+        f"No other effect explains the held-out data as well; {folds}" if report.get("effects") else _capital(folds)
+    ]
+
+
+def limit_sentence(limit: dict) -> str:
+    """What a detection limit means: the largest size of the effect that could hide in these logs."""
+    name, value, param = limit["effect"], limit["value"], limit["param"]
+    noun = NOUNS.get(name, name)
+    if value is None:
+        return f"{_capital(noun)} of any size tried could hide here (not detected at any size)"
+    if param == "gain" or param.endswith("_scale"):
+        return f"{_capital(noun)} within {percent(abs(value - 1), 1)} of 1 could hide here"
+    if param == "limit":
+        return f"A saturation of the drive above {quantity(value, limit['unit'])} could hide here"
+    if param == "counts_per_rev":
+        return f"An encoder finer than {number(value, 6)} counts/rev could hide here"
+    return f"{_capital(noun)} under {quantity(value, limit['unit'])} could hide here"
+
+
+def rig_line(effect: Accepted) -> str:
+    """The line the effect adds under ``effects:`` in the rig file (as ``fitted_rig.yaml`` holds it)."""
+    try:
+        entry = rig_entry(effect.name, effect.params)
+    except (KeyError, ValueError):
+        return f"{effect.name}: (see fitted_rig.yaml)"
+    values = ", ".join(f"{k}: {v if isinstance(v, str) else number(v, 6)}" for k, v in entry.items())
+    return f"{effect.name}: {{{values}}}"
+
+
+def undetectable(report: dict) -> list[str]:
+    """The effects these logs could not detect at any size tried."""
+    return [limit["effect"] for limit in report.get("detection_limits", []) if limit["value"] is None]
+
+
+def next_steps(report: dict) -> list[tuple[str, str]]:
+    """What to do next: (what and why, the command to run from the report's folder)."""
+    steps = []
+    if report.get("effects"):
+        steps.append(
+            (
+                "Continue from the fitted rig file (the accepted effects are in its effects: section): diagnose "
+                "new logs against it, so a further effect need not compete with these",
+                "furuta-drake diagnose --rig fitted_rig.yaml --train NEW_TRAIN.csv --heldout NEW_HELDOUT.csv "
+                "--out next-diagnosis",
+            )
+        )
+        steps.append(("Simulate the corrected model", "furuta-drake simulate --config fitted_model.yaml"))
+    hidden, pairs = undetectable(report), report.get("confusable", [])
+    if pairs or hidden:
+        why = [f"separate {NOUNS.get(a, a)} from {NOUNS.get(b, b)}" for a, b in (p["effects"] for p in pairs)]
+        why += [f"make {NOUNS.get(name, name)} detectable" for name in hidden]
+        steps.append((f"Design the experiment that would {_joined(why)}", DESIGN_COMMAND))
+    if report["verdict"] == "unexplained":
+        steps.append(
+            (
+                "The gap is not an effect of the vocabulary: check the rig file's constants on the bench (the "
+                "hanging swing period), then look where the gap is left (below) for the missing physics",
+                "furuta-drake rig --check RIG.yaml",
+            )
+        )
+    if report["verdict"] == "none":
+        steps.append(("Nothing to add to the rig file; the detection limits below say what could still hide", ""))
+        steps += _smaller_target(report)
+    return steps
+
+
+def _smaller_target(report: dict) -> list[tuple[str, str]]:
+    """A design that would detect the first additive effect at half its detection limit (none when there is none)."""
+    sizes = [
+        limit
+        for limit in report.get("detection_limits", [])
+        if limit["value"] is not None and limit["unit"] in ("N m", "s", "N m s/rad")
+    ]
+    if not sizes:
+        return []
+    limit = sizes[0]
+    half = limit["value"] / 2
+    return [
+        (
+            f"To look below the limits, design the experiment that would detect {NOUNS.get(limit['effect'])} of "
+            f"{quantity(half, limit['unit'])}, half its limit here",
+            f"{DESIGN_COMMAND} --target {limit['effect']}={number(half, 3)}",
+        )
+    ]

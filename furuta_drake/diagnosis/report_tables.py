@@ -1,0 +1,132 @@
+"""The report's tables as plain text cells, one definition for ``report.md`` and ``report.html``: the accepted
+effects, one row per accepted step, the candidate ranking (the best of each step and the rest), the worst time
+windows and the rule's constants. Each function returns ``(header, rows)``; the writers only lay them out."""
+
+from __future__ import annotations
+
+from furuta_drake.diagnosis import narrative
+from furuta_drake.diagnosis.formatting import interval_text, number, percent, quantity, seconds_range
+from furuta_drake.diagnosis.rule import THRESHOLDS
+from furuta_drake.effects.vocabulary import UNITS
+
+TOP_PER_STEP = 3  # ranking entries shown per step; the rest are folded
+Table = tuple[list[str], list[list[str]]]
+
+
+def effects_table(report: dict) -> Table:
+    """One row per accepted effect: its name, the physical statement with intervals, what it brings beside the
+    others, its rig-file line."""
+    rows = []
+    for effect in narrative.accepted_effects(report):
+        step = effect.step or {}
+        brings = (
+            f"{percent(step['reduction_over_others'])} (at least {percent(step.get('evidence_over_others'))})"
+            if step.get("reduction_over_others") is not None
+            else ""
+        )
+        rows.append(
+            [effect.name, narrative.effect_statement(effect, with_intervals=True), brings, narrative.rig_line(effect)]
+        )
+    return ["effect", "what it is (95 % interval)", "gap it removes beside the others", "rig file line"], rows
+
+
+def steps_table(report: dict) -> Table:
+    """One row per accepted step: the held-out gap and the reductions over nominal, the step before, the others."""
+    rows = [
+        [
+            str(i),
+            step["effect"],
+            number(step["heldout_gap"]),
+            percent(step["heldout_reduction"], 1),
+            percent(step.get("reduction_over_previous"), 1),
+            f"{percent(step.get('reduction_over_others'), 1)} [{percent(step.get('evidence_over_others'), 1)}]",
+        ]
+        for i, step in enumerate(report.get("steps", []), 1)
+    ]
+    header = [
+        "step",
+        "effect",
+        "held-out gap [counts]",
+        "less than nominal",
+        "less than the step before",
+        "brings beside the others [5 % bound]",
+    ]
+    return header, rows
+
+
+RANKING_HEADER = [
+    "step",
+    "effect added",
+    "its parameters: value [95 % interval]",
+    "held-out gap [counts]",
+    "less than nominal",
+    "less than the step before [5 % bound]",
+]
+
+
+def ranking_tables(report: dict) -> tuple[Table, Table, list[str]]:
+    """(the best ``TOP_PER_STEP`` candidates of each step, the others, the failed ones as "effect: reason")."""
+    shown, folded = [], []
+    for entry in (e for e in report.get("ranking", []) if e.get("status", "ok") == "ok"):
+        same_step = sum(e.get("step", 1) == entry.get("step", 1) for e in shown)
+        (shown if same_step < TOP_PER_STEP else folded).append(entry)
+    failed = [f"{e['effect']}: {e.get('reason', '')}" for e in report.get("ranking", []) if e.get("status") == "failed"]
+    rows = [_ranking_row(e) for e in shown], [_ranking_row(e) for e in folded]
+    return (RANKING_HEADER, rows[0]), (RANKING_HEADER, rows[1]), failed
+
+
+def _ranking_row(entry: dict) -> list[str]:
+    """A candidate as the effect its step added, that effect's parameters with units, and its reductions."""
+    added = entry["effect"].split("+")[-1]
+    prefix = f"{added}." if "+" in entry["effect"] else ""
+    intervals = entry.get("params_ci", {})
+    params = [
+        f"{key[len(prefix) :]} = " + (value if isinstance(value, str) else _param(key, value, intervals.get(key)))
+        for key, value in entry["params"].items()
+        if key.startswith(prefix)
+    ]
+    over_previous = entry.get("reduction_over_previous", entry["heldout_reduction"])
+    bound = entry.get("evidence_over_previous", entry.get("evidence"))
+    return [
+        str(entry.get("step", 1)),
+        added,
+        "; ".join(params),
+        number(entry["heldout_gap"]),
+        percent(entry["heldout_reduction"], 1),
+        f"{percent(over_previous, 1)} [{percent(bound, 1)}]",
+    ]
+
+
+def _param(key: str, value, interval) -> str:
+    unit = UNITS.get(key.split(".")[-1], "")
+    return quantity(value, unit, digits=3) + (f" [{interval_text(interval, unit)}]" if interval else "")
+
+
+def windows_table(localization: dict) -> Table:
+    """The worst time windows of the rig file's model, worst first."""
+    rows = [
+        [w["log"], seconds_range(w["start"], w["end"]), percent(w.get("share_of_gap"), 1), w["why"]]
+        for w in localization.get("windows", [])
+    ]
+    return ["log", "time", "share of the gap", "why"], rows
+
+
+def rule_table() -> Table:
+    """The acceptance rule's constants (imported from the selection's code) and what each decides."""
+    rows = [[t.name, f"{t.value} counts" if t.unit == "counts" else percent(t.value), t.meaning] for t in THRESHOLDS]
+    return ["constant", "value", "what it decides"], rows
+
+
+def unmodelled_table(fit: dict) -> Table:
+    """The terms of an unmodelled-torque fit with their 95 % intervals."""
+    rows = [[t["term"], number(t["coefficient"]), interval_text(t.get("ci"))] for t in fit.get("terms", [])]
+    return ["term", "coefficient", "95 % interval"], rows
+
+
+def unmodelled_sentence(joint: str, fit: dict) -> str:
+    """What an unmodelled-torque fit says, in one sentence."""
+    closest = fit.get("closest_effect")
+    return (
+        f"On the {joint}, {fit.get('expression', '')} removes {percent(fit.get('heldout_reduction'))} of the "
+        "remaining held-out gap" + (f"; the closest effect of the vocabulary is {closest}" if closest else "") + "."
+    )
