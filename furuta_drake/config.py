@@ -2,8 +2,9 @@
 
 Two kinds of blocks meet here. ``rig`` is the *nominal* model: the LQR and the observers are designed on it
 (paper Eq. 1-2 come from its linearization) and the MultibodyPlant is built from it. ``friction``,
-``actuator``, ``disturbance`` and ``encoder`` describe what the simulated world adds to that model: friction
-on the joints, actuator imperfections, a cable spring or cogging, and the encoder that measures the angles.
+``actuator``, ``disturbance``, ``unmodelled_torque`` and ``encoder`` describe what the simulated world adds to
+that model: friction on the joints, actuator imperfections, a cable spring or cogging, torques beyond the effect
+vocabulary (expressions of the state, :mod:`furuta_drake.unmodelled`), and the encoder that measures the angles.
 A fitted diagnosis writes exactly these sections, so ``furuta-drake simulate --config fitted_model.yaml``
 runs the corrected model.
 
@@ -31,6 +32,7 @@ from furuta_drake.observers.filtered_derivative import FilteredDerivativeParamet
 from furuta_drake.observers.hg import HighGainParameters
 from furuta_drake.observers.vfe import VfeParameters
 from furuta_drake.rig import RIGS, RigParameters
+from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, load_yaml_dataclass
 
 VelocitySource = Literal["true", "derivative", "hg", "vfe", "kinematic_hg", "filtered_derivative"]
@@ -209,6 +211,7 @@ class SimulationConfig:
     friction: FrictionParameters = field(default_factory=FrictionParameters)
     actuator: ActuatorParameters = field(default_factory=ActuatorParameters)
     disturbance: DisturbanceParameters = field(default_factory=DisturbanceParameters)
+    unmodelled_torque: UnmodelledTorqueParameters = field(default_factory=UnmodelledTorqueParameters)
     encoder: EncoderParameters = field(default_factory=EncoderParameters)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     observers: ObserverConfig = field(default_factory=ObserverConfig)
@@ -228,9 +231,15 @@ class SimulationConfig:
                     f"{prefix}rig.{name}: in a simulate config, friction goes in the 'friction' "
                     f"section (SimulationConfig.from_rig converts a rig file)"
                 )
+        if self.rig.unmodelled_torque is not None:
+            raise ConfigError(
+                f"{prefix}rig.unmodelled_torque: in a simulate config, the torque goes in the 'unmodelled_torque' "
+                f"section (SimulationConfig.from_rig converts a rig file)"
+            )
         self.friction.validate(f"{prefix}friction")
         self.actuator.validate(f"{prefix}actuator")
         self.disturbance.validate(f"{prefix}disturbance")
+        self.unmodelled_torque.validate(f"{prefix}unmodelled_torque")
         self.encoder.validate(f"{prefix}encoder")
         self.controller.validate(f"{prefix}controller")
         self.observers.validate(f"{prefix}observers")
@@ -293,8 +302,9 @@ class SimulationConfig:
     @classmethod
     def from_rig(cls, rig: RigParameters | str, **sections) -> SimulationConfig:
         """A config for ``rig`` (a RigParameters or a shipped name: 'lund', 'qube_servo2'): the rig file's
-        nominal friction moves into the ``friction`` section, its encoder (counts and sample period) into
-        ``encoder``, its torque limit into ``controller``; ``sections`` override whole sections."""
+        nominal friction moves into the ``friction`` section, its unmodelled torque into ``unmodelled_torque``, its
+        encoder (counts and sample period) into ``encoder``, its torque limit into ``controller``; ``sections``
+        override whole sections."""
         if isinstance(rig, str):
             if rig not in RIGS:
                 raise ConfigError(f"unknown rig {rig!r}; known: {sorted(RIGS)}")
@@ -304,12 +314,18 @@ class SimulationConfig:
             pendulum=_static_friction(rig.pendulum_coulomb, rig.pendulum_viscous),
         )
         nominal_rig = dataclasses.replace(
-            rig, arm_coulomb=0.0, arm_viscous=0.0, pendulum_coulomb=0.0, pendulum_viscous=0.0
+            rig,
+            arm_coulomb=0.0,
+            arm_viscous=0.0,
+            pendulum_coulomb=0.0,
+            pendulum_viscous=0.0,
+            unmodelled_torque=None,
         )
         lqr = dataclasses.replace(LqrParameters(), torque_limit=rig.torque_limit)
         config = cls(
             rig=nominal_rig,
             friction=friction,
+            unmodelled_torque=rig.unmodelled_torque or UnmodelledTorqueParameters(),
             encoder=EncoderParameters(counts_per_rev=rig.counts_per_rev, sample_period=rig.sample_period),
             controller=ControllerConfig(lqr=lqr),
         )

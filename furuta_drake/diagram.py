@@ -71,6 +71,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         friction=config.friction,
         actuator=config.actuator,
         disturbance=config.disturbance,
+        unmodelled_torque=config.unmodelled_torque,
         control_period=period,
         with_scene_graph=meshcat is not None,
     )

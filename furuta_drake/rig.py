@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from furuta_drake.errors import ConfigError
+from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.yamlio import documented_field
 
 
@@ -177,6 +178,14 @@ class RigParameters:
         "effects the nominal model already includes: vocabulary names -> parameters (docs/diagnose.md)",
         measure="leave it out at first; a diagnosis writes fitted_rig.yaml with the effects it accepted",
     )
+    unmodelled_torque: UnmodelledTorqueParameters | None = documented_field(
+        None,
+        "torques beyond the effect vocabulary: {arm: ..., pendulum: ...}, each a numpy expression in theta, phi, "
+        "theta_dot, phi_dot (rad, rad/s, the logs' conventions) giving the torque on that joint",
+        "N m",
+        measure="leave it out at first; a diagnosis writes fitted_rig.yaml with the torque it found beyond the "
+        "vocabulary",
+    )
 
     def validate(self, where: str = "rig") -> None:
         """Raise :class:`ConfigError` naming the first non-physical value."""
@@ -199,6 +208,8 @@ class RigParameters:
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
         if self.motor is not None:
             self.motor.validate(f"{where}.motor")
+        if self.unmodelled_torque is not None:
+            self.unmodelled_torque.validate(f"{where}.unmodelled_torque")
         if self.effects:
             from furuta_drake.diagnosis.candidates import rig_effects  # the vocabulary lives with the diagnosis
 

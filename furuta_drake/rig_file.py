@@ -18,15 +18,17 @@ import numpy as np
 import yaml
 
 from furuta_drake.rig import MotorParameters, RigParameters, linearized_hanging, linearized_upright
-from furuta_drake.yamlio import field_description
+from furuta_drake.unmodelled import UnmodelledTorqueParameters
+from furuta_drake.yamlio import field_description, to_plain
 
 WIDTH = 110  # comment lines wrap here
+UNMODELLED_TORQUE_EXAMPLE = UnmodelledTorqueParameters(arm="0.002*sin(7*phi)", pendulum="-1e-4*theta_dot")
 
 
 def rig_template(rig: RigParameters, title: str) -> str:
     """YAML text of ``rig`` in which every key is preceded by comments giving its meaning and unit, whether it
     is optional, and how to measure it; it loads back to ``rig`` exactly. A rig without a motor gets the motor
-    block commented out."""
+    block commented out, and an example ``unmodelled_torque`` commented out."""
     lines = [
         f"# furuta-drake rig file: {title}.",
         "# SI units. Every key not marked optional is required. Check the constants it implies with",
@@ -36,6 +38,8 @@ def rig_template(rig: RigParameters, title: str) -> str:
     for field in dataclasses.fields(RigParameters):
         if field.name == "motor":
             lines += _motor_lines(field, rig.motor)
+        elif field.name == "unmodelled_torque" and rig.unmodelled_torque is None:
+            lines += _key_lines(field, UNMODELLED_TORQUE_EXAMPLE, indent="", comment_out=True)
         else:
             lines += _key_lines(field, getattr(rig, field.name), indent="")
     return "\n".join(lines).rstrip() + "\n"
@@ -45,7 +49,11 @@ def _key_lines(field: dataclasses.Field, value, indent: str, comment_out: bool =
     status = "required" if field.metadata.get("required") else f"optional (default {field.default})"
     lines = _comment(f"{field_description(field)}; {status}.", indent)
     lines += _comment(f"  How: {field.metadata['measure']}", indent)
-    entry = yaml.safe_dump({field.name: value}, default_flow_style=False).strip()
+    plain = to_plain(value)
+    if isinstance(plain, dict):  # a section on one line, which stays one line when commented out
+        entry = f"{field.name}: {yaml.safe_dump(plain, default_flow_style=True, sort_keys=False, width=WIDTH).strip()}"
+    else:
+        entry = yaml.safe_dump({field.name: plain}, default_flow_style=False).strip()
     lines.append(f"{indent}{'# ' if comment_out else ''}{entry}")
     return lines + [""]
 

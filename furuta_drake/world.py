@@ -9,7 +9,8 @@ replay (:mod:`furuta_drake.diagnosis.replay`) and the stability analysis (:mod:`
 build their plant this way.
 
 Sign convention (paper Eq. 3): the generalized forces on the plant are tau = [F_theta, u + F_phi] plus the arm's
-spring, cogging and back-EMF torques, each an exerted torque on its joint.
+spring, cogging and back-EMF torques and the unmodelled torques (:mod:`furuta_drake.unmodelled`), each an exerted
+torque on its joint.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters, add
 from furuta_drake.friction import FrictionParameters, JointFriction
 from furuta_drake.plant import ARM_JOINT, add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import RigParameters
+from furuta_drake.unmodelled import UnmodelledTorque, UnmodelledTorqueParameters
 
 
 @dataclass
@@ -55,11 +57,13 @@ def add_furuta_world(
     actuator: ActuatorParameters | None = None,
     disturbance: DisturbanceParameters | None = None,
     back_emf_damping: float | None = None,
+    unmodelled_torque: UnmodelledTorqueParameters | None = None,
     with_scene_graph: bool = False,
 ) -> FurutaWorld:
     """Add the continuous Furuta plant of ``rig`` with ``friction`` on its joints, the arm ``disturbance``
     (spring, cogging), the back-EMF damping torque -``back_emf_damping`` phi_dot [N m s/rad] (None: kt ke / R of
-    ``rig.motor``, 0 without one) and the ``actuator`` chain (its delays resolved to half the
+    ``rig.motor``, 0 without one), the ``unmodelled_torque`` expressions on either joint
+    (:class:`~furuta_drake.unmodelled.UnmodelledTorque`) and the ``actuator`` chain (its delays resolved to half the
     ``control_period`` [s]); absent sections add nothing. ``with_scene_graph``: a SceneGraph for visualisation.
     The friction in ``rig`` itself (``arm_coulomb`` ...) is not read: friction comes as ``friction``.
     """
@@ -97,6 +101,10 @@ def add_furuta_world(
         )
         builder.Connect(true_state, back_emf.get_input_port())
         forces.append(back_emf.get_output_port())
+    if unmodelled_torque is not None and not unmodelled_torque.is_empty:
+        unmodelled = builder.AddNamedSystem("unmodelled_torque", UnmodelledTorque(plant, unmodelled_torque))
+        builder.Connect(true_state, unmodelled.get_input_port())
+        forces.append(unmodelled.get_output_port())
     if len(forces) == 1:
         builder.Connect(forces[0], plant.get_applied_generalized_force_input_port())
     elif forces:

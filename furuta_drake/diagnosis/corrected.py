@@ -14,6 +14,7 @@ from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, describe
 from furuta_drake.diagnosis.surrogate import Model
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
+from furuta_drake.unmodelled import UnmodelledTorqueParameters
 
 
 def model_rig(model: Model, rig: RigParameters) -> RigParameters:
@@ -60,12 +61,17 @@ def model_actuator(model: Model) -> ActuatorParameters:
     )
 
 
-def model_config(rig: RigParameters, model: Model) -> SimulationConfig:
+def model_config(
+    rig: RigParameters, model: Model, unmodelled_torque: UnmodelledTorqueParameters | None = None
+) -> SimulationConfig:
     """The Drake model of ``model`` (a diagnosis model of ``rig``) as a simulate config, open loop: users add
-    their controller."""
-    config = SimulationConfig.from_rig(model_rig(model, rig).replace(motor=rig.motor, effects=None))
+    their controller. ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary."""
+    config = SimulationConfig.from_rig(
+        model_rig(model, rig).replace(motor=rig.motor, effects=None, unmodelled_torque=None)
+    )
     return dataclasses.replace(
         config,
+        unmodelled_torque=unmodelled_torque or UnmodelledTorqueParameters(),
         friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
         actuator=dataclasses.replace(model_actuator(model), delay=model.delay),
         disturbance=model_disturbance(model),
@@ -73,8 +79,14 @@ def model_config(rig: RigParameters, model: Model) -> SimulationConfig:
     )
 
 
-def fitted_rig(rig: RigParameters, effects: dict[str, Effect], nominal: Model) -> RigParameters:
-    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section."""
+def fitted_rig(
+    rig: RigParameters,
+    effects: dict[str, Effect],
+    nominal: Model,
+    unmodelled_torque: UnmodelledTorqueParameters | None = None,
+) -> RigParameters:
+    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section, and the
+    ``unmodelled_torque`` expressions (when given) replacing its own."""
     stated = dict(rig.effects or {})
     for name, effect in effects.items():
         params = describe(name, effect, nominal)
@@ -83,4 +95,6 @@ def fitted_rig(rig: RigParameters, effects: dict[str, Effect], nominal: Model) -
             for key, value in params.items()
             if key == "form" or key in CANDIDATES[name].form(effect.form).params
         }
+    if unmodelled_torque is not None:
+        rig = rig.replace(unmodelled_torque=None if unmodelled_torque.is_empty else unmodelled_torque)
     return rig.replace(effects=stated or None)

@@ -37,6 +37,8 @@ from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, choice_text, select_effects
 from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.errors import ConfigError
+from furuta_drake.yamlio import locate_in_file
 
 UNCERTAINTY = (
     "95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
@@ -125,6 +127,14 @@ def diagnose(
     settings.validate()
     rig_path = Path(rig)
     rig_params = load_rig(rig_path)
+    if rig_params.unmodelled_torque is not None:  # the surrogate's fits could not hold it: refused, not ignored
+        raise locate_in_file(
+            rig_path,
+            ConfigError(
+                "unmodelled_torque: a diagnosis cannot start from a stated torque beyond the vocabulary (its fits "
+                "would leave it out); remove the key to diagnose, keep it to simulate"
+            ),
+        )
     train_logs = load_logs(train, rig_params, rig_path, log_format)
     heldout_logs = load_logs(heldout, rig_params, rig_path, log_format) if heldout else []
     notes = [note for note in [ignored_columns_note(train_logs + heldout_logs)] if note]
@@ -136,8 +146,6 @@ def diagnose(
     names = list(candidates or CANDIDATES)
     unknown = [name for name in names if name not in CANDIDATES]
     if unknown:
-        from furuta_drake.errors import ConfigError
-
         raise ConfigError(f"unknown candidate effect {', '.join(unknown)} (the vocabulary: {', '.join(CANDIDATES)})")
     counts = rig_params.counts_per_rev
     nominal = rig_model(rig_params)

@@ -1,9 +1,9 @@
 """Held-out figures from Drake: the windows replayed through a diagram of the project's own systems.
 
 The diagram is the model's Furuta world (:func:`~furuta_drake.world.add_furuta_world`: the MultibodyPlant of
-the model's rig, its friction, spring and back-EMF torques, and its actuator chain) fed by the logged command as a
-zero-order-hold ``TrajectorySource``; a pure input delay of an open-loop replay is exactly a time shift of that
-source. Each window starts from the initial state the surrogate refined for this model, with a fresh integrator
+the model's rig, its friction, spring, back-EMF and unmodelled torques, and its actuator chain) fed by the logged
+command as a zero-order-hold ``TrajectorySource``; a pure input delay of an open-loop replay is exactly a time shift
+of that source. Each window starts from the initial state the surrogate refined for this model, with a fresh integrator
 (Drake's error-controlled RK5 at accuracy 1e-6: a gap near the sensor floor is a square root, so integration error
 that a looser accuracy leaves would show); the residuals give the same gap as
 :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
@@ -23,15 +23,24 @@ from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.surrogate import Model, lag_states, sensor_variance
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
+from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.world import add_furuta_world
 
 REPLAY_INTEGRATOR = SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3)
 
 
 class WindowReplayer:
-    """One Drake diagram for a model and a log; :meth:`replay` integrates one window from a state."""
+    """One Drake diagram for a model and a log; :meth:`replay` integrates one window from a state.
+    ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary, if it has one."""
 
-    def __init__(self, model: Model, rig: RigParameters, time: np.ndarray, command: np.ndarray):
+    def __init__(
+        self,
+        model: Model,
+        rig: RigParameters,
+        time: np.ndarray,
+        command: np.ndarray,
+        unmodelled_torque: UnmodelledTorqueParameters | None = None,
+    ):
         builder = DiagramBuilder()
         period = float(np.median(np.diff(time)))
         # The simulate world of the model: its rigid body, friction, spring and back-EMF, and its actuator but for
@@ -44,6 +53,7 @@ class WindowReplayer:
             actuator=model_actuator(model),
             back_emf_damping=model.back_emf_damping,
             disturbance=model_disturbance(model),
+            unmodelled_torque=unmodelled_torque,
         )
         self.plant, self.P, self.friction = world.plant, world.to_paper, world.friction
         breaks = np.append(time, time[-1] + period) + model.delay
