@@ -26,6 +26,7 @@ import pysindy
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
+from furuta_drake.diagnosis.candidates import apply_effects
 from furuta_drake.diagnosis.fit import _bootstrap, _columns, interval
 from furuta_drake.diagnosis.gap import (
     GapResult,
@@ -43,6 +44,8 @@ from furuta_drake.diagnosis.torque_library import JOINTS, TERMS, expression, ter
 TORQUE_WINDOWS = 200  # train windows the regression uses at the most (evenly drawn, seeded)
 FOLDS = 5  # cross-validation folds of whole windows
 THRESHOLDS = np.logspace(-4, -1, 16)  # STLSQ thresholds tried [fractions of the rig's gravity torque m g l]
+IMPLAUSIBLE_SCALE = 2.0  # an inertia_mismatch scale beyond this factor either way is a stand-in: rig files state
+# masses and lengths to a few per cent, so a lumped constant off by 2x means the fit absorbs another effect
 MAX_TERMS = 6  # terms kept at the most (the thresholds that keep more are not tried)
 STEP = 1e-3  # finite-difference torque of the sensitivities [fraction of m g l]
 
@@ -64,6 +67,17 @@ class MissingTorque:
 
     def joint_expression(self, joint: int) -> str:
         return expression([(term, c) for j, term, c in self.terms if j == joint])
+
+
+def stand_ins(result) -> list[str]:
+    """The effects of a fitted model (a :class:`~furuta_drake.diagnosis.fit.FitResult`) that may stand in for
+    something outside the vocabulary: a parameter fitted at its search bound, or an inertia scale beyond
+    ``IMPLAUSIBLE_SCALE`` either way."""
+    bounded = {label.split(".")[0] for label in result.at_bounds}
+    inertia = result.effects.get("inertia_mismatch")
+    if inertia is not None and any(not 1 / IMPLAUSIBLE_SCALE < v < IMPLAUSIBLE_SCALE for v in inertia.values):
+        bounded.add("inertia_mismatch")
+    return [name for name in result.effects if name in bounded]
 
 
 def term_scales(windows: Windows) -> np.ndarray:
@@ -228,3 +242,41 @@ def _per_window(flat: np.ndarray, windows: Windows) -> np.ndarray:
 def _ragged(parts: list[np.ndarray]) -> np.ndarray:
     rows = max(p.shape[0] for p in parts)
     return np.concatenate([np.pad(p, ((0, rows - p.shape[0]), (0, 0))) for p in parts], axis=1)
+
+
+def beyond_vocabulary(selection, nominal: Model, train, heldout, counts, bootstrap, settings):
+    """The torque beyond the effects a selection (:class:`~furuta_drake.diagnosis.stepwise.Selection`) kept, or
+    None when none passes the rule; and the notes for the report. An effect that may be a stand-in
+    (:func:`stand_ins`) is first replaced by the torque beside the other kept effects when that model passes the
+    rule against them and explains the held-out data at least as well as the model holding the stand-in (the
+    selection then keeps the others)."""
+    final, notes = selection.final, []
+    if final is None and selection.quiet:
+        return None, notes
+
+    def beside(result):
+        model = apply_effects(nominal, result.effects) if result else nominal
+        reference = result.heldout.per_window if result else selection.nominal.per_window
+        return find_missing_torque(
+            model, selection.nominal.per_window, reference, train, heldout, counts, bootstrap, settings
+        )
+
+    if final is not None and final.at_bounds:
+        notes.append(f"fitted at the end of its search range: {', '.join(final.at_bounds)}")
+    for name in stand_ins(final) if final is not None else []:
+        others = [other for other in selection.kept if other != name]
+        if any(selection.model(others[:k]) is None for k in range(1, len(others) + 1)):
+            continue
+        trial = beside(selection.model(others) if others else None)
+        if trial is not None and trial.kept and trial.heldout.gap <= final.heldout.gap:
+            selection.kept = others
+            notes.append(
+                f"{name} stood in for a torque outside the vocabulary (fitted at its range's end or at an implausible "
+                f"size): the other effects with the unmodelled torque explain the held-out data as well"
+            )
+            return trial, notes
+        notes.append(
+            f"{name} may stand in for an effect outside the vocabulary (its range's end or an implausible size)"
+        )
+    missing = beside(final)
+    return (missing if missing is not None and missing.kept else None), notes

@@ -28,6 +28,7 @@ from furuta_drake.diagnosis.gap import (
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs, load_rig
+from furuta_drake.diagnosis.missing_torque import beyond_vocabulary
 from furuta_drake.diagnosis.parallel import run_tasks
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
@@ -37,6 +38,7 @@ from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, choice_text, select_effects
 from furuta_drake.diagnosis.surrogate import Model
+from furuta_drake.diagnosis.torque_report import torque_parameters, torque_record
 from furuta_drake.errors import ConfigError
 from furuta_drake.yamlio import locate_in_file
 
@@ -152,9 +154,14 @@ def diagnose(
     train_windows, heldout_windows = make_windows(fit_logs, rig_params), make_windows(test_logs, rig_params)
     run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress)
     selection = select_effects(nominal, fit_logs, train_windows, heldout_windows, counts, names, settings, run)
+    bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
+    missing, torque_notes = beyond_vocabulary(
+        selection, nominal, train_windows, heldout_windows, counts, bootstrap, settings
+    )
+    notes += torque_notes
+    torque = torque_record(missing) if missing else {}
     final = selection.final if selection.effects else None
     accepted_model = apply_effects(nominal, final.effects) if final else nominal
-    bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
 
     limits = []
     if settings.detection_limits:
@@ -233,9 +240,12 @@ def diagnose(
         after,
         nominal_heldout.sensor_variance,
         curves,
-        fitted_config=model_config(rig_params, accepted_model),
-        fitted_rig=fitted_rig(rig_params, final.effects if final else {}, nominal),
+        fitted_config=model_config(rig_params, accepted_model, torque_parameters(torque) if torque else None),
+        fitted_rig=fitted_rig(
+            rig_params, final.effects if final else {}, nominal, torque_parameters(torque) if torque else None
+        ),
         record=record,
+        torque_scatter=missing.scatter if missing else {},
     )
     return Diagnosis(
         verdict=selection.verdict,
@@ -264,5 +274,6 @@ def diagnose(
         holdout=holdout_note,
         rule=threshold_note(settings.bootstrap, settings.seed),
         notes=notes,
+        unmodelled_torque=torque,
         artifacts=artifacts,
     )

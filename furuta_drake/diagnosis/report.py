@@ -32,6 +32,7 @@ from matplotlib.figure import Figure
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
 from furuta_drake.diagnosis.surrogate import Model, applied_torque, spring_torque
+from furuta_drake.diagnosis.torque_report import plot_torque, torque_markdown
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, to_plain
@@ -154,6 +155,8 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
         name = f"effect_{curve.effect}.png"
         plot_effect_curve(curve, directory / name)
         figures[name] = curve.title
+    for joint, entry in report.get("unmodelled_torque", {}).items():
+        plot_torque(joint, entry, artifacts.torque_scatter[joint], directory / entry["plot"])
     (directory / "config.yaml").write_text(
         yaml.safe_dump(to_plain(artifacts.record), sort_keys=False, default_flow_style=False)
     )
@@ -295,6 +298,7 @@ def report_markdown(report: dict, figures: dict[str, str]) -> str:
                 zip(consistency["verdicts"], consistency.get("effects") or [[]] * consistency["folds"]), 1
             )
         ]
+    lines += torque_markdown(report)
     lines += _localization_markdown(report["localization"])
     lines += ["", "## Figures", ""]
     for name, caption in figures.items():
