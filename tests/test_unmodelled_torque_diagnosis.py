@@ -156,3 +156,49 @@ def test_a_report_with_the_key_round_trips(cogging):
     record = torque_record(cogging[1])
     data["unmodelled_torque"] = json.loads(json.dumps(record))
     assert Diagnosis.from_json(data).to_json()["unmodelled_torque"] == data["unmodelled_torque"]
+
+
+@pytest.mark.slow
+def test_a_drake_rig_with_cogging_is_diagnosed_with_it_and_the_fitted_model_carries_it(tmp_path):
+    """Logs of a Drake world with a cogging torque -0.1 m g l sin(7 phi) on the arm (the simulate config's
+    unmodelled torque): the report gives it back, and fitted_model.yaml and fitted_rig.yaml carry the expression."""
+    import dataclasses
+
+    from furuta_drake.config import SimulationConfig
+    from furuta_drake.diagnosis.pipeline import diagnose
+    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.settings import FAST
+    from furuta_drake.diagnosis.suite import run_configs
+    from furuta_drake.results import write_log_csv
+    from furuta_drake.rig import lund_rig
+    from furuta_drake.simulate import simulate
+    from furuta_drake.unmodelled import UnmodelledTorqueParameters
+    from furuta_drake.yamlio import dump_yaml_dataclass, load_yaml_dataclass
+
+    rig = lund_rig()
+    amplitude = 0.1 * Model.from_rig(rig).d
+    (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
+    for name, seed in (("train.csv", 11), ("heldout.csv", 12)):
+        config = dataclasses.replace(
+            run_configs(rig, seed, 4.0)["hanging"],
+            unmodelled_torque=UnmodelledTorqueParameters(arm=f"{-amplitude!r}*sin(7*phi)"),
+        )
+        write_log_csv(simulate(config), tmp_path / name)
+    diagnosis = diagnose(
+        rig=tmp_path / "rig.yaml",
+        train=[tmp_path / "train.csv"],
+        heldout=[tmp_path / "heldout.csv"],
+        workers=1,
+        settings=dataclasses.replace(FAST, replay=False),
+    )
+    write_report(tmp_path / "out", diagnosis)
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    arm = report["unmodelled_torque"]["arm"]
+    lead = max(arm["terms"], key=lambda t: abs(t["coefficient"]))
+    assert lead["term"] == "sin(7*phi)"
+    assert lead["coefficient"] == pytest.approx(-amplitude, rel=0.2)
+    assert (tmp_path / "out" / arm["plot"]).stat().st_size > 0
+    fitted = load_yaml_dataclass(tmp_path / "out" / "fitted_model.yaml", SimulationConfig)
+    assert fitted.unmodelled_torque.arm == arm["expression"]
+    rig_file = load_yaml_dataclass(tmp_path / "out" / "fitted_rig.yaml", type(rig))
+    assert rig_file.unmodelled_torque.arm == arm["expression"]
