@@ -47,8 +47,9 @@ def _coulomb(level):
 
 
 def cases() -> list[dict]:
-    """Each case: name, kind (outside | control | no_state), the world's changes, and the true torques beyond
-    the vocabulary per joint (functions of the logged state) and, for a control, the listed effect's torque."""
+    """Each case: name, truth (in words), kind (outside | control | no_state), the world's changes, and the true
+    torques beyond the vocabulary per joint (functions of the logged state) and, for a control, the listed
+    effect's torque."""
     offset = 4 * 2 * math.pi / RIG.counts_per_rev
     coulomb_world, coulomb_torque = _coulomb(0.08 * MGL)
     out = []
@@ -57,6 +58,7 @@ def cases() -> list[dict]:
         out.append(
             dict(
                 name=f"cogging_{periods}",
+                truth=f"arm -0.1 mgl sin({periods} phi)",
                 kind="outside",
                 world=dict(cogging_amplitude=a, cogging_periods=periods),
                 arm=lambda th, p, td, pd, a=a, n=periods: -a * np.sin(n * p),
@@ -65,39 +67,61 @@ def cases() -> list[dict]:
     out += [
         dict(
             name="theta_encoder_offset",
+            truth="pendulum -mgl sin(4 counts) cos(theta)",
             kind="outside",
             world=dict(encoder_offset=(offset, 0.0)),
             pendulum=lambda th, p, td, pd: -MGL * math.sin(offset) * np.cos(th),
         ),
         dict(
             name="quadratic_drag",
+            truth="arm -4e-5 |phi_dot| phi_dot",
             kind="outside",
             world=dict(drag=4e-5),
             arm=lambda th, p, td, pd: -4e-5 * np.abs(pd) * pd,
         ),
         dict(
             name="tilted_base",
+            truth="arm -0.1 mgl sin(phi - 0.5)",
             kind="outside",
             world=dict(tilt_torque=0.1 * MGL, tilt_direction=0.5),
             arm=lambda th, p, td, pd: -0.1 * MGL * np.sin(p - 0.5),
         ),
         dict(
             name="angle_dependent_friction",
+            truth="arm -0.06 mgl sin(phi) tanh(phi_dot/0.01)",
             kind="outside",
             world=dict(friction_ripple=0.06 * MGL),
             arm=lambda th, p, td, pd: -0.06 * MGL * np.sin(p) * np.tanh(pd / 0.01),
         ),
-        dict(name="backlash", kind="no_state", world=dict(backlash=sim.Backlash(0.01, 0.3))),
-        dict(name="phi_encoder_offset", kind="no_state", world=dict(encoder_offset=(0.0, 0.05))),
-        dict(name="control_coulomb", kind="control", world=coulomb_world, listed=coulomb_torque),
+        dict(
+            name="backlash",
+            truth="(not a torque of the state)",
+            kind="no_state",
+            world=dict(backlash=sim.Backlash(0.01, 0.3)),
+        ),
+        dict(
+            name="phi_encoder_offset",
+            truth="none (no dynamic trace)",
+            kind="no_state",
+            world=dict(encoder_offset=(0.0, 0.05)),
+        ),
+        dict(
+            name="control_coulomb",
+            truth="none (Coulomb 0.08 mgl listed)",
+            kind="control",
+            world=coulomb_world,
+            listed=coulomb_torque,
+        ),
         dict(
             name="control_viscous",
+            truth="none (viscous 3e-4 listed)",
             kind="control",
             world=dict(arm_viscous=3e-4),
             listed=lambda th, p, td, pd: -3e-4 * pd,
         ),
         dict(
             name="control_coulomb_beside_cogging",
+            truth="arm -0.1 mgl sin(12 phi) beside Coulomb 0.08 mgl",
             kind="control",
             world={**coulomb_world, "cogging_amplitude": 0.1 * MGL, "cogging_periods": 12},
             listed=coulomb_torque,
@@ -194,22 +218,6 @@ def _pct(value) -> str:
     return "-" if value is None else f"{value:.0%}"
 
 
-TRUTH = {
-    "cogging_6": "arm -0.1 mgl sin(6 phi)",
-    "cogging_12": "arm -0.1 mgl sin(12 phi)",
-    "cogging_20": "arm -0.1 mgl sin(20 phi)",
-    "theta_encoder_offset": "pendulum -mgl sin(4 counts) cos(theta)",
-    "quadratic_drag": "arm -4e-5 |phi_dot| phi_dot",
-    "tilted_base": "arm -0.1 mgl sin(phi - 0.5)",
-    "angle_dependent_friction": "arm -0.06 mgl sin(phi) tanh(phi_dot/0.01)",
-    "backlash": "(not a torque of the state)",
-    "phi_encoder_offset": "none (no dynamic trace)",
-    "control_coulomb": "none (Coulomb 0.08 mgl listed)",
-    "control_viscous": "none (viscous listed)",
-    "control_coulomb_beside_cogging": "arm -0.1 mgl sin(12 phi) beside Coulomb",
-}
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
@@ -224,7 +232,7 @@ def main(argv=None) -> int:
         states = write_case(case, folder, args.seconds)
         report = diagnose_case(folder, args.out / "reports" / case["name"])
         row = score(case, report, states)
-        row["truth"] = TRUTH[case["name"]]
+        row["truth"] = case["truth"]
         row["seconds"] = time.perf_counter() - start
         rows.append(row)
         print(json.dumps(row), flush=True)
