@@ -32,7 +32,7 @@ from matplotlib.figure import Figure
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
 from furuta_drake.diagnosis.surrogate import Model, applied_torque, spring_torque
-from furuta_drake.diagnosis.torque_report import plot_torque, torque_markdown
+from furuta_drake.diagnosis.torque_report import plot_torque, torque_markdown, torque_sentence
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, to_plain
@@ -157,6 +157,7 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
         figures[name] = curve.title
     for joint, entry in report.get("unmodelled_torque", {}).items():
         plot_torque(joint, entry, artifacts.torque_scatter[joint], directory / entry["plot"])
+        figures[entry["plot"]] = torque_sentence(joint, entry).rstrip(".")
     (directory / "config.yaml").write_text(
         yaml.safe_dump(to_plain(artifacts.record), sort_keys=False, default_flow_style=False)
     )

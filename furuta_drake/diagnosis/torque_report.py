@@ -103,7 +103,8 @@ def _kind(term: str) -> str:
 
 
 def torque_markdown(report: dict) -> list[str]:
-    """report.md's section on the torque beyond the vocabulary (empty when none is kept)."""
+    """report.md's section on the torque beyond the vocabulary (empty when none is kept); report.html shows the
+    key among its further keys and the plots, captioned by :func:`torque_sentence`, among its figures."""
     record = report.get("unmodelled_torque")
     if not record:
         return []
@@ -119,7 +120,7 @@ def torque_markdown(report: dict) -> list[str]:
         lines += [
             f"| `{t['term']}` | {t['coefficient']:.4g} | [{t['ci'][0]:.4g}, {t['ci'][1]:.4g}] |" for t in entry["terms"]
         ]
-        lines += ["", f"![The {joint} torque beyond the vocabulary]({entry['plot']})", ""]
+        lines += ["", f"Its plot: `{entry['plot']}` (under Figures).", ""]
     return lines
 
 
