@@ -14,7 +14,10 @@ listed effect's torque RMS (target: <= 10 %). Backlash and the arm encoder offse
 compare with: their rows say what was found.
 
 Run from the repository root: ``PYTHONPATH=. python benchmarks/unmodelled_torque.py --out /tmp/ut``
-(``--only WORD ...``: the cases whose name holds a word; ``--seconds S``: log length, default 6).
+(``--only WORD ...``: the cases whose name holds a word; ``--seconds S``: log length, default 6; ``--rescore``:
+score the reports already there again, the logs simulated again from the same seeds). Where the vocabulary took
+part of an outside arm torque (drag read as viscous friction), "error with listed" adds the accepted arm
+friction's torque to the torque found.
 """
 
 from __future__ import annotations
@@ -186,28 +189,51 @@ def score(case: dict, report: dict, states: np.ndarray) -> dict:
     }
     if case["kind"] == "outside":
         row["error"] = math.sqrt(error2 / truth2)
+        listed = listed_arm_torque(report)(*x)
+        truth = case.get("arm", _zero)(*x)
+        torque = compile_torque(found["arm"]["expression"], "arm")(*x) if "arm" in found else 0.0
+        row["error_with_listed"] = math.sqrt(
+            (float(np.mean((torque + listed - truth) ** 2)) + error2 - float(np.mean((torque - truth) ** 2))) / truth2
+        )
     if case["kind"] == "control":
         row["claimed_fraction"] = math.sqrt(error2) / float(np.sqrt(np.mean(case["listed"](*x) ** 2)))
     return row
 
 
+def listed_arm_torque(report: dict):
+    """The accepted arm friction's torque (Coulomb, viscous) as a function of the state: what the vocabulary took of
+    an outside arm torque."""
+    steps = report.get("steps") or []
+    params = steps[-1]["params"] if steps else {}
+    several = len(report["effects"]) > 1
+
+    def get(effect, key):
+        return params.get(f"{effect}.{key}" if several else key, 0.0) if effect in report["effects"] else 0.0
+
+    coulomb, viscous = get("arm_coulomb_friction", "coulomb"), get("arm_viscous_friction", "viscous")
+    return lambda th, p, td, pd: -coulomb * np.tanh(np.asarray(pd) / 0.02) - viscous * np.asarray(pd)
+
+
 def table(rows: list[dict]) -> str:
     lines = [
-        "| case | kind | truth beyond the vocabulary | effects | expression found | error | claimed / listed | "
-        "held-out reduction |",
-        "|---|---|---|---|---|---:|---:|---:|",
+        "| case | kind | truth beyond the vocabulary | effects | expression found | error | error with listed | "
+        "claimed / listed | held-out reduction |",
+        "|---|---|---|---|---|---:|---:|---:|---:|",
     ]
     for r in rows:
         lines.append(
             f"| {r['case']} | {r['kind']} | {r.get('truth', '')} | {', '.join(r['effects']) or r['verdict']} | "
             f"{'; '.join(f'{j}: `{e}`' for j, e in r['found'].items()) or '-'} | "
-            f"{_pct(r.get('error'))} | {_pct(r.get('claimed_fraction'))} | {_pct(r['heldout_reduction'])} |"
+            f"{_pct(r.get('error'))} | {_pct(r.get('error_with_listed'))} | {_pct(r.get('claimed_fraction'))} | "
+            f"{_pct(r['heldout_reduction'])} |"
         )
     outside = [r for r in rows if r["kind"] == "outside"]
     controls = [r for r in rows if r["kind"] == "control"]
     if outside:
         hits = sum(r["error"] <= 0.5 for r in outside)
+        either = sum(min(r["error"], r["error_with_listed"]) <= 0.5 for r in outside)
         lines.append(f"\nOutside cases recovered within 50 %: {hits}/{len(outside)} (target >= 80 %)")
+        lines.append(f"... counting the accepted arm friction's share: {either}/{len(outside)}")
     if controls:
         ok = sum(r["claimed_fraction"] <= 0.1 for r in controls)
         lines.append(f"Controls claiming <= 10 % of the listed torque: {ok}/{len(controls)}")
@@ -223,6 +249,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--only", nargs="*", default=None)
     parser.add_argument("--seconds", type=float, default=6.0)
+    parser.add_argument("--rescore", action="store_true", help="score the reports already in --out again")
     args = parser.parse_args(argv)
     selected = [c for c in cases() if not args.only or any(w in c["name"] for w in args.only)]
     rows = []
@@ -230,7 +257,11 @@ def main(argv=None) -> int:
         start = time.perf_counter()
         folder = args.out / "cases" / case["name"]
         states = write_case(case, folder, args.seconds)
-        report = diagnose_case(folder, args.out / "reports" / case["name"])
+        report_dir = args.out / "reports" / case["name"]
+        if args.rescore:
+            report = json.loads((report_dir / "report.json").read_text())
+        else:
+            report = diagnose_case(folder, report_dir)
         row = score(case, report, states)
         row["truth"] = case["truth"]
         row["seconds"] = time.perf_counter() - start
