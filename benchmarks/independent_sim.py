@@ -249,6 +249,11 @@ class World:
     cogging_amplitude: float = 0.0  # [N m]
     cogging_periods: int = 0  # per revolution
     backlash: Backlash | None = None
+    encoder_offset: tuple[float, float] = (0.0, 0.0)  # [theta, phi] read minus true angle [rad]: zeroed off
+    drag: float = 0.0  # quadratic arm drag: -drag |phi_dot| phi_dot [N m s^2/rad^2]
+    tilt_torque: float = 0.0  # a tilted base's gravity on the arm: -tilt_torque sin(phi - tilt_direction) [N m]
+    tilt_direction: float = 0.0  # [rad]
+    friction_ripple: float = 0.0  # an arm Coulomb level varying with the angle: -ripple sin(phi) tanh(v/0.01) [N m]
 
     @property
     def true_bodies(self) -> Bodies:
@@ -445,6 +450,8 @@ class Plant:
         tau -= w.spring_linear * stretch + w.spring_cubic * stretch**3
         if w.cogging_amplitude:
             tau -= w.cogging_amplitude * math.sin(w.cogging_periods * phi)
+        tau -= w.drag * abs(phi_dot) * phi_dot + w.tilt_torque * math.sin(phi - w.tilt_direction)
+        tau -= w.friction_ripple * math.sin(phi) * math.tanh(phi_dot / 0.01)
         return tau
 
     def rhs(self, x, u: float, coulomb: float = 0.0, held: bool = False) -> list[float]:
@@ -715,7 +722,9 @@ def simulate(world: World, run: RunSpec) -> RunLog:
     velocity = VelocityFilter(h, cutoff=VELOCITY_CUTOFF)
     measured, commands, states = np.zeros((times.size, 2)), np.zeros(times.size), np.zeros((times.size, 4))
     for k in range(times.size):
-        y = encoder(x, world.encoder_counts, world.noise_std, rng)
+        y = encoder(
+            x + np.append(world.encoder_offset, np.zeros(x.size - 2)), world.encoder_counts, world.noise_std, rng
+        )
         rates = velocity.update(y)
         u = excitation[k]
         if balance:

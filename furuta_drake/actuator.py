@@ -1,5 +1,6 @@
 """What stands between the commanded arm torque and the rigid bodies: actuator imperfections, a spring or
-cogging on the arm, and a DC motor driven by voltage.
+cogging on the arm, a torque beyond the effect vocabulary (:class:`UnmodelledTorque`, an expression in the state),
+and a DC motor driven by voltage.
 
 These are the sim-to-real effects of the diagnosis vocabulary (``docs/diagnose.md``:
 ``input_delay``, ``actuator_lag``, ``actuator_deadzone``, ``torque_gain_error``, ``actuator_saturation``,
@@ -28,8 +29,10 @@ from pydrake.systems.primitives import (
     ZeroOrderHold,
 )
 
-from furuta_drake.errors import ConfigError
+from furuta_drake.errors import ConfigError, SimulationDiverged
+from furuta_drake.plant import joint_indices
 from furuta_drake.rig import MotorParameters, _require_nonnegative, _require_positive
+from furuta_drake.unmodelled import TORQUE_VARIABLES, UnmodelledTorqueParameters
 
 
 @dataclass
@@ -210,6 +213,39 @@ def add_arm_disturbance(
     for i, torque in enumerate(torques):
         builder.Connect(torque, total.get_input_port(i))
     return total.get_output_port()
+
+
+class UnmodelledTorque(LeafSystem):
+    """The torques of :class:`UnmodelledTorqueParameters` on the Furuta ``MultibodyPlant``'s joints.
+
+    Input ``true_state``: [theta, phi, theta_dot, phi_dot] [rad, rad/s] in the paper's order and signs (the
+    world's ``true_state`` port, the logs' conventions). Output ``generalized_force_Nm``: the torques in the
+    plant's velocity order, for its applied-generalised-force input. A non-finite torque raises
+    :class:`~furuta_drake.errors.SimulationDiverged` naming the key, the time and the state.
+    """
+
+    def __init__(self, plant, params: UnmodelledTorqueParameters, where: str = "unmodelled_torque"):
+        super().__init__()
+        self._where = where
+        velocity = dict(zip(("pendulum", "arm"), joint_indices(plant)))  # a revolute joint's v index is its q index
+        self._joints = [(joint, velocity[joint], f) for joint, f in params.torques(where).items()]
+        self._size = plant.num_velocities()
+        self._state = self.DeclareVectorInputPort("true_state", 4)
+        self.DeclareVectorOutputPort(
+            "generalized_force_Nm", self._size, self._calc, prerequisites_of_calc={self._state.ticket()}
+        )
+
+    def _calc(self, context, output) -> None:
+        x = self._state.Eval(context)
+        force = np.zeros(self._size)
+        for joint, index, torque in self._joints:
+            force[index] = torque.at(x)
+            if not math.isfinite(force[index]):
+                state = ", ".join(f"{name} = {value:.6g}" for name, value in zip(TORQUE_VARIABLES, x))
+                t = context.get_time()
+                cause = f"{self._where}.{joint} gave a non-finite torque ({force[index]}) at {state}"
+                raise SimulationDiverged(f"simulation diverged at t = {t:.4f} s: {cause}", t, cause)
+        output.SetFromVector(force)
 
 
 def add_dc_motor(

@@ -18,9 +18,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
 
-from furuta_drake.errors import ConfigError, SimulationDiverged
+from furuta_drake.errors import ConfigError
 
 TORQUE_VARIABLES = ("theta", "phi", "theta_dot", "phi_dot")
 FUNCTIONS = {
@@ -211,46 +210,10 @@ class UnmodelledTorqueParameters:
         return all(isinstance(e, str) and not e.strip() for e in (self.arm, self.pendulum))
 
 
-class UnmodelledTorque(LeafSystem):
-    """The torques of :class:`UnmodelledTorqueParameters` on the Furuta ``MultibodyPlant``'s joints.
-
-    Input ``true_state``: [theta, phi, theta_dot, phi_dot] [rad, rad/s] in the paper's order and signs (the
-    world's ``true_state`` port, the logs' conventions). Output ``generalized_force_Nm``: the torques in the
-    plant's velocity order, for its applied-generalised-force input. A non-finite torque raises
-    :class:`~furuta_drake.errors.SimulationDiverged` naming the key, the time and the state.
-    """
-
-    def __init__(self, plant, params: UnmodelledTorqueParameters, where: str = "unmodelled_torque"):
-        from furuta_drake.plant import joint_indices  # the plant module imports the rig, which holds these params
-
-        super().__init__()
-        self._where = where
-        velocity = dict(zip(("pendulum", "arm"), joint_indices(plant)))  # a revolute joint's v index is its q index
-        self._joints = [(joint, velocity[joint], f) for joint, f in params.torques(where).items()]
-        self._size = plant.num_velocities()
-        self._state = self.DeclareVectorInputPort("true_state", 4)
-        self.DeclareVectorOutputPort(
-            "generalized_force_Nm", self._size, self._calc, prerequisites_of_calc={self._state.ticket()}
-        )
-
-    def _calc(self, context, output) -> None:
-        x = self._state.Eval(context)
-        force = np.zeros(self._size)
-        for joint, index, torque in self._joints:
-            force[index] = torque.at(x)
-            if not math.isfinite(force[index]):
-                state = ", ".join(f"{name} = {value:.6g}" for name, value in zip(TORQUE_VARIABLES, x))
-                t = context.get_time()
-                cause = f"{self._where}.{joint} gave a non-finite torque ({force[index]}) at {state}"
-                raise SimulationDiverged(f"simulation diverged at t = {t:.4f} s: {cause}", t, cause)
-        output.SetFromVector(force)
-
-
 __all__ = [
     "TORQUE_VARIABLES",
     "FUNCTIONS",
     "Torque",
     "compile_torque",
     "UnmodelledTorqueParameters",
-    "UnmodelledTorque",
 ]

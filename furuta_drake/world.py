@@ -22,11 +22,17 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
 from pydrake.systems.primitives import Adder, ConstantVectorSource, MatrixGain
 
-from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters, add_actuator, add_arm_disturbance
+from furuta_drake.actuator import (
+    ActuatorParameters,
+    DisturbanceParameters,
+    UnmodelledTorque,
+    add_actuator,
+    add_arm_disturbance,
+)
 from furuta_drake.friction import FrictionParameters, JointFriction
 from furuta_drake.plant import ARM_JOINT, add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import RigParameters
-from furuta_drake.unmodelled import UnmodelledTorque, UnmodelledTorqueParameters
+from furuta_drake.unmodelled import UnmodelledTorqueParameters
 
 
 @dataclass

@@ -184,16 +184,17 @@ def test_the_unmodelled_torque_is_shown_only_when_present(tmp_path):
     assert "unmodelled-torque" not in report_html(report, tmp_path, {})
     report["unmodelled_torque"] = {
         "arm": {
-            "expression": "0.004 sin(6 phi)",
-            "terms": [{"term": "sin(6 phi)", "coefficient": 0.004, "ci": [0.0035, 0.0045]}],
+            "expression": "0.004*sin(6*phi)",
+            "terms": [{"term": "sin(6*phi)", "coefficient": 0.004, "ci": [0.0035, 0.0045]}],
             "heldout_reduction": 0.7,
             "closest_effect": None,
             "plot": "unmodelled_arm.png",
         }
     }
     page, markdown = report_html(report, tmp_path, {}), report_markdown(report, {})
-    assert 'id="unmodelled-torque"' in page and "0.004 sin(6 phi) removes 70 %" in page
-    assert "## The unmodelled torque on the arm" in markdown and "| sin(6 phi) | 0.004 |" in markdown
+    sentence = "An arm torque of about 4 mN m varying as sin(6*phi): a position-periodic torque"
+    assert 'id="unmodelled-torque"' in page and sentence in page and "gap by 70 %" in page
+    assert "## The unmodelled torque on the arm" in markdown and "| sin(6*phi) | 0.004 |" in markdown
 
 
 def test_rig_lines_hold_the_form_and_its_own_parameters_only():

@@ -11,10 +11,11 @@ from hypothesis import strategies as st
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from furuta_drake.actuator import UnmodelledTorque
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import lund_rig, qube_servo2_rig
-from furuta_drake.unmodelled import UnmodelledTorque, UnmodelledTorqueParameters, compile_torque
+from furuta_drake.unmodelled import UnmodelledTorqueParameters, compile_torque
 from furuta_drake.world import add_furuta_world
 
 angles = st.floats(-10.0, 10.0)

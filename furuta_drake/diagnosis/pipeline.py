@@ -26,6 +26,7 @@ from furuta_drake.diagnosis.gap import (
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs
+from furuta_drake.diagnosis.missing_torque import beyond_vocabulary
 from furuta_drake.diagnosis.parallel import run_tasks
 from furuta_drake.diagnosis.per_log import heldout_rms_per_log
 from furuta_drake.diagnosis.record_text import choice_text, confusable_why, consistency_judgement, rule_text
@@ -36,6 +37,7 @@ from furuta_drake.diagnosis.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, select_effects
+from furuta_drake.diagnosis.torque_report import torque_parameters, torque_record
 from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
@@ -155,9 +157,14 @@ def diagnose(
     train_windows, heldout_windows = make_windows(fit_logs, rig_params), make_windows(test_logs, rig_params)
     run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress)
     selection = select_effects(nominal, fit_logs, train_windows, heldout_windows, counts, names, settings, run)
+    bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
+    missing, torque_notes = beyond_vocabulary(
+        selection, nominal, train_windows, heldout_windows, counts, bootstrap, settings
+    )
+    notes += torque_notes
+    torque = torque_record(missing) if missing else {}
     final = selection.final if selection.effects else None
     accepted_model = apply_effects(nominal, final.effects) if final else nominal
-    bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
 
     limits = []
     if settings.detection_limits:
@@ -239,9 +246,12 @@ def diagnose(
         after,
         nominal_heldout.sensor_variance,
         curves,
-        fitted_config=model_config(rig_params, accepted_model),
-        fitted_rig=fitted_rig(rig_params, final.effects if final else {}, nominal),
+        fitted_config=model_config(rig_params, accepted_model, torque_parameters(torque) if torque else None),
+        fitted_rig=fitted_rig(
+            rig_params, final.effects if final else {}, nominal, torque_parameters(torque) if torque else None
+        ),
         record=record,
+        torque_scatter=missing.scatter if missing else {},
     )
     return Diagnosis(
         verdict=selection.verdict,
@@ -271,5 +281,6 @@ def diagnose(
         holdout=holdout_note,
         rule=rule_text(settings.bootstrap, settings.seed, settings.max_effects),
         notes=notes,
+        unmodelled_torque=torque,
         artifacts=artifacts,
     )

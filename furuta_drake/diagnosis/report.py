@@ -35,6 +35,7 @@ from furuta_drake.diagnosis.formatting import number, percent
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
 from furuta_drake.diagnosis.report_charts import chart_svgs, svg, windows_chart
+from furuta_drake.diagnosis.torque_report import plot_torque, torque_sentence
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects.surrogate import Model, applied_torque, spring_torque
 from furuta_drake.effects.vocabulary import UNITS, apply_effects, effect_from_params, rig_model
@@ -169,6 +170,9 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
         name = f"effect_{curve.effect}.png"
         plot_effect_curve(curve, directory / name)
         figures[name] = curve.title
+    for joint, entry in report.get("unmodelled_torque", {}).items():
+        plot_torque(joint, entry, artifacts.torque_scatter[joint], directory / entry["plot"])
+        figures[entry["plot"]] = torque_sentence(joint, entry).rstrip(".")
     (directory / "config.yaml").write_text(
         yaml.safe_dump(to_plain(artifacts.record), sort_keys=False, default_flow_style=False)
     )

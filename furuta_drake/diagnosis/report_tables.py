@@ -7,6 +7,7 @@ from __future__ import annotations
 from furuta_drake.diagnosis import narrative
 from furuta_drake.diagnosis.formatting import interval_text, number, percent, quantity, seconds_range
 from furuta_drake.diagnosis.rule import THRESHOLDS
+from furuta_drake.diagnosis.torque_report import torque_sentence
 from furuta_drake.effects.vocabulary import UNITS
 
 TOP_PER_STEP = 3  # ranking entries shown per step; the rest are folded
@@ -124,9 +125,9 @@ def unmodelled_table(fit: dict) -> Table:
 
 
 def unmodelled_sentence(joint: str, fit: dict) -> str:
-    """What an unmodelled-torque fit says, in one sentence."""
-    closest = fit.get("closest_effect")
+    """What an unmodelled-torque fit says: its size, leading term and kind (:func:`torque_sentence`), and how far
+    the final model with it reduces the nominal held-out gap."""
     return (
-        f"On the {joint}, {fit.get('expression', '')} removes {percent(fit.get('heldout_reduction'))} of the "
-        "remaining held-out gap" + (f"; the closest effect of the vocabulary is {closest}" if closest else "") + "."
+        f"{torque_sentence(joint, fit)} With it the final model reduces the nominal held-out gap by "
+        f"{percent(fit.get('heldout_reduction'))}."
     )

@@ -109,6 +109,7 @@ class Diagnosis:
     holdout: str = ""  # how the held-out data were chosen
     rule: str = ""  # the acceptance rule
     notes: list[str] = field(default_factory=list)  # what the command tells its user (e.g. ignored columns)
+    unmodelled_torque: dict = field(default_factory=dict)  # joint -> the torque beyond the vocabulary (kept only)
     artifacts: Artifacts | None = field(default=None, repr=False, compare=False)  # not in report.json
 
     SPEC_KEYS = ("verdict", "effects", "gap", "ranking", "localization")
@@ -120,6 +121,8 @@ class Diagnosis:
             del out["consistency"]
         if not self.confusable:
             del out["confusable"]
+        if not self.unmodelled_torque:
+            del out["unmodelled_torque"]
         return {**{key: out.pop(key) for key in self.SPEC_KEYS}, **out}
 
     @classmethod
@@ -162,3 +165,4 @@ class Artifacts:
     fitted_config: Any = None  # SimulationConfig
     fitted_rig: Any = None  # RigParameters
     record: dict = field(default_factory=dict)
+    torque_scatter: dict = field(default_factory=dict)  # joint -> the unmodelled torque's plot data

@@ -56,6 +56,8 @@ class Model:
     counts_per_rev: int = 4096
     noise_std: float = 0.0  # [rad]
     rig_constants: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # the rig file's (a, b, c, d)
+    unmodelled_terms: tuple[tuple[int, int, float], ...] = ()  # (joint: 0 arm, 1 pendulum; term of
+    # torque_library.TERMS; coefficient [N m]): a torque the vocabulary does not hold
 
     @classmethod
     def from_rig(cls, rig: RigParameters) -> Model:

@@ -7,7 +7,8 @@ AutoDiffXd, which compiled code cannot); ``tests/test_surrogate_kernel.py`` pins
 there, and the rigid body to Drake's MultibodyPlant.
 
 Parameters travel as flat float arrays (:func:`pack`): ``rigid`` = [a, b, c, d, back-EMF damping, spring k,
-spring k3, spring phi_0]; one friction row per joint, laid out as the ``F_*`` indices below.
+spring k3, spring phi_0]; one friction row per joint, laid out as the ``F_*`` indices below; the unmodelled
+torque as rows [joint (0 arm, 1 pendulum), term index of :data:`~.torque_library.TERMS`, coefficient N m].
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
+from furuta_drake.effects.torque_library import term_value
 from furuta_drake.friction import JointFrictionParameters
 
 NONE, STATIC, DAHL, LUGRE = 0.0, 1.0, 2.0, 3.0  # friction row kinds
@@ -45,8 +47,9 @@ def pack_friction(p: JointFrictionParameters) -> np.ndarray:
     )
 
 
-def pack(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rigid, arm friction row, pendulum friction row) of a surrogate :class:`~.surrogate.Model`."""
+def pack(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(rigid, arm friction row, pendulum friction row, unmodelled torque rows) of a surrogate
+    :class:`~.surrogate.Model`."""
     rigid = np.array(
         [
             model.a,
@@ -59,7 +62,8 @@ def pack(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             model.spring_equilibrium,
         ]
     )
-    return rigid, pack_friction(model.arm_friction), pack_friction(model.pendulum_friction)
+    terms = np.array(model.unmodelled_terms, dtype=float).reshape(-1, 3)
+    return rigid, pack_friction(model.arm_friction), pack_friction(model.pendulum_friction), terms
 
 
 @njit(cache=True, inline="always")
@@ -114,9 +118,10 @@ def spring_torque(phi, stiffness, cubic, equilibrium):
 
 
 @njit(cache=True, inline="always")
-def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum):
+def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum, terms):
     """x' of the Furuta model (:mod:`~furuta_drake.effects.surrogate`) under the arm torque ``tau`` [N m]; a
-    joint's static friction law acts where its row is static (a bristle's torque comes in ``tau``)."""
+    joint's static friction law acts where its row is static (a bristle's torque comes in ``tau``); the unmodelled
+    torque's ``terms`` add to each joint's generalised force."""
     a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
     s, co = math.sin(theta), math.cos(theta)
     sc = s * co
@@ -129,27 +134,33 @@ def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum):
     r1 = d * s + b * sc * phi_dot * phi_dot
     if pendulum[F_KIND] == STATIC:
         r1 += static_torque(theta_dot, pendulum)
+    for j in range(terms.shape[0]):
+        value = terms[j, 2] * term_value(int(terms[j, 1]), theta, phi, theta_dot, phi_dot)
+        if terms[j, 0] == 0.0:
+            tau_phi += value
+        else:
+            r1 += value
     r2 = c * s * theta_dot * theta_dot - 2.0 * b * sc * theta_dot * phi_dot + tau_phi
     det = b * m22 - m12 * m12
     return theta_dot, phi_dot, (m22 * r1 - m12 * r2) / det, (b * r2 - m12 * r1) / det
 
 
 @njit(cache=True)
-def derivatives(x, tau, rigid, arm, pendulum):
+def derivatives(x, tau, rigid, arm, pendulum, terms):
     """:func:`derivative` of every column of ``x`` (4, W) under ``tau`` (W,)."""
     out = np.empty_like(x)
     for w in range(x.shape[1]):
         out[0, w], out[1, w], out[2, w], out[3, w] = derivative(
-            x[0, w], x[1, w], x[2, w], x[3, w], tau[w], rigid, arm, pendulum
+            x[0, w], x[1, w], x[2, w], x[3, w], tau[w], rigid, arm, pendulum, terms
         )
     return out
 
 
 @njit(cache=True, inline="always")
-def _stage(x0, x1, x2, x3, phi_start, z, tau, bristles, rigid, arm, pendulum):
+def _stage(x0, x1, x2, x3, phi_start, z, tau, bristles, rigid, arm, pendulum, terms):
     if bristles:
         tau = tau + bristle_torque(bristle_step(z, x1 - phi_start, x3, arm), x3, arm)
-    return derivative(x0, x1, x2, x3, tau, rigid, arm, pendulum)
+    return derivative(x0, x1, x2, x3, tau, rigid, arm, pendulum, terms)
 
 
 @njit(cache=True, inline="always")
@@ -161,7 +172,7 @@ def _values(row, n):
 
 
 @njit(cache=True)
-def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum):
+def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
     """RK4 of every window from ``x0`` (4, W) and the arm's bristle ``z0`` (W,) under ``torque`` (steps, W)
     [N m] held over each substep of ``dt`` [s]. At every stage the bristle (a Dahl or LuGre arm) is its exact
     step from the substep's start over the stage's arm displacement (:func:`bristle_step`), so the stiff bristle
@@ -180,15 +191,15 @@ def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum):
         row, substep = 0, 0
         for i in range(steps):
             tau = columns[w, i]
-            a0, a1, a2, a3 = _stage(t, p, td, pd, p, z, tau, bristles, rigid, arm, pendulum)
+            a0, a1, a2, a3 = _stage(t, p, td, pd, p, z, tau, bristles, rigid, arm, pendulum, terms)
             b0, b1, b2, b3 = _stage(
-                t + h * a0, p + h * a1, td + h * a2, pd + h * a3, p, z, tau, bristles, rigid, arm, pendulum
+                t + h * a0, p + h * a1, td + h * a2, pd + h * a3, p, z, tau, bristles, rigid, arm, pendulum, terms
             )
             c0, c1, c2, c3 = _stage(
-                t + h * b0, p + h * b1, td + h * b2, pd + h * b3, p, z, tau, bristles, rigid, arm, pendulum
+                t + h * b0, p + h * b1, td + h * b2, pd + h * b3, p, z, tau, bristles, rigid, arm, pendulum, terms
             )
             d0, d1, d2, d3 = _stage(
-                t + dt * c0, p + dt * c1, td + dt * c2, pd + dt * c3, p, z, tau, bristles, rigid, arm, pendulum
+                t + dt * c0, p + dt * c1, td + dt * c2, pd + dt * c3, p, z, tau, bristles, rigid, arm, pendulum, terms
             )
             sixth = dt / 6.0
             p_next = p + sixth * (a1 + 2.0 * b1 + 2.0 * c1 + d1)

@@ -1,0 +1,121 @@
+"""The unmodelled torque in the report: the ``report.json`` entry, its words for report.md, its plot, and the
+expressions ``fitted_model.yaml`` and ``fitted_rig.yaml`` carry (:mod:`~furuta_drake.diagnosis.missing_torque`
+finds it)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from furuta_drake.diagnosis.missing_torque import MissingTorque
+from furuta_drake.effects.torque_library import JOINTS, TERMS, TORQUE_VARIABLES, carrier, term_values
+from furuta_drake.unmodelled import UnmodelledTorqueParameters
+
+CLOSE = 0.8  # R^2 of the torque on an effect's torque shapes above which that effect is named the closest
+# The torque shapes of the vocabulary's state-dependent effects on each joint, as library terms (a spring's
+# -k (phi - phi_0) spans phi and a constant; phi is sin(phi) on the arm's range).
+EFFECT_SHAPES = {
+    "arm": {
+        "arm_coulomb_friction": ("tanh(phi_dot/0.02)",),
+        "arm_viscous_friction": ("phi_dot",),
+        "arm_spring": ("sin(1*phi)", "1"),
+    },
+    "pendulum": {"pendulum_friction": ("tanh(theta_dot/0.02)", "theta_dot")},
+}
+
+
+def plot_name(joint: str) -> str:
+    return f"unmodelled_torque_{joint}.png"
+
+
+def closest_effect(joint: str, torque: np.ndarray, values: np.ndarray) -> str | None:
+    """The vocabulary effect whose torque shapes (``EFFECT_SHAPES``) fit the torque along the data best, when their
+    least squares explains more than ``CLOSE`` of its mean square; else None. ``values``: the library's terms at
+    the data's states (:func:`~.torque_library.term_values`)."""
+    best, best_share = None, CLOSE
+    total = float(np.sum(torque**2))
+    for effect, shapes in EFFECT_SHAPES[joint].items():
+        basis = np.stack([values[TERMS.index(shape)] for shape in shapes], axis=1)
+        fitted = basis @ np.linalg.lstsq(basis, torque, rcond=None)[0]
+        share = 1.0 - float(np.sum((torque - fitted) ** 2)) / max(total, 1e-300)
+        if share > best_share:
+            best, best_share = effect, share
+    return best
+
+
+def torque_record(missing: MissingTorque) -> dict:
+    """The ``report.json`` value of ``unmodelled_torque``: per joint with a torque its expression [N m], terms with
+    coefficients and 95 % intervals, the held-out reduction of the nominal gap by the final model with the torque,
+    the closest vocabulary effect and the plot's file name."""
+    out = {}
+    for j, joint in enumerate(JOINTS):
+        rows = [(term, c, ci) for (k, term, c), ci in zip(missing.terms, missing.intervals) if k == j]
+        if not rows:
+            continue
+        scatter = missing.scatter[joint]
+        values = term_values(*scatter["state"])
+        out[joint] = {
+            "expression": missing.joint_expression(j),
+            "terms": [{"term": TERMS[t], "coefficient": c, "ci": list(ci)} for t, c, ci in rows],
+            "heldout_reduction": missing.over_nominal.reduction,
+            "closest_effect": closest_effect(joint, scatter["fitted"], values),
+            "plot": plot_name(joint),
+        }
+    return out
+
+
+def torque_parameters(record: dict) -> UnmodelledTorqueParameters:
+    """The expressions of a ``report.json`` ``unmodelled_torque`` value, for the fitted config and rig file."""
+    return UnmodelledTorqueParameters(**{joint: entry["expression"] for joint, entry in record.items()})
+
+
+def _leading(entry: dict) -> dict:
+    return max(entry["terms"], key=lambda t: abs(t["coefficient"]))
+
+
+def torque_sentence(joint: str, entry: dict) -> str:
+    """One plain sentence: the torque's size, its leading term and what it looks like."""
+    lead = _leading(entry)
+    kind = _kind(lead["term"])
+    size = max(abs(t["coefficient"]) for t in entry["terms"])
+    article = "An" if joint[0] in "aeiou" else "A"
+    text = f"{article} {joint} torque of about {size * 1e3:.2g} mN m varying as {lead['term']}"
+    text += f": {kind}" if kind else ""
+    if entry["closest_effect"]:
+        text += f"; its shape is closest to {entry['closest_effect']}"
+    return text + f" (expression `{entry['expression']}` N m)."
+
+
+def _kind(term: str) -> str:
+    if term == "1":
+        return "a constant torque, as a tilted base or an angle zeroed off the upright gives"
+    if term.startswith(("sin(", "cos(")) and "phi)" in term and "_dot" not in term:
+        return "a position-periodic torque, as cogging, a cable or a tilted base gives"
+    if "abs(" in term:
+        return "a torque growing with the square of the speed, as air drag gives"
+    if "_dot" in term and "(phi)" in term.split("*")[-1]:
+        return "a friction that varies with the arm angle"
+    if "theta)" in term:
+        return "a torque of the pendulum angle, as an angle offset gives"
+    return ""
+
+
+def plot_torque(joint: str, entry: dict, scatter: dict, path: Path) -> None:
+    """The torque against the variable that carries its leading term: each train window's own estimate of a
+    constant torque (the data's scatter) behind the fitted torque at the same states."""
+    variable = carrier(_leading(entry)["term"])
+    x = scatter["state"][TORQUE_VARIABLES.index(variable)]
+    order = np.argsort(x)
+    fig = Figure(figsize=(6, 4))
+    ax = fig.subplots()
+    ax.scatter(x, scatter["estimate"] * 1e3, s=8, color="0.6", label="per-window estimate")
+    ax.plot(x[order], scatter["fitted"][order] * 1e3, ".-", color="tab:red", lw=1, ms=3, label="fitted torque")
+    ax.set_xlabel(f"{variable} [{'rad/s' if variable.endswith('_dot') else 'rad'}]")
+    ax.set_ylabel(f"{joint} torque [mN m]")
+    ax.set_title(f"Unmodelled {joint} torque: {entry['expression']}", fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)

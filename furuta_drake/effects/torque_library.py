@@ -1,0 +1,112 @@
+"""The library of candidate terms of a torque the effect vocabulary does not hold (the "unmodelled torque").
+
+Each term is a function of the state alone, in the log conventions of ``docs/diagnose.md`` (``theta`` the pendulum
+angle, 0 upright; ``phi`` the arm angle [rad]; their rates [rad/s]), written as a numpy expression in the names
+``TORQUE_VARIABLES`` so that anyone can evaluate it. The same library serves both joints (``JOINTS``); a torque
+is a sum of coefficients [N m] times terms:
+
+- ``1``: a constant (a tilted base on the arm, an encoder zeroed off the upright on the pendulum);
+- ``sin(k*phi)``, ``cos(k*phi)``, k = 1 .. ``HARMONICS``: position-periodic torques (cogging, a cable, a base tilt);
+- ``sin(theta)``, ``cos(theta)``: a pendulum angle offset or a gravity error;
+- per joint rate v: ``tanh(v/0.02)`` (the sign, smoothed as the vocabulary's friction laws), ``v``, ``abs(v)*v``
+  (quadratic drag), ``tanh(v/1.0)`` (a friction that saturates at 1 rad/s);
+- each of these rate terms times ``sin(phi)`` or ``cos(phi)``: a friction that varies with the arm angle.
+
+The command is not a term: a torque proportional to it is the vocabulary's torque gain error, and the expression
+of ``report.json`` holds the state alone so that a simulation adds it beside any controller.
+:func:`term_value` is the same library compiled for the surrogate's kernel; a test pins it to the expressions.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+TORQUE_VARIABLES = ("theta", "phi", "theta_dot", "phi_dot")
+JOINTS = ("arm", "pendulum")  # the generalised force on phi, on theta
+HARMONICS = 24
+SIGN_VELOCITY = 0.02  # [rad/s] the smoothed sign, as REGULARIZATION_VELOCITY of the diagnosis models
+SATURATION_VELOCITY = 1.0  # [rad/s] the rate at which the tanh term saturates
+ALLOWED_FUNCTIONS = ("sin", "cos", "tan", "tanh", "exp", "log", "abs", "sign", "sqrt", "pi")
+
+_RATE_TERMS = ("tanh({v}/0.02)", "{v}", "abs({v})*{v}", "tanh({v}/1.0)")
+_RATES = ("phi_dot", "theta_dot")
+
+
+def _terms() -> tuple[str, ...]:
+    rates = [form.format(v=v) for v in _RATES for form in _RATE_TERMS]
+    return (
+        ("1",)
+        + tuple(f"sin({k}*phi)" for k in range(1, HARMONICS + 1))
+        + tuple(f"cos({k}*phi)" for k in range(1, HARMONICS + 1))
+        + ("sin(theta)", "cos(theta)")
+        + tuple(rates)
+        + tuple(f"{rate}*{f}(phi)" for rate in rates for f in ("sin", "cos"))
+    )
+
+
+TERMS = _terms()
+_FIRST_RATE = 1 + 2 * HARMONICS + 2  # index of the first rate term
+_FIRST_PRODUCT = _FIRST_RATE + len(_RATE_TERMS) * len(_RATES)
+
+
+def namespace() -> dict:
+    """The names an expression may use, bound to numpy's functions."""
+    return {name: getattr(np, name) for name in ALLOWED_FUNCTIONS}
+
+
+def term_values(theta, phi, theta_dot, phi_dot) -> np.ndarray:
+    """Every term at the given states: (len(TERMS), *shape)."""
+    state = dict(zip(TORQUE_VARIABLES, np.broadcast_arrays(*map(np.asarray, (theta, phi, theta_dot, phi_dot)))))
+    names = {**namespace(), **state}
+    shape = state["phi"].shape
+    return np.stack([np.broadcast_to(eval(term, {"__builtins__": {}}, names), shape) for term in TERMS])
+
+
+def expression(terms: list[tuple[int, float]]) -> str:
+    """The numpy expression of a torque: (term index, coefficient [N m]) pairs summed."""
+    parts = [f"{c:+.6g}" if TERMS[i] == "1" else f"{c:+.6g}*{TERMS[i]}" for i, c in terms]
+    return " ".join(parts).lstrip("+") if parts else "0"
+
+
+def carrier(term: str) -> str:
+    """The variable a term varies with most directly: the plot's abscissa (the first state name in it)."""
+    found = [(term.find(name), name) for name in ("phi_dot", "theta_dot", "phi", "theta") if name in term]
+    if not found:
+        return "phi"
+    position = min(p for p, _ in found)
+    return max((name for p, name in found if p == position), key=len)
+
+
+@njit(cache=True, inline="always")
+def _rate_term(form, v):
+    if form == 0:
+        return math.tanh(v / SIGN_VELOCITY)
+    if form == 1:
+        return v
+    if form == 2:
+        return abs(v) * v
+    return math.tanh(v / SATURATION_VELOCITY)
+
+
+@njit(cache=True)
+def term_value(index, theta, phi, theta_dot, phi_dot):
+    """Term ``index`` of :data:`TERMS` at one state (the kernel's copy of the expressions)."""
+    if index == 0:
+        return 1.0
+    if index <= HARMONICS:
+        return math.sin(index * phi)
+    if index <= 2 * HARMONICS:
+        return math.cos((index - HARMONICS) * phi)
+    if index == 2 * HARMONICS + 1:
+        return math.sin(theta)
+    if index == 2 * HARMONICS + 2:
+        return math.cos(theta)
+    rate = (index - _FIRST_RATE) if index < _FIRST_PRODUCT else (index - _FIRST_PRODUCT) // 2
+    v = phi_dot if rate < 4 else theta_dot
+    value = _rate_term(rate % 4, v)
+    if index < _FIRST_PRODUCT:
+        return value
+    return value * (math.sin(phi) if (index - _FIRST_PRODUCT) % 2 == 0 else math.cos(phi))
