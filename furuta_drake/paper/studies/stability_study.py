@@ -27,6 +27,8 @@ K_GRID = np.geomspace(0.25, 4.0, 61)
 SIGMA0_FACTORS = np.geomspace(0.25, 4.0, 25)  # true sigma0 / the observer's
 GAINS_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0)  # the VFE eigenvalues of the observer-gain map, times the default
 GAINS_HG_EPS = (0.002, 0.005, 0.01, 0.02)  # [s] the HG eps of the observer-gain map
+PAPER_BASIN = "HG + Dahl, K_sigma = 1 (paper)"  # the nonlinear loops of the basins
+ADAPTIVE_BASIN = "VFE + Dahl + K_sigma adaptation"
 
 
 def _with_true_sigma0(config, factor: float):
@@ -83,10 +85,6 @@ class _Basins:
             else float(np.max(np.abs(self.thetas[at_rest]))),
             int(basin[self.inside].sum()),
         )
-
-
-PAPER_BASIN = "HG + Dahl, K_sigma = 1 (paper)"
-ADAPTIVE_BASIN = "VFE + Dahl + K_sigma adaptation"
 
 
 def study(seed: int = 0, small: bool = False) -> Study:
