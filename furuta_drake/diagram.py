@@ -210,82 +210,109 @@ def add_observers(
     ``command`` [N m]: those of ``observers.run`` and the controller's velocity source, with the Dahl observer
     whose F_hat a compensating controller subtracts (Sec. IV-A: on the arm velocity of the observer it uses).
     The reference diagram (iv) reads the true velocities from ``true_state``."""
-    period, controller = config.control_period, config.controller
+    controller = config.controller
     source = controller.velocity_source if controller.mode != "open_loop" else None
     compensate = source is not None and controller.friction_compensation
     needed = set(config.observers.run) | ({source} & {"hg", "vfe"})
-    A_model, B_F = linearized_upright(config.rig)
+    model = linearized_upright(config.rig)
     out, linear = Observers(), []
     if "hg" in needed:
-        hg = builder.AddNamedSystem("hg_observer", HighGainObserver((A_model, B_F), config.observers.hg, period=period))
-        builder.Connect(measured, hg.GetInputPort("measured_angles_rad"))
-        builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
-        out.estimates["hg"] = hg.GetOutputPort("state_estimate")
-        linear.append(hg)
-        if compensate and source == "hg":
-            # Adaptation reads the VFE's eps_hat_F: on the HG estimate the Dahl observer runs without it.
-            hg_dahl, _ = add_dahl_observer(
-                builder,
-                dataclasses.replace(config.observers.dahl, adaptation=None),
-                out.estimates["hg"],
-                measured,
-                "hg",
-                period=period,
-            )
-            out.compensation = hg_dahl.GetOutputPort("friction_estimate_Nm")
+        linear.append(_add_hg(builder, config, model, measured, command, out, compensate and source == "hg"))
     if "vfe" in needed:
-        nested = add_vfe_with_dahl(
-            builder,
-            (A_model, B_F),
-            config.observers.vfe,
-            config.observers.dahl,
-            measured,
-            command,
-            config.observers.pendulum_friction,
-            period=period,
-        )
-        vfe, dahl, adapter = nested.vfe, nested.dahl, nested.adapter
-        out.estimates["vfe"] = vfe.GetOutputPort("state_estimate")
-        linear.append(vfe)
-        adaptation = config.observers.dahl.adaptation
-        if adaptation is not None and adaptation.parameters is not None:
-            out.signals["dahl_parameters"] = adapter.GetOutputPort("dahl_parameters")
-        out.signals["friction_estimate"] = dahl.GetOutputPort("friction_estimate_Nm")
-        out.signals["friction_error_estimate"] = vfe.GetOutputPort("friction_error_estimate_Nm")
-        if adaptation is not None and adaptation.k_sigma is not None:
-            out.signals["K_sigma"] = adapter.GetOutputPort("K_sigma_branches")
-        if compensate and source in ("vfe", "kinematic_hg"):
-            out.compensation = dahl.GetOutputPort("friction_estimate_Nm")
-    if source == "derivative":
-        derivative = builder.AddNamedSystem("angle_derivative", DiscreteDerivative(2, period))
-        builder.Connect(measured, derivative.get_input_port())
-        out.estimates["derivative"] = _angles_and(builder, "angles_and_rates", measured, derivative.get_output_port())
-    if source == "true":
-        velocities = builder.AddNamedSystem("true_velocities", MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
-        builder.Connect(true_state, velocities.get_input_port())
-        out.estimates["true"] = _angles_and(
-            builder, "angles_and_true_velocities", measured, velocities.get_output_port()
-        )
-    if source == "filtered_derivative":
-        filtered = builder.AddNamedSystem(
-            "filtered_derivative", FilteredDerivative(config.observers.filtered_derivative, period=period)
-        )
-        builder.Connect(measured, filtered.GetInputPort("measured_angles_rad"))
-        out.estimates["filtered_derivative"] = filtered.GetOutputPort("state_estimate")
+        compensate_vfe = compensate and source in ("vfe", "kinematic_hg")
+        linear.append(_add_nested_vfe(builder, config, model, measured, command, out, compensate_vfe))
+    if source in ("derivative", "true", "filtered_derivative"):
+        out.estimates[source] = _add_angle_rates(builder, config, source, true_state, measured)
     if source == "kinematic_hg":
-        # The swing-up's velocities: the high-gain structure on the gravity-free kinematic model.
-        eps = controller.swingup.velocity_eps
-        kinematic = builder.AddNamedSystem(
-            "kinematic_hg_observer",
-            HighGainObserver(kinematic_model(), HighGainParameters(eps_theta=eps, eps_phi=eps), period=period),
-        )
-        builder.Connect(measured, kinematic.GetInputPort("measured_angles_rad"))
-        builder.Connect(command, kinematic.GetInputPort("arm_torque_Nm"))
+        kinematic = _add_kinematic_hg(builder, config, measured, command)
         out.estimates["kinematic_hg"] = kinematic.GetOutputPort("state_estimate")
         linear.append(kinematic)
     if config.observers.start_at_initial_state:
         start_at(linear, config.initial_state)
     return out
+
+
+def _add_hg(builder, config, model, measured, command, out: Observers, compensate: bool) -> LeafSystem:
+    """The paper's HG observer (Eq. 4) on the upright ``model`` (A, B_F), its estimate into ``out``; with
+    ``compensate`` a Dahl observer (Eq. 8) on its arm velocity gives ``out.compensation``."""
+    period = config.control_period
+    hg = builder.AddNamedSystem("hg_observer", HighGainObserver(model, config.observers.hg, period=period))
+    builder.Connect(measured, hg.GetInputPort("measured_angles_rad"))
+    builder.Connect(command, hg.GetInputPort("arm_torque_Nm"))
+    out.estimates["hg"] = hg.GetOutputPort("state_estimate")
+    if compensate:
+        # Adaptation reads the VFE's eps_hat_F: on the HG estimate the Dahl observer runs without it.
+        hg_dahl, _ = add_dahl_observer(
+            builder,
+            dataclasses.replace(config.observers.dahl, adaptation=None),
+            out.estimates["hg"],
+            measured,
+            "hg",
+            period=period,
+        )
+        out.compensation = hg_dahl.GetOutputPort("friction_estimate_Nm")
+    return hg
+
+
+def _add_nested_vfe(builder, config, model, measured, command, out: Observers, compensate: bool) -> LeafSystem:
+    """The VFE observer (Eq. 11) nested with the Dahl observer (Eq. 8, 16) and its adaptation (Eq. 18); its
+    estimate and signals into ``out``; with ``compensate`` the Dahl F_hat gives ``out.compensation``."""
+    observers = config.observers
+    nested = add_vfe_with_dahl(
+        builder,
+        model,
+        observers.vfe,
+        observers.dahl,
+        measured,
+        command,
+        observers.pendulum_friction,
+        period=config.control_period,
+    )
+    vfe, dahl, adapter = nested.vfe, nested.dahl, nested.adapter
+    out.estimates["vfe"] = vfe.GetOutputPort("state_estimate")
+    adaptation = observers.dahl.adaptation
+    if adaptation is not None and adaptation.parameters is not None:
+        out.signals["dahl_parameters"] = adapter.GetOutputPort("dahl_parameters")
+    out.signals["friction_estimate"] = dahl.GetOutputPort("friction_estimate_Nm")
+    out.signals["friction_error_estimate"] = vfe.GetOutputPort("friction_error_estimate_Nm")
+    if adaptation is not None and adaptation.k_sigma is not None:
+        out.signals["K_sigma"] = adapter.GetOutputPort("K_sigma_branches")
+    if compensate:
+        out.compensation = dahl.GetOutputPort("friction_estimate_Nm")
+    return vfe
+
+
+def _add_angle_rates(builder, config, source: str, true_state: OutputPort, measured: OutputPort) -> OutputPort:
+    """The paper-order estimate of the velocity ``source`` "derivative" (backward difference), "true" (the
+    reference diagram's true velocities) or "filtered_derivative"."""
+    period = config.control_period
+    if source == "derivative":
+        derivative = builder.AddNamedSystem("angle_derivative", DiscreteDerivative(2, period))
+        builder.Connect(measured, derivative.get_input_port())
+        return _angles_and(builder, "angles_and_rates", measured, derivative.get_output_port())
+    if source == "true":
+        velocities = builder.AddNamedSystem("true_velocities", MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
+        builder.Connect(true_state, velocities.get_input_port())
+        return _angles_and(builder, "angles_and_true_velocities", measured, velocities.get_output_port())
+    filtered = builder.AddNamedSystem(
+        "filtered_derivative", FilteredDerivative(config.observers.filtered_derivative, period=period)
+    )
+    builder.Connect(measured, filtered.GetInputPort("measured_angles_rad"))
+    return filtered.GetOutputPort("state_estimate")
+
+
+def _add_kinematic_hg(builder, config, measured: OutputPort, command: OutputPort) -> LeafSystem:
+    """The swing-up's velocities: the high-gain structure (Eq. 4) on the gravity-free kinematic model."""
+    eps = config.controller.swingup.velocity_eps
+    kinematic = builder.AddNamedSystem(
+        "kinematic_hg_observer",
+        HighGainObserver(
+            kinematic_model(), HighGainParameters(eps_theta=eps, eps_phi=eps), period=config.control_period
+        ),
+    )
+    builder.Connect(measured, kinematic.GetInputPort("measured_angles_rad"))
+    builder.Connect(command, kinematic.GetInputPort("arm_torque_Nm"))
+    return kinematic
 
 
 def start_at(observers, state) -> None:

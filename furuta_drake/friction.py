@@ -235,6 +235,31 @@ class _PlantLayout:
         )
 
 
+def _friction_joints(layout: _PlantLayout, params: FrictionParameters) -> tuple:
+    """(state index of v, generalized-force index, parameters, bristle index or None) of the pendulum and the arm
+    joint (paper order), the bristles numbered in that order."""
+    joints, bristles = [], 0
+    for velocity, p in ((layout.theta_velocity, params.pendulum), (layout.phi_velocity, params.arm)):
+        joints.append((layout.num_positions + velocity, velocity, p, bristles if p.has_bristles else None))
+        bristles += p.has_bristles
+    return tuple(joints)
+
+
+def _joint_torques(joints: tuple, bounds: tuple, x: list, z: list | None) -> list:
+    """[F_theta, F_phi] [N m] (Eq. 3 order) of ``joints`` (:func:`_friction_joints`) at the plant state x and the
+    bristles z, each read through :func:`project_bristle` with its ``bounds``."""
+    return [
+        joint_friction_torque(x[state], None if k is None else project_bristle(z[k], bounds[k]), p)
+        for state, _, p, k in joints
+    ]
+
+
+def _bristle_rates(bristle_joints: tuple, bounds: tuple, x: list, z: list) -> list:
+    """dz/dt [rad/s] (Eq. 7, or LuGre's) of the bristles of ``bristle_joints`` at the plant state x and the
+    bristles z, each read through :func:`project_bristle` with its ``bounds``."""
+    return [bristle_derivative(project_bristle(z[k], bounds[k]), x[state], p) for state, _, p, k in bristle_joints]
+
+
 @TemplateSystem.define("JointFriction_", T_list=(float, AutoDiffXd))
 def JointFriction_(T):
 
@@ -259,20 +284,14 @@ def JointFriction_(T):
             LeafSystem_[T].__init__(self, converter)
             params.validate()
             self._layout, self._params = layout, params
-            nq = layout.num_positions
-            # (state index of v, generalized-force index, parameters, bristle index or None), paper order.
-            joints, bristles = [], 0
-            for velocity, p in ((layout.theta_velocity, params.pendulum), (layout.phi_velocity, params.arm)):
-                joints.append((nq + velocity, velocity, p, bristles if p.has_bristles else None))
-                bristles += p.has_bristles
-            self._bounds = tuple(p.bristle_bound for _, _, p, k in joints if k is not None)
-            self._joints = tuple(joints)
-            self._bristle_joints = tuple(j for j in joints if j[3] is not None)
+            self._joints = _friction_joints(layout, params)
+            self._bristle_joints = tuple(j for j in self._joints if j[3] is not None)
+            self._bounds = tuple(p.bristle_bound for _, _, p, _ in self._bristle_joints)
             self._dtype = float if T is float else object
-            self._state_port = self.DeclareVectorInputPort("plant_state", nq + layout.num_velocities)
+            self._state_port = self.DeclareVectorInputPort("plant_state", layout.num_positions + layout.num_velocities)
             tickets = {self._state_port.ticket()}
-            if bristles:
-                self.DeclareContinuousState(bristles)
+            if self._bristle_joints:
+                self.DeclareContinuousState(len(self._bristle_joints))
                 tickets.add(self.xc_ticket())
             self.DeclareVectorOutputPort(
                 "generalized_force_Nm",
@@ -284,14 +303,16 @@ def JointFriction_(T):
                 "friction_torque_Nm", 2, self._calc_friction_torque, prerequisites_of_calc=tickets
             )
 
-        def _torques(self, context):
-            """[F_theta, F_phi] [N m], from lists (Python floats for T = float: the laws then take math)."""
+        def _plant_state_and_bristles(self, context):
+            """The plant state and the bristles z [rad] (None without any) as lists: Python floats for T = float,
+            so that the laws take math."""
             x = self._state_port.Eval(context).tolist()
             z = context.get_continuous_state_vector().CopyToVector().tolist() if self._bristle_joints else None
-            return [
-                joint_friction_torque(x[state], None if k is None else project_bristle(z[k], self._bounds[k]), p)
-                for state, _, p, k in self._joints
-            ]
+            return x, z
+
+        def _torques(self, context):
+            """[F_theta, F_phi] [N m] (Eq. 3 order)."""
+            return _joint_torques(self._joints, self._bounds, *self._plant_state_and_bristles(context))
 
         def _calc_generalized_force(self, context, output):
             # Evaluated at every integrator stage: for floats, written through the output's array view.
@@ -308,17 +329,8 @@ def JointFriction_(T):
         def DoCalcTimeDerivatives(self, context, derivatives):
             if not self._bristle_joints:
                 return
-            x = self._state_port.Eval(context).tolist()
-            z = context.get_continuous_state_vector().CopyToVector().tolist()
-            derivatives.get_mutable_vector().SetFromVector(
-                np.array(
-                    [
-                        bristle_derivative(project_bristle(z[k], self._bounds[k]), x[state], p)
-                        for state, _, p, k in self._bristle_joints
-                    ],
-                    dtype=self._dtype,
-                )
-            )
+            rates = _bristle_rates(self._bristle_joints, self._bounds, *self._plant_state_and_bristles(context))
+            derivatives.get_mutable_vector().SetFromVector(np.array(rates, dtype=self._dtype))
 
     return Impl
 

@@ -153,27 +153,7 @@ def convert_node(node, tp, source: str, key_path: str):
             return convert_node(node, non_none[0], source, key_path)
         raise ConfigError(f"{_where(source, node, key_path)} unsupported union type {tp}")
     if dataclasses.is_dataclass(tp):
-        if not isinstance(node, yaml.MappingNode):
-            raise ConfigError(f"{_where(source, node, key_path)} expected a mapping of {tp.__name__} fields")
-        hints = typing.get_type_hints(tp)
-        fields = {f.name for f in dataclasses.fields(tp) if f.init}
-        values = {}
-        for key_node, value_node in node.value:
-            key = key_node.value
-            sub_path = f"{key_path}.{key}" if key_path else key
-            if key not in fields:
-                raise ConfigError(
-                    f"{_where(source, key_node, sub_path)} unknown key {key!r} in {tp.__name__} "
-                    f"(known keys: {', '.join(sorted(fields))})"
-                )
-            if key in values:
-                raise ConfigError(f"{_where(source, key_node, sub_path)} duplicate key {key!r}")
-            values[key] = convert_node(value_node, hints[key], source, sub_path)
-        for field in dataclasses.fields(tp):
-            if field.metadata.get("required") and field.name not in values:
-                where = f"{_where(source, node, key_path)}:" if key_path else f"{source}:"
-                raise ConfigError(f"{where} missing required key {field.name!r} ({field_description(field)})")
-        return tp(**values)
+        return _convert_dataclass(node, tp, source, key_path)
     if origin in (list, tuple):
         if not isinstance(node, yaml.SequenceNode):
             raise ConfigError(f"{_where(source, node, key_path)} expected a list")
@@ -192,6 +172,36 @@ def convert_node(node, tp, source: str, key_path: str):
         return value
     if tp is typing.Any:
         return yaml.safe_load(yaml.serialize(node))
+    return _convert_scalar(node, tp, source, key_path)
+
+
+def _convert_dataclass(node, tp, source: str, key_path: str):
+    """A mapping node as the dataclass ``tp``: every key a field, none twice, every required field present."""
+    if not isinstance(node, yaml.MappingNode):
+        raise ConfigError(f"{_where(source, node, key_path)} expected a mapping of {tp.__name__} fields")
+    hints = typing.get_type_hints(tp)
+    fields = {f.name for f in dataclasses.fields(tp) if f.init}
+    values = {}
+    for key_node, value_node in node.value:
+        key = key_node.value
+        sub_path = f"{key_path}.{key}" if key_path else key
+        if key not in fields:
+            raise ConfigError(
+                f"{_where(source, key_node, sub_path)} unknown key {key!r} in {tp.__name__} "
+                f"(known keys: {', '.join(sorted(fields))})"
+            )
+        if key in values:
+            raise ConfigError(f"{_where(source, key_node, sub_path)} duplicate key {key!r}")
+        values[key] = convert_node(value_node, hints[key], source, sub_path)
+    for field in dataclasses.fields(tp):
+        if field.metadata.get("required") and field.name not in values:
+            where = f"{_where(source, node, key_path)}:" if key_path else f"{source}:"
+            raise ConfigError(f"{where} missing required key {field.name!r} ({field_description(field)})")
+    return tp(**values)
+
+
+def _convert_scalar(node, tp, source: str, key_path: str):
+    """A scalar node as ``tp`` (float, int, bool or str), a YAML 1.2 float such as 1e-3 read as a number."""
     value = _scalar(node, source, key_path)
     if tp in (float, int) and isinstance(value, str) and node.style is None and YAML12_FLOAT.fullmatch(value):
         value = float(value)  # 1e-3: a number in YAML 1.2, a string to PyYAML's YAML 1.1 resolver

@@ -103,7 +103,7 @@ def test_only_runs_the_selected_experiments(tmp_path):
 
 def test_beyond_writes_its_table_plots_and_logs(tmp_path, monkeypatch):
     # One short study through the real command (each study's figures are asserted in its own tests).
-    from furuta_drake import reproduction_report
+    from furuta_drake.paper import report as reproduction_report
 
     monkeypatch.setattr(reproduction_report, "BEYOND_STUDIES", ("lugre_observer_study",))
     out = tmp_path / "beyond"

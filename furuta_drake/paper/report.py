@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from furuta_drake.config import dump_config
+from furuta_drake.config import SimulationConfig, dump_config
 from furuta_drake.errors import ConfigError
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.paper import reproduce
@@ -84,71 +84,96 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
         (staging / "config.yaml").write_text(config_yaml_with_provenance(base))
         tuned = base
         if only & {"table1", "table2"}:
-            runs = reproduce.run_table_experiments(base, progress=progress)
-            tuned = runs.config
-            figures["table1"] = reproduce.table1(runs)
-            figures["table2"] = reproduce.table2(runs)
-            figures["observer_sweep"] = runs.sweep
-            _write_tables(staging, runs, figures)
-            _write_run(logs, "table_lqr_on_hg", runs.hg_run, reproduce.with_velocity_source(tuned, "hg"))
-            _write_run(logs, "table_lqr_on_vfe", runs.vfe_run, reproduce.with_velocity_source(tuned, "vfe"))
+            tuned = _run_tables(base, staging, figures, progress)
         if "fig5" in only:
-            outcome = reproduce.fig5_experiment(base, progress=progress)
-            figures["fig5"] = {name: run["steady"] for name, run in outcome.items()}
-            plot_fig5(
-                {f"{name}: Fc and sigma0 x {run['factor']:g}": run["result"] for name, run in outcome.items()},
-                (reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG),
-                staging / "fig5.png",
-            )
-            for name, run in outcome.items():
-                _write_run(logs, f"fig5_{name}", run["result"], run["config"])
+            _run_fig5(base, staging, figures, progress)
         if only & {"fig6", "fig7"}:
-            adaptation = reproduce.adaptation_experiment(base, settings.adaptation_duration, progress=progress)
-            figures["adaptation"] = adaptation["summary"]
-            result = adaptation["result"]
-            if "fig6" in only:
-                plot_k_sigma(
-                    result, reproduce.ADAPTATION_ENABLE_TIME, reproduce.PAPER_K_SIGMA_RANGE, staging / "fig6.png"
-                )
-            if "fig7" in only:
-                plot_friction_estimates(
-                    result,
-                    staging / "fig7.png",
-                    title="Fig. 7: adapted friction estimate (adaptation on at 7.8 s)",
-                    calibrated=(reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG),
-                )
-            _write_run(logs, "adaptation", result, adaptation["config"])
+            _run_adaptation(base, settings, staging, figures, progress)
         if only & {"fig5", "fig6", "fig7"}:
             write_json(staging / "adaptation.json", _adaptation_json(figures))
         if "beyond" in only:
-            studies = run_beyond(settings.seed, settings.small_beyond, progress)
-            figures["beyond"] = studies
-            for study in studies:
-                for stem, figure in study.figures.items():
-                    figure.savefig(staging / f"beyond_{stem}.png", dpi=110)
-                for name, result in study.logs.items():
-                    write_log_csv(result, logs / f"beyond_{name}.csv")
-            write_table_csv(
-                [{"study": study.title, **row} for study in studies for row in study.rows], staging / "beyond.csv"
-            )
-        if "real" in only:
-            from furuta_drake.real_rig import report as real_rig_report
-
-            outcome = real_rig_report.run_real_rig(staging, small=settings.small_real, progress=progress)
-            figures["real"] = real_rig_report.write_real_rig(staging, outcome)
-            if only == {"real"}:
-                (staging / "config.yaml").write_text(
-                    config_yaml_with_provenance(real_rig_report.nominal_run_config(outcome))
-                )
+            figures["beyond"] = _run_beyond_into(settings, staging, progress)
+        real_text = _run_real(settings, staging, figures, progress) if "real" in only else None
         (staging / "reproduction.yaml").write_text(_settings_yaml(settings, tuned))
         figures["wall_time_s"] = time.perf_counter() - started
         text = reproduction_markdown(figures, settings) if only - {"real"} else ""
-        if "real" in only:
-            text += ("\n" if text else "") + real_rig_report.real_rig_markdown(outcome)
+        if real_text is not None:
+            text += ("\n" if text else "") + real_text
         (staging / "report.md").write_text(text)
         if "beyond" in only:
             (staging / "beyond.md").write_text(studies_markdown(figures["beyond"], settings))
     return figures
+
+
+def _run_tables(base: SimulationConfig, staging: Path, figures: dict, progress) -> SimulationConfig:
+    """Tables I-II with the fairness sweep: their files, logs and figures; returns the config with the tuned
+    observers."""
+    runs = reproduce.run_table_experiments(base, progress=progress)
+    tuned = runs.config
+    figures["table1"] = reproduce.table1(runs)
+    figures["table2"] = reproduce.table2(runs)
+    figures["observer_sweep"] = runs.sweep
+    _write_tables(staging, runs, figures)
+    _write_run(staging / "logs", "table_lqr_on_hg", runs.hg_run, reproduce.with_velocity_source(tuned, "hg"))
+    _write_run(staging / "logs", "table_lqr_on_vfe", runs.vfe_run, reproduce.with_velocity_source(tuned, "vfe"))
+    return tuned
+
+
+def _run_fig5(base: SimulationConfig, staging: Path, figures: dict, progress) -> None:
+    """Fig. 5, the friction observed with two Dahl sets: its plot, logs and steady values."""
+    outcome = reproduce.fig5_experiment(base, progress=progress)
+    figures["fig5"] = {name: run["steady"] for name, run in outcome.items()}
+    plot_fig5(
+        {f"{name}: Fc and sigma0 x {run['factor']:g}": run["result"] for name, run in outcome.items()},
+        (reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG),
+        staging / "fig5.png",
+    )
+    for name, run in outcome.items():
+        _write_run(staging / "logs", f"fig5_{name}", run["result"], run["config"])
+
+
+def _run_adaptation(
+    base: SimulationConfig, settings: ReproductionSettings, staging: Path, figures: dict, progress
+) -> None:
+    """Figs. 6-7, the K_sigma adaptation (Eq. 18): the selected plots, the log and the summary."""
+    only = set(settings.only)
+    adaptation = reproduce.adaptation_experiment(base, settings.adaptation_duration, progress=progress)
+    figures["adaptation"] = adaptation["summary"]
+    result = adaptation["result"]
+    if "fig6" in only:
+        plot_k_sigma(result, reproduce.ADAPTATION_ENABLE_TIME, reproduce.PAPER_K_SIGMA_RANGE, staging / "fig6.png")
+    if "fig7" in only:
+        plot_friction_estimates(
+            result,
+            staging / "fig7.png",
+            title="Fig. 7: adapted friction estimate (adaptation on at 7.8 s)",
+            calibrated=(reproduce.ARM_COULOMB_POS, reproduce.ARM_COULOMB_NEG),
+        )
+    _write_run(staging / "logs", "adaptation", result, adaptation["config"])
+
+
+def _run_beyond_into(settings: ReproductionSettings, staging: Path, progress) -> list:
+    """The studies of :func:`run_beyond`, their plots, logs and ``beyond.csv`` written; returns the studies."""
+    studies = run_beyond(settings.seed, settings.small_beyond, progress)
+    for study in studies:
+        for stem, figure in study.figures.items():
+            figure.savefig(staging / f"beyond_{stem}.png", dpi=110)
+        for name, result in study.logs.items():
+            write_log_csv(result, staging / "logs" / f"beyond_{name}.csv")
+    write_table_csv([{"study": study.title, **row} for study in studies for row in study.rows], staging / "beyond.csv")
+    return studies
+
+
+def _run_real(settings: ReproductionSettings, staging: Path, figures: dict, progress) -> str:
+    """The real-rig studies (:mod:`furuta_drake.real_rig.report`) and their files; returns their report.md part.
+    Alone, they also write the nominal run's ``config.yaml``."""
+    from furuta_drake.real_rig import report as real_rig_report
+
+    outcome = real_rig_report.run_real_rig(staging, small=settings.small_real, progress=progress)
+    figures["real"] = real_rig_report.write_real_rig(staging, outcome)
+    if set(settings.only) == {"real"}:
+        (staging / "config.yaml").write_text(config_yaml_with_provenance(real_rig_report.nominal_run_config(outcome)))
+    return real_rig_report.real_rig_markdown(outcome)
 
 
 def run_beyond(seed: int, small: bool, progress=None) -> list:
@@ -248,77 +273,13 @@ def reproduction_markdown(figures: dict, settings: ReproductionSettings) -> str:
         "",
     ]
     if "table1" in figures:
-        lines += _table_section("Table I: squared control error [rad^2]", figures["table1"], ("signal", "statistic"))
-        hg, vfe = (_pick(figures["table1"], "phi", "mean")[key] for key in ("HG", "VFE"))
-        lines += [
-            f"Similar control accuracy (paper's point): mean phi^2 with HG / with VFE = {hg / vfe:.2f} "
-            f"(target within a factor 2).",
-            "",
-        ]
+        lines += _table1_lines(figures["table1"])
     if "table2" in figures:
-        lines += _table_section(
-            "Table II: squared velocity error [(rad/s)^2]", figures["table2"], ("reference", "signal", "statistic")
-        )
-        for reference in ("butterworth", "true"):
-            for signal, paper_cut in (("phi_dot", 31 / 9), ("theta_dot", 4.1 / 1.1)):
-                row = _pick(figures["table2"], signal, "mean", reference)
-                lines.append(
-                    f"- {signal} vs {reference}: VFE cuts the mean squared error {row['HG'] / row['VFE']:.1f}x "
-                    f"(paper {paper_cut:.1f}x)."
-                )
-        lines += [
-            "",
-            "Fair comparison (`observer_sweep.csv`, `observer_sweep.png`): each observer replayed on the "
-            "pilot run's measurements over its tuning parameter; the lowest arm velocity error vs the "
-            "true velocity is kept.",
-            "",
-            "| observer | parameter | value | phi_dot MSE vs true | phi_dot MSE vs Butterworth | chosen |",
-            "|---|---|---|---|---|---|",
-        ]
-        lines += [
-            f"| {row['observer'].upper()} | {row['parameter']} | {row['value']:g} | "
-            f"{row['phi_dot_mse_true']:.3g} | {row['phi_dot_mse_butterworth']:.3g} | "
-            f"{'yes' if row['best'] else ''} |"
-            for row in figures["observer_sweep"]
-        ]
-        lines.append("")
+        lines += _table2_lines(figures["table2"], figures["observer_sweep"])
     if "fig5" in figures:
-        lines += [
-            "## Fig. 5: friction observed with two Dahl sets (no compensation, u = u_LQ) [N m]",
-            "",
-            "| set | direction | F_hat | F_hat + eps_hat_F | true | error of F_hat + eps_hat_F |",
-            "|---|---|---|---|---|---|",
-        ]
-        for name, steady in figures["fig5"].items():
-            for direction in ("pos", "neg"):
-                value = steady[direction]
-                error = abs(value["F_hat_plus_eps"] - value["true"]) / abs(value["true"])
-                lines.append(
-                    f"| {name} | phi_dot {'>' if direction == 'pos' else '<'} 0 | {value['F_hat']:.4f} | "
-                    f"{value['F_hat_plus_eps']:.4f} | {value['true']:.4f} | {error:.1%} |"
-                )
-        lines.append("")
+        lines += _fig5_lines(figures["fig5"])
     if "adaptation" in figures:
-        a = figures["adaptation"]
-        lines += [
-            "## Figs. 6-7: K_sigma adaptation from Fc_hat = 0.009 N m, enabled at t = 7.8 s",
-            "",
-            "| quantity | simulation | target (paper / true rig) | ratio |",
-            "|---|---|---|---|",
-            _ratio_row(
-                "K_sigma+ (final)", a["K_sigma_plus"], reproduce.ARM_COULOMB_POS / reproduce.UNDERESTIMATED_COULOMB
-            ),
-            _ratio_row(
-                "K_sigma- (final)", a["K_sigma_minus"], reproduce.ARM_COULOMB_NEG / reproduce.UNDERESTIMATED_COULOMB
-            ),
-            _ratio_row("adapted F_hat, phi_dot > 0 [N m]", a["friction_pos"], -reproduce.ARM_COULOMB_POS),
-            _ratio_row("adapted F_hat, phi_dot < 0 [N m]", a["friction_neg"], reproduce.ARM_COULOMB_NEG),
-            f"| max abs(theta) [rad] | {a['theta_abs_max']:.4f} | < 0.1 | |",
-            "",
-            f"The paper reports K_sigma settling in {reproduce.PAPER_K_SIGMA_RANGE[0]:g}-"
-            f"{reproduce.PAPER_K_SIGMA_RANGE[1]:g}.",
-            "",
-        ]
+        lines += _adaptation_lines(figures["adaptation"])
     if "beyond" in figures:
         lines += [
             "## Beyond the paper",
@@ -327,6 +288,85 @@ def reproduction_markdown(figures: dict, settings: ReproductionSettings) -> str:
             "",
         ]
     return "\n".join(lines) + "\n"
+
+
+def _table1_lines(table1: list[dict]) -> list[str]:
+    """Table I (squared control errors) and the paper's point: similar control accuracy with HG and VFE."""
+    lines = _table_section("Table I: squared control error [rad^2]", table1, ("signal", "statistic"))
+    hg, vfe = (_pick(table1, "phi", "mean")[key] for key in ("HG", "VFE"))
+    return lines + [
+        f"Similar control accuracy (paper's point): mean phi^2 with HG / with VFE = {hg / vfe:.2f} "
+        f"(target within a factor 2).",
+        "",
+    ]
+
+
+def _table2_lines(table2: list[dict], sweep: list[dict]) -> list[str]:
+    """Table II (squared velocity errors), the VFE's cut of them against the paper's, and the fairness sweep."""
+    lines = _table_section("Table II: squared velocity error [(rad/s)^2]", table2, ("reference", "signal", "statistic"))
+    for reference in ("butterworth", "true"):
+        for signal, paper_cut in (("phi_dot", 31 / 9), ("theta_dot", 4.1 / 1.1)):
+            row = _pick(table2, signal, "mean", reference)
+            lines.append(
+                f"- {signal} vs {reference}: VFE cuts the mean squared error {row['HG'] / row['VFE']:.1f}x "
+                f"(paper {paper_cut:.1f}x)."
+            )
+    lines += [
+        "",
+        "Fair comparison (`observer_sweep.csv`, `observer_sweep.png`): each observer replayed on the "
+        "pilot run's measurements over its tuning parameter; the lowest arm velocity error vs the "
+        "true velocity is kept.",
+        "",
+        "| observer | parameter | value | phi_dot MSE vs true | phi_dot MSE vs Butterworth | chosen |",
+        "|---|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {row['observer'].upper()} | {row['parameter']} | {row['value']:g} | "
+        f"{row['phi_dot_mse_true']:.3g} | {row['phi_dot_mse_butterworth']:.3g} | "
+        f"{'yes' if row['best'] else ''} |"
+        for row in sweep
+    ]
+    return lines + [""]
+
+
+def _fig5_lines(fig5: dict) -> list[str]:
+    """Fig. 5's steady friction estimates F_hat and F_hat + eps_hat_F (Eq. 8, 11) against the true friction."""
+    lines = [
+        "## Fig. 5: friction observed with two Dahl sets (no compensation, u = u_LQ) [N m]",
+        "",
+        "| set | direction | F_hat | F_hat + eps_hat_F | true | error of F_hat + eps_hat_F |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, steady in fig5.items():
+        for direction in ("pos", "neg"):
+            value = steady[direction]
+            error = abs(value["F_hat_plus_eps"] - value["true"]) / abs(value["true"])
+            lines.append(
+                f"| {name} | phi_dot {'>' if direction == 'pos' else '<'} 0 | {value['F_hat']:.4f} | "
+                f"{value['F_hat_plus_eps']:.4f} | {value['true']:.4f} | {error:.1%} |"
+            )
+    return lines + [""]
+
+
+def _adaptation_lines(a: dict) -> list[str]:
+    """Figs. 6-7: the adapted K_sigma (Eq. 18) and friction against the true rig's, and the pendulum's excursion."""
+    return [
+        "## Figs. 6-7: K_sigma adaptation from Fc_hat = 0.009 N m, enabled at t = 7.8 s",
+        "",
+        "| quantity | simulation | target (paper / true rig) | ratio |",
+        "|---|---|---|---|",
+        _ratio_row("K_sigma+ (final)", a["K_sigma_plus"], reproduce.ARM_COULOMB_POS / reproduce.UNDERESTIMATED_COULOMB),
+        _ratio_row(
+            "K_sigma- (final)", a["K_sigma_minus"], reproduce.ARM_COULOMB_NEG / reproduce.UNDERESTIMATED_COULOMB
+        ),
+        _ratio_row("adapted F_hat, phi_dot > 0 [N m]", a["friction_pos"], -reproduce.ARM_COULOMB_POS),
+        _ratio_row("adapted F_hat, phi_dot < 0 [N m]", a["friction_neg"], reproduce.ARM_COULOMB_NEG),
+        f"| max abs(theta) [rad] | {a['theta_abs_max']:.4f} | < 0.1 | |",
+        "",
+        f"The paper reports K_sigma settling in {reproduce.PAPER_K_SIGMA_RANGE[0]:g}-"
+        f"{reproduce.PAPER_K_SIGMA_RANGE[1]:g}.",
+        "",
+    ]
 
 
 def _table_section(title: str, rows: list[dict], keys: tuple[str, ...]) -> list[str]:

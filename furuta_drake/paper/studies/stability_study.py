@@ -22,10 +22,13 @@ LOOPS = (
     ("VFE + Dahl, K_z as printed", "vfe", 1),
     ("VFE + Dahl, K_z reversed", "vfe", -1),
 )
+HG_LOOP, PRINTED_LOOP, REVERSED_LOOP = (label for label, _, _ in LOOPS)
 K_GRID = np.geomspace(0.25, 4.0, 61)
 SIGMA0_FACTORS = np.geomspace(0.25, 4.0, 25)  # true sigma0 / the observer's
 GAINS_VFE_SCALES = (0.5, 0.7, 1.0, 1.4, 2.0)  # the VFE eigenvalues of the observer-gain map, times the default
 GAINS_HG_EPS = (0.002, 0.005, 0.01, 0.02)  # [s] the HG eps of the observer-gain map
+PAPER_BASIN = "HG + Dahl, K_sigma = 1 (paper)"  # the nonlinear loops of the basins
+ADAPTIVE_BASIN = "VFE + Dahl + K_sigma adaptation"
 
 
 def _with_true_sigma0(config, factor: float):
@@ -48,20 +51,73 @@ def adaptive_loop_config(config):
     return dataclasses.replace(config, observers=dataclasses.replace(config.observers, dahl=dahl, run=[]))
 
 
+@dataclasses.dataclass(frozen=True)
+class _FrozenLoops:
+    """The linearized 1 kHz loops of ``LOOPS`` at frozen K_sigma, by label."""
+
+    intervals: dict  # the stable frozen-K_sigma intervals
+    nominal: dict  # the decay rate at K_sigma = 1 [1/s] (< 0 stable)
+    certified: tuple | None  # the K_sigma interval with a common quadratic Lyapunov function (continuous, K_z reversed)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Basins:
+    """The basins of the nonlinear loops on the (theta0, theta_dot0) grid and the Lyapunov estimate over it."""
+
+    region: stability.LyapunovRegion  # the estimate of the true-state loop
+    thetas: np.ndarray  # [rad]
+    theta_dots: np.ndarray  # [rad/s]
+    duration: float  # [s] of each run
+    caught: dict  # label -> (theta_dot, theta) grid, True where the loop balances
+    inside: np.ndarray  # (theta_dot, theta) grid, True inside the Lyapunov estimate
+
+    def figures(self, label: str) -> tuple:
+        """The fraction of the grid caught, the first |theta0| at rest not caught (or the largest caught) and the
+        grid states inside the estimate caught; Nones for a loop not run."""
+        basin = self.caught.get(label)
+        if basin is None:
+            return None, None, None
+        at_rest = basin[np.argmin(np.abs(self.theta_dots))]
+        return (
+            float(basin.mean()),
+            float(np.min(np.abs(self.thetas[~at_rest])))
+            if (~at_rest).any()
+            else float(np.max(np.abs(self.thetas[at_rest]))),
+            int(basin[self.inside].sum()),
+        )
+
+
 def study(seed: int = 0, small: bool = False) -> Study:
     """Linearized stability maps, stable frozen-K_sigma ranges, common Lyapunov intervals and basins."""
     base = reproduce.paper_rig_config(seed=seed)
-    hg_config = dataclasses.replace(
-        reproduce.with_velocity_source(base, "hg"), observers=dataclasses.replace(base.observers, run=[])
+    frozen = _frozen_loops(base, small)
+    factors = SIGMA0_FACTORS[::4] if small else SIGMA0_FACTORS
+    maps = _sigma0_maps(base, factors)
+    gains = _observer_gain_rates(base, small)
+    basins = _basins(base, seed, small)
+    rows = _frozen_rows(frozen) + [_sigma0_row(maps, factors)] + _basin_rows(basins)
+    figures = {
+        "stability_decay_maps": _plot_maps(maps, factors),
+        "stability_observer_gains": _plot_gains(gains),
+        "stability_basin": _plot_basins(basins.caught, basins.thetas, basins.theta_dots, basins.region),
+    }
+    return Study(
+        title="Stability of the nested observers with adaptation",
+        rows=rows,
+        summary=_summary(base, frozen, basins),
+        figures=figures,
     )
+
+
+def _frozen_loops(base, small: bool) -> _FrozenLoops:
+    """The decay rates and stable frozen-K_sigma intervals of the discrete loops of ``LOOPS``, and the K_sigma
+    interval a common quadratic Lyapunov function certifies for the continuous nested loop, K_z reversed."""
     loops = {
         label: stability.linear_loop(base, observer, discrete=True, injection_sign=sign)
         for label, observer, sign in LOOPS
     }
     intervals = {label: stability.stable_intervals(loop) for label, loop in loops.items()}
     nominal = {label: loop.decay_rate(1.0) for label, loop in loops.items()}
-    reversed_label = LOOPS[2][0]
-    reversed_interval = stability.interval_containing(intervals[reversed_label], 1.0)
     continuous = stability.linear_loop(base, "vfe", injection_sign=-1)
     continuous_interval = stability.interval_containing(stability.stable_intervals(continuous), 1.0)
     certified = (
@@ -69,9 +125,12 @@ def study(seed: int = 0, small: bool = False) -> Study:
         if continuous_interval
         else None
     )
+    return _FrozenLoops(intervals=intervals, nominal=nominal, certified=certified)
 
-    factors = SIGMA0_FACTORS[::4] if small else SIGMA0_FACTORS
-    maps = {
+
+def _sigma0_maps(base, factors: np.ndarray) -> dict:
+    """label -> the decay rates of each loop of ``LOOPS`` over (true sigma0 / observer sigma0, ``K_GRID``)."""
+    return {
         label: np.array(
             [
                 _rates(stability.linear_loop(_with_true_sigma0(base, f), observer, True, injection_sign=sign))
@@ -80,102 +139,74 @@ def study(seed: int = 0, small: bool = False) -> Study:
         )
         for label, observer, sign in LOOPS
     }
-    at_one = np.argmin(np.abs(K_GRID - 1.0))
-    stable_factors = factors[maps[reversed_label][:, at_one] < 0]
-    scales = GAINS_VFE_SCALES[::2] if small else GAINS_VFE_SCALES
-    gains = {
-        f"VFE eigenvalues x{s}": _rates(
-            stability.linear_loop(
-                dataclasses.replace(
-                    base,
-                    observers=dataclasses.replace(
-                        base.observers,
-                        vfe=dataclasses.replace(
-                            base.observers.vfe, eigenvalues=[s * e for e in base.observers.vfe.eigenvalues]
-                        ),
-                    ),
-                ),
-                "vfe",
-                True,
-                injection_sign=-1,
-            )
-        )
-        for s in scales
-    }
-    gains.update(
-        {
-            f"HG eps {eps * 1e3:g} ms": _rates(
-                stability.linear_loop(
-                    dataclasses.replace(
-                        base,
-                        observers=dataclasses.replace(
-                            base.observers, hg=dataclasses.replace(base.observers.hg, eps_theta=eps, eps_phi=eps)
-                        ),
-                    ),
-                    "hg",
-                    True,
-                )
-            )
-            for eps in (GAINS_HG_EPS[::2] if small else GAINS_HG_EPS)
-        }
-    )
 
+
+def _observer_gain_rates(base, small: bool) -> dict:
+    """label -> the decay rates over ``K_GRID`` of the nested loop (K_z reversed) with the VFE eigenvalues scaled
+    by ``GAINS_VFE_SCALES`` and of the HG loop with the eps of ``GAINS_HG_EPS`` (Eq. 4)."""
+    observers = base.observers
+    gains = {}
+    for s in GAINS_VFE_SCALES[::2] if small else GAINS_VFE_SCALES:
+        vfe = dataclasses.replace(observers.vfe, eigenvalues=[s * e for e in observers.vfe.eigenvalues])
+        config = dataclasses.replace(base, observers=dataclasses.replace(observers, vfe=vfe))
+        gains[f"VFE eigenvalues x{s}"] = _rates(stability.linear_loop(config, "vfe", True, injection_sign=-1))
+    for eps in GAINS_HG_EPS[::2] if small else GAINS_HG_EPS:
+        hg = dataclasses.replace(observers.hg, eps_theta=eps, eps_phi=eps)
+        config = dataclasses.replace(base, observers=dataclasses.replace(observers, hg=hg))
+        gains[f"HG eps {eps * 1e3:g} ms"] = _rates(stability.linear_loop(config, "hg", True))
+    return gains
+
+
+def _basins(base, seed: int, small: bool) -> _Basins:
+    """The basins of the paper's HG loop with Dahl compensation (K_sigma = 1; not with ``small``) and of the
+    nested loop adapting K_sigma (Eq. 18) from t = 0, and the quadratic Lyapunov estimate of the true-state
+    loop."""
+    hg_config = dataclasses.replace(
+        reproduce.with_velocity_source(base, "hg"), observers=dataclasses.replace(base.observers, run=[])
+    )
     region = stability.lyapunov_region(base, directions=200 if small else 1500, seed=seed)
     thetas = np.linspace(-0.3, 0.3, 5) if small else np.linspace(-0.36, 0.36, 13)
     theta_dots = np.array([-0.25, 0.0, 0.25]) if small else np.array([-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0])
     duration = 1.5 if small else 2.0
-    basin_loops = {
-        "HG + Dahl, K_sigma = 1 (paper)": hg_config,
-        "VFE + Dahl + K_sigma adaptation": adaptive_loop_config(base),
-    }
+    basin_loops = {PAPER_BASIN: hg_config, ADAPTIVE_BASIN: adaptive_loop_config(base)}
     if small:
         basin_loops = dict(list(basin_loops.items())[1:])
-    basins = {
+    caught = {
         label: stability.basin_map(config, thetas, theta_dots, duration, workers=1 if small else 2)
         for label, config in basin_loops.items()
     }
     grid = np.array([[theta, 0.0, theta_dot, 0.0] for theta_dot in theta_dots for theta in thetas])
     inside = region.contains(grid).reshape(len(theta_dots), len(thetas))
-    at_rest = np.argmin(np.abs(theta_dots))
+    return _Basins(region, thetas, theta_dots, duration, caught, inside)
 
-    def basin_figures(basin):
-        caught_at_rest = thetas[basin[at_rest]]
-        return (
-            float(basin.mean()),
-            float(np.min(np.abs(thetas[~basin[at_rest]])))
-            if (~basin[at_rest]).any()
-            else float(np.max(np.abs(caught_at_rest))),
-            int(basin[inside].sum()),
-        )
 
-    paper_basin = basins.get("HG + Dahl, K_sigma = 1 (paper)")
-    ours_basin = basins["VFE + Dahl + K_sigma adaptation"]
-    paper_b = basin_figures(paper_basin) if paper_basin is not None else (None, None, None)
-    ours_b = basin_figures(ours_basin)
-    hg_label, printed_label = LOOPS[0][0], LOOPS[1][0]
-    rows = [
+def _frozen_rows(frozen: _FrozenLoops) -> list[dict]:
+    """The rows of the linearized loops at frozen K_sigma: decay rates, stable ranges, the certified interval."""
+    reversed_interval = stability.interval_containing(frozen.intervals[REVERSED_LOOP], 1.0)
+    certified = frozen.certified
+    return [
         {
             "metric": "linearized decay rate at K_sigma = 1 (1 kHz loop; < 0 stable)",
-            "paper": nominal[hg_label],
-            "extension": nominal[printed_label],
+            "paper": frozen.nominal[HG_LOOP],
+            "extension": frozen.nominal[PRINTED_LOOP],
             "unit": "1/s",
-            "note": f"K_z as printed; reversed K_z: {nominal[reversed_label]:.3f} 1/s",
+            "note": f"K_z as printed; reversed K_z: {frozen.nominal[REVERSED_LOOP]:.3f} 1/s",
         },
         {
             "metric": "stable frozen K_sigma range, K_z as printed",
             "paper": None,
             "extension": None,
             "unit": "-",
-            "note": f"HG: {_stable_range_text(intervals[hg_label])}; "
-            f"VFE: {_stable_range_text(intervals[printed_label])}",
+            "note": f"HG: {_stable_range_text(frozen.intervals[HG_LOOP])}; "
+            f"VFE: {_stable_range_text(frozen.intervals[PRINTED_LOOP])}",
         },
         {
             "metric": "stable frozen K_sigma range, K_z reversed: low end",
             "paper": None,
             "extension": float(reversed_interval[0]) if reversed_interval else None,
             "unit": "-",
-            "note": f"VFE: {_stable_range_text(intervals[reversed_label])}; the adapted K_sigma of Figs. 6-7 is "
-            "1.33-2.0",
+            "note": f"VFE: {_stable_range_text(frozen.intervals[REVERSED_LOOP])}; the adapted K_sigma of Figs. 6-7 "
+            "is 1.33-2.0",
         },
         {
             "metric": "stable frozen K_sigma range, K_z reversed: high end",
@@ -191,25 +222,39 @@ def study(seed: int = 0, small: bool = False) -> Study:
             "unit": "-",
             "note": "none" if certified is None else f"[{certified[0]:.2f}, {certified[1]:.2f}]: any K_sigma(t) in it",
         },
-        {
-            "metric": "true sigma0 / observer sigma0 stable at K_sigma = 1 (K_z reversed)",
-            "paper": None,
-            "extension": float(stable_factors.max()) if stable_factors.size else None,
-            "unit": "-",
-            "note": (
-                f"stable for factors {stable_factors.min():.2f}-{stable_factors.max():.2f} of the grid "
-                f"{factors.min():.2f}-{factors.max():.2f}"
-            )
-            if stable_factors.size
-            else "none",
-        },
+    ]
+
+
+def _sigma0_row(maps: dict, factors: np.ndarray) -> dict:
+    """The row of the true sigma0 factors with which the nested loop (K_z reversed) is stable at K_sigma = 1."""
+    at_one = np.argmin(np.abs(K_GRID - 1.0))
+    stable_factors = factors[maps[REVERSED_LOOP][:, at_one] < 0]
+    return {
+        "metric": "true sigma0 / observer sigma0 stable at K_sigma = 1 (K_z reversed)",
+        "paper": None,
+        "extension": float(stable_factors.max()) if stable_factors.size else None,
+        "unit": "-",
+        "note": (
+            f"stable for factors {stable_factors.min():.2f}-{stable_factors.max():.2f} of the grid "
+            f"{factors.min():.2f}-{factors.max():.2f}"
+        )
+        if stable_factors.size
+        else "none",
+    }
+
+
+def _basin_rows(basins: _Basins) -> list[dict]:
+    """The rows of the basins of the nonlinear loops against the Lyapunov estimate."""
+    paper_b, ours_b = basins.figures(PAPER_BASIN), basins.figures(ADAPTIVE_BASIN)
+    region = basins.region
+    return [
         {
             "metric": "basin: fraction of the (theta0, theta_dot0) grid caught",
             "paper": paper_b[0],
             "extension": ours_b[0],
             "unit": "-",
-            "note": f"{len(thetas)} x {len(theta_dots)} grid, phi0 = phi_dot0 = 0, {duration} s runs, nonlinear 1 kHz "
-            "loop",
+            "note": f"{len(basins.thetas)} x {len(basins.theta_dots)} grid, phi0 = phi_dot0 = 0, {basins.duration} s "
+            "runs, nonlinear 1 kHz loop",
         },
         {
             "metric": "basin: first |theta0| at rest not caught (or largest caught)",
@@ -231,31 +276,32 @@ def study(seed: int = 0, small: bool = False) -> Study:
             "paper": paper_b[2],
             "extension": ours_b[2],
             "unit": "states",
-            "note": f"of {int(inside.sum())} inside; the estimate is of the true-state loop, "
+            "note": f"of {int(basins.inside.sum())} inside; the estimate is of the true-state loop, "
             "the observers start at zero",
         },
     ]
-    summary = (
+
+
+def _summary(base, frozen: _FrozenLoops, basins: _Basins) -> str:
+    """What the linearized loops and the basins show."""
+    nominal, certified = frozen.nominal, frozen.certified
+    ours_b = basins.figures(ADAPTIVE_BASIN)
+    return (
         f"In presliding the Dahl friction is a spring (sigma0 = {base.friction.arm.sigma0:g} N m/rad) and the loop is "
         f"linear. With Eq. 9's injection as printed, neither loop is locally stable at the upright: the HG loop's "
-        f"decay rate is {nominal[hg_label]:+.1f} 1/s (the compensation -F_hat is a model error the HG observer does "
-        f"not see), the nested VFE loop's {nominal[printed_label]:+.3f} 1/s, a slow real mode that grows as "
+        f"decay rate is {nominal[HG_LOOP]:+.1f} 1/s (the compensation -F_hat is a model error the HG observer does "
+        f"not see), the nested VFE loop's {nominal[PRINTED_LOOP]:+.3f} 1/s, a slow real mode that grows as "
         f"sigma0/rho: K_z is an integral action on eps_phi whose sign suits a positive position stiffness, while the "
         f"balancing LQR's K_phi < 0. Reversing K_z makes the nested loop stable for frozen K_sigma in "
-        f"{_stable_range_text(intervals[reversed_label])} (the adapted 1.33-2.0 at the edge) and a common Lyapunov "
-        f"function covers {'none' if certified is None else f'[{certified[0]:.2f}, {certified[1]:.2f}]'}; "
+        f"{_stable_range_text(frozen.intervals[REVERSED_LOOP])} (the adapted 1.33-2.0 at the edge) and a common "
+        f"Lyapunov function covers {'none' if certified is None else f'[{certified[0]:.2f}, {certified[1]:.2f}]'}; "
         f"the HG loop stays unstable. The nonlinear loops still balance (friction saturates at Fc: a small limit "
         f"cycle) and catch from rest up to about {ours_b[1]:.2f} rad; the quadratic estimate "
-        f"({region.theta_extent():.3f} rad at rest) is conservative at rest, but it is the true-state loop's: of the "
-        f"{int(inside.sum())} grid states inside it the nested loop catches {ours_b[2]} (its observers start at zero "
-        f"velocity, which a start with |theta_dot0| near 1 rad/s makes wrong for the first tenths of a second)."
+        f"({basins.region.theta_extent():.3f} rad at rest) is conservative at rest, but it is the true-state loop's: "
+        f"of the {int(basins.inside.sum())} grid states inside it the nested loop catches {ours_b[2]} (its observers "
+        f"start at zero velocity, which a start with |theta_dot0| near 1 rad/s makes wrong for the first tenths of a "
+        f"second)."
     )
-    figures = {
-        "stability_decay_maps": _plot_maps(maps, factors),
-        "stability_observer_gains": _plot_gains(gains),
-        "stability_basin": _plot_basins(basins, thetas, theta_dots, region),
-    }
-    return Study(title="Stability of the nested observers with adaptation", rows=rows, summary=summary, figures=figures)
 
 
 def _plot_maps(maps: dict, factors: np.ndarray):

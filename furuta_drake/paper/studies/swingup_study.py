@@ -45,16 +45,54 @@ def study(seed: int = 0, small: bool = False) -> Study:
     ours = simulate(swingup_config(config, duration=duration))
     paper = simulate(swingup_config(config, duration=duration, velocity_source="hg"))
     t_ours, t_paper = catch_time(ours), catch_time(paper)
-    limit = config.controller.lqr.torque_limit
-    swing = ours.time < (t_ours if math.isfinite(t_ours) else math.inf)
     balance = ours.time > t_ours + SETTLE if math.isfinite(t_ours) else np.zeros(ours.time.size, bool)
-    rms = {
-        (name, phase): _velocity_rms(ours, name, mask)
-        for name in ours.estimates
+    rms = _phase_velocity_rms(ours, t_ours, balance)
+    rows = _run_rows(ours, paper, t_ours, t_paper, config, duration) + _observer_rows(rms)
+    caught = None
+    if not small:
+        caught = _starts_caught(config, duration)
+        rows.append(
+            _row(
+                f"starts caught within {duration:g} s",
+                None,
+                caught,
+                "of " + str(len(START_OFFSETS)),
+                "theta0 = pi + " + ", ".join(f"{o:g}" for o in START_OFFSETS) + " rad",
+            )
+        )
+    summary = _summary(ours, t_ours, t_paper, rms, balance.any(), config, duration)
+    if caught is not None:
+        summary += (
+            f" From perturbed starts {caught} of {len(START_OFFSETS)} are caught within {duration:g} s; the "
+            f"time to catch varies from start to start, as the pendulum's energy alone is not conserved "
+            f"while the arm moves."
+        )
+        summary += " " + _diagnose(ours, config)
+
+    return Study(
+        title="Swing-up and catch",
+        rows=rows,
+        summary=summary,
+        figures={"swingup_states": plot_swingup(ours, config), "swingup_energy": plot_energy(ours, config)},
+        logs={"swingup": ours},
+    )
+
+
+def _phase_velocity_rms(result, t_catch: float, balance: np.ndarray) -> dict:
+    """{(observer, phase): [theta_dot, phi_dot] RMS error [rad/s]} of every estimate of ``result`` over the swing
+    (before ``t_catch``) and over ``balance``."""
+    swing = result.time < (t_catch if math.isfinite(t_catch) else math.inf)
+    return {
+        (name, phase): _velocity_rms(result, name, mask)
+        for name in result.estimates
         for phase, mask in (("swing", swing), ("balance", balance))
     }
 
-    rows = [
+
+def _run_rows(ours, paper, t_ours: float, t_paper: float, config, duration: float) -> list[dict]:
+    """Time to catch, arm excursion before it and peak torque of the swing-up on the paper's HG (``paper``) and on
+    the kinematic HG (``ours``)."""
+    return [
         _row(
             "time to catch from hanging",
             _finite(t_paper),
@@ -74,9 +112,15 @@ def study(seed: int = 0, small: bool = False) -> Study:
             float(np.max(np.abs(paper.torque))),
             float(np.max(np.abs(ours.torque))),
             "N m",
-            f"rig limit {limit:g} N m",
+            f"rig limit {config.controller.lqr.torque_limit:g} N m",
         ),
     ]
+
+
+def _observer_rows(rms: dict) -> list[dict]:
+    """The velocity errors of :func:`_phase_velocity_rms`, the paper's HG against VFE + Dahl and against the
+    kinematic HG, in each phase and for each joint."""
+    rows = []
     for phase, what in (
         ("swing", "during the swing (before the catch)"),
         ("balance", f"balancing ({SETTLE:g} s after the catch on)"),
@@ -100,22 +144,21 @@ def study(seed: int = 0, small: bool = False) -> Study:
                     "the kinematic HG feeds the controller",
                 )
             )
-    caught = None
-    if not small:
-        caught = sum(
-            math.isfinite(catch_time(simulate(swingup_config(config, duration=duration, theta0=math.pi + offset))))
-            for offset in START_OFFSETS
-        )
-        rows.append(
-            _row(
-                f"starts caught within {duration:g} s",
-                None,
-                caught,
-                "of " + str(len(START_OFFSETS)),
-                "theta0 = pi + " + ", ".join(f"{o:g}" for o in START_OFFSETS) + " rad",
-            )
-        )
+    return rows
 
+
+def _starts_caught(config, duration: float) -> int:
+    """How many of the starts theta0 = pi + ``START_OFFSETS`` the swing-up catches within ``duration``."""
+    return sum(
+        math.isfinite(catch_time(simulate(swingup_config(config, duration=duration, theta0=math.pi + offset))))
+        for offset in START_OFFSETS
+    )
+
+
+def _summary(ours, t_ours: float, t_paper: float, rms: dict, balanced: bool, config, duration: float) -> str:
+    """The catch of both runs and the observers' velocity errors over the swing and, when ``balanced``, after
+    the catch."""
+    limit = config.controller.lqr.torque_limit
     summary = (
         f"From hanging on the paper's rig the energy swing-up, fed by a high-gain observer on the kinematic model "
         f"(no gravity, no input: invariant to whole turns), catches at {t_ours:.2f} s with the arm within "
@@ -125,28 +168,12 @@ def study(seed: int = 0, small: bool = False) -> Study:
         f"{rms[('hg', 'swing')][0]:.2f} rad/s RMS on theta_dot (VFE + Dahl {rms[('vfe', 'swing')][0]:.2f}, "
         f"kinematic HG {rms[('kinematic_hg', 'swing')][0]:.2f})"
     )
-    if balance.any():
-        summary += (
-            f"; after a catch at theta = {ours.state[-1, 0] - wrap_angle(ours.state[-1, 0]):.2f} rad the "
-            f"HG stays biased ({rms[('hg', 'balance')][0]:.2f} rad/s: alpha1 theta counts the turn) while the "
-            f"VFE's eps_hat_F absorbs the constant model error ({rms[('vfe', 'balance')][0]:.3f} rad/s)."
-        )
-    else:
-        summary += "."
-    if caught is not None:
-        summary += (
-            f" From perturbed starts {caught} of {len(START_OFFSETS)} are caught within {duration:g} s; the "
-            f"time to catch varies from start to start, as the pendulum's energy alone is not conserved "
-            f"while the arm moves."
-        )
-        summary += " " + _diagnose(ours, config)
-
-    return Study(
-        title="Swing-up and catch",
-        rows=rows,
-        summary=summary,
-        figures={"swingup_states": plot_swingup(ours, config), "swingup_energy": plot_energy(ours, config)},
-        logs={"swingup": ours},
+    if not balanced:
+        return summary + "."
+    return summary + (
+        f"; after a catch at theta = {ours.state[-1, 0] - wrap_angle(ours.state[-1, 0]):.2f} rad the "
+        f"HG stays biased ({rms[('hg', 'balance')][0]:.2f} rad/s: alpha1 theta counts the turn) while the "
+        f"VFE's eps_hat_F absorbs the constant model error ({rms[('vfe', 'balance')][0]:.3f} rad/s)."
     )
 
 
