@@ -298,6 +298,7 @@ def _run_reproduce(args) -> int:
         ReproductionSettings,
         run_reproduction,
     )
+    from furuta_drake.real_rig.report import reproduce_real
 
     quick = (
         {"table_duration": 4.0, "adaptation_duration": 12.0, "small_beyond": True, "small_real": True}
@@ -316,7 +317,11 @@ def _run_reproduce(args) -> int:
     )
     with tqdm(total=steps, desc="reproduce", unit="run", disable=not sys.stderr.isatty()) as bar:
         figures = run_reproduction(
-            settings, args.out, force=args.force, progress=lambda message: (bar.set_postfix_str(message), bar.update(1))
+            settings,
+            args.out,
+            force=args.force,
+            progress=lambda message: (bar.set_postfix_str(message), bar.update(1)),
+            real=reproduce_real,
         )
     print(f"reproduced {', '.join(settings.only)} in {figures['wall_time_s']:.0f} s; see {args.out / 'report.md'}")
     return 0

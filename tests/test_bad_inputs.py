@@ -26,6 +26,8 @@ from furuta_drake.diagnosis.logs import load_log
 from furuta_drake.errors import LogError
 from furuta_drake.rig import lund_rig
 
+pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
+
 CORPUS = Path(__file__).resolve().parent / "bad_inputs"
 MANIFEST = yaml.safe_load((CORPUS / "manifest.yaml").read_text())["cases"]
 SETUPS = (None, "out_not_empty", "out_is_file", "out_parent_is_file")

@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from benchmarks.suite import VOCABULARY, run_configs
 from furuta_drake.cli import main
 from furuta_drake.diagnosis.report import SPEC_KEYS
@@ -11,6 +13,7 @@ from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import dump_yaml_dataclass
 
 
+@pytest.mark.slow
 def test_effect_free_logs_give_none_with_every_output_and_identical_reruns(tmp_path):
     rig = lund_rig()
     (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
@@ -49,6 +52,7 @@ def test_effect_free_logs_give_none_with_every_output_and_identical_reruns(tmp_p
     assert (tmp_path / "a" / "report.json").read_bytes() == (tmp_path / "b" / "report.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_ctrl_c_leaves_no_output_and_says_so(tmp_path):
     """Ctrl-C in the middle of the fits (SIGINT to the process group, as a terminal sends it): exit 130, one
     line saying nothing was written, no traceback from the main process or its workers, and neither the output

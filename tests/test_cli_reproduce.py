@@ -11,6 +11,8 @@ import pytest
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
 
+pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
+
 SHORT = ["--table-duration", "4", "--adaptation-duration", "12"]
 
 

@@ -57,6 +57,7 @@ def runs(tmp_path_factory):
     return {name: {file: (root / name / file).read_bytes() for file in FILES} for name in ("first", "again", "other")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("file", FILES)
 def test_same_config_and_seed_give_byte_identical_files_across_processes(runs, file):
     assert runs["first"][file] == runs["again"][file]

@@ -11,6 +11,8 @@ from benchmarks.suite import CaseSpec, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
 
+pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
+
 CASES = [
     CaseSpec("lund", (), 0, 7),
     CaseSpec("lund", ("input_delay",), 2, 7),

@@ -7,6 +7,8 @@ import pytest
 
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 
+pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
+
 
 def _task(x):
     if x == "raise":

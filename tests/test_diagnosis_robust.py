@@ -6,6 +6,7 @@ import json
 import tempfile
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -17,6 +18,8 @@ from furuta_drake.results import write_log_csv
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import dump_yaml_dataclass
+
+pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
 
 DURATION = 1.5  # [s] per log: a train and a held-out hanging run
 

@@ -202,6 +202,7 @@ def test_a_bad_value_is_located_by_row_or_message(tmp_path, rig):
         load_log(write_log(tmp_path / "nan.mcap", raw), rig, QUBE_RIG)
 
 
+@pytest.mark.slow
 def test_diagnose_on_a_renamed_degrees_copy_gives_the_same_report(tmp_path):
     """The end-to-end check: two real QUBE logs as a lab might write them (Quanser's names, degrees, an extra
     column) give the same report.json and figures as the same data in radians under furuta-drake's names, and

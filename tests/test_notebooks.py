@@ -5,6 +5,8 @@ import nbclient
 import pytest
 from conftest import REPO
 
+pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
+
 NOTEBOOKS = sorted((REPO / "notebooks").glob("*.py"))
 
 

@@ -89,6 +89,7 @@ def test_matched_model_does_not_drift():
     )
 
 
+@pytest.mark.slow
 def test_two_parameter_law_recovers_fc_and_sigma0_where_one_gain_cannot():
     study = parameter_adaptation_study.study(seed=2, small=True)
     for row in study.rows:

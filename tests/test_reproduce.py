@@ -25,6 +25,7 @@ def _row(rows, signal, statistic, reference=None):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("reference", ["butterworth", "true"])
 def test_table2_vfe_cuts_the_velocity_errors(table_runs, reference):
     # Paper: 3.4x on the arm, 3.7x on the pendulum; the reproduction asks >= 2.5x and >= 2x against both references.

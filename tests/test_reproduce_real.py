@@ -14,6 +14,8 @@ from furuta_drake.config import load_config
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.real_rig.runs import HELDOUT_SWINGUPS, SWINGUPS, load_real_runs, log_result
 
+pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
+
 REQUIRED = [
     "catch_time",
     "peak_arm_angle",

@@ -35,6 +35,7 @@ def csv_rows(path):
         return list(csv.DictReader(file))
 
 
+@pytest.mark.slow
 def test_grid_gives_one_row_per_point_and_the_same_bytes_on_one_and_two_workers(tmp_path, scheduler, capsys):
     base = short(observers=dataclasses.replace(LUND.observers, run=["hg"]))
     sweep_file = tmp_path / "sweep.yaml"
@@ -226,6 +227,7 @@ def test_grid_points_are_the_product_in_order_and_seeds_depend_on_the_index_only
     samples=st.integers(1, 12),
     seed=st.integers(0, 2**32),
 )
+@pytest.mark.slow
 def test_random_points_lie_in_their_ranges_and_do_not_depend_on_the_sample_count(low, width, counts, samples, seed):
     ranges = {"friction.arm.viscous": [low, low + width], "encoder.counts_per_rev": [4, counts]}
     sweep = resolve_sweep(SweepConfig(base=LUND, mode="random", ranges=ranges, samples=samples, seed=seed))

@@ -69,12 +69,18 @@ class ReproductionSettings:
             )
 
 
-def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: bool = False, progress=None) -> dict:
+def run_reproduction(
+    settings: ReproductionSettings, out: str | Path, *, force: bool = False, progress=None, real=None
+) -> dict:
     """Run the selected experiments and write their files into ``out``; returns the figures of report.md.
 
-    ``progress(message)`` is called after each simulation or sweep."""
+    ``progress(message)`` is called after each simulation or sweep. ``real``: the real-rig experiment
+    (:func:`furuta_drake.real_rig.report.reproduce_real`, which sits above this package), needed when
+    ``settings.only`` holds ``real``."""
     settings.validate()
     only = set(settings.only)
+    if "real" in only and real is None:
+        raise ValueError("run_reproduction: the real experiment needs real=furuta_drake.real_rig.report.reproduce_real")
     started = time.perf_counter()
     base = reproduce.paper_rig_config(seed=settings.seed, duration=settings.table_duration)
     figures: dict = {}
@@ -93,7 +99,7 @@ def run_reproduction(settings: ReproductionSettings, out: str | Path, *, force: 
             write_json(staging / "adaptation.json", _adaptation_json(figures))
         if "beyond" in only:
             figures["beyond"] = _run_beyond_into(settings, staging, progress)
-        real_text = _run_real(settings, staging, figures, progress) if "real" in only else None
+        real_text = real(settings, staging, figures, progress) if "real" in only else None
         (staging / "reproduction.yaml").write_text(_settings_yaml(settings, tuned))
         figures["wall_time_s"] = time.perf_counter() - started
         text = reproduction_markdown(figures, settings) if only - {"real"} else ""
@@ -162,18 +168,6 @@ def _run_beyond_into(settings: ReproductionSettings, staging: Path, progress) ->
             write_log_csv(result, staging / "logs" / f"beyond_{name}.csv")
     write_table_csv([{"study": study.title, **row} for study in studies for row in study.rows], staging / "beyond.csv")
     return studies
-
-
-def _run_real(settings: ReproductionSettings, staging: Path, figures: dict, progress) -> str:
-    """The real-rig studies (:mod:`furuta_drake.real_rig.report`) and their files; returns their report.md part.
-    Alone, they also write the nominal run's ``config.yaml``."""
-    from furuta_drake.real_rig import report as real_rig_report
-
-    outcome = real_rig_report.run_real_rig(staging, small=settings.small_real, progress=progress)
-    figures["real"] = real_rig_report.write_real_rig(staging, outcome)
-    if set(settings.only) == {"real"}:
-        (staging / "config.yaml").write_text(config_yaml_with_provenance(real_rig_report.nominal_run_config(outcome)))
-    return real_rig_report.real_rig_markdown(outcome)
 
 
 def run_beyond(seed: int, small: bool, progress=None) -> list:

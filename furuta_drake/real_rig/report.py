@@ -50,7 +50,7 @@ from furuta_drake.real_rig.runs import (
     reference_properties,
     reference_velocity,
 )
-from furuta_drake.results import write_json, write_log_csv, write_table_csv
+from furuta_drake.results import config_yaml_with_provenance, write_json, write_log_csv, write_table_csv
 
 SMALL_SWINGUPS = (TRAIN_SWINGUP, SWINGUPS[1], OSCILLATING_SWINGUP)  # the small run's closed loop
 CLOSED = 0.5  # a figure whose gap the correction closed by less than this share "does not close"
@@ -496,12 +496,24 @@ def _pct(value) -> str:
     return "n/a" if value is None or (isinstance(value, float) and not math.isfinite(value)) else f"{value:.0%}"
 
 
+def reproduce_real(settings, staging: Path, figures: dict, progress) -> str:
+    """``reproduce --only real`` inside :func:`furuta_drake.paper.report.run_reproduction` (its ``real``): the
+    real-rig studies and their files in ``staging``, under ``settings`` (a ``ReproductionSettings``); returns their
+    report.md part. Alone, they also write the nominal run's ``config.yaml``."""
+    outcome = run_real_rig(staging, small=settings.small_real, progress=progress)
+    figures["real"] = write_real_rig(staging, outcome)
+    if set(settings.only) == {"real"}:
+        (staging / "config.yaml").write_text(config_yaml_with_provenance(nominal_run_config(outcome)))
+    return real_rig_markdown(outcome)
+
+
 __all__ = [
     "RealRigOutcome",
     "run_real_rig",
     "write_real_rig",
     "nominal_run_config",
     "real_rig_markdown",
+    "reproduce_real",
     "correction_section",
     "observer_section",
     "controller_section",
