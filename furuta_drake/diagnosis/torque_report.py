@@ -10,8 +10,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis.missing_torque import MissingTorque
-from furuta_drake.effects.torque_library import JOINTS, TERMS, TORQUE_VARIABLES, carrier, term_values
-from furuta_drake.unmodelled import UnmodelledTorqueParameters
+from furuta_drake.effects.torque_library import JOINTS, TERMS, carrier, term_values
+from furuta_drake.unmodelled import TORQUE_VARIABLES, UnmodelledTorqueParameters
 
 CLOSE = 0.8  # R^2 of the torque on an effect's torque shapes above which that effect is named the closest
 # The torque shapes of the vocabulary's state-dependent effects on each joint, as library terms (a spring's

@@ -24,12 +24,12 @@ import math
 import numpy as np
 from numba import njit
 
-TORQUE_VARIABLES = ("theta", "phi", "theta_dot", "phi_dot")
+from furuta_drake.unmodelled import compile_torque
+
 JOINTS = ("arm", "pendulum")  # the generalised force on phi, on theta
 HARMONICS = 24
 SIGN_VELOCITY = 0.02  # [rad/s] the smoothed sign, as REGULARIZATION_VELOCITY of the diagnosis models
 SATURATION_VELOCITY = 1.0  # [rad/s] the rate at which the tanh term saturates
-ALLOWED_FUNCTIONS = ("sin", "cos", "tan", "tanh", "exp", "log", "abs", "sign", "sqrt", "pi")
 
 _RATE_TERMS = ("tanh({v}/0.02)", "{v}", "abs({v})*{v}", "tanh({v}/1.0)")
 _RATES = ("phi_dot", "theta_dot")
@@ -48,21 +48,17 @@ def _terms() -> tuple[str, ...]:
 
 
 TERMS = _terms()
+_COMPILED = [compile_torque(term, f"torque term {term}") for term in TERMS]
 _FIRST_RATE = 1 + 2 * HARMONICS + 2  # index of the first rate term
 _FIRST_PRODUCT = _FIRST_RATE + len(_RATE_TERMS) * len(_RATES)
 
 
-def namespace() -> dict:
-    """The names an expression may use, bound to numpy's functions."""
-    return {name: getattr(np, name) for name in ALLOWED_FUNCTIONS}
-
-
 def term_values(theta, phi, theta_dot, phi_dot) -> np.ndarray:
-    """Every term at the given states: (len(TERMS), *shape)."""
-    state = dict(zip(TORQUE_VARIABLES, np.broadcast_arrays(*map(np.asarray, (theta, phi, theta_dot, phi_dot)))))
-    names = {**namespace(), **state}
-    shape = state["phi"].shape
-    return np.stack([np.broadcast_to(eval(term, {"__builtins__": {}}, names), shape) for term in TERMS])
+    """Every term at the given states: (len(TERMS), *shape), each through the checked expression compiler
+    (:func:`furuta_drake.unmodelled.compile_torque`) that a simulation of the torque uses."""
+    state = np.broadcast_arrays(*map(np.asarray, (theta, phi, theta_dot, phi_dot)))
+    shape = state[0].shape
+    return np.stack([np.broadcast_to(_COMPILED[i](*state), shape) for i in range(len(TERMS))])
 
 
 def expression(terms: list[tuple[int, float]]) -> str:
