@@ -62,7 +62,7 @@ def test_every_threshold_has_a_unit_and_a_meaning():
 def test_decide_is_the_keep_rule_and_a_first_effect_must_close_the_gap(reduction, first):
     """Excess removed well above the floor's square, a lower bound well above ENTRY: what decides is the margin
     (20 % of the gap of the model without it) and, for a first effect, closing half of the nominal gap."""
-    evidence = rule.Evidence(
+    evidence = rule.Comparison(
         heldout_gap=1.0, reduction=reduction, lower_bound=reduction - 0.05, excess=0.5, excess_drop=1.0
     )
     expected = reduction >= rule.MARGIN and (not first or reduction >= rule.CLOSES)

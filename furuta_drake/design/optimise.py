@@ -59,7 +59,7 @@ class Direction:
 
 
 @dataclass
-class Candidate:
+class EvaluatedDesign:
     """One evaluated design."""
 
     shape: np.ndarray  # (BANDS,) share of each band
@@ -89,8 +89,8 @@ Runner = Callable[[object, np.ndarray], tuple[np.ndarray, np.ndarray]]
 class Search:
     """What :func:`optimise` found: the best design, every candidate, and the directions left out."""
 
-    best: Candidate | None
-    candidates: list[Candidate]
+    best: EvaluatedDesign | None
+    candidates: list[EvaluatedDesign]
     directions: list[Direction]
     inseparable: list[Direction]
 
@@ -135,7 +135,7 @@ class Evaluator:
         self.family, self.hypotheses, self.rig, self.scales, self.bounds = family, hypotheses, rig, scales, bounds
         self.runner, self.unit_command, self.aimed_motion, self.hanging = runner, unit_command, aimed_motion, hanging
 
-    def __call__(self, shapes: np.ndarray, directions: list[Direction]) -> list[Candidate]:
+    def __call__(self, shapes: np.ndarray, directions: list[Direction]) -> list[EvaluatedDesign]:
         unit = self.unit_command(shapes)  # (D, N) at level 1
         limits = [self.bounds.command / np.maximum(np.abs(unit).max(axis=1), 1e-300)]
         if self.aimed_motion is not None:
@@ -164,7 +164,7 @@ class Evaluator:
             levels = levels * np.minimum(ratio, 1.0) * np.where(command_ok, 1.0, 0.9)
         feasible = (ratio >= 1.0) & command_ok & (levels > 0)
         candidates = [
-            Candidate(
+            EvaluatedDesign(
                 shapes[d],
                 float(levels[d]),
                 commands[d],
@@ -186,7 +186,7 @@ class Evaluator:
             "command": np.max(np.abs(logged), axis=1),
         }
 
-    def _score(self, candidates: list[Candidate], directions: list[Direction]) -> None:
+    def _score(self, candidates: list[EvaluatedDesign], directions: list[Direction]) -> None:
         if not candidates:
             return
         counts = self.rig.counts_per_rev
@@ -203,7 +203,7 @@ class Evaluator:
                 for candidate, value in zip(candidates, values):
                     candidate.noncentrality[direction] = float(value)
 
-    def refine(self, candidates: list[Candidate], directions: list[Direction], iterations: int) -> None:
+    def refine(self, candidates: list[EvaluatedDesign], directions: list[Direction], iterations: int) -> None:
         """The noncentralities of ``candidates`` with ``iterations`` refit steps and exact held-out residuals."""
         counts = self.rig.counts_per_rev
         for candidate in candidates:

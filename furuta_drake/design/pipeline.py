@@ -21,7 +21,7 @@ from furuta_drake.design.inputs import DiagnosisRecord, read_diagnosis
 from furuta_drake.design.optimise import (
     SAFETY,
     Bounds,
-    Candidate,
+    EvaluatedDesign,
     Evaluator,
     Search,
     optimise,
@@ -315,7 +315,7 @@ def _final(search: Search, family: Family, balancing: bool, gain, common: dict, 
 
 
 def _checked_in_drake(
-    best: Candidate,
+    best: EvaluatedDesign,
     family: Family,
     hypotheses: Hypotheses,
     rig,
@@ -324,7 +324,7 @@ def _checked_in_drake(
     gain,
     settings: DesignSettings,
     say,
-) -> tuple[Candidate, dict[int, Run] | None]:
+) -> tuple[EvaluatedDesign, dict[int, Run] | None]:
     """The best design played in Drake on every hypothesis it was checked on; scaled down (by the worst ratio,
     with the search's safety margin) while a bound is left, at most ``DRAKE_RESCALES`` times. None for the
     runs when it still leaves one."""

@@ -39,7 +39,7 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
-from furuta_drake.diagnosis.rule import Bootstrap, Evidence, is_kept
+from furuta_drake.diagnosis.rule import Bootstrap, Comparison, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import JOINTS, TERMS, expression, term_values
@@ -63,8 +63,8 @@ class MissingTorque:
     terms: list[tuple[int, int, float]]  # (joint, term index, coefficient [N m])
     intervals: list[tuple[float, float]]  # 95 % interval of each coefficient [N m]
     heldout: GapResult  # the final model with the torque, on the held-out windows
-    over_final: Evidence  # against the final model without it
-    over_nominal: Evidence  # against the nominal model
+    over_final: Comparison  # against the final model without it
+    over_nominal: Comparison  # against the nominal model
     scatter: dict[str, dict] = field(default_factory=dict)  # joint -> per-window estimates for the plot
 
     @property

@@ -81,7 +81,7 @@ def gap_of(per_window_excess) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Evidence:
+class Comparison:
     """One model's held-out figures against a reference model: point reduction and its 5 % lower bound."""
 
     heldout_gap: float  # [counts]
@@ -105,10 +105,10 @@ class Bootstrap:
         """Bootstrap values of 1 - gap(candidate) / gap(reference)."""
         return _reductions(self.means(reference), self.means(candidate))
 
-    def evidence(self, reference: np.ndarray, candidate: np.ndarray) -> Evidence:
+    def evidence(self, reference: np.ndarray, candidate: np.ndarray) -> Comparison:
         point = 1.0 - gap_of(candidate.mean()) / max(float(gap_of(reference.mean())), 1e-12)
         before, after = self.means(reference), self.means(candidate)
-        return Evidence(
+        return Comparison(
             float(gap_of(candidate.mean())),
             float(point),
             float(np.quantile(_reductions(before, after), LOWER_BOUND_QUANTILE)),
@@ -158,14 +158,14 @@ def n_params(name: str) -> int:
     return sum(len(CANDIDATES[part].params) for part in name.split("+"))
 
 
-def order(evidence: dict[str, Evidence]) -> list[str]:
+def order(evidence: dict[str, Comparison]) -> list[str]:
     """Candidates best first: the larger reduction, then (two models at the floor both reduce by 1) the smaller
     excess residual before the square root's clip, then fewer parameters, then the name."""
     return sorted(evidence, key=lambda name: (-evidence[name].reduction, evidence[name].excess, n_params(name), name))
 
 
 def choose(
-    evidence: dict[str, Evidence],
+    evidence: dict[str, Comparison],
     new: dict[str, str],
     margin: float = MARGIN,
     previous: np.ndarray | None = None,
@@ -207,7 +207,7 @@ def beyond_resolution(excess_drop: float) -> bool:
     return excess_drop > FLOOR_COUNTS**2
 
 
-def decide(evidence: Evidence, *, first: bool = False) -> bool:
+def decide(evidence: Comparison, *, first: bool = False) -> bool:
     """The rule's judgement of one effect from ``evidence`` of the model holding it over the model without it:
     kept (:func:`is_kept`) and, when it is the ``first`` effect (nothing else accepted), closing the gap
     (a reduction of at least ``CLOSES``): what a diagnosis would accept. The caller checks first that the model
@@ -224,7 +224,7 @@ def verdict(effects: list[str], reduction: float | None, quiet: bool) -> str:
     return "none" if quiet else "unexplained"
 
 
-def is_kept(evidence: Evidence) -> bool:
+def is_kept(evidence: Comparison) -> bool:
     """Whether an effect whose removal costs ``evidence`` earns its place: a reduction of at least ``MARGIN`` of
     the gap of the model without it, with a 5 % lower bound above ``ENTRY`` (a second effect beside a strong
     first one shares a small remaining gap, so its bound is wide even when its size is clear), removing more
@@ -235,7 +235,7 @@ def is_kept(evidence: Evidence) -> bool:
 
 def confusable(
     chosen: str,
-    evidence: dict[str, Evidence],
+    evidence: dict[str, Comparison],
     new: dict[str, str],
     previous: np.ndarray,
     per_window: dict[str, np.ndarray],

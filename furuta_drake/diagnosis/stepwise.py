@@ -19,7 +19,7 @@ from furuta_drake.diagnosis.rule import (
     ENTRY,
     LEVEL_EXCESS,
     Bootstrap,
-    Evidence,
+    Comparison,
     at_floor,
     choose,
     confusable,
@@ -45,10 +45,10 @@ class Selection:
     nominal: GapResult  # the nominal model on the held-out windows
     tried: list[tuple[int, FitResult]]  # every model fitted, with its step (its number of effects)
     kept: list[str] = field(default_factory=list)  # the accepted effects, in the order they entered
-    over_nominal: dict[str, Evidence] = field(default_factory=dict)  # model name -> evidence over nominal
-    over_previous: dict[str, Evidence] = field(default_factory=dict)  # ... over the model it was built on
-    over_others: dict[str, Evidence] = field(default_factory=dict)  # kept effect -> final over final without it
-    over_step: list[Evidence] = field(default_factory=list)  # each accepted step over the step before
+    over_nominal: dict[str, Comparison] = field(default_factory=dict)  # model name -> evidence over nominal
+    over_previous: dict[str, Comparison] = field(default_factory=dict)  # ... over the model it was built on
+    over_others: dict[str, Comparison] = field(default_factory=dict)  # kept effect -> final over final without it
+    over_step: list[Comparison] = field(default_factory=list)  # each accepted step over the step before
     confusable: list[dict] = field(default_factory=list)
     quiet: bool = False  # the nominal model explains the held-out data to within their noise
     runners_up: dict[str, list[tuple[str, Effect]]] = field(default_factory=dict)  # kept effect -> the other
