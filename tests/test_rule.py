@@ -17,11 +17,11 @@ def pct(value: float) -> str:
 
 
 def section(number: int) -> str:
-    """Section ``number`` of docs/diagnose.md, whitespace collapsed."""
+    """Section ``number`` of docs/diagnose.md up to its first subsection, whitespace collapsed."""
     text = (REPO / "docs" / "diagnose.md").read_text()
     body = re.split(r"^## ", text, flags=re.M)
     found = next(part for part in body if part.startswith(f"{number}. "))
-    return " ".join(found.split())
+    return " ".join(re.split(r"^### ", found, flags=re.M)[0].split())
 
 
 def test_the_docs_state_the_rules_constants():
