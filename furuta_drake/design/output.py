@@ -127,26 +127,45 @@ def _config(design: Design) -> dict:
 
 def design_markdown(document: dict) -> str:
     """design.md: the same content for a person."""
-    unit = document["input"]["unit"]
-    lines = ["# Experiment design", ""]
+    lines = ["# Experiment design", ""] + _md_experiment(document) + _md_hypotheses(document)
+    lines += _md_pairs(document) + _md_responses(document)
+    bounds, unit = document["bounds"], document["input"]["unit"]
+    lines += [
+        "",
+        f"Bounds under every hypothesis: arm angle {_fmt(bounds['arm_angle_rad'])} rad, pendulum "
+        f"excursion {_fmt(bounds['pendulum_excursion_rad'])} rad, command "
+        f"{_fmt(next(v for k, v in bounds.items() if k.startswith('command')))} {unit}.",
+        "",
+    ]
+    lines += _md_excitation(document)
+    if document["notes"]:
+        lines += ["", "## Notes", ""] + [f"- {note}" for note in document["notes"]]
+    return "\n".join(lines) + "\n"
+
+
+def _md_experiment(document: dict) -> list[str]:
+    """What to play and how, or why there is no experiment."""
     if document["status"] != "design":
-        lines += [f"**No experiment** ({document['status']}): {document['reason']}.", ""]
-    else:
-        how = (
-            "a dither added to the LQR balancing the upright"
-            if document["mode"] == "balancing"
-            else "played open loop from rest with the pendulum hanging"
-        )
-        lines += [
-            f"`experiment.csv`: {document['duration_s']:g} s of `{document['input']['column']}` [{unit}], "
-            f"{how}, one value per {document['sample_period_s']:g} s. Record it like the diagnosis' logs, "
-            f"then run the diagnosis again with its first half added to `--train` and its second half to "
-            f"`--heldout`.",
-            "",
-            "![command and predicted responses](design.png)",
-            "",
-        ]
-    lines += ["## Hypotheses", "", "| hypothesis | role | effects |", "|---|---|---|"]
+        return [f"**No experiment** ({document['status']}): {document['reason']}.", ""]
+    how = (
+        "a dither added to the LQR balancing the upright"
+        if document["mode"] == "balancing"
+        else "played open loop from rest with the pendulum hanging"
+    )
+    return [
+        f"`experiment.csv`: {document['duration_s']:g} s of `{document['input']['column']}` "
+        f"[{document['input']['unit']}], "
+        f"{how}, one value per {document['sample_period_s']:g} s. Record it like the diagnosis' logs, "
+        f"then run the diagnosis again with its first half added to `--train` and its second half to "
+        f"`--heldout`.",
+        "",
+        "![command and predicted responses](design.png)",
+        "",
+    ]
+
+
+def _md_hypotheses(document: dict) -> list[str]:
+    lines = ["## Hypotheses", "", "| hypothesis | role | effects |", "|---|---|---|"]
     for h in document["hypotheses"]:
         effects = (
             "; ".join(
@@ -156,80 +175,84 @@ def design_markdown(document: dict) -> str:
             or "-"
         )
         lines.append(f"| `{h['name']}` | {h['role']} | {effects} |")
-    if document["pairs"]:
-        lines += [
-            "",
-            "## What the experiment separates",
-            "",
-            "| truth | rival | noncentrality | held-out gap difference [counts] (90 %) | detection probability |",
-            "|---|---|---:|---:|---:|",
-        ]
-        for pair in document["pairs"]:
-            for d in pair["directions"]:
-                diff = d["gap_difference_all_heldout"]
-                lines.append(
-                    f"| `{d['truth']}` | `{d['rival']}` | {_fmt(d['noncentrality'])} | "
-                    f"{_fmt(diff['median'])} [{_fmt(diff['interval90'][0])}, {_fmt(diff['interval90'][1])}]"
-                    f" | {d['detection_probability']:.0%} |"
-                )
-        lines += [
-            "",
-            "The noncentrality is the expected log-likelihood ratio of the experiment's held-out half "
-            "under the truth's encoder noise, once the rival is refit and every window's initial state "
-            "re-projected; the gap difference (rival minus truth) is over all held-out windows the new "
-            "diagnosis would judge; the detection probability is the share of noise draws in which its rule "
-            "picks the truth and no longer finds the two confusable.",
-            "",
-        ]
-        for pair in document["pairs"]:
-            lines.append(f"- `{pair['hypotheses'][0]}` vs `{pair['hypotheses'][1]}`: {pair['why']}")
-    if document["responses"]:
-        lines += [
-            "",
-            "## Predicted responses (Drake)",
-            "",
-            f"| hypothesis | peak arm angle [rad] | peak pendulum excursion [rad] | peak command [{unit}] |",
-            "|---|---:|---:|---:|",
-        ]
-        for name, r in document["responses"].items():
-            command = next(v for k, v in r.items() if k.startswith("peak_command"))
+    return lines
+
+
+def _md_pairs(document: dict) -> list[str]:
+    """The pairs the experiment separates, per direction, and why each pair was a question."""
+    if not document["pairs"]:
+        return []
+    lines = [
+        "",
+        "## What the experiment separates",
+        "",
+        "| truth | rival | noncentrality | held-out gap difference [counts] (90 %) | detection probability |",
+        "|---|---|---:|---:|---:|",
+    ]
+    for pair in document["pairs"]:
+        for d in pair["directions"]:
+            diff = d["gap_difference_all_heldout"]
             lines.append(
-                f"| `{name}` | {_fmt(r['peak_arm_angle_rad'])} | {_fmt(r['peak_pendulum_excursion_rad'])} "
-                f"| {_fmt(command)} |"
+                f"| `{d['truth']}` | `{d['rival']}` | {_fmt(d['noncentrality'])} | "
+                f"{_fmt(diff['median'])} [{_fmt(diff['interval90'][0])}, {_fmt(diff['interval90'][1])}]"
+                f" | {d['detection_probability']:.0%} |"
             )
-    bounds = document["bounds"]
     lines += [
         "",
-        f"Bounds under every hypothesis: arm angle {_fmt(bounds['arm_angle_rad'])} rad, pendulum "
-        f"excursion {_fmt(bounds['pendulum_excursion_rad'])} rad, command "
-        f"{_fmt(next(v for k, v in bounds.items() if k.startswith('command')))} {unit}.",
+        "The noncentrality is the expected log-likelihood ratio of the experiment's held-out half "
+        "under the truth's encoder noise, once the rival is refit and every window's initial state "
+        "re-projected; the gap difference (rival minus truth) is over all held-out windows the new "
+        "diagnosis would judge; the detection probability is the share of noise draws in which its rule "
+        "picks the truth and no longer finds the two confusable.",
         "",
     ]
-    if document["excitation"].get("bands"):
-        lines += [
-            "## Excitation",
+    return lines + [
+        f"- `{pair['hypotheses'][0]}` vs `{pair['hypotheses'][1]}`: {pair['why']}" for pair in document["pairs"]
+    ]
+
+
+def _md_responses(document: dict) -> list[str]:
+    if not document["responses"]:
+        return []
+    lines = [
+        "",
+        "## Predicted responses (Drake)",
+        "",
+        "| hypothesis | peak arm angle [rad] | peak pendulum excursion [rad] | peak command "
+        f"[{document['input']['unit']}] |",
+        "|---|---:|---:|---:|",
+    ]
+    for name, r in document["responses"].items():
+        command = next(v for k, v in r.items() if k.startswith("peak_command"))
+        lines.append(
+            f"| `{name}` | {_fmt(r['peak_arm_angle_rad'])} | {_fmt(r['peak_pendulum_excursion_rad'])} "
+            f"| {_fmt(command)} |"
+        )
+    return lines
+
+
+def _md_excitation(document: dict) -> list[str]:
+    excitation = document["excitation"]
+    if not excitation.get("bands"):
+        return []
+    lines = [
+        "## Excitation",
+        "",
+        f"{excitation['family']}; fundamental "
+        f"{_fmt(excitation['fundamental_hz'])} Hz, "
+        f"{_fmt(excitation['periods'])} periods, ramps of {_fmt(excitation['ramp_s'])} s, "
+        f"{excitation['phases']} phases; seed {document['seed']}.",
+        "",
+        "| band [Hz] | components | amplitude |",
+        "|---|---:|---:|",
+    ]
+    for band in excitation["bands"]:
+        amplitude = next(
+            (f"{_fmt(v)} {k.split('_', 1)[1].replace('_', ' ')}" for k, v in band.items() if k.startswith("amplitude")),
             "",
-            f"{document['excitation']['family']}; fundamental "
-            f"{_fmt(document['excitation']['fundamental_hz'])} Hz, "
-            f"{_fmt(document['excitation']['periods'])} periods, ramps of {_fmt(document['excitation']['ramp_s'])} s, "
-            f"{document['excitation']['phases']} phases; seed {document['seed']}.",
-            "",
-            "| band [Hz] | components | amplitude |",
-            "|---|---:|---:|",
-        ]
-        for band in document["excitation"]["bands"]:
-            amplitude = next(
-                (
-                    f"{_fmt(v)} {k.split('_', 1)[1].replace('_', ' ')}"
-                    for k, v in band.items()
-                    if k.startswith("amplitude")
-                ),
-                "",
-            )
-            lines.append(f"| {_fmt(band['low_hz'])}-{_fmt(band['high_hz'])} | {band['components']} | {amplitude} |")
-    if document["notes"]:
-        lines += ["", "## Notes", ""] + [f"- {note}" for note in document["notes"]]
-    return "\n".join(lines) + "\n"
+        )
+        lines.append(f"| {_fmt(band['low_hz'])}-{_fmt(band['high_hz'])} | {band['components']} | {amplitude} |")
+    return lines
 
 
 def plot_design(design: Design, path: Path) -> None:

@@ -139,20 +139,11 @@ def design_experiment(
     settings : sizes and seeds (:class:`DesignSettings`); progress : called with a line per stage.
     """
     settings.validate()
-    if duration is not None and not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-        raise ConfigError(f"--duration must be a positive number of seconds, got {duration!r}")
-    if not (isinstance(arm_bound, (int, float)) and math.isfinite(arm_bound) and arm_bound > 0):
-        raise ConfigError(f"--arm-bound must be a positive angle [rad], got {arm_bound!r}")
+    _check_options(duration, arm_bound)
     parsed = [parse_target(text) for text in targets]
     record = read_diagnosis(diagnosis)
     rig, period = record.rig, record.rig.sample_period
-    horizon, smooth = window_samples(period, rig)
-    shortest = 2 * (horizon + 2 * smooth + 1) * period
-    if duration is not None and duration < shortest:
-        raise ConfigError(
-            f"--duration {duration:g} s is too short: each half of the experiment must hold a gap "
-            f"window of this rig ({shortest:.3g} s in all)"
-        )
+    _check_duration(duration, rig)
     hypotheses = read_hypotheses(record.report, rig, record.train, parsed)
     mode = "balancing" if balancing else "hanging"
     say = progress or (lambda line: None)
@@ -164,9 +155,79 @@ def design_experiment(
     )
     bounds = Bounds(float(arm_bound), PENDULUM_BOUND[mode], rig.torque_limit)
     gain = nominal_lqr_gain(rig) if balancing else None
-    base = family.base()
-    if balancing:
-        evaluator = Evaluator(
+    evaluator = _evaluator(family.base(), hypotheses, rig, scales, bounds, gain)
+    search = optimise(
+        evaluator, hypotheses, settings.generations, settings.population, settings.refit_iterations, settings.seed, say
+    )
+    options = {
+        "duration": duration,
+        "mode": mode,
+        "targets": list(targets),
+        "arm_bound": arm_bound,
+        "settings": dataclasses.asdict(settings),
+    }
+    common = _common(record, hypotheses, bounds, settings, search, options)
+    refusal = _refusal(search, hypotheses, family, bounds, balancing, common)
+    if refusal is not None:
+        return refusal
+    if search.inseparable:
+        common["notes"].append(
+            "left out, no experiment of the family separates them: " + _inseparable_text(search, hypotheses)
+        )
+    design = _final(search, family, balancing, gain, common, scales, say)
+    if duration is None and design.status == "design":
+        needed = [pair["suggested_duration_s"] for pair in design.pairs]
+        longer = max((d for d in needed if d is not None), default=family.duration)
+        if longer > family.duration:
+            say(f"repeating the experiment to {longer:g} s")
+            design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales, say)
+    design.notes += _unsettled_notes(design)
+    return design
+
+
+def _common(record, hypotheses, bounds, settings, search, options: dict) -> dict:
+    """What every outcome of the design records: the mode, the rig's period and input, the bounds, hypotheses,
+    diagnosis, settings, notes, the search's summary and the options."""
+    return dict(
+        mode=options["mode"],
+        period=record.rig.sample_period,
+        input_kind=record.input_kind,
+        torque_per_volt=record.train[0].torque_per_volt if record.input_kind == "voltage" else 1.0,
+        bounds=bounds,
+        hypotheses=hypotheses,
+        record=record,
+        settings=settings,
+        notes=list(hypotheses.notes),
+        search=_search_summary(search),
+        options=options,
+    )
+
+
+def _check_options(duration: float | None, arm_bound: float) -> None:
+    if duration is not None and not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise ConfigError(f"--duration must be a positive number of seconds, got {duration!r}")
+    if not (isinstance(arm_bound, (int, float)) and math.isfinite(arm_bound) and arm_bound > 0):
+        raise ConfigError(f"--arm-bound must be a positive angle [rad], got {arm_bound!r}")
+
+
+def _check_duration(duration: float | None, rig) -> None:
+    """Each half of the experiment must hold one gap window of the rig."""
+    period = rig.sample_period
+    horizon, smooth = window_samples(period, rig)
+    shortest = 2 * (horizon + 2 * smooth + 1) * period
+    if duration is not None and duration < shortest:
+        raise ConfigError(
+            f"--duration {duration:g} s is too short: each half of the experiment must hold a gap "
+            f"window of this rig ({shortest:.3g} s in all)"
+        )
+
+
+def _evaluator(base, hypotheses, rig, scales, bounds, gain) -> Evaluator:
+    """The evaluator of the family's designs: a dither added to the LQR balancing (``gain`` given), or an
+    open-loop command played from rest with the pendulum hanging."""
+    period = rig.sample_period
+    if gain is not None:
+        return Evaluator(
             base,
             hypotheses,
             rig,
@@ -179,80 +240,43 @@ def design_experiment(
             None,
             hanging=False,
         )
-    else:
-        evaluator = Evaluator(
-            base,
-            hypotheses,
-            rig,
-            scales,
-            bounds,
-            lambda model, commands: (surrogate_runs(model, commands, period), commands),
-            base.feedforward,
-            base.arm_motion,
-            hanging=True,
-        )
-    search = optimise(
-        evaluator, hypotheses, settings.generations, settings.population, settings.refit_iterations, settings.seed, say
+    return Evaluator(
+        base,
+        hypotheses,
+        rig,
+        scales,
+        bounds,
+        lambda model, commands: (surrogate_runs(model, commands, period), commands),
+        base.feedforward,
+        base.arm_motion,
+        hanging=True,
     )
-    torque_per_volt = record.train[0].torque_per_volt if record.input_kind == "voltage" else 1.0
-    common = dict(
-        mode=mode,
-        period=period,
-        input_kind=record.input_kind,
-        torque_per_volt=torque_per_volt,
-        bounds=bounds,
-        hypotheses=hypotheses,
-        record=record,
-        settings=settings,
-        notes=list(hypotheses.notes),
-        search=_search_summary(search),
-        options={
-            "duration": duration,
-            "mode": mode,
-            "targets": list(targets),
-            "arm_bound": arm_bound,
-            "settings": dataclasses.asdict(settings),
-        },
-    )
+
+
+def _refusal(search, hypotheses, family, bounds, balancing: bool, common: dict) -> Design | None:
+    """The Design that says why there is none: no direction separates the pairs, or no design keeps within the
+    bounds under every hypothesis; None when the search found one."""
+    if search.directions and search.best is not None:
+        return None
     if not search.directions:
-        return Design(
-            "no_separation",
-            "no experiment separates them: " + _inseparable_text(search, hypotheses),
-            duration=family.duration,
-            command=None,
-            excitation={},
-            pairs=[],
-            runs={},
-            **common,
-        )
-    if search.best is None:
-        return Design(
+        status, why = "no_separation", "no experiment separates them: " + _inseparable_text(search, hypotheses)
+    else:
+        status, why = (
             "refused",
             f"no design of the family keeps the arm within {bounds.arm:g} rad, the pendulum "
             f"within {bounds.pendulum:g} rad of {'the upright' if balancing else 'hanging'} and the "
             f"command within {bounds.command:.4g} N m under every hypothesis",
-            duration=family.duration,
-            command=None,
-            excitation={},
-            pairs=[],
-            runs={},
-            **common,
         )
-    if search.inseparable:
-        common["notes"].append(
-            "left out, no experiment of the family separates them: " + _inseparable_text(search, hypotheses)
-        )
-    design = _final(search, family, balancing, gain, common, scales, say)
-    if duration is None and design.status == "design":
-        needed = [pair["suggested_duration_s"] for pair in design.pairs]
-        longer = max((d for d in needed if d is not None), default=family.duration)
-        if longer > family.duration:
-            say(f"repeating the experiment to {longer:g} s")
-            design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales, say)
+    return Design(status, why, duration=family.duration, command=None, excitation={}, pairs=[], runs={}, **common)
+
+
+def _unsettled_notes(design: Design) -> list[str]:
+    """A note for each pair predicted to be settled with less than ``SETTLES`` probability."""
+    notes = []
     for pair in design.pairs:
         if pair["detection_probability"] < SETTLES:
             longer = pair["suggested_duration_s"]
-            design.notes.append(
+            notes.append(
                 f"{' vs '.join(pair['hypotheses'])}: predicted detection probability "
                 f"{pair['detection_probability']:.0%}, below {SETTLES:.0%}; "
                 + (
@@ -261,7 +285,7 @@ def design_experiment(
                     else f"not reached by repeating it up to {REPEATS[-1]} times"
                 )
             )
-    return design
+    return notes
 
 
 def _final(search: Search, family: Family, balancing: bool, gain, common: dict, scales, say) -> Design:
@@ -405,67 +429,55 @@ def _predicted_pairs(
     out = []
     for index, pair in enumerate(hypotheses.pairs):
         names = [hypotheses.hypotheses[pair.first].name, hypotheses.hypotheses[pair.second].name]
-        directions = [d for d in search.directions + search.inseparable if d.pair == index]
         entry = {"hypotheses": names, "step": pair.step, "why": pair.why, "nested": pair.nested, "directions": []}
-        for direction in directions:
-            truth, rival = hypotheses.hypotheses[direction.truth], hypotheses.hypotheses[direction.rival]
-            run = runs[direction.truth]
-            train, heldout = experiment_windows(
-                run.angles[:, :, None], run.command[None], record.rig.sample_period, rig
+        for direction in [d for d in search.directions + search.inseparable if d.pair == index]:
+            head, outcome, predict = _predicted_direction(
+                direction, pair, runs, hypotheses, record, scales, settings, old_excess
             )
-            fits = {
-                key: refit_residuals(
-                    Parametrised(hypotheses.nominal, effects, scales), train, heldout, counts, settings.refit_iterations
-                )
-                for key, effects in ((TRUTH, truth.effects), (RIVAL, rival.effects), ("previous", pair.previous))
-            }
-            new = dict(zip((TRUTH, RIVAL), pair.new if direction.truth == pair.first else pair.new[::-1]))
-            arguments = (
-                fits[TRUTH],
-                fits[RIVAL],
-                fits["previous"],
-                {
-                    TRUTH: old_excess(truth.effects),
-                    RIVAL: old_excess(rival.effects),
-                    "previous": old_excess(pair.previous),
-                },
-                new,
-                pair.nested,
-                pair.step == 1,
-                truth.model,
-                counts,
-                settings.draws,
-                settings.bootstrap,
-                settings.seed,
-            )
-            outcome = predict_direction(*arguments)
-            repeats = 1
-            if outcome["detection_probability"] < SETTLES:
-                repeats = next(
-                    (
-                        r
-                        for r in REPEATS
-                        if predict_direction(*arguments, replicas=r)["detection_probability"] >= SETTLES
-                    ),
-                    None,
-                )
-            outcome["suggested_duration_s"] = None if repeats is None else duration * repeats
-            squared = fits[RIVAL].residuals[1:] ** 2
-            entry["directions"].append(
-                {
-                    "truth": truth.name,
-                    "rival": rival.name,
-                    "noncentrality": float(np.sum(squared) / fits[TRUTH].variance),
-                    "rms_difference_counts": float(np.sqrt(np.mean(squared))),
-                    "separable": direction in search.directions,
-                    **outcome,
-                }
-            )
+            outcome["suggested_duration_s"] = _suggested_duration(outcome, predict, duration)
+            entry["directions"].append({**head, "separable": direction in search.directions, **outcome})
         entry["detection_probability"] = min(d["detection_probability"] for d in entry["directions"])
         needed = [d["suggested_duration_s"] for d in entry["directions"]]
         entry["suggested_duration_s"] = None if None in needed else max(needed)
         out.append(entry)
     return out
+
+
+def _predicted_direction(direction, pair, runs, hypotheses, record, scales, settings, old_excess):
+    """One direction of a pair (its truth against its rival) on the truth's Drake run: (its names, exact
+    noncentrality and RMS difference; the rule's predicted outcome; ``replicas`` -> the outcome of the experiment
+    repeated that many times)."""
+    rig, counts = record.rig, record.rig.counts_per_rev
+    truth, rival = hypotheses.hypotheses[direction.truth], hypotheses.hypotheses[direction.rival]
+    run = runs[direction.truth]
+    train, heldout = experiment_windows(run.angles[:, :, None], run.command[None], rig.sample_period, rig)
+    fits = {
+        key: refit_residuals(
+            Parametrised(hypotheses.nominal, effects, scales), train, heldout, counts, settings.refit_iterations
+        )
+        for key, effects in ((TRUTH, truth.effects), (RIVAL, rival.effects), ("previous", pair.previous))
+    }
+    new = dict(zip((TRUTH, RIVAL), pair.new if direction.truth == pair.first else pair.new[::-1]))
+    old = {TRUTH: old_excess(truth.effects), RIVAL: old_excess(rival.effects), "previous": old_excess(pair.previous)}
+    arguments = (fits[TRUTH], fits[RIVAL], fits["previous"], old, new, pair.nested, pair.step == 1, truth.model)
+    arguments += (counts, settings.draws, settings.bootstrap, settings.seed)
+    squared = fits[RIVAL].residuals[1:] ** 2
+    head = {
+        "truth": truth.name,
+        "rival": rival.name,
+        "noncentrality": float(np.sum(squared) / fits[TRUTH].variance),
+        "rms_difference_counts": float(np.sqrt(np.mean(squared))),
+    }
+    return head, predict_direction(*arguments), lambda replicas: predict_direction(*arguments, replicas=replicas)
+
+
+def _suggested_duration(outcome: dict, predict, duration: float) -> float | None:
+    """The duration (a multiple of ``duration`` in ``REPEATS``) at which the outcome would be detected in
+    ``SETTLES`` of the draws (None when none is)."""
+    repeats = 1
+    if outcome["detection_probability"] < SETTLES:
+        repeats = next((r for r in REPEATS if predict(r)["detection_probability"] >= SETTLES), None)
+    return None if repeats is None else duration * repeats
 
 
 def _search_summary(search: Search) -> dict:
