@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from pathlib import Path
 
@@ -28,7 +29,7 @@ from furuta_drake.diagnosis.gap import (
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs, load_rig
-from furuta_drake.diagnosis.parallel import run_tasks
+from furuta_drake.diagnosis.parallel import TaskPool, run_tasks
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
@@ -122,6 +123,29 @@ def diagnose(
     workers : processes (default: all cores); scheduler : address of a Dask scheduler that runs the fits instead;
         progress : called with each finished task; log_format : column mapping and units of the logs.
     """
+    # One worker pool for every batch of tasks; with --folds the folds' selections run in a thread beside the
+    # main selection, their fits filling the cores its small batches leave idle.
+    with ThreadPoolExecutor(max_workers=1) as background, TaskPool(1 if scheduler else workers) as pool:
+        return _diagnose(
+            rig=rig,
+            train=train,
+            heldout=heldout,
+            candidates=candidates,
+            settings=settings,
+            folds=folds,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+            log_format=log_format,
+            pool=pool,
+            background=background,
+        )
+
+
+def _diagnose(
+    *, rig, train, heldout, candidates, settings, folds, workers, scheduler, progress, log_format, pool, background
+):
+    """:func:`diagnose` with its worker ``pool`` and a ``background`` thread for the folds."""
     settings.validate()
     rig_path = Path(rig)
     rig_params = load_rig(rig_path)
@@ -142,7 +166,12 @@ def diagnose(
     counts = rig_params.counts_per_rev
     nominal = rig_model(rig_params)
     train_windows, heldout_windows = make_windows(fit_logs, rig_params), make_windows(test_logs, rig_params)
-    run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress)
+    run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress, pool=pool)
+    fold_check = None
+    if folds is not None and folds >= 2:
+        fold_check = background.submit(
+            consistency, train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds
+        )
     selection = select_effects(nominal, fit_logs, train_windows, heldout_windows, counts, names, settings, run)
     final = selection.final if selection.effects else None
     accepted_model = apply_effects(nominal, final.effects) if final else nominal
@@ -166,7 +195,9 @@ def diagnose(
     if final:
         replays.append((accepted_model, final.heldout.initial_states))
     drake = (
-        replay_gaps(replays, rig_params, heldout_windows, workers, scheduler)
+        replay_gaps(
+            replays, rig_params, heldout_windows, partial(run_tasks, workers=workers, scheduler=scheduler, pool=pool)
+        )
         if settings.replay
         else [None] * len(replays)
     )
@@ -183,9 +214,7 @@ def diagnose(
     before = window_residuals(nominal_heldout, heldout_windows, rig_params)
     after = window_residuals(accepted_heldout, heldout_windows, rig_params) if final else None
 
-    consistency_result = None
-    if folds is not None and folds >= 2:
-        consistency_result = consistency(train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds)
+    consistency_result = fold_check.result() if fold_check is not None else None
     steps = []
     for name, result, over_step in zip(selection.kept, selection.accepted if final else [], selection.over_step):
         params, _ = _params(result, nominal)

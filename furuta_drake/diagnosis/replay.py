@@ -11,6 +11,9 @@ that a looser accuracy leaves would show); the residuals give the same gap as
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
@@ -122,12 +125,11 @@ def replay_gaps(
     models: list[tuple[Model, list[np.ndarray]]],
     rig: RigParameters,
     windows: Windows,
-    workers: int | None = None,
-    scheduler: str | None = None,
+    run: Callable = run_tasks,
 ) -> list[GapResult | None]:
     """The gap of each (model, initial states per log: 4 x W, or 5 x W with the arm's bristle state) on
-    ``windows`` from Drake replays, one task per model and log; None for a model whose replay failed (raised, or
-    diverged to a non-finite residual)."""
+    ``windows`` from Drake replays, one task per model and log, run by ``run`` (:func:`run_tasks` with its
+    options); None for a model whose replay failed (raised, or diverged to a non-finite residual)."""
     tasks = [
         (model, rig, log, horizon, starts, x0[i], measured)
         for model, x0 in models
@@ -135,7 +137,7 @@ def replay_gaps(
             zip(windows.logs, windows.horizons, windows.starts, windows.measured)
         )
     ]
-    residuals = run_tasks(_replay_log, tasks, workers=workers, scheduler=scheduler)
+    residuals = run(_replay_log, tasks)
     n = len(windows.logs)
     out = []
     for k, (model, x0) in enumerate(models):
@@ -149,4 +151,4 @@ def replay_gap(
     model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray], workers: int | None = 1
 ) -> GapResult | None:
     """:func:`replay_gaps` of one model."""
-    return replay_gaps([(model, initial_states)], rig, windows, workers)[0]
+    return replay_gaps([(model, initial_states)], rig, windows, partial(run_tasks, workers=workers))[0]
