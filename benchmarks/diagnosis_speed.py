@@ -78,6 +78,7 @@ class StageClock:
         self.seconds: dict[str, float] = defaultdict(float)
         self.tasks: dict[str, int] = defaultdict(int)
         self.main_in_batches = 0.0  # CPU seconds of this process while batches ran
+        self.task_cpu: dict[str, float] = defaultdict(float)  # per phase, CPU seconds inside its tasks
         self.ideal = 0.0  # the batches' wall times on free cores
         self._saved = {}
 
@@ -108,6 +109,7 @@ class StageClock:
             cpu = [r[1] if isinstance(r, tuple) else 0.0 for r in timed]
             main = time.process_time() - main  # the tasks' CPU when they ran in this process, else pickling's
             self.main_in_batches += main
+            self.task_cpu["tasks: " + phase] += sum(cpu)
             self.ideal += max(makespan(cpu, self.workers), main)
             return [r[0] if isinstance(r, tuple) else r for r in timed]
 
@@ -128,10 +130,44 @@ class StageClock:
             setattr(module, name, function)
 
 
+TRIAL_SECONDS, TRIAL_PERIOD = 4.0, 0.008  # a trial set: many short logs at 125 Hz
+
+
+def _write_trial(args) -> None:
+    import dataclasses
+
+    from furuta_drake.diagnosis.suite import run_configs, with_effect
+    from furuta_drake.results import write_log_csv
+    from furuta_drake.simulate import simulate
+
+    rig, folder, trial = args
+    configs = run_configs(rig, trial, TRIAL_SECONDS)
+    config = with_effect(configs["hanging"], "input_delay", 2)
+    write_log_csv(simulate(dataclasses.replace(config, seed=trial)), folder / f"trial_{trial:03d}.csv")
+
+
+def write_trials(folder: Path, count: int, workers: int) -> None:
+    """``count`` trials of ``TRIAL_SECONDS`` on the QUBE-Servo 2 sampled at 125 Hz with a transport delay of two
+    samples (hanging under an open-loop multisine seeded by the trial's number), and the nominal rig file."""
+    import dataclasses
+    from concurrent.futures import ProcessPoolExecutor
+
+    from furuta_drake.rig import qube_servo2_rig
+    from furuta_drake.yamlio import dump_yaml_dataclass
+
+    folder.mkdir(parents=True, exist_ok=True)
+    rig = dataclasses.replace(qube_servo2_rig(), sample_period=TRIAL_PERIOD)
+    (folder / "rig.yaml").write_text(dump_yaml_dataclass(rig))
+    with ProcessPoolExecutor(workers) as pool:
+        list(pool.map(_write_trial, [(rig, folder, trial) for trial in range(count)]))
+
+
 def case_inputs(folder: Path) -> dict:
     """The diagnose() inputs of a case folder; of the real QUBE logs (no train_/heldout_ names) the two 5 s
     logs are held out."""
     train, heldout = sorted(folder.glob("train_*.csv")), sorted(folder.glob("heldout_*.csv"))
+    if not train and list(folder.glob("trial_*.csv")):  # a trial set: part of every trial held out
+        return {"rig": folder / "rig.yaml", "train": sorted(folder.glob("trial_*.csv")), "heldout": []}
     if not train:
         logs = sorted(folder.glob("*.csv"))
         heldout = [log for log in logs if "_5s_" in log.name]
@@ -154,6 +190,7 @@ def run_case(folder: Path, workers: int | None, folds: int | None, reports: Path
         "quiet": own - clock.main_in_batches + clock.ideal,
         "stages": dict(clock.seconds),
         "tasks": dict(clock.tasks),
+        "task_cpu": dict(clock.task_cpu),
         "verdict": diagnosis.verdict,
         "effects": diagnosis.effects,
     }
@@ -165,7 +202,8 @@ def print_table(suite: str, rows: list[dict]) -> None:
     print("|---|---:|---:|---:|---|---|")
     for row in rows:
         stages = ", ".join(
-            f"{name} {seconds:.1f}" + (f" ({row['tasks'][name]})" if name in row["tasks"] else "")
+            f"{name} {seconds:.1f}"
+            + (f" ({row['tasks'][name]} tasks, {row['task_cpu'][name]:.1f} s CPU)" if name in row["tasks"] else "")
             for name, seconds in sorted(row["stages"].items(), key=lambda item: -item[1])
             if seconds >= 0.05
         )
@@ -198,8 +236,9 @@ def compare(reports: Path, before: Path, cases: list[str]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--suite", nargs="+", action="append", help="a suite's name followed by its case folders")
     parser.add_argument(
-        "--suite", nargs="+", action="append", required=True, help="a suite's name followed by its case folders"
+        "--write-trials", nargs=2, metavar=("DIR", "N"), help="write a set of N 4 s trials at 125 Hz to DIR and stop"
     )
     parser.add_argument("--workers", type=int, default=2, help="diagnose's worker processes (default 2)")
     parser.add_argument("--folds", type=int, help="also check consistency on this many folds")
@@ -207,7 +246,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--reports", type=Path, help="write every case's report here")
     parser.add_argument("--compare", type=Path, help="compare the reports with those written earlier here")
     args = parser.parse_args(argv)
-    for suite, *folders in args.suite:
+    if args.write_trials:
+        write_trials(Path(args.write_trials[0]), int(args.write_trials[1]), args.workers)
+        return 0
+    for suite, *folders in args.suite or []:
         rows = []
         for folder in map(Path, folders):
             profiler = cProfile.Profile() if args.profile else None
