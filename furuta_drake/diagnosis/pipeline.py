@@ -125,7 +125,7 @@ def diagnose(
     """
     # One worker pool for every batch of tasks; with --folds the folds' selections run in a thread beside the
     # main selection, their fits filling the cores its small batches leave idle.
-    with ThreadPoolExecutor(max_workers=1) as background, TaskPool(1 if scheduler else workers) as pool:
+    with ThreadPoolExecutor(max_workers=2) as background, TaskPool(1 if scheduler else workers) as pool:
         return _diagnose(
             rig=rig,
             train=train,
@@ -145,7 +145,7 @@ def diagnose(
 def _diagnose(
     *, rig, train, heldout, candidates, settings, folds, workers, scheduler, progress, log_format, pool, background
 ):
-    """:func:`diagnose` with its worker ``pool`` and a ``background`` thread for the folds."""
+    """:func:`diagnose` with its worker ``pool`` and ``background`` threads for the folds and the replays."""
     settings.validate()
     rig_path = Path(rig)
     rig_params = load_rig(rig_path)
@@ -177,6 +177,16 @@ def _diagnose(
     accepted_model = apply_effects(nominal, final.effects) if final else nominal
     bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
 
+    # The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
+    # replay fails); the replays run on the workers while this process finds the detection limits.
+    replays = [(nominal, selection.nominal.initial_states)]
+    if final:
+        replays.append((accepted_model, final.heldout.initial_states))
+    replay_run = partial(run_tasks, workers=workers, scheduler=scheduler, pool=pool)
+    replaying = (
+        background.submit(replay_gaps, replays, rig_params, heldout_windows, replay_run) if settings.replay else None
+    )
+
     limits = []
     if settings.detection_limits:
         limits = detection_limits(
@@ -188,19 +198,7 @@ def _diagnose(
             bootstrap,
             settings.seed,
         )
-
-    # The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
-    # replay fails).
-    replays = [(nominal, selection.nominal.initial_states)]
-    if final:
-        replays.append((accepted_model, final.heldout.initial_states))
-    drake = (
-        replay_gaps(
-            replays, rig_params, heldout_windows, partial(run_tasks, workers=workers, scheduler=scheduler, pool=pool)
-        )
-        if settings.replay
-        else [None] * len(replays)
-    )
+    drake = replaying.result() if replaying is not None else [None] * len(replays)
     surrogate = [selection.nominal] + ([final.heldout] if final else [])
     gaps = [d if d is not None else s for d, s in zip(drake, surrogate)]
     evaluated_by = (
