@@ -3,9 +3,16 @@
 Each case folder (``rig.yaml``, ``train_*.csv``, ``heldout_*.csv``, as the suites of
 ``benchmarks/diagnosis_confusion.py`` and ``benchmarks/diagnosis_independent.py`` write them with
 ``--generate-only``) is diagnosed in this process, once per case. Printed per case: wall time, CPU time (this
-process and its finished worker processes), the wall time of each stage of the pipeline (loading, windows,
-the selection's fits by phase: forward steps, joint refits, pair entry, form refits, backward refits, exchanges;
-detection limits, Drake replays, ``--folds``), and the verdict; then the median and the worst of each suite.
+process and its finished worker processes), the wall time on free cores, the wall time of each stage of the
+pipeline (loading, windows, the selection's tasks by phase: forward steps with their joint refits, pair entry,
+form refits, backward refits, exchanges; detection limits, Drake replays, ``--folds``) with each phase's tasks
+and their CPU time, and the verdict; then the median and the worst of each suite.
+
+On a machine shared with other jobs the wall time counts their time slices too; the wall time on free cores
+estimates it for an idle machine: this process's CPU time outside the batches of tasks plus, per batch, the
+time its tasks' CPU times take on ``--workers`` cores handed out in order. Work that runs at once (the folds'
+selections, the replays beside the detection limits) is counted one after the other, so it is an upper bound
+there; CPU / cores is the lower bound.
 With ``--profile`` the cases run in this process (one worker) under cProfile and the functions holding the
 most cumulative time are printed. ``--reports DIR`` writes every case's report (to compare the results of two
 versions of the code: ``--compare DIR`` prints, per case, whether the verdict, effects and every parameter
