@@ -55,7 +55,8 @@ class Interrupted(Exception):
 class TaskPool:
     """Worker processes kept from one batch of tasks to the next; thread-safe. Its workers are started when it
     opens, before any selection thread runs (a process forked while another thread holds a lock may hang on
-    it); a pool broken by a dying worker is replaced, its workers started the same way."""
+    it); a pool broken by a dying worker is replaced at the next batch (those workers start beside the running
+    threads: a rare path, taken only after a worker died)."""
 
     def __init__(self, workers: int | None = None):
         self.workers = workers or os.cpu_count() or 1

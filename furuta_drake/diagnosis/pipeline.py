@@ -144,7 +144,7 @@ def diagnose(
 
 def _diagnose(
     *, rig, train, heldout, candidates, settings, folds, workers, scheduler, progress, log_format, pool, background
-):
+) -> Diagnosis:
     """:func:`diagnose` with its worker ``pool`` and ``background`` threads for the folds and the replays."""
     settings.validate()
     rig_path = Path(rig)
