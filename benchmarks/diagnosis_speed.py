@@ -10,9 +10,9 @@ and their CPU time, and the verdict; then the median and the worst of each suite
 
 On a machine shared with other jobs the wall time counts their time slices too; the wall time on free cores
 estimates it for an idle machine: this process's CPU time outside the batches of tasks plus, per batch, the
-time its tasks' CPU times take on ``--workers`` cores handed out in order. Work that runs at once (the folds'
-selections, the replays beside the detection limits) is counted one after the other, so it is an upper bound
-there; CPU / cores is the lower bound.
+time its tasks' CPU times take on ``--workers`` cores handed out in order, and at least CPU / cores. Work that
+runs at once (the folds' selections, the replays beside the detection limits) breaks the sum: there the
+estimate is CPU / cores, reached when the concurrent work keeps every core busy.
 With ``--profile`` the cases run in this process (one worker) under cProfile and the functions holding the
 most cumulative time are printed. ``--reports DIR`` writes every case's report (to compare the results of two
 versions of the code: ``--compare DIR`` prints, per case, whether the verdict, effects and every parameter
@@ -194,7 +194,7 @@ def run_case(folder: Path, workers: int | None, folds: int | None, reports: Path
         "case": folder.name,
         "wall": wall,
         "cpu": cpu,
-        "quiet": own - clock.main_in_batches + clock.ideal,
+        "quiet": max(own - clock.main_in_batches + clock.ideal, cpu / max(workers, 1)),
         "stages": dict(clock.seconds),
         "tasks": dict(clock.tasks),
         "task_cpu": dict(clock.task_cpu),
