@@ -118,3 +118,25 @@ def test_folds_run_at_once_give_each_fold_selection(tmp_path):
         alone.append(selection.verdict)
     assert together.verdicts == alone
     assert "input_delay" in alone  # the injected delay is found on at least one fold
+
+
+def test_a_zero_static_friction_law_replays_bitwise_without_its_python_system(monkeypatch):
+    """A diagnosis model of a frictionless rig holds a static law of zero levels: the replay leaves its Python
+    system out (a constant zero instead) and integrates every window to the same last bit as with it."""
+    from furuta_drake.diagnosis import replay
+
+    model = Model.from_rig(QUBE).replace(lag=0.004)
+    assert model.arm_friction.model == "static" and model.arm_friction.coulomb_pos == 0.0
+    rng = np.random.default_rng(5)
+    time = np.arange(600) * 2e-3
+    command = 0.02 * rng.standard_normal(time.size)
+    window_times = time[100:160]
+    x0 = np.array([np.pi - 0.3, 0.2, 1.0, -2.0])
+    without = replay.WindowReplayer(model, QUBE, time, command)
+    monkeypatch.setattr(replay, "drake_friction", lambda p: p)
+    with_system = replay.WindowReplayer(model, QUBE, time, command)
+    assert without.friction is None and with_system.friction is not None
+    a = without.replay(time[100], x0, 0.01, window_times)
+    b = with_system.replay(time[100], x0, 0.01, window_times)
+    assert np.abs(a[-1] - a[0]).max() > 1e-3  # the window moves
+    assert np.array_equal(a, b)

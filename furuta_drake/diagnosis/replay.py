@@ -24,11 +24,19 @@ from furuta_drake.diagnosis.corrected import model_actuator, model_disturbance, 
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, substeps_for
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.diagnosis.surrogate import Model, lag_states, sensor_variance
-from furuta_drake.friction import FrictionParameters
+from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.world import add_furuta_world
 
 REPLAY_INTEGRATOR = SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3)
+
+
+def drake_friction(p: JointFrictionParameters) -> JointFrictionParameters:
+    """``p``, or no friction where ``p`` is a static law of zero levels and zero viscosity (a diagnosis model of a
+    frictionless rig file holds one): its torque is exactly zero, so the world's constant zero in place of a
+    Python system evaluated at every integrator stage replays the windows to the last bit."""
+    zero = p.model == "static" and p.viscous == 0.0 and max(p.coulomb_pos, p.coulomb_neg, *p.static_levels) == 0.0
+    return JointFrictionParameters() if zero else p
 
 
 class WindowReplayer:
@@ -43,7 +51,9 @@ class WindowReplayer:
             builder,
             rig=model_rig(model, rig),
             control_period=period,
-            friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
+            friction=FrictionParameters(
+                arm=drake_friction(model.arm_friction), pendulum=drake_friction(model.pendulum_friction)
+            ),
             actuator=model_actuator(model),
             back_emf_damping=model.back_emf_damping,
             disturbance=model_disturbance(model),
