@@ -103,7 +103,7 @@ class StageClock:
         def wrapper(task_function, tasks, **kwargs):
             callers = [frame.function for frame in inspect.stack()[1:8]]
             phase = next((PHASES[name] for name in callers if name in PHASES), "other tasks")
-            if "consistency" in callers:
+            if "selection_on" in callers:  # a fold's selection (its own thread)
                 phase = "folds: " + phase
             if "replay_gaps" in callers:
                 phase = "replays"
