@@ -199,7 +199,7 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         return apply_effects(base, effects_at(x))
 
     subset = task.train.subset(settings.fit_windows, settings.seed)
-    last = {}
+    last, linearised = {}, {}  # the last cost's residuals and states; the last Jacobian's, with its columns
 
     def cost(x):
         last.update(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), subset, counts)))
@@ -209,7 +209,10 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     def jacobian(x):
         if "x" not in last or not np.array_equal(last["x"], x):
             cost(x)
-        return np.column_stack([_flat(column) for column in _columns(model_at, x, subset, last, counts, span, high)])
+        last["columns"] = _columns(model_at, x, subset, last, counts, span, high)
+        linearised.clear()
+        linearised.update(last)  # the bootstrap at the fit's x needs these again
+        return np.column_stack([_flat(column) for column in last["columns"]])
 
     candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
     screen = subset.subset(settings.start_windows, seed=settings.seed + 1)
@@ -229,7 +232,8 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         max_nfev=settings.max_nfev,
         method="trf",
     )
-    samples = _bootstrap(model_at, result.x, subset, counts, span, low, high, settings)
+    at_fit = linearised if "x" in linearised and np.array_equal(linearised["x"], result.x) else None
+    samples = _bootstrap(model_at, result.x, subset, counts, span, low, high, settings, at_fit)
     split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
         split[name] = samples[:, i : i + size]
@@ -262,10 +266,15 @@ def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high)
     return columns
 
 
-def _bootstrap(model_at, x, windows: Windows, counts: int, span, low, high, settings: DiagnosisSettings) -> np.ndarray:
-    """(resamples, params) bootstrap of the fitted parameters over ``windows`` (module docstring)."""
-    last = dict(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), windows, counts)))
-    columns = _columns(model_at, x, windows, last, counts, span, high)
+def _bootstrap(
+    model_at, x, windows: Windows, counts: int, span, low, high, settings: DiagnosisSettings, at_fit: dict | None
+) -> np.ndarray:
+    """(resamples, params) bootstrap of the fitted parameters over ``windows`` (module docstring); ``at_fit``: the
+    residuals, states and Jacobian columns the fit computed at ``x`` on these windows, when it did."""
+    if at_fit is None:
+        at_fit = dict(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), windows, counts)))
+        at_fit["columns"] = _columns(model_at, x, windows, at_fit, counts, span, high)
+    last, columns = at_fit, at_fit["columns"]
     normal, gradient = [], []
     for i, raw in enumerate(last["raw"]):  # per log: the windows' normal equations
         J = np.stack([np.nan_to_num(column[i][1:]) for column in columns], axis=-1)  # (h - 1, 2, W, n)

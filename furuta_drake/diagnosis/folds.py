@@ -5,6 +5,7 @@ how far the accepted effects' parameters spread."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 from furuta_drake.diagnosis.gap import make_windows
 from furuta_drake.diagnosis.logs import RunLog
@@ -27,12 +28,14 @@ def consistency(
     folds: int,
 ) -> Consistency:
     """The selection repeated on ``folds`` splits of all the logs (:func:`fold_split`): each fold's verdict and
-    effects and the range of each accepted effect's parameters over the folds that accepted it (its judgement in
-    words is the report's: :func:`furuta_drake.diagnosis.record_text.consistency_judgement`)."""
-    verdicts, effects, values = [], [], {}
-    for fold in range(folds):
+    effects, the range of each accepted effect's parameters over the folds that accepted it (its judgement in words is
+    :func:`furuta_drake.diagnosis.record_text.consistency_judgement`'s).
+    The folds' selections run at once, each in a thread handing its fits to ``run`` (a shared worker pool then
+    stays busy between one selection's small batches)."""
+
+    def selection_on(fold: int):
         train, heldout = fold_split(logs, folds, fold, rig)
-        selection = select_effects(
+        return select_effects(
             nominal,
             train,
             make_windows(train, rig),
@@ -42,6 +45,11 @@ def consistency(
             settings,
             run,
         )
+
+    with ThreadPoolExecutor(max_workers=folds) as threads:
+        selections = list(threads.map(selection_on, range(folds)))
+    verdicts, effects, values = [], [], {}
+    for selection in selections:
         verdicts.append(selection.verdict)
         effects.append(selection.effects)
         if selection.effects:

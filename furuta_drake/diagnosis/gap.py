@@ -204,10 +204,12 @@ def _perturbation(model: Model, n: int) -> np.ndarray:
     return np.append(_PERTURBATION, 0.05 * model.arm_friction.bristle_bound)
 
 
-def _predict(model: Model, x: np.ndarray, batch: Batch, starts: np.ndarray, substeps: int) -> np.ndarray:
-    """:func:`predict_windows` from initial states (4, W) or, with the arm's bristle state as a 5th row, (5, W)."""
+def _predict(model: Model, x: np.ndarray, batch: Batch, substeps: int, copies: int = 1) -> np.ndarray:
+    """:func:`predict_windows` of the batch's windows from initial states (4, copies W) or, with the arm's bristle
+    state as a 5th row, (5, copies W)."""
+    bristles = x[4] if x.shape[0] > 4 else None
     return predict_windows(
-        model, x[:4], batch.command, starts, batch.horizon, batch.period, substeps, x[4] if x.shape[0] > 4 else None
+        model, x[:4], batch.command, batch.starts, batch.horizon, batch.period, substeps, bristles, copies
     )
 
 
@@ -216,7 +218,7 @@ def _linearised(model: Model, x: np.ndarray, batch: Batch, substeps: int, delta:
     per unit of state], by forward differences of step ``delta``: one surrogate call of width (n + 1) W."""
     n, W = x.shape
     points = np.concatenate([x] + [x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
-    predicted = _predict(model, points, batch, np.tile(batch.starts, n + 1), substeps)
+    predicted = _predict(model, points, batch, substeps, copies=n + 1)
     base = predicted[:, :, :W]
     J = np.stack([(predicted[:, :, (i + 1) * W : (i + 2) * W] - base) / delta[i] / count for i in range(n)], axis=-1)
     return (batch.measured - base) / count, J
@@ -294,7 +296,7 @@ def fixed_state_residuals(
     out = [None] * len(windows.logs)
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
-        r = (batch.measured - _predict(model, x, batch, batch.starts, substeps_for(batch.period))) / count
+        r = (batch.measured - _predict(model, x, batch, substeps_for(batch.period))) / count
         for j, i in enumerate(batch.members):
             out[i] = r[:, :, batch.bounds[j] : batch.bounds[j + 1]]
     return out

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from pathlib import Path
 
@@ -27,7 +28,7 @@ from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs
 from furuta_drake.diagnosis.missing_torque import beyond_vocabulary
-from furuta_drake.diagnosis.parallel import run_tasks
+from furuta_drake.diagnosis.parallel import TaskPool, run_tasks
 from furuta_drake.diagnosis.per_log import heldout_rms_per_log
 from furuta_drake.diagnosis.record_text import choice_text, confusable_why, consistency_judgement, rule_text
 from furuta_drake.diagnosis.replay import replay_gaps
@@ -129,6 +130,29 @@ def diagnose(
     workers : processes (default: all cores); scheduler : address of a Dask scheduler that runs the fits instead;
         progress : called with each finished task; log_format : column mapping and units of the logs.
     """
+    # One worker pool for every batch of tasks; with --folds the folds' selections run in a thread beside the
+    # main selection, their fits filling the cores its small batches leave idle.
+    with ThreadPoolExecutor(max_workers=2) as background, TaskPool(1 if scheduler else workers) as pool:
+        return _diagnose(
+            rig=rig,
+            train=train,
+            heldout=heldout,
+            candidates=candidates,
+            settings=settings,
+            folds=folds,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+            log_format=log_format,
+            pool=pool,
+            background=background,
+        )
+
+
+def _diagnose(
+    *, rig, train, heldout, candidates, settings, folds, workers, scheduler, progress, log_format, pool, background
+) -> Diagnosis:
+    """:func:`diagnose` with its worker ``pool`` and ``background`` threads for the folds and the replays."""
     settings.validate()
     rig_path = Path(rig)
     rig_params = load_rig(rig_path)
@@ -155,7 +179,12 @@ def diagnose(
     counts = rig_params.counts_per_rev
     nominal = rig_model(rig_params)
     train_windows, heldout_windows = make_windows(fit_logs, rig_params), make_windows(test_logs, rig_params)
-    run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress)
+    run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress, pool=pool)
+    fold_check = None
+    if folds is not None and folds >= 2:
+        fold_check = background.submit(
+            consistency, train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds
+        )
     selection = select_effects(nominal, fit_logs, train_windows, heldout_windows, counts, names, settings, run)
     bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
     missing, torque_notes = beyond_vocabulary(
@@ -165,6 +194,16 @@ def diagnose(
     torque = torque_record(missing) if missing else {}
     final = selection.final if selection.effects else None
     accepted_model = apply_effects(nominal, final.effects) if final else nominal
+
+    # The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
+    # replay fails); the replays run on the workers while this process finds the detection limits.
+    replays = [(nominal, selection.nominal.initial_states)]
+    if final:
+        replays.append((accepted_model, final.heldout.initial_states))
+    replay_run = partial(run_tasks, workers=workers, scheduler=scheduler, pool=pool)
+    replaying = (
+        background.submit(replay_gaps, replays, rig_params, heldout_windows, replay_run) if settings.replay else None
+    )
 
     limits = []
     if settings.detection_limits:
@@ -177,17 +216,7 @@ def diagnose(
             bootstrap,
             settings.seed,
         )
-
-    # The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
-    # replay fails).
-    replays = [(nominal, selection.nominal.initial_states)]
-    if final:
-        replays.append((accepted_model, final.heldout.initial_states))
-    drake = (
-        replay_gaps(replays, rig_params, heldout_windows, workers, scheduler)
-        if settings.replay
-        else [None] * len(replays)
-    )
+    drake = replaying.result() if replaying is not None else [None] * len(replays)
     surrogate = [selection.nominal] + ([final.heldout] if final else [])
     gaps = [d if d is not None else s for d, s in zip(drake, surrogate)]
     evaluated_by = (
@@ -201,9 +230,8 @@ def diagnose(
     before = window_residuals(nominal_heldout, heldout_windows, rig_params)
     after = window_residuals(accepted_heldout, heldout_windows, rig_params) if final else None
 
-    consistency_result = None
-    if folds is not None and folds >= 2:
-        consistency_result = consistency(train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds)
+    consistency_result = fold_check.result() if fold_check is not None else None
+    if consistency_result is not None:
         consistency_result.judgement = consistency_judgement(
             consistency_result.verdicts, consistency_result.effects, consistency_result.params_range, nominal
         )

@@ -11,6 +11,9 @@ that a looser accuracy leaves would show); the residuals give the same gap as
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
@@ -21,12 +24,20 @@ from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, s
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
 from furuta_drake.effects.surrogate import Model, lag_states, sensor_variance
-from furuta_drake.friction import FrictionParameters
+from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.world import add_furuta_world
 
 REPLAY_INTEGRATOR = SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3)
+
+
+def drake_friction(p: JointFrictionParameters) -> JointFrictionParameters:
+    """``p``, or no friction where ``p`` is a static law of zero levels and zero viscosity (a diagnosis model of a
+    frictionless rig file holds one): its torque is exactly zero, so the world's constant zero in place of a
+    Python system evaluated at every integrator stage replays the windows to the last bit."""
+    zero = p.model == "static" and p.viscous == 0.0 and max(p.coulomb_pos, p.coulomb_neg, *p.static_levels) == 0.0
+    return JointFrictionParameters() if zero else p
 
 
 class WindowReplayer:
@@ -49,7 +60,9 @@ class WindowReplayer:
             builder,
             rig=model_rig(model, rig),
             control_period=period,
-            friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
+            friction=FrictionParameters(
+                arm=drake_friction(model.arm_friction), pendulum=drake_friction(model.pendulum_friction)
+            ),
             actuator=model_actuator(model),
             back_emf_damping=model.back_emf_damping,
             disturbance=model_disturbance(model),
@@ -132,12 +145,11 @@ def replay_gaps(
     models: list[tuple[Model, list[np.ndarray]]],
     rig: RigParameters,
     windows: Windows,
-    workers: int | None = None,
-    scheduler: str | None = None,
+    run: Callable = run_tasks,
 ) -> list[GapResult | None]:
     """The gap of each (model, initial states per log: 4 x W, or 5 x W with the arm's bristle state) on
-    ``windows`` from Drake replays, one task per model and log; None for a model whose replay failed (raised, or
-    diverged to a non-finite residual)."""
+    ``windows`` from Drake replays, one task per model and log, run by ``run`` (:func:`run_tasks` with its
+    options); None for a model whose replay failed (raised, or diverged to a non-finite residual)."""
     tasks = [
         (model, rig, log, horizon, starts, x0[i], measured)
         for model, x0 in models
@@ -145,7 +157,7 @@ def replay_gaps(
             zip(windows.logs, windows.horizons, windows.starts, windows.measured)
         )
     ]
-    residuals = run_tasks(_replay_log, tasks, workers=workers, scheduler=scheduler)
+    residuals = run(_replay_log, tasks)
     n = len(windows.logs)
     out = []
     for k, (model, x0) in enumerate(models):
@@ -159,4 +171,4 @@ def replay_gap(
     model: Model, rig: RigParameters, windows: Windows, initial_states: list[np.ndarray], workers: int | None = 1
 ) -> GapResult | None:
     """:func:`replay_gaps` of one model."""
-    return replay_gaps([(model, initial_states)], rig, windows, workers)[0]
+    return replay_gaps([(model, initial_states)], rig, windows, partial(run_tasks, workers=workers))[0]

@@ -165,13 +165,15 @@ def predict_windows(
     period: float,
     substeps: int,
     bristle0: np.ndarray | None = None,
+    copies: int = 1,
 ) -> np.ndarray:
     """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
 
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period), with
     ``HISTORY`` samples before every start (the delay and the lag read the command's past);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
-    (a Dahl or LuGre arm only).
+    (a Dahl or LuGre arm only); ``copies``: x0 (4, copies W) holds that many states per window, in blocks of W
+    (perturbed states: the input chain is evaluated once per window).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
     (delay, lag, static map) is evaluated for every substep at once; the fixed-step RK4 is the compiled
     :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and cost far more
@@ -184,6 +186,6 @@ def predict_windows(
     held = _delayed_command(command, starts[None, :], times, dt, period, model.delay)  # (steps, W)
     if model.lag > 0:
         held = kernel.lag_filter(held, lag_states(model, command, starts, period, substeps), model.lag, dt)[0]
-    torque = np.ascontiguousarray(applied_torque(model, held), dtype=float)
+    torque = np.ascontiguousarray(np.tile(applied_torque(model, held), (1, copies)), dtype=float)
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     return kernel.integrate(np.ascontiguousarray(x), z, torque, dt, substeps, *kernel.pack(model))[0]
