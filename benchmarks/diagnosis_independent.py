@@ -270,6 +270,7 @@ def all_cases() -> list[Case]:
         make_case("qube", (gain, 1.15)),
         make_case("lund", (deadzone, "subtract", 0.03)),
         make_case("qube", (deadzone, "threshold", 0.05)),
+        *near_limit_cases(),
         make_case("lund", (lag, "inductance", 0.006)),
         make_case("qube", (lag, "inductance", 0.005)),
         make_case("lund", (lag, "filter", 0.008)),
@@ -302,6 +303,21 @@ def all_cases() -> list[Case]:
             "lund", (arm_friction, "tanh", 0.05, {"smoothing": 0.02}), (spring, 0.25, {"offset": 0.05}), (delay, 2)
         ),
         make_case("qube", (arm_viscous, 0.5), (delay, 2), (deadzone, "subtract", 0.03)),
+    ]
+
+
+def near_limit_cases() -> list[Case]:
+    """Cases near the limits of the verdict: a one-sample computation delay alone (a gap of a fraction of a
+    count), and both dead-zone forms at a second size on both rigs (a threshold one under LQR balancing with the
+    balancing run's dither); the second sizes take the seed 2 (the names stay apart)."""
+    return [
+        make_case("lund", (delay, 1), seed=3),
+        make_case("lund", (deadzone, "threshold", 0.03)),
+        make_case("lund", (deadzone, "threshold", 0.06), seed=2),
+        make_case("lund", (deadzone, "subtract", 0.06), seed=2),
+        make_case("qube", (deadzone, "threshold", 0.025), seed=2),
+        make_case("qube", (deadzone, "subtract", 0.03)),
+        make_case("qube", (deadzone, "subtract", 0.06), seed=2),
     ]
 
 

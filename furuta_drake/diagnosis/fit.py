@@ -34,6 +34,7 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
+from furuta_drake.diagnosis.jumps import line_search
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
@@ -80,14 +81,19 @@ class FitTask:
         return "+".join([*self.fixed, self.new])
 
 
+COMMAND_QUANTILES = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97)  # of |command|: starts of the forms
+# whose cost jumps where their parameter crosses a logged command (Scales.command_levels)
+
+
 def scales_of(logs, model: Model) -> Scales:
-    command = max(float(np.max(np.abs(log.torque_command))) for log in logs)
+    magnitudes = np.abs(np.concatenate([log.torque_command for log in logs]))
     return Scales(
         torque=model.d,
-        command=max(command, 1e-9),
+        command=max(float(np.max(magnitudes)), 1e-9),
         arm_inertia=model.a,
         pendulum_inertia=model.b,
         period=float(np.median([log.sample_period for log in logs])),
+        command_levels=tuple(float(q) for q in np.quantile(magnitudes, COMMAND_QUANTILES)),
     )
 
 
@@ -229,16 +235,22 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         max_nfev=settings.max_nfev,
         method="trf",
     )
-    samples = _bootstrap(model_at, result.x, subset, counts, span, low, high, settings)
+    x, total = result.x, float(2.0 * result.cost)
+    for name in new_form:  # a parameter at which the cost jumps: a line search from the fit
+        jump = CANDIDATES[name].form(new_form[name]).jump
+        if jump is not None:
+            i = sum(sizes[: names.index(name)]) + jump
+            x, total = line_search(lambda y: float(np.sum(cost(y) ** 2)), x, i, low[i], high[i], scales.command_levels)
+    samples = _bootstrap(model_at, x, subset, counts, span, low, high, settings)
     split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
         split[name] = samples[:, i : i + size]
         i += size
     return (
-        {**sensors, **effects_at(result.x)},
-        at_bounds(names, [forms[n][0] for n in names], result.x, low, high),
+        {**sensors, **effects_at(x)},
+        at_bounds(names, [forms[n][0] for n in names], x, low, high),
         split,
-        float(2.0 * result.cost),
+        total,
     )
 
 

@@ -24,7 +24,9 @@ place against the model holding all the others:
 - two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
   difference of their reductions holds 0: the data explain them equally well, and the report says so;
 - the verdict is ``unexplained`` when the nominal model is not within the noise and the accepted effects together
-  reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it).
+  reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it), unless that gap is
+  *negligible* (:func:`negligible`): below ``NEGLIGIBLE_COUNTS``, a small fraction of a count after the sensor's
+  own variance; then the verdict is ``none`` and the report names the nearest candidate and its fit.
 """
 
 from __future__ import annotations
@@ -41,6 +43,8 @@ MARGIN = 0.2
 PARSIMONY = 0.03
 CLOSES = 0.5
 CONFUSABLE_LEVEL = 0.9  # two-sided level of the interval of a difference of reductions
+NEGLIGIBLE_COUNTS = 0.15  # [counts] a gap left unexplained below this is no finding: its excess squared residual,
+# 0.0225 counts^2, is about a quarter of the variance an ideal rounding encoder itself adds (1/12 counts^2)
 
 
 def threshold_note(bootstrap: int, seed: int) -> str:
@@ -63,7 +67,8 @@ def threshold_note(bootstrap: int, seed: int) -> str:
         f"two supported candidates of different laws whose "
         f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
         f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
-        f"unexplained."
+        f"unexplained, unless it is below {NEGLIGIBLE_COUNTS} counts: then the verdict is none and the nearest "
+        f"candidate is named."
     )
 
 
@@ -138,6 +143,12 @@ def _interval(values: np.ndarray) -> tuple[float, float]:
     """The two-sided ``CONFUSABLE_LEVEL`` interval of bootstrap ``values``."""
     tail = 0.5 * (1.0 - CONFUSABLE_LEVEL)
     return float(np.quantile(values, tail)), float(np.quantile(values, 1.0 - tail))
+
+
+def negligible(gap: float) -> bool:
+    """Whether a held-out gap [counts] (after the sensor's own variance) is too small to matter:
+    below ``NEGLIGIBLE_COUNTS``."""
+    return gap < NEGLIGIBLE_COUNTS
 
 
 def at_floor(per_window: np.ndarray) -> bool:

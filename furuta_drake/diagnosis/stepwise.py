@@ -10,7 +10,7 @@ import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from furuta_drake.diagnosis.candidates import CANDIDATES, Effect, law_of
+from furuta_drake.diagnosis.candidates import CANDIDATES, UNITS, Effect, law_of
 from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
 from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
 from furuta_drake.diagnosis.logs import RunLog
@@ -18,12 +18,14 @@ from furuta_drake.diagnosis.parallel import Failure
 from furuta_drake.diagnosis.select import (
     CLOSES,
     ENTRY,
+    NEGLIGIBLE_COUNTS,
     Bootstrap,
     Evidence,
     at_floor,
     choose,
     confusable,
     is_kept,
+    negligible,
     order,
 )
 from furuta_drake.diagnosis.settings import DiagnosisSettings
@@ -73,10 +75,21 @@ class Selection:
         return bool(self.kept) and self.over_nominal[self.final.name].reduction >= CLOSES
 
     @property
+    def negligible(self) -> bool:
+        """No effect closes the nominal held-out gap, and that gap is too small to matter
+        (:func:`~furuta_drake.diagnosis.select.negligible`)."""
+        return not self.closes and negligible(self.nominal.gap)
+
+    @property
     def verdict(self) -> str:
         if not self.closes:
-            return "none" if self.quiet else "unexplained"
+            return "none" if self.quiet or self.negligible else "unexplained"
         return self.effects[0]
+
+    def nearest(self) -> FitResult | None:
+        """The single candidate that reduces the nominal held-out gap the most (None when none was fitted)."""
+        singles = [r for step, r in self.tried if step == 1 and not r.failure and "+" not in r.name]
+        return max(singles, key=lambda r: self.over_nominal[r.name].reduction, default=None)
 
     @property
     def effects(self) -> list[str]:
@@ -371,6 +384,8 @@ def choice_text(selection: Selection) -> str:
     if not selection.kept:
         if selection.quiet:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
+        if selection.negligible:
+            return _negligible_text(selection)
         return "No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's margin."
     total = selection.over_nominal[selection.final.name]
     text = (
@@ -394,7 +409,9 @@ def choice_text(selection: Selection) -> str:
             f"effects it explains the held-out data better, reducing the gap of the model holding "
             f"{exchange['out']} by {evidence.reduction:.1%} (lower bound {evidence.lower_bound:.1%})."
         )
-    if not selection.closes:
+    if selection.negligible:
+        text += " " + _negligible_text(selection)
+    elif not selection.closes:
         text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
     for pair in selection.confusable:
         text += (
@@ -403,3 +420,24 @@ def choice_text(selection: Selection) -> str:
             f"parameters."
         )
     return text
+
+
+def _negligible_text(selection: Selection) -> str:
+    """Why a gap that nothing closes reads ``none``, with the nearest candidate and its fit."""
+    text = (
+        f"The nominal held-out gap, {selection.nominal.gap:.3f} counts after the sensor's own variance, is below "
+        f"{NEGLIGIBLE_COUNTS} counts: too small to matter, so the verdict is none."
+    )
+    nearest = selection.nearest()
+    if nearest is None:
+        return text
+    ((name, effect),) = nearest.effects.items()
+    form = CANDIDATES[name].form(effect.form)
+    values = ", ".join(
+        f"{param} {value:.3g} {UNITS.get(param, '')}".rstrip() for param, value in zip(form.params, effect.values)
+    )
+    evidence = selection.over_nominal[nearest.name]
+    return text + (
+        f" The nearest candidate is {name}{f' ({effect.form})' if effect.form else ''} at {values}: it reduces the "
+        f"gap by {evidence.reduction:.1%} (5 % lower bound {evidence.lower_bound:.1%})."
+    )
