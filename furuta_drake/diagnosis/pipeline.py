@@ -32,6 +32,7 @@ from furuta_drake.diagnosis.parallel import run_tasks
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
+from furuta_drake.diagnosis.rival import widen
 from furuta_drake.diagnosis.select import Bootstrap, threshold_note
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
@@ -41,7 +42,9 @@ from furuta_drake.diagnosis.surrogate import Model
 UNCERTAINTY = (
     "95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
     "linearised at the fit: one Gauss-Newton step per resample; quantisation is read exactly, noise "
-    "is bootstrapped over blocks of second differences"
+    "is bootstrapped over blocks of second differences; the accepted model's intervals also span the move of "
+    "its parameters when the strongest candidate not accepted is fitted beside it (an effect below the "
+    "detection limits may act)"
 )
 
 
@@ -240,7 +243,7 @@ def diagnose(
             nominal_heldout.per_signal,
             evaluated_by,
         ),
-        ranking=ranking(selection, nominal),
+        ranking=widen(ranking(selection, nominal), selection, bootstrap, nominal),
         localization=localize(
             before,
             after,
