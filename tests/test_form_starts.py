@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 import pytest
 
 from furuta_drake.diagnosis.candidates import Effect, apply_effects
