@@ -3,8 +3,9 @@
 A threshold drops every command below it and passes larger ones whole, so with the command held over each sample
 the cost is constant between two logged command magnitudes and jumps at each: its gradient is zero or undefined,
 and a least-squares step from any start stalls where it began. The search instead compares costs: on the logged
-command levels and the fitted value, then ``ZOOM_ROUNDS`` times on ``ZOOM_POINTS`` values between the best one's
-neighbours, keeping the best value found.
+command levels and the fitted value, then ``ZOOM_ROUNDS`` times on ``ZOOM_POINTS`` values between the neighbours of
+the best ones (a plateau of the best cost is bracketed whole: the truth may lie at either end), keeping the best
+value found.
 """
 
 from __future__ import annotations
@@ -44,8 +45,8 @@ def line_search(
     evaluate([low, high, *levels])
     for _ in range(ZOOM_ROUNDS):
         grid = sorted(tried)
-        best = min(grid, key=tried.get)
-        i = grid.index(best)
-        evaluate(np.linspace(grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)], ZOOM_POINTS))
+        lowest = min(tried.values())
+        ties = [i for i, value in enumerate(grid) if tried[value] == lowest]  # a plateau of the best cost
+        evaluate(np.linspace(grid[max(ties[0] - 1, 0)], grid[min(ties[-1] + 1, len(grid) - 1)], ZOOM_POINTS))
     best = min(tried, key=tried.get)
     return at(best), tried[best]
