@@ -235,12 +235,7 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         max_nfev=settings.max_nfev,
         method="trf",
     )
-    x, total = result.x, float(2.0 * result.cost)
-    for name in new_form:  # a parameter at which the cost jumps: a line search from the fit
-        jump = CANDIDATES[name].form(new_form[name]).jump
-        if jump is not None:
-            i = sum(sizes[: names.index(name)]) + jump
-            x, total = line_search(lambda y: float(np.sum(cost(y) ** 2)), x, i, low[i], high[i], scales.command_levels)
+    x, total = _search_jumps(cost, result, new_form, names, sizes, (low, high), scales.command_levels)
     samples = _bootstrap(model_at, x, subset, counts, span, low, high, settings)
     split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
@@ -252,6 +247,18 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         split,
         total,
     )
+
+
+def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bounds, levels) -> tuple[np.ndarray, float]:
+    """The least-squares ``result``'s parameters and cost, with the parameter of a new form at which the cost jumps
+    found by :func:`~furuta_drake.diagnosis.jumps.line_search` from there."""
+    x, total = result.x, float(2.0 * result.cost)
+    for name, form in new_form.items():
+        jump = CANDIDATES[name].form(form).jump
+        if jump is not None:
+            i = sum(sizes[: names.index(name)]) + jump
+            x, total = line_search(lambda y: float(np.sum(cost(y) ** 2)), x, i, bounds[0][i], bounds[1][i], levels)
+    return x, total
 
 
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:

@@ -207,16 +207,9 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
                 f" without being accepted",
                 nested=True,
             )
-    if not pairs and not targets:  # limited by what the logs can see, not by a rival
-        defaults = limited_targets(report, closed_loop_sizes(rig, nominal_lqr_gain(rig)))
-        if defaults:
-            found = read_hypotheses(report, rig, train_logs, defaults)
-            note = (
-                "no rival: the design targets the detection limits above a size that changes the closed loop ("
-                + (", ".join(f"{name}={size:.4g}" for name, size in defaults))
-                + f", {CLOSED_LOOP_SHARE:.0%} of the way to the rig's LQR margins)"
-            )
-            return Hypotheses(found.nominal, found.hypotheses, found.pairs, [note, *found.notes])
+    limited = _limits_that_matter(report, rig, train_logs) if not pairs and not targets else None
+    if limited is not None:  # the verdict is limited by what the logs can see, not by a rival
+        return limited
     if not pairs:
         raise ConfigError(
             "nothing to separate: the diagnosis has no confusable pair, no rival within "
@@ -226,6 +219,21 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
             else "nothing to separate: every --target is already detected by the diagnosis' logs"
         )
     return Hypotheses(nominal, hypotheses, pairs, notes)
+
+
+def _limits_that_matter(report: dict, rig, train_logs) -> Hypotheses | None:
+    """The hypotheses of the targets :func:`~furuta_drake.diagnosis.design.closed_loop.limited_targets` finds on
+    the rig's LQR, with a note naming them; None when there is none."""
+    targets = limited_targets(report, closed_loop_sizes(rig, nominal_lqr_gain(rig)))
+    if not targets:
+        return None
+    found = read_hypotheses(report, rig, train_logs, targets)
+    note = (
+        "no rival: the design targets the detection limits above a size that changes the closed loop ("
+        + ", ".join(f"{name}={size:.4g}" for name, size in targets)
+        + f", {CLOSED_LOOP_SHARE:.0%} of the way to the rig's LQR margins)"
+    )
+    return Hypotheses(found.nominal, found.hypotheses, found.pairs, [note, *found.notes])
 
 
 def _name(effects: dict[str, Effect]) -> str:
