@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import platform
 import subprocess
 import sys
@@ -162,6 +163,23 @@ def noise(world, counts: float):
 def delay(world, samples: int):
     return dataclasses.replace(world, delay_samples=samples), Effect(
         "input_delay", "fifo", {"delay": samples * world.rig.sample_period}, {"samples": samples}
+    )
+
+
+def jittering_delay(world, samples: int, jitter: int):
+    """A delay of ``samples`` plus a uniform 0..``jitter`` samples more, drawn each sample; truth: its mean."""
+    mean = (samples + 0.5 * jitter) * world.rig.sample_period
+    spread = math.sqrt(((jitter + 1) ** 2 - 1) / 12.0) * world.rig.sample_period  # std of a discrete uniform
+    return dataclasses.replace(world, delay_samples=samples, delay_jitter_samples=jitter), Effect(
+        "input_delay", "jitter", {"delay": mean}, {"samples": samples, "jitter": jitter, "spread_s": spread}
+    )
+
+
+def correlated_noise(world, counts: float, time: float):
+    """Noise of ``counts`` encoder counts, low-pass with correlation time ``time`` [s]."""
+    std = counts * 2 * np.pi / world.rig.counts_per_rev
+    return dataclasses.replace(world, noise_std=std, noise_correlation_time=time), Effect(
+        "measurement_noise", "correlated", {"noise_std": std}, {"counts": counts, "correlation_time": time}
     )
 
 
@@ -323,6 +341,15 @@ def near_limit_cases() -> list[Case]:
         make_case("qube", (deadzone, "threshold", 0.025), seed=2),
         make_case("qube", (deadzone, "subtract", 0.03)),
         make_case("qube", (deadzone, "subtract", 0.06), seed=2),
+    ]
+
+
+def unread_form_cases() -> list[Case]:
+    """Forms the vocabulary does not model yet: a delay that jitters from sample to sample and sensor noise with a
+    correlation time (not in :func:`all_cases`; ``--only jitter correlated`` after adding them there)."""
+    return [
+        make_case("lund", (jittering_delay, 2, 2), seed=5),
+        make_case("qube", (correlated_noise, 1.5, 0.005), seed=5),
     ]
 
 
