@@ -1,11 +1,13 @@
 """Every form's fit reaches its own best from the default starts: the forms whose cost jumps where their
 parameter crosses a logged command (a dead zone's width, a saturation's limit) recover the true parameter on
-windows whose measurements are the surrogate's own prediction with the effect (no other error), at two sizes."""
+windows whose measurements are the surrogate's own prediction with the effect, read by the rig's encoder (no
+other error), at two sizes; a threshold's 95 % interval (the bootstrap of its line search) holds it."""
 
 from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
 from furuta_drake.diagnosis.candidates import Effect, apply_effects
@@ -30,8 +32,10 @@ def nominal_windows():
     return rig, log, make_windows([log], rig)
 
 
-def _surrogate_measured(model: Model, windows):
-    """``windows`` whose measured angles are ``model``'s prediction from their initial states."""
+def _surrogate_measured(model: Model, windows, counts: int):
+    """``windows`` whose measured angles are ``model``'s prediction from their initial states, read by an encoder
+    of ``counts`` per revolution (rounded to whole counts)."""
+    count = 2 * np.pi / counts
     measured = [None] * len(windows.logs)
     for batch in windows.batches():
         predicted = predict_windows(
@@ -44,7 +48,7 @@ def _surrogate_measured(model: Model, windows):
             substeps_for(batch.period),
         )
         for j, i in enumerate(batch.members):
-            measured[i] = predicted[:, :, batch.bounds[j] : batch.bounds[j + 1]]
+            measured[i] = np.round(predicted[:, :, batch.bounds[j] : batch.bounds[j + 1]] / count) * count
     return dataclasses.replace(windows, measured=measured)
 
 
@@ -68,9 +72,12 @@ def test_a_command_map_form_finds_its_true_parameter_from_the_default_starts(nom
     nominal = Model.from_rig(rig)
     true_value = size * (nominal.d if effect == "actuator_deadzone" else scales_of([log], nominal).command)
     truth = apply_effects(nominal, {effect: Effect(form, (true_value,))})
-    synthetic = _surrogate_measured(truth, windows)
+    synthetic = _surrogate_measured(truth, windows, rig.counts_per_rev)
     fit = fit_task(FitTask(effect, {}, nominal, synthetic, None, (log,), rig.counts_per_rev, FAST))
     fitted = fit.effects[effect]
     assert fitted.form == form
     assert fitted.values[0] == pytest.approx(true_value, rel=0.03)
-    assert fit.train_gap < 0.05  # counts: the true model reproduces these windows exactly
+    assert fit.train_gap < 0.05  # counts: the true model reproduces these windows to the encoder's rounding
+    if form == "threshold":  # its interval is the block bootstrap of the line search
+        low, high = np.percentile(fit.samples[effect][:, 0], [2.5, 97.5])
+        assert low <= true_value <= high

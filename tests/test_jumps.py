@@ -21,8 +21,8 @@ def test_a_threshold_width_is_found_on_the_plateau_of_the_truth(seed, true_share
     u = rng.standard_normal(400) * 0.05  # commands [N m]
     largest = float(np.max(np.abs(u)))
     truth = true_share * largest
-    cost = lambda x: float(np.sum((_threshold(u, x[0]) - _threshold(u, truth)) ** 2))  # noqa: E731
+    residuals = lambda x: _threshold(u, x[0]) - _threshold(u, truth)  # noqa: E731
     levels = np.quantile(np.abs(u), (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97))
-    x, found = line_search(cost, np.array([start_share * largest]), 0, 0.0, largest, levels)
+    x, found, _ = line_search(residuals, np.array([start_share * largest]), 0, 0.0, largest, levels)
     below, above = np.max(np.abs(u)[np.abs(u) <= truth], initial=0.0), np.min(np.abs(u)[np.abs(u) > truth])
     assert found == 0.0 and below <= x[0] < above  # no command is dropped or passed unlike the truth

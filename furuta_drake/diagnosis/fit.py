@@ -34,7 +34,7 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
-from furuta_drake.diagnosis.jumps import line_search
+from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.surrogate import Model
@@ -235,8 +235,10 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         max_nfev=settings.max_nfev,
         method="trf",
     )
-    x, total = _search_jumps(cost, result, new_form, names, sizes, (low, high), scales.command_levels)
-    samples = _bootstrap(model_at, x, subset, counts, span, low, high, settings)
+    x, total, profiles = _search_jumps(cost, result, new_form, names, sizes, (low, high), scales.command_levels)
+    samples = _jump_samples(
+        _bootstrap(model_at, x, subset, counts, span, low, high, settings), profiles, last, settings
+    )
     split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
         split[name] = samples[:, i : i + size]
@@ -249,16 +251,41 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     )
 
 
-def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bounds, levels) -> tuple[np.ndarray, float]:
+def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bounds, levels):
     """The least-squares ``result``'s parameters and cost, with the parameter of a new form at which the cost jumps
-    found by :func:`~furuta_drake.diagnosis.jumps.line_search` from there."""
-    x, total = result.x, float(2.0 * result.cost)
+    found by :func:`~furuta_drake.diagnosis.jumps.line_search` from there; and per such parameter's index, the
+    search's profile of residuals."""
+    x, total, profiles = result.x, float(2.0 * result.cost), {}
     for name, form in new_form.items():
         jump = CANDIDATES[name].form(form).jump
         if jump is not None:
             i = sum(sizes[: names.index(name)]) + jump
-            x, total = line_search(lambda y: float(np.sum(cost(y) ** 2)), x, i, bounds[0][i], bounds[1][i], levels)
-    return x, total
+            x, total, profiles[i] = line_search(cost, x, i, bounds[0][i], bounds[1][i], levels)
+    return x, total, profiles
+
+
+def _jump_samples(samples: np.ndarray, profiles: dict, last: dict, settings: DiagnosisSettings) -> np.ndarray:
+    """``samples`` with the bootstrap of every searched parameter replaced by the block bootstrap of its search
+    (:func:`~furuta_drake.diagnosis.jumps.bootstrap_argmin`; the linearised step cannot move it)."""
+    if not profiles:
+        return samples
+    shapes = [raw.shape for raw in last["raw"]]  # (horizon, 2, W) per log, as the flat residuals hold them
+
+    def per_window(flat: np.ndarray) -> np.ndarray:
+        out, i = [], 0
+        for h, s, w in shapes:
+            n = (h - 1) * s * w
+            out.append(np.sum(flat[i : i + n].reshape(h - 1, s, w) ** 2, axis=(0, 1)))
+            i += n
+        return np.concatenate(out)
+
+    windows = sum(shape[2] for shape in shapes)
+    rng = np.random.default_rng(settings.seed)
+    weights = rng.multinomial(windows, np.full(windows, 1.0 / windows), settings.interval_resamples)
+    out = samples.copy()
+    for i, profile in profiles.items():
+        out[:, i] = bootstrap_argmin(profile, per_window, weights, rng)
+    return out
 
 
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:
