@@ -220,7 +220,8 @@ class Backlash:
 class World:
     """The true rig: its bodies and every effect the nominal rig file leaves out (defaults: none).
 
-    Command chain, each sample: logged command -> FIFO of ``delay_samples`` -> discrete first-order filter of time
+    Command chain, each sample: logged command -> FIFO of ``delay_samples`` (plus, with ``delay_jitter_samples``, a
+    seeded uniform 0..J samples more each sample: a USB link, a scheduler) -> discrete first-order filter of time
     constant ``filter_time_constant`` -> ``gain`` -> dead zone -> saturation -> (motor) -> continuous lag of
     ``lag_time_constant`` (torque rig: a back-EMF-compensated armature, L/R) -> arm. Dead zone and saturation are
     in command units (N m, or V on a motor rig)."""
@@ -235,7 +236,9 @@ class World:
     pendulum_smoothing: float = 0.02  # [rad/s]
     counts_per_rev: int | None = None  # the true encoder (None: the rig's)
     noise_std: float = 0.0  # Gaussian noise on both angles [rad]
+    noise_correlation_time: float = 0.0  # [s] the noise is first-order low-pass (AR(1)) with this time; 0: white
     delay_samples: int = 0
+    delay_jitter_samples: int = 0  # each sample's delay is delay_samples plus a uniform 0..this many samples more
     filter_time_constant: float = 0.0  # [s]
     lag_time_constant: float = 0.0  # [s]
     gain: float = 1.0
@@ -304,15 +307,21 @@ class CommandChain:
     world: World
     fifo: list[float] = field(default_factory=list)
     filtered: float = 0.0
+    jitter: np.random.Generator | None = None  # the jittering delay's own stream (the run's draws stay as they are)
 
     def __post_init__(self):
-        self.fifo = [0.0] * self.world.delay_samples
+        self.fifo = [0.0] * (self.world.delay_samples + self.world.delay_jitter_samples)
 
     def applied(self, command: float) -> float:
         """The command that reaches the motor or arm this sample [command units]."""
         w = self.world
         self.fifo.append(command)
-        u = self.fifo.pop(0)
+        if w.delay_jitter_samples:
+            extra = int(self.jitter.integers(0, w.delay_jitter_samples + 1))
+            u = self.fifo[-1 - w.delay_samples - extra]
+            self.fifo.pop(0)
+        else:
+            u = self.fifo.pop(0)
         if w.filter_time_constant > 0:  # backward-Euler 1 / (T s + 1)
             alpha = w.rig.sample_period / (w.filter_time_constant + w.rig.sample_period)
             self.filtered += alpha * (u - self.filtered)
@@ -581,13 +590,38 @@ class Integrator:
 # --- sensors, controller, excitation --------------------------------------------------------------------------
 
 
-def encoder(x: np.ndarray, counts_per_rev: int, noise_std: float, rng: np.random.Generator) -> np.ndarray:
-    """Measured [theta, phi] [rad]: rounded to whole counts of 2 pi / counts_per_rev, plus Gaussian noise."""
+def encoder(
+    x: np.ndarray, counts_per_rev: int, noise_std: float, rng: np.random.Generator, noise: np.ndarray | None = None
+) -> np.ndarray:
+    """Measured [theta, phi] [rad]: rounded to whole counts of 2 pi / counts_per_rev, plus Gaussian noise (``noise``:
+    this sample's correlated noise instead of a white draw)."""
     count = 2 * math.pi / counts_per_rev
     measured = np.round(x[:2] / count) * count
+    if noise is not None:
+        return measured + noise
     if noise_std > 0:
         measured = measured + rng.normal(0.0, noise_std, 2)
     return measured
+
+
+@dataclass
+class CorrelatedNoise:
+    """Noise of std ``std`` [rad] on both angles, first-order low-pass with ``time`` [s] (an interface that filters
+    before it logs): n_k = a n_(k-1) + sqrt(1 - a^2) std e_k, a = exp(-period / time), from its stationary law."""
+
+    std: float
+    time: float
+    period: float
+    rng: np.random.Generator
+    state: np.ndarray | None = None
+
+    def next(self) -> np.ndarray:
+        a = math.exp(-self.period / self.time)
+        if self.state is None:
+            self.state = self.rng.normal(0.0, self.std, 2)
+        else:
+            self.state = a * self.state + math.sqrt(1.0 - a * a) * self.rng.normal(0.0, self.std, 2)
+        return self.state
 
 
 def linearization(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
@@ -713,7 +747,12 @@ def simulate(world: World, run: RunSpec) -> RunLog:
     times = np.arange(round(run.duration / h)) * h
     scale = rig.bodies.d / rig.torque_per_command  # m g l in command units
     excitation = multisine(run.excitation_rms * scale, run.f_min, run.f_max, times, rng) * fade_in(times, run.fade_in)
-    plant, chain = Plant(world), CommandChain(world)
+    plant, chain = Plant(world), CommandChain(world, jitter=np.random.default_rng([run.seed, 11]))
+    correlated = (
+        CorrelatedNoise(world.noise_std, world.noise_correlation_time, h, np.random.default_rng([run.seed, 13]))
+        if world.noise_std > 0 and world.noise_correlation_time > 0
+        else None
+    )
     integrator = Integrator(plant)
     balance = run.kind == "balance"
     x = plant.initial(0.03 if balance else math.pi + 0.1)
@@ -723,7 +762,11 @@ def simulate(world: World, run: RunSpec) -> RunLog:
     measured, commands, states = np.zeros((times.size, 2)), np.zeros(times.size), np.zeros((times.size, 4))
     for k in range(times.size):
         y = encoder(
-            x + np.append(world.encoder_offset, np.zeros(x.size - 2)), world.encoder_counts, world.noise_std, rng
+            x + np.append(world.encoder_offset, np.zeros(x.size - 2)),
+            world.encoder_counts,
+            world.noise_std,
+            rng,
+            correlated.next() if correlated else None,
         )
         rates = velocity.update(y)
         u = excitation[k]

@@ -11,7 +11,10 @@ fitted parameters (``ranking[].params``). The accepted model holds the accepted 
   least ``NEXT_STEP_REDUCTION`` on held-out data without being accepted (at most ``MAX_NEXT_STEP``), as the
   accepted model plus that effect: was a further effect missed?
 - with ``--target effect=value`` instead: the accepted model plus that effect at that size (its main parameter,
-  in the units of ``detection_limits``), for effects whose detection limit in these logs is above the size.
+  in the units of ``detection_limits``), for effects whose detection limit in these logs is above the size;
+- with no rival and no target (the verdict limited by what the logs can see): the targets of
+  :func:`~furuta_drake.design.closed_loop.limited_targets`, every actuator effect not accepted whose
+  detection limit is above a size that changes the rig's LQR loop.
 
 Each rival forms a :class:`Pair` with the accepted model. A pair is *nested* when the rival is the accepted model
 plus one effect: an experiment can only show that the effect is there (if the accepted model were the truth,
@@ -22,6 +25,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from furuta_drake.design.closed_loop import CLOSED_LOOP_SHARE, closed_loop_sizes, limited_targets
+from furuta_drake.design.rollout import nominal_lqr_gain
 from furuta_drake.diagnosis.detection import INJECTIONS
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.rule import NEAR
@@ -202,6 +207,9 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
                 f" without being accepted",
                 nested=True,
             )
+    limited = _limits_that_matter(report, rig, train_logs) if not pairs and not targets else None
+    if limited is not None:  # the verdict is limited by what the logs can see, not by a rival
+        return limited
     if not pairs:
         raise ConfigError(
             "nothing to separate: the diagnosis has no confusable pair, no rival within "
@@ -211,6 +219,21 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
             else "nothing to separate: every --target is already detected by the diagnosis' logs"
         )
     return Hypotheses(nominal, hypotheses, pairs, notes)
+
+
+def _limits_that_matter(report: dict, rig, train_logs) -> Hypotheses | None:
+    """The hypotheses of the targets :func:`~furuta_drake.design.closed_loop.limited_targets` finds on
+    the rig's LQR, with a note naming them; None when there is none."""
+    targets = limited_targets(report, closed_loop_sizes(rig, nominal_lqr_gain(rig)))
+    if not targets:
+        return None
+    found = read_hypotheses(report, rig, train_logs, targets)
+    note = (
+        "no rival: the design targets the detection limits above a size that changes the closed loop ("
+        + ", ".join(f"{name}={size:.4g}" for name, size in targets)
+        + f", {CLOSED_LOOP_SHARE:.0%} of the way to the rig's LQR margins)"
+    )
+    return Hypotheses(found.nominal, found.hypotheses, found.pairs, [note, *found.notes])
 
 
 def _name(effects: dict[str, Effect]) -> str:

@@ -33,6 +33,7 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
+from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
@@ -80,14 +81,19 @@ class FitTask:
         return "+".join([*self.fixed, self.new])
 
 
+COMMAND_QUANTILES = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97)  # of |command|: starts of the forms
+# whose cost jumps where their parameter crosses a logged command (Scales.command_levels)
+
+
 def scales_of(logs, model: Model) -> Scales:
-    command = max(float(np.max(np.abs(log.torque_command))) for log in logs)
+    magnitudes = np.abs(np.concatenate([log.torque_command for log in logs]))
     return Scales(
         torque=model.d,
-        command=max(command, 1e-9),
+        command=max(float(np.max(magnitudes)), 1e-9),
         arm_inertia=model.a,
         pendulum_inertia=model.b,
         period=float(np.median([log.sample_period for log in logs])),
+        command_levels=tuple(float(q) for q in np.quantile(magnitudes, COMMAND_QUANTILES)),
     )
 
 
@@ -232,18 +238,60 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         max_nfev=settings.max_nfev,
         method="trf",
     )
-    at_fit = linearised if "x" in linearised and np.array_equal(linearised["x"], result.x) else None
-    samples = _bootstrap(model_at, result.x, subset, counts, span, low, high, settings, at_fit)
+    x, total, profiles = result.x, float(2.0 * result.cost), {}
+    if not task.frozen:  # a screen beside frozen earlier effects only ranks the candidate; its refit searches
+        x, total, profiles = _search_jumps(cost, result, new_form, names, sizes, (low, high), scales.command_levels)
+    at_fit = linearised if "x" in linearised and np.array_equal(linearised["x"], x) else None
+    samples = _jump_samples(
+        _bootstrap(model_at, x, subset, counts, span, low, high, settings, at_fit), profiles, last, settings
+    )
     split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
         split[name] = samples[:, i : i + size]
         i += size
     return (
-        {**sensors, **effects_at(result.x)},
-        at_bounds(names, [forms[n][0] for n in names], result.x, low, high),
+        {**sensors, **effects_at(x)},
+        at_bounds(names, [forms[n][0] for n in names], x, low, high),
         split,
-        float(2.0 * result.cost),
+        total,
     )
+
+
+def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bounds, levels):
+    """The least-squares ``result``'s parameters and cost, with the parameter of a new form at which the cost jumps
+    found by :func:`~furuta_drake.diagnosis.jumps.line_search` from there; and per such parameter's index, the
+    search's profile of residuals."""
+    x, total, profiles = result.x, float(2.0 * result.cost), {}
+    for name, form in new_form.items():
+        jump = CANDIDATES[name].form(form).jump
+        if jump is not None:
+            i = sum(sizes[: names.index(name)]) + jump
+            x, total, profiles[i] = line_search(cost, x, i, bounds[0][i], bounds[1][i], levels)
+    return x, total, profiles
+
+
+def _jump_samples(samples: np.ndarray, profiles: dict, last: dict, settings: DiagnosisSettings) -> np.ndarray:
+    """``samples`` with the bootstrap of every searched parameter replaced by the block bootstrap of its search
+    (:func:`~furuta_drake.diagnosis.jumps.bootstrap_argmin`; the linearised step cannot move it)."""
+    if not profiles:
+        return samples
+    shapes = [raw.shape for raw in last["raw"]]  # (horizon, 2, W) per log, as the flat residuals hold them
+
+    def per_window(flat: np.ndarray) -> np.ndarray:
+        out, i = [], 0
+        for h, s, w in shapes:
+            n = (h - 1) * s * w
+            out.append(np.sum(flat[i : i + n].reshape(h - 1, s, w) ** 2, axis=(0, 1)))
+            i += n
+        return np.concatenate(out)
+
+    windows = sum(shape[2] for shape in shapes)
+    rng = np.random.default_rng(settings.seed)
+    weights = rng.multinomial(windows, np.full(windows, 1.0 / windows), settings.interval_resamples)
+    out = samples.copy()
+    for i, profile in profiles.items():
+        out[:, i] = bootstrap_argmin(profile, per_window, weights, rng)
+    return out
 
 
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:

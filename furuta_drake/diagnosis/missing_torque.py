@@ -175,7 +175,7 @@ def _refit(model: Model, start: list[tuple[int, int, float]], windows: Windows, 
         return np.column_stack([_rows(c) for c in _columns(model_at, x, windows, last, counts, high - low, high)])
 
     result = least_squares(cost, x0, jac=jacobian, bounds=(low, high), x_scale=span / 10, max_nfev=settings.max_nfev)
-    samples = _bootstrap(model_at, result.x, windows, counts, high - low, low, high, settings)
+    samples = _bootstrap(model_at, result.x, windows, counts, high - low, low, high, settings, None)
     return model_at(result.x), samples
 
 

@@ -34,6 +34,7 @@ from furuta_drake.diagnosis.record_text import choice_text, confusable_why, cons
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
+from furuta_drake.diagnosis.rival import widen
 from furuta_drake.diagnosis.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
@@ -49,7 +50,9 @@ from furuta_drake.yamlio import locate_in_file
 UNCERTAINTY = (
     "95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
     "linearised at the fit: one Gauss-Newton step per resample; quantisation is read exactly, noise "
-    "is bootstrapped over blocks of second differences"
+    "is bootstrapped over blocks of second differences; the accepted model's intervals also span the move of "
+    "its parameters when the strongest candidate not accepted is fitted beside it (an effect below the "
+    "detection limits may act)"
 )
 
 
@@ -293,7 +296,7 @@ def _diagnose(
             evaluated_by,
             heldout_rms_per_log(before, after),
         ),
-        ranking=ranking(selection, nominal),
+        ranking=widen(ranking(selection, nominal), selection, bootstrap, nominal),
         localization=localize(
             before,
             after,

@@ -12,12 +12,13 @@ from furuta_drake.diagnosis.rule import (
     FLOOR_COUNTS,
     LOWER_BOUND_QUANTILE,
     MARGIN,
+    NEGLIGIBLE_COUNTS,
     NOISE_STANDARD_ERRORS,
     PARSIMONY,
 )
 from furuta_drake.diagnosis.stepwise import EXCHANGE_RUNNERS_UP, PAIR_ENTRY, Selection
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES
+from furuta_drake.effects.vocabulary import CANDIDATES, UNITS
 
 NUMBERS = {1: "one", 2: "two", 3: "three", 4: "four", 5: "five"}
 
@@ -47,7 +48,8 @@ def rule_text(bootstrap: int, seed: int, max_effects: int) -> str:
         f"two supported candidates of different laws whose "
         f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
         f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
-        f"unexplained."
+        f"unexplained, unless it is below {NEGLIGIBLE_COUNTS} counts: then the verdict is none and the nearest "
+        f"candidate is named."
     )
 
 
@@ -73,6 +75,8 @@ def choice_text(selection: Selection) -> str:
     if not selection.kept:
         if selection.quiet:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
+        if selection.negligible:
+            return _negligible_text(selection)
         return "No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's margin."
     total = selection.over_nominal[selection.final.name]
     text = (
@@ -96,7 +100,9 @@ def choice_text(selection: Selection) -> str:
             f"effects it explains the held-out data better, reducing the gap of the model holding "
             f"{exchange['out']} by {evidence.reduction:.1%} (lower bound {evidence.lower_bound:.1%})."
         )
-    if not selection.closes:
+    if selection.negligible:
+        text += " " + _negligible_text(selection)
+    elif not selection.closes:
         text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
     for pair in selection.confusable:
         text += (
@@ -127,3 +133,24 @@ def consistency_judgement(
         if key.split(".")[1] == CANDIDATES[name].main
     ]
     return text + ("; " + ", ".join(mains) if mains else "")
+
+
+def _negligible_text(selection: Selection) -> str:
+    """Why a gap that nothing closes reads ``none``, with the nearest candidate and its fit."""
+    text = (
+        f"The nominal held-out gap, {selection.nominal.gap:.3f} counts after the sensor's own variance, is below "
+        f"{NEGLIGIBLE_COUNTS} counts: too small to matter, so the verdict is none."
+    )
+    nearest = selection.nearest()
+    if nearest is None:
+        return text
+    ((name, effect),) = nearest.effects.items()
+    form = CANDIDATES[name].form(effect.form)
+    values = ", ".join(
+        f"{param} {value:.3g} {UNITS.get(param, '')}".rstrip() for param, value in zip(form.params, effect.values)
+    )
+    evidence = selection.over_nominal[nearest.name]
+    return text + (
+        f" The nearest candidate is {name}{f' ({effect.form})' if effect.form else ''} at {values}: it reduces the "
+        f"gap by {evidence.reduction:.1%} (5 % lower bound {evidence.lower_bound:.1%})."
+    )

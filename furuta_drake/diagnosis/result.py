@@ -45,6 +45,8 @@ class RankedCandidate:
     heldout_reduction: Number
     evidence: Number
     params_ci: dict[str, list[float]] = field(default_factory=dict)
+    params_ci_if_complete: dict[str, list[float]] = field(default_factory=dict)  # the final model's own
+    # bootstrap intervals before the widening by a rival effect (furuta_drake.diagnosis.rival)
     step: int = 1
     reduction_over_previous: Number = None
     evidence_over_previous: Number = None

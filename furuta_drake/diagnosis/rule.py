@@ -26,7 +26,9 @@ place against the model holding all the others:
 - two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
   difference of their reductions holds 0: the data explain them equally well, and the report says so;
 - the verdict is ``unexplained`` when the nominal model is not within the noise and the accepted effects together
-  reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it).
+  reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it), unless that gap is
+  *negligible* (:func:`negligible`): below ``NEGLIGIBLE_COUNTS``, a small fraction of a count after the sensor's
+  own variance; then the verdict is ``none`` and the report names the nearest candidate and its fit.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ LOWER_BOUND_QUANTILE = 0.05
 NOISE_STANDARD_ERRORS = 2.0
 LEVEL_EXCESS = 0.1
 NEAR = 0.05
+NEGLIGIBLE_COUNTS = 0.15
 
 
 @dataclass(frozen=True)
@@ -72,6 +75,13 @@ THRESHOLDS = (
     ),
     Threshold("LEVEL_EXCESS", LEVEL_EXCESS, "", "two friction levels within this fraction are one (no Stribeck part)"),
     Threshold("NEAR", NEAR, "", "a rival within this of the accepted reduction is a close rival (the design)"),
+    Threshold(
+        "NEGLIGIBLE_COUNTS",
+        NEGLIGIBLE_COUNTS,
+        "counts",
+        "a gap left unexplained below it is no finding: its excess squared residual (0.0225 counts^2) is about a "
+        "quarter of a rounding encoder's own variance (1/12 counts^2), so the verdict is none",
+    ),
 )
 
 
@@ -148,6 +158,12 @@ def _interval(values: np.ndarray) -> tuple[float, float]:
     return float(np.quantile(values, tail)), float(np.quantile(values, 1.0 - tail))
 
 
+def negligible(gap: float) -> bool:
+    """Whether a held-out gap [counts] (after the sensor's own variance) is too small to matter:
+    below ``NEGLIGIBLE_COUNTS``."""
+    return gap < NEGLIGIBLE_COUNTS
+
+
 def at_floor(per_window: np.ndarray) -> bool:
     """The model of ``per_window`` has a gap below ``FLOOR_COUNTS``: nothing is left to explain."""
     return float(gap_of(per_window.mean())) < FLOOR_COUNTS
@@ -218,7 +234,8 @@ def decide(evidence: Comparison, *, first: bool = False) -> bool:
 def verdict(effects: list[str], reduction: float | None, quiet: bool) -> str:
     """The verdict of a selection that kept ``effects`` (in the order they entered) with the final model's
     ``reduction`` of the nominal held-out gap: the first effect when they close it (``CLOSES``), else ``none``
-    when the nominal model is within the noise (``quiet``), else ``unexplained``."""
+    when the nominal model is within the noise or its gap is :func:`negligible` (``quiet``), else
+    ``unexplained``."""
     if effects and reduction is not None and reduction >= CLOSES:
         return effects[0]
     return "none" if quiet else "unexplained"

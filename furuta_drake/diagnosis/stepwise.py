@@ -24,6 +24,7 @@ from furuta_drake.diagnosis.rule import (
     choose,
     confusable,
     decide,
+    negligible,
     order,
     verdict,
 )
@@ -73,8 +74,20 @@ class Selection:
         return bool(self.kept) and self.over_nominal[self.final.name].reduction >= CLOSES
 
     @property
+    def negligible(self) -> bool:
+        """No effect closes the nominal held-out gap, and that gap is too small to matter
+        (:func:`~furuta_drake.diagnosis.rule.negligible`)."""
+        return not self.closes and negligible(self.nominal.gap)
+
+    @property
     def verdict(self) -> str:
-        return verdict(self.effects, self.over_nominal[self.final.name].reduction if self.kept else None, self.quiet)
+        reduction = self.over_nominal[self.final.name].reduction if self.kept else None
+        return verdict(self.effects, reduction, self.quiet or self.negligible)
+
+    def nearest(self) -> FitResult | None:
+        """The single candidate that reduces the nominal held-out gap the most (None when none was fitted)."""
+        singles = [r for step, r in self.tried if step == 1 and not r.failure and "+" not in r.name]
+        return max(singles, key=lambda r: self.over_nominal[r.name].reduction, default=None)
 
     @property
     def effects(self) -> list[str]:

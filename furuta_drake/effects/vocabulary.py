@@ -39,6 +39,7 @@ class Scales:
     arm_inertia: float  # a [kg m^2]
     pendulum_inertia: float  # b [kg m^2]
     period: float  # [s]
+    command_levels: tuple[float, ...] = ()  # quantiles COMMAND_QUANTILES of |command| in the train logs [N m]
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,7 @@ class Form:
     bounds: Callable[[Scales], tuple[list[float], list[float]]]
     starts: Callable[[Scales], list[list[float]]]
     apply: Callable[[Model, np.ndarray], Model]
+    jump: int | None = None  # the parameter at which the cost jumps, found by a line search (fit's jumps module)
 
 
 @dataclass(frozen=True)
@@ -207,13 +209,27 @@ def _friction_forms(
     )
 
 
+def _command_grid(fixed: tuple[float, ...], low: float, high: float) -> Callable[[Scales], list[list[float]]]:
+    """Starts of a parameter that sets where the command map is discontinuous (a dead zone's width, a saturation's
+    limit): ``fixed`` fractions of the largest command and every logged command level (``Scales.command_levels``)
+    within [``low``, ``high``] of it. The cost changes only where the parameter crosses a logged command, and a
+    gradient step cannot cross a jump, so the starts cover the commands the data hold and the best is refined."""
+
+    def starts(s: Scales) -> list[list[float]]:
+        levels = [level for level in s.command_levels if low * s.command <= level <= high * s.command]
+        return [[k * s.command] for k in fixed] + [[level] for level in levels]
+
+    return starts
+
+
 def _deadzone(form: str) -> Form:
     return Form(
         form,
         ("deadzone",),
         lambda s: ([0.0], [0.5 * s.command]),
-        lambda s: [[0.01 * s.command], [0.05 * s.command], [0.15 * s.command]],
+        _command_grid((0.01, 0.05, 0.15), 0.0, 0.5),
         lambda m, p: m.replace(deadzone=p[0], deadzone_form=form),
+        jump=0 if form == "threshold" else None,  # the subtracting form is continuous in its width
     )
 
 
@@ -222,7 +238,7 @@ def _saturation(form: str) -> Form:
         form,
         ("limit",),
         lambda s: ([0.05 * s.command], [1.0 * s.command]),
-        lambda s: [[0.95 * s.command], [0.7 * s.command], [0.4 * s.command]],
+        _command_grid((0.95, 0.7, 0.4), 0.05, 1.0),
         lambda m, p: m.replace(saturation=p[0], saturation_form=form),
     )
 

@@ -1,0 +1,79 @@
+"""Intervals that hold when the model is not complete: the accepted model's parameter intervals widened by how
+far its parameters move when the strongest candidate not accepted is fitted beside it.
+
+The block bootstrap of :mod:`~furuta_drake.diagnosis.fit` states the spread of a fit *given* its model. An effect
+below the detection limits may still act on the logs, and the accepted effects then absorb part of it: their
+values are biased by an amount the bootstrap cannot see. The forward pass has already fitted the model holding
+the accepted effects and each further candidate *together* (the joint refits of the step after the last one
+kept, or the model before the backward pass dropped an effect); the one that reduces the final model's held-out
+gap the most is the *rival*. Each interval [lo, hi] of a parameter whose value moves by d in the rival becomes
+[min(lo, lo + d), max(hi, hi + d)]: the interval holds whether or not the rival is present.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from furuta_drake.diagnosis.fit import FitResult
+from furuta_drake.diagnosis.result import RankedCandidate
+from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.stepwise import Selection
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.vocabulary import describe
+
+
+def rival(selection: Selection, bootstrap: Bootstrap) -> FitResult | None:
+    """The model holding every kept effect and one more, refitted together (a kept effect's values moved), that
+    reduces the final model's held-out gap the most; None when none was fitted."""
+    final = selection.final
+    if final is None:
+        return None
+    kept = set(selection.kept)
+    joint = [
+        result
+        for _, result in selection.tried
+        if not result.failure
+        and set(result.effects) > kept
+        and len(result.effects) == len(kept) + 1
+        and any(result.effects[name] != final.effects[name] for name in kept)
+    ]
+    reduction = {
+        result.name: bootstrap.evidence(final.heldout.per_window, result.heldout.per_window).reduction
+        for result in joint
+    }
+    return max(joint, key=lambda result: reduction[result.name], default=None)
+
+
+def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[str, float]:
+    """Per reported parameter of the final model (its ranking keys), the move of its value in the rival model."""
+    found = rival(selection, bootstrap)
+    if found is None:
+        return {}
+    final, several = selection.final, len(selection.kept) > 1
+    out = {}
+    for name in selection.kept:
+        before = describe(name, final.effects[name], nominal)
+        after = describe(name, found.effects[name], nominal)
+        if before.get("form") != after.get("form"):
+            continue  # a move across forms is no shift of one parameter
+        prefix = f"{name}." if several else ""
+        out.update({prefix + key: after[key] - value for key, value in before.items() if key != "form"})
+    return out
+
+
+def widen(ranking: list[RankedCandidate], selection: Selection, bootstrap: Bootstrap, nominal: Model):
+    """``ranking`` with the final model's ``params_ci`` widened by the rival's shifts (module docstring); the
+    bootstrap's own intervals kept as ``params_ci_if_complete``."""
+    moves = shifts(selection, bootstrap, nominal)
+    if not moves:
+        return ranking
+    out = []
+    for row in ranking:
+        if row.effect == selection.final.name and row.params_ci:
+            widened = {
+                key: [min(low, low + moves.get(key, 0.0)), max(high, high + moves.get(key, 0.0))]
+                for key, (low, high) in row.params_ci.items()
+            }
+            row = dataclasses.replace(row, params_ci=widened, params_ci_if_complete=row.params_ci)
+        out.append(row)
+    return out
