@@ -41,7 +41,7 @@ from scipy.signal import savgol_filter
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_readers import LOG_TIME, Where, open_log
 from furuta_drake.errors import LogError
-from furuta_drake.rig import RigParameters
+from furuta_drake.rig import THETA_ZEROS, RigParameters
 from furuta_drake.yamlio import load_yaml_dataclass
 
 INPUT_COLUMNS = ("torque", "voltage")
@@ -53,6 +53,8 @@ MIN_SAMPLES = 3
 SMOOTHING_WINDOW_S = 0.04  # Savitzky-Golay window for the sign checks [s]
 CLEAR_T_STAT = 10.0  # a sign check decides only above this t statistic
 DEGREES_GAIN_RATIO = 10.0  # arm response this many times the rig's: the angles are degrees (ratio 57.3)
+DECISIVE_MISFIT_RATIO = 4.0  # the best correction of theta must fit the rig's pendulum row this much better
+THETA_FIXES = ((-1, 0.0), (1, math.pi), (-1, math.pi))  # (direction, shift) corrections of the logs' theta
 DEGREES_SIGMAS = 3.0  # ... with the gain that many standard errors above DEGREES_GAIN_RATIO
 
 
@@ -143,7 +145,7 @@ def load_log(
     theta, phi = theta * scale, phi * scale
     sample_period = _check_time(where, time, label["time"])
     _check_angles(where, theta, phi, label, log_format.angle_unit)
-    theta = theta * rig.theta_direction
+    theta = theta * rig.theta_direction + rig.theta_zero_angle
     for array in (time, theta, phi, command):
         array.setflags(write=False)
     torque_per_volt = (
@@ -216,42 +218,85 @@ def ignored_columns_note(logs: list[RunLog]) -> str | None:
 
 
 def check_theta_direction(logs: list[RunLog], rig: RigParameters, rig_path: str | Path = "the rig file") -> None:
-    """Raise LogError naming ``theta_direction`` when the arm-pendulum coupling in the data has the wrong sign.
+    """Raise LogError naming ``theta_direction`` or ``theta_zero`` when the logs contradict the pendulum's sign
+    convention or its zero.
 
     Fits theta_ddot = k_c cos(theta) phi_ddot + k_g sin(theta) + k_v theta_dot + k_s sin(theta) cos(theta)
-    phi_dot^2 on all logs (theta already in the paper's direction). The paper's convention has k_c = -c/b < 0.
-    It decides only when k_c is clear and gravity is not clearly reversed (k_g = d/b > 0; in closed-loop
-    balancing k_g is confounded with the feedback, so it is not required to be clear). Run
-    :func:`check_input_direction` first: a reversed phi also reverses k_c.
+    phi_dot^2 on all logs (theta already converted). The convention has k_c = -c/b < 0 and k_g = d/b > 0. A
+    reversed direction flips k_c only, a zero off by pi flips both (only gravity knows where up is). It decides
+    only when k_c is clearly wrong or k_g clearly reversed; the key to name is then the correction (theta -> -theta,
+    theta -> theta + pi, or both) under which the rig's own pendulum row (Eq. 1) fits the data best, since in
+    closed-loop balancing k_g is confounded with the feedback. Run :func:`check_input_direction` first: a reversed
+    phi also reverses k_c.
     """
-    rows = []
-    for log in _long_enough(logs):
-        theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot = smoothed_derivatives(log)
-        rows.append(
-            (
-                np.column_stack(
-                    [np.cos(theta) * phi_ddot, np.sin(theta), theta_dot, np.sin(theta) * np.cos(theta) * phi_dot**2]
-                ),
-                theta_ddot,
-            )
+    signals = [smoothed_derivatives(log) for log in _long_enough(logs)]
+    rows = [
+        (
+            np.column_stack(
+                [np.cos(theta) * phi_ddot, np.sin(theta), theta_dot, np.sin(theta) * np.cos(theta) * phi_dot**2]
+            ),
+            theta_ddot,
         )
+        for theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot in signals
+    ]
     fit = _pooled_fit(rows, logs)
     if fit is None:
         return
     coef, std = fit
     t_stat = coef / std
-    if abs(t_stat[0]) <= CLEAR_T_STAT or t_stat[1] < -CLEAR_T_STAT:
+    coupling_wrong = t_stat[0] > CLEAR_T_STAT
+    if not (coupling_wrong or t_stat[1] < -CLEAR_T_STAT):
         return
-    if coef[0] > 0:
-        expected = -rig.coupling / rig.pendulum_inertia_total
-        names = ", ".join(log.name for log in logs)
-        raise LogError(
-            f"{rig_path}: theta_direction: {rig.theta_direction} contradicts the logs ({names}): with it the "
-            f"arm-pendulum coupling d(theta_ddot)/d(cos(theta) phi_ddot) is {coef[0]:+.3g} (t = {t_stat[0]:.0f}), "
-            f"the convention gives {expected:+.3g} (near the upright a positive arm acceleration gives a "
-            f"negative pendulum acceleration): the logs count theta the other way, set theta_direction: "
-            f"{-rig.theta_direction} (unless it is phi that counts against the input)"
+    misfits = sorted((_pendulum_row_misfit(signals, rig, *fix), fix) for fix in THETA_FIXES)
+    fixes = [fix for _, fix in misfits[: 1 if misfits[1][0] > DECISIVE_MISFIT_RATIO * misfits[0][0] else 2]]
+    keys = sorted({key for fix in fixes for key in _fix_keys(fix, rig)}, reverse=True)
+    found = (
+        f"with {'it' if len(keys) == 1 else 'them'} the arm-pendulum coupling "
+        f"d(theta_ddot)/d(cos(theta) phi_ddot) is {coef[0]:+.3g} (t = {t_stat[0]:.0f}) and gravity "
+        f"d(theta_ddot)/d(sin(theta)) {coef[1]:+.3g} (t = {t_stat[1]:.0f}); the convention gives "
+        f"{-rig.coupling / rig.pendulum_inertia_total:+.3g} and {rig.gravity_torque / rig.pendulum_inertia_total:+.3g}"
+    )
+    advice = ", or ".join(
+        " and ".join(f"{key}: {value}" for key, value in _fix_keys(fix, rig).items()) for fix in fixes
+    )
+    undecided = (
+        " (the logs do not tell which: a log of free swings of the hanging pendulum does)" if len(fixes) > 1 else ""
+    )
+    raise LogError(
+        f"{rig_path}: {(' or ' if undecided else ' and ').join(f'{key}: {getattr(rig, key)}' for key in keys)} "
+        f"contradicts the logs ({', '.join(log.name for log in logs)}): {found}: "
+        f"set {advice}{undecided}"
+    )
+
+
+def _fix_keys(fix: tuple[int, float], rig: RigParameters) -> dict[str, object]:
+    """The rig-file keys and values of a correction (direction, shift) of the logs' theta."""
+    direction, shift = fix
+    keys: dict[str, object] = {}
+    if shift:
+        zero = math.remainder(rig.theta_zero_angle + shift, 2 * math.pi)
+        keys["theta_zero"] = next(
+            (name for name, angle in THETA_ZEROS.items() if math.isclose(abs(zero), angle, abs_tol=1e-9)), f"{zero:.6g}"
         )
+    if direction == -1:
+        keys["theta_direction"] = -rig.theta_direction
+    return keys
+
+
+def _pendulum_row_misfit(signals, rig: RigParameters, direction: int, shift: float) -> float:
+    """Sum of squares of the rig's pendulum row (Eq. 1, no friction) on the smoothed logs with theta replaced by
+    direction * theta + shift."""
+    b = rig.pendulum_inertia_total
+    total = 0.0
+    for theta, _, _, phi_dot, theta_ddot, phi_ddot in signals:
+        fixed = direction * theta + shift
+        predicted = (
+            -rig.coupling / b * np.cos(fixed) * phi_ddot
+            + rig.gravity_torque / b * np.sin(fixed)
+            + np.sin(fixed) * np.cos(fixed) * phi_dot**2
+        )
+        total += float(np.sum((direction * theta_ddot - predicted) ** 2))
+    return total
 
 
 def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str | Path = "the rig file") -> None:
