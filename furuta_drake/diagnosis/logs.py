@@ -40,6 +40,7 @@ from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_readers import LOG_TIME, Where, open_log
+from furuta_drake.diagnosis.run_column import split_runs
 from furuta_drake.errors import LogError
 from furuta_drake.rig import THETA_ZEROS, RigParameters
 from furuta_drake.yamlio import load_yaml_dataclass
@@ -62,7 +63,7 @@ DEGREES_SIGMAS = 3.0  # ... with the gain that many standard errors above DEGREE
 class RunLog:
     """One run log, checked and in the paper's sign convention."""
 
-    name: str  # file name (e.g. "balance_1.csv"), used in report windows
+    name: str  # file name (e.g. "balance_1.csv", "trials.csv[run=7]"), used in report windows
     path: str
     time: np.ndarray  # [s], strictly increasing, as logged
     theta: np.ndarray  # [rad], paper convention: theta_logged * rig.theta_direction
@@ -72,6 +73,7 @@ class RunLog:
     sample_period: float  # [s], median step
     torque_per_volt: float = 1.0  # kt / R of the rig's motor for voltage logs [N m / V]; 1 for torque logs
     ignored_columns: tuple[str, ...] = ()  # extra columns of the file, not used
+    run: str | None = None  # the run's value in the file's run column (--run-column), None for a file of one run
 
     @property
     def torque_command(self) -> np.ndarray:
@@ -104,7 +106,7 @@ def load_rig(path: str | Path) -> RigParameters:
 def load_log(
     path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
 ) -> RunLog:
-    """Read and check one log (CSV, Parquet or MCAP by its extension; see
+    """Read and check one log holding one run (CSV, Parquet or MCAP by its extension; see
     :mod:`~furuta_drake.diagnosis.log_readers`).
 
     Parameters
@@ -112,13 +114,25 @@ def load_log(
     path
         the log file.
     rig
-        the rig file's model: ``theta`` is multiplied by its ``theta_direction``, angles in counts use its
-        ``counts_per_rev``, a voltage log needs its ``motor``.
+        the rig file's model: ``theta`` is multiplied by its ``theta_direction`` and offset by its ``theta_zero``,
+        angles in counts use its ``counts_per_rev``, a voltage log needs its ``motor``.
     rig_path
         names the rig file in errors.
     log_format
-        the file's column names, angle unit and MCAP topic (default: the columns under their own names, radians).
+        the file's column names, angle unit and MCAP topic (default: the columns under their own names, radians);
+        its ``run_column`` must be None (:func:`load_runs` reads a file of many runs).
     """
+    if log_format.run_column is not None:
+        raise ValueError("load_log reads one run; load_runs splits a file by its run column")
+    return load_runs(path, rig, rig_path, log_format)[0]
+
+
+def load_runs(
+    path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
+) -> list[RunLog]:
+    """The runs of one log file, each checked on its own time base: the whole file when ``log_format`` has no
+    ``run_column``, else one :class:`RunLog` per value of that column (in the order they first appear), named
+    ``file.csv[run=7]``. The runs are views of one array per signal, never copies of the table."""
     path = Path(path)
     reader = open_log(path, log_format.topic)
     columns = _resolve_columns(reader, log_format)
@@ -130,40 +144,63 @@ def load_log(
             f"{rig_path} has no 'motor' block (add motor: {{resistance, torque_constant, "
             f"backemf_constant}})"
         )
-    data, where = reader.read({column: label[name] for name, column in columns.items()})
-    for j, name in enumerate(columns):
+    wanted = {column: label[name] for name, column in columns.items()}
+    if log_format.run_column is not None:
+        if log_format.run_column not in reader.names:
+            shown = ", ".join(name for name in reader.names if name != LOG_TIME)
+            raise LogError(
+                f"{reader.header_where}: no run column {log_format.run_column!r} (--run-column; the file has: {shown})"
+            )
+        wanted[log_format.run_column] = f"{log_format.run_column!r} (--run-column)"
+    data, where = reader.read(wanted)
+    for j, column_label in enumerate(wanted.values()):
         bad = np.flatnonzero(~np.isfinite(data[:, j]))
         if bad.size:
             raise LogError(
-                f"{where(bad[0])}: column {label[name]} is {float(data[bad[0], j])}: every value must "
-                f"be a finite number"
+                f"{where(bad[0])}: column {column_label} is {float(data[bad[0], j])}: every value must be a "
+                f"finite number"
             )
     if len(data) < MIN_SAMPLES:
         raise LogError(f"{where(len(data) - 1)}: only {len(data)} data rows, need at least {MIN_SAMPLES}")
+    runs: list = [(None, 0, len(data))]
+    if log_format.run_column is not None:
+        data, runs, where = split_runs(data[:, 4], data, where)
     scale = log_format.radians_per_unit(rig.counts_per_rev)
     time, theta, phi, command = (np.ascontiguousarray(data[:, j]) for j in range(4))
     theta, phi = theta * scale, phi * scale
-    sample_period = _check_time(where, time, label["time"])
-    _check_angles(where, theta, phi, label, log_format.angle_unit)
+    periods = []
+    for run, first, last in runs:
+        run_where = where if run is None else (lambda row, first=first, run=run: f"{where(first + row)} (run={run})")
+        if last - first < MIN_SAMPLES:
+            raise LogError(
+                f"{run_where(last - first - 1)}: run {run} has only {last - first} samples, need at least {MIN_SAMPLES}"
+            )
+        periods.append(_check_time(run_where, time[first:last], label["time"]))
+        _check_angles(run_where, theta[first:last], phi[first:last], label, log_format.angle_unit)
     theta = theta * rig.theta_direction + rig.theta_zero_angle
     for array in (time, theta, phi, command):
         array.setflags(write=False)
     torque_per_volt = (
         1.0 if rig.motor is None or input_kind == "torque" else rig.motor.torque_constant / rig.motor.resistance
     )
-    used = set(columns.values()) | {LOG_TIME}
-    return RunLog(
-        name=path.name,
-        path=str(path),
-        time=time,
-        theta=theta,
-        phi=phi,
-        input_kind=input_kind,
-        input=command,
-        sample_period=sample_period,
-        torque_per_volt=torque_per_volt,
-        ignored_columns=tuple(name for name in reader.names if name not in used),
-    )
+    used = set(wanted) | {LOG_TIME}
+    ignored = tuple(name for name in reader.names if name not in used)
+    return [
+        RunLog(
+            name=path.name if run is None else f"{path.name}[run={run}]",
+            path=str(path),
+            time=time[first:last],
+            theta=theta[first:last],
+            phi=phi[first:last],
+            input_kind=input_kind,
+            input=command[first:last],
+            sample_period=period,
+            torque_per_volt=torque_per_volt,
+            ignored_columns=ignored,
+            run=run,
+        )
+        for (run, first, last), period in zip(runs, periods)
+    ]
 
 
 def _resolve_columns(reader, log_format: LogFormat) -> dict[str, str]:
@@ -201,9 +238,9 @@ def _resolve_columns(reader, log_format: LogFormat) -> dict[str, str]:
 def load_logs(
     paths, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
 ) -> list[RunLog]:
-    """:func:`load_log` for each path (all in ``log_format``), then the sign checks pooled over all of them (phi
+    """:func:`load_runs` for each path (all in ``log_format``), then the sign checks pooled over all of them (phi
     first: a flipped phi also flips the arm-pendulum coupling that the theta check reads)."""
-    logs = [load_log(path, rig, rig_path, log_format) for path in paths]
+    logs = [log for path in paths for log in load_runs(path, rig, rig_path, log_format)]
     check_input_direction(logs, rig, rig_path)
     check_theta_direction(logs, rig, rig_path)
     return logs
