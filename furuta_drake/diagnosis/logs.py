@@ -49,7 +49,7 @@ INPUT_COLUMNS = ("torque", "voltage")
 ANGLE_COLUMNS = ("theta", "phi")
 PERIOD_TOLERANCE = 0.01  # a constant sample period within 1 %
 GAP_FACTOR = 1.5  # a step longer than this many periods is a gap (missing samples)
-MAX_THETA_RAD = 4 * math.pi  # beyond two pendulum turns from the upright, the angles are not radians
+MAX_THETA_RAD = 4 * math.pi  # a file whose theta stays beyond two turns from the upright is not in radians
 MIN_SAMPLES = 3
 SMOOTHING_WINDOW_S = 0.04  # Savitzky-Golay window for the sign checks [s]
 CLEAR_T_STAT = 10.0  # a sign check decides only above this t statistic
@@ -168,6 +168,7 @@ def load_runs(
     scale = log_format.radians_per_unit(rig.counts_per_rev)
     time, theta, phi, command = (np.ascontiguousarray(data[:, j]) for j in range(4))
     theta, phi = theta * scale, phi * scale
+    _check_theta_range(where, theta, label["theta"], log_format.angle_unit)
     periods = []
     for run, first, last in runs:
         run_where = where if run is None else (lambda row, first=first, run=run: f"{where(first + row)} (run={run})")
@@ -461,18 +462,25 @@ def _check_time(where: Where, time: np.ndarray, label: str) -> float:
     return period
 
 
-def _check_angles(where: Where, theta: np.ndarray, phi: np.ndarray, label: dict[str, str], unit: str) -> None:
-    """LogError when the angles (in radians after the unit conversion) look like degrees or are wrapped."""
-    read_as = "" if unit == "rad" else f" (read as {unit}, in radians)"
-    hint = "pass --angle-unit deg or give radians" if unit == "rad" else f"check --angle-unit {unit}"
-    far = np.flatnonzero(np.abs(theta) > MAX_THETA_RAD)
-    if far.size:
-        row = far[0]
+def _check_theta_range(where: Where, theta: np.ndarray, label: str, unit: str) -> None:
+    """LogError when every sample of the file's theta (in radians after the unit conversion) is more than two
+    turns from the upright: degrees (a pendulum hanging reads 180). A pendulum that swings through full turns
+    in radians gets that far only from nearer, so one sample within two turns clears the file."""
+    closest = int(np.argmin(np.abs(theta)))
+    if abs(theta[closest]) > MAX_THETA_RAD:
+        read_as = "" if unit == "rad" else f" (read as {unit}, in radians)"
+        hint = "pass --angle-unit deg or give radians" if unit == "rad" else f"check --angle-unit {unit}"
         raise LogError(
-            f"{where(row)}: column {label['theta']} is {theta[row]:.6g}{read_as}, more than two turns "
-            f"from the upright: the angles look like degrees; the diagnosis wants radians ({hint}; "
+            f"{where(closest)}: column {label} is {theta[closest]:.6g}{read_as} and every other sample is further "
+            f"than two turns from the upright: the angles look like degrees; the diagnosis wants radians ({hint}; "
             f"theta 0 upright, unwrapped)"
         )
+
+
+def _check_angles(where: Where, theta: np.ndarray, phi: np.ndarray, label: dict[str, str], unit: str) -> None:
+    """LogError when the angles (in radians after the unit conversion) jump: wrapped, or not radians."""
+    read_as = "" if unit == "rad" else f" (read as {unit}, in radians)"
+    hint = "pass --angle-unit deg or give radians" if unit == "rad" else f"check --angle-unit {unit}"
     for name, angle in (("theta", theta), ("phi", phi)):
         step = np.diff(angle)
         jumps = np.flatnonzero(np.abs(step) > math.pi)
