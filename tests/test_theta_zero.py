@@ -97,3 +97,20 @@ def test_diagnose_exits_2_on_the_wrong_zero_and_agrees_with_the_upright_log_when
     a, b = (json.loads((tmp_path / d / "report.json").read_text()) for d in ("upright", "hanging"))
     assert a["verdict"] == b["verdict"] and a["effects"] == b["effects"]
     assert a["gap"]["heldout_reduction"] == pytest.approx(b["gap"]["heldout_reduction"], rel=1e-6, abs=1e-9)
+
+
+def test_a_pendulum_spinning_many_turns_is_radians_and_a_file_all_beyond_two_turns_is_degrees(tmp_path):
+    # Bang-bang commands spin the pendulum through tens of turns: in radians it gets there from near the upright
+    # or hanging. A file of degrees of a hanging pendulum (about 180) never comes within two turns (4 pi rad).
+    data = np.genfromtxt(CHIRP, delimiter=",", names=True)
+    names = list(data.dtype.names)
+    turns = 30 * 2 * math.pi * (data["time"] - data["time"][0]) / np.ptp(data["time"])
+    spinning = np.column_stack([data[n] + (turns if n == "theta" else 0.0) for n in names])
+    path = tmp_path / "spin.csv"
+    np.savetxt(path, spinning, delimiter=",", header=",".join(names), comments="", fmt="%.12g")
+    log = load_log(path, load_rig(QUBE_RIG))
+    assert np.max(np.abs(log.theta)) > 29 * 2 * math.pi
+    degrees = np.column_stack([np.degrees(data[n]) if n in ("theta", "phi") else data[n] for n in names])
+    np.savetxt(path, degrees, delimiter=",", header=",".join(names), comments="", fmt="%.12g")
+    with pytest.raises(LogError, match=r"every other sample is further than two turns.*look like degrees"):
+        load_log(path, load_rig(QUBE_RIG))
