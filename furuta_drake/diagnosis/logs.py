@@ -13,7 +13,8 @@ columns are not an error: they are listed in
 
 Beyond the format, the checks refuse what would otherwise be "diagnosed" as a model error: a time gap (never
 interpolated), angles in degrees, angles wrapped into one turn, and (from the data, pooled over the logs) a theta
-or phi direction that contradicts the sign conventions of ``docs/diagnose.md``.
+or phi direction or a theta zero that contradicts the conventions of ``docs/diagnose.md``. A file of many runs
+(``--run-column``) is checked run by run (:func:`load_runs`).
 
 Sign checks, from Savitzky-Golay second derivatives of the angles. With a = J_arm + m r^2, b = J_p + m l^2,
 c = m l r, d = m g l (paper Eq. 1 in the paper's theta direction) the pendulum row reads
@@ -21,7 +22,8 @@ c = m l r, d = m g l (paper Eq. 1 in the paper's theta direction) the pendulum r
     theta_ddot = -(c / b) cos(theta) phi_ddot + (d / b) sin(theta) + sin(theta) cos(theta) phi_dot^2 - friction,
 
 so regressing theta_ddot on cos(theta) phi_ddot and sin(theta) must give a negative coupling coefficient
-(beta4 < 0 at the upright) and a positive gravity coefficient; a flipped encoder flips only the coupling. The arm
+(beta4 < 0 at the upright) and a positive gravity coefficient; a flipped encoder flips only the coupling, a zero
+off by pi (``theta_zero``) both. The arm
 row, divided by its inertia a + b sin^2(theta), gives phi_ddot = k_u tau / (a + b sin^2 theta) + ..., where
 k_u must be positive (phi counts in the direction a positive input accelerates the arm) and near 1 in radians
 (about 57 when the angles are in degrees). A sign check decides only when its coefficient is clear (|t| > 10
