@@ -9,7 +9,9 @@ trial --workers W``).
 
 Printed per trial count: rows, the file's size, the wall time, the CPU time of the diagnosis and its workers
 (user + system), the peak resident memory of the largest process (``ru_maxrss`` of the children), the verdict;
-then the ratios between the largest and the smallest trial count (the data grow by the trial ratio). Target:
+then the ratios between the largest and the smallest trial count (the data grow by the trial ratio). With
+``--one-run`` each table's samples are also diagnosed as one run (time continued, no trial column): the CPU
+difference is what the many-runs path itself costs. Target:
 200 trials within 10 minutes on 2 cores, memory that does not grow per trial beyond the data.
 
 Run from the repository root: ``PYTHONPATH=. nice -n 10 python benchmarks/trial_table.py --out DIR [--trials 20
@@ -62,12 +64,22 @@ def write_table(out: Path, trials: int) -> tuple[Path, Path]:
     return rig_path, table
 
 
-def diagnose(rig_path: Path, table: Path, out: Path, workers: int) -> dict:
+def one_run(table: Path) -> Path:
+    """The same samples as one run (time continued across the trials, no trial column): the per-run overhead's
+    baseline."""
+    data = np.genfromtxt(table, delimiter=",", names=True)
+    columns = {name: data[name] for name in ("theta", "phi", "torque")}
+    path = table.with_name(table.stem + "_one_run.csv")
+    write_log(path, {"time": np.arange(data.size) * RATES["125Hz"], **columns})
+    return path
+
+
+def diagnose(rig_path: Path, table: Path, out: Path, workers: int, by_run: bool = True) -> dict:
     """Diagnose ``table`` in a child process: wall, CPU and peak RSS of it and its workers, and its verdict."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     command = [sys.executable, "-m", "furuta_drake.cli", "diagnose", "--rig", str(rig_path), "--train", str(table)]
-    command += ["--run-column", "trial", "--workers", str(workers), "--out", str(out), "--force"]
+    command += (["--run-column", "trial"] if by_run else []) + ["--workers", str(workers), "--out", str(out), "--force"]
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -81,6 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--trials", nargs="+", type=int, default=[20, 200])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--one-run", action="store_true", help="also diagnose each table's samples as one run")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -99,6 +112,13 @@ def main(argv: list[str] | None = None) -> int:
             f"{row['peak_rss_mb']:>11.0f}  {row['verdict']}",
             flush=True,
         )
+        if args.one_run:
+            alone = diagnose(rig_path, one_run(table), args.out / f"report_{trials}_one_run", args.workers, False)
+            print(
+                f"{'1 run':>6} {'':>7} {'':>6} {alone['wall_s']:>7.0f} {alone['cpu_s']:>7.0f} {'':>11}  "
+                f"{alone['verdict']}  (the same samples as one run)",
+                flush=True,
+            )
     if len(rows) > 1:
         small, large = rows[0], rows[-1]
         print(
