@@ -112,5 +112,5 @@ def test_a_pendulum_spinning_many_turns_is_radians_and_a_file_all_beyond_two_tur
     assert np.max(np.abs(log.theta)) > 29 * 2 * math.pi
     degrees = np.column_stack([np.degrees(data[n]) if n in ("theta", "phi") else data[n] for n in names])
     np.savetxt(path, degrees, delimiter=",", header=",".join(names), comments="", fmt="%.12g")
-    with pytest.raises(LogError, match=r"every other sample is further than two turns.*look like degrees"):
+    with pytest.raises(LogError, match=r"spin\.csv:2: .* no sample comes within two turns.*look like degrees"):
         load_log(path, load_rig(QUBE_RIG))

@@ -468,14 +468,14 @@ def _check_theta_range(where: Where, theta: np.ndarray, label: str, unit: str) -
     """LogError when every sample of the file's theta (in radians after the unit conversion) is more than two
     turns from the upright: degrees (a pendulum hanging reads 180). A pendulum that swings through full turns
     in radians gets that far only from nearer, so one sample within two turns clears the file."""
-    closest = int(np.argmin(np.abs(theta)))
-    if abs(theta[closest]) > MAX_THETA_RAD:
+    closest = float(np.min(np.abs(theta)))
+    if closest > MAX_THETA_RAD:
         read_as = "" if unit == "rad" else f" (read as {unit}, in radians)"
         hint = "pass --angle-unit deg or give radians" if unit == "rad" else f"check --angle-unit {unit}"
         raise LogError(
-            f"{where(closest)}: column {label} is {theta[closest]:.6g}{read_as} and every other sample is further "
-            f"than two turns from the upright: the angles look like degrees; the diagnosis wants radians ({hint}; "
-            f"theta 0 upright, unwrapped)"
+            f"{where(0)}: column {label} is {theta[0]:.6g}{read_as} and no sample comes within two turns of the "
+            f"upright (the closest is {closest:.6g} away): the angles look like degrees; the diagnosis wants "
+            f"radians ({hint}; theta 0 upright, unwrapped)"
         )
 
 
