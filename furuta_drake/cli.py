@@ -94,6 +94,12 @@ def _diagnose_parser(sub) -> None:
         help="MCAP channel holding the run, JSON messages whose fields are the columns "
         "(default: the file's only channel); logs are CSV, Parquet or MCAP by extension",
     )
+    diag.add_argument(
+        "--run-column",
+        metavar="NAME",
+        help="a column (or MCAP field) numbering the runs of a file of many runs (a trial table): each run is "
+        "a log of its own, named file.csv[run=7], and held-out data are whole runs",
+    )
     diag.set_defaults(run=_run_diagnose)
 
 
@@ -380,7 +386,7 @@ def _run_diagnose(args) -> int:
         raise ConfigError("--workers sizes the local processes; with --scheduler the cluster's workers run the fits")
     if args.folds is not None and args.folds < 2:
         raise ConfigError(f"--folds must be >= 2, got {args.folds}")
-    log_format = LogFormat.parse(args.columns, args.angle_unit, args.topic)
+    log_format = LogFormat.parse(args.columns, args.angle_unit, args.topic, args.run_column)
     protect = [args.rig, *args.train, *args.heldout]
     prepare_output_dir(args.out, force=args.force, protect=protect)
     with tqdm(desc="fitting candidates", unit="fit", disable=not sys.stderr.isatty()) as bar:

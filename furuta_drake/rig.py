@@ -23,6 +23,8 @@ from furuta_drake.errors import ConfigError
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.yamlio import documented_field
 
+THETA_ZEROS = {"upright": 0.0, "hanging": math.pi}  # the named zeros of the logs' theta [rad]
+
 
 @dataclass
 class MotorParameters:
@@ -144,6 +146,15 @@ class RigParameters:
         measure="with the pendulum hanging, push the arm towards +phi: 1 when the pendulum swings towards +theta; "
         "furuta-drake diagnose checks it on the logs and names this key when it disagrees",
     )
+    theta_zero: Any = documented_field(
+        "upright",
+        "where the logs' theta is 0: upright, hanging, or the angle in rad (furuta-drake's theta, after "
+        "theta_direction) at which the logs read 0",
+        "",
+        measure="read the logged theta with the pendulum hanging still: near 0 means hanging, near +-pi upright; "
+        "furuta-drake diagnose checks it on the logs (gravity's sign about theta = 0) and names this key when it "
+        "disagrees",
+    )
     arm_coulomb: float = documented_field(
         0.0,
         "arm Coulomb friction the nominal model already has",
@@ -206,6 +217,10 @@ class RigParameters:
             raise ConfigError(f"{where}.theta_direction must be 1 or -1, got {self.theta_direction!r}")
         for name in ("arm_coulomb", "arm_viscous", "pendulum_coulomb", "pendulum_viscous"):
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
+        try:
+            _ = self.theta_zero_angle
+        except ConfigError as err:
+            raise ConfigError(f"{where}.{err}") from None
         if self.motor is not None:
             self.motor.validate(f"{where}.motor")
         if self.unmodelled_torque is not None:
@@ -231,6 +246,16 @@ class RigParameters:
     def gravity_torque(self) -> float:
         """m g l [N m]."""
         return self.pendulum_mass * self.gravity * self.pendulum_com
+
+    @property
+    def theta_zero_angle(self) -> float:
+        """furuta-drake's theta [rad] at which the logs read theta = 0 (``theta_zero``): 0 upright, pi hanging."""
+        if isinstance(self.theta_zero, str) and self.theta_zero in THETA_ZEROS:
+            return THETA_ZEROS[self.theta_zero]
+        value = self.theta_zero
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"theta_zero must be upright, hanging or a finite angle in rad, got {self.theta_zero!r}")
+        return float(value)
 
     @property
     def encoder_resolution(self) -> float:

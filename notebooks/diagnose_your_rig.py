@@ -192,3 +192,25 @@ ax.set_xlabel("time [s]")
 ax.set_ylabel("phi [rad]")
 ax.legend()
 print(sorted(p.name for p in (WORK / "report").iterdir()))
+
+# %% [markdown]
+# ## 7. Many trials in one file
+# Identification data often comes as one long table of short trials with a trial column. Here the lab's logs,
+# written as such a table: every trial keeps its own time from 0 and the `trial` column numbers them.
+# `--run-column trial` (here `LogFormat(..., run_column="trial")`) makes each trial a log of its own, named
+# `file.csv[run=k]`, and the held-out data whole trials:
+# `furuta-drake diagnose --rig my_rig.yaml --train trials.csv --run-column trial --columns ... --out report`.
+
+# %%
+from furuta_drake.diagnosis.logs import load_logs
+from furuta_drake.diagnosis.split import split_heldout
+
+pieces = [np.genfromtxt(path, delimiter=",", names=True) for path in train + heldout]
+table = {name: np.concatenate([piece[name] for piece in pieces]) for name in ("t", "vm", "alpha", "theta")}
+table["trial"] = np.concatenate([np.full(piece.size, k + 1.0) for k, piece in enumerate(pieces)])
+trials_path = write_log(WORK / "trials.csv", table)
+by_trial = LogFormat.parse("time=t,theta=alpha,phi=theta,voltage=vm", "deg", run_column="trial")
+trials = load_logs([trials_path], load_rig(rig_path), rig_path, by_trial)
+fit_trials, heldout_trials, _ = split_heldout(trials)
+print([f"{log.name}: {log.time.size} samples" for log in trials])
+print("held out whole:", [log.name for log in heldout_trials])

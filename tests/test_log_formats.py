@@ -257,4 +257,5 @@ def test_diagnose_on_a_renamed_degrees_copy_gives_the_same_report(tmp_path):
         "columns": {"time": "t", "theta": "alpha", "phi": "theta", "torque": "torque", "voltage": "vm"},
         "angle_unit": "deg",
         "topic": None,
+        "run_column": None,
     }

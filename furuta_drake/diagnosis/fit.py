@@ -117,24 +117,60 @@ def noise_estimate(logs, nominal_counts: int, resamples: int = 0, seed: int = 0)
     more, which is subtracted (the step from :func:`quantization_estimate`); outliers (the motion's own jerks)
     beyond 6 robust sigmas are left out. 0 when below ``NOISE_FLOOR_COUNTS`` counts. (A median absolute
     deviation of these integer counts would be quantised itself.) Also ``resamples`` bootstrap values over blocks
-    of 100 second differences."""
+    of 100 second differences.
+
+    At a low sample rate the motion's own acceleration a dt^2 can carry the second differences; when it carries
+    more than half of them (:func:`_motion_free_squares`) it is extrapolated away with the lag-2 differences,
+    on the samples whose stencil the command holds constant over."""
     count = 2 * np.pi / nominal_counts
-    second = np.concatenate([np.diff(angle, 2) / count for log in logs for angle in (log.theta, log.phi)])
-    centre = np.median(second)
-    spread = 1.4826 * np.median(np.abs(second - centre)) + 1.0
-    kept = second[np.abs(second - centre) <= 6.0 * spread] - centre
+    squares = _motion_free_squares(
+        [(np.asarray(angle) / count, np.asarray(log.input)) for log in logs for angle in (log.theta, log.phi)]
+    )
     step = nominal_counts / quantization_estimate(logs, nominal_counts)  # [counts]
 
     def sigma(mean_square):
         value = np.sqrt(np.maximum(mean_square / 6.0 - step**2 / 12.0, 0.0))
         return np.where(value >= NOISE_FLOOR_COUNTS, value * count, 0.0)
 
-    blocks = kept[: kept.size // 100 * 100].reshape(-1, 100) if kept.size >= 200 else kept.reshape(1, -1)
-    block_sums = np.sum(blocks**2, axis=1)
+    blocks = squares[: squares.size // 100 * 100].reshape(-1, 100) if squares.size >= 200 else squares.reshape(1, -1)
+    block_sums = np.sum(blocks, axis=1)
     rng = np.random.default_rng(seed)
     draws = rng.integers(0, blocks.shape[0], (resamples, blocks.shape[0]))
     samples = sigma(block_sums[draws].sum(axis=1) / (blocks.shape[0] * blocks.shape[1]))
-    return float(sigma(np.mean(kept**2))), samples
+    return float(sigma(np.mean(squares))), samples
+
+
+def _within(values: np.ndarray) -> np.ndarray:
+    """Mask of ``values`` within 6 robust sigmas of their median, and the values less that median."""
+    centre = np.median(values)
+    spread = 1.4826 * np.median(np.abs(values - centre)) + 1.0
+    return np.abs(values - centre) <= 6.0 * spread, values - centre
+
+
+def _motion_free_squares(signals: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """Per-sample squares whose mean is 6 (sigma^2 + rounding^2) [counts^2], from (angle [counts], command) pairs:
+    the squared second differences d1^2 (outliers left out); or, when the motion's share M = (E d2^2 - E d1^2) / 15
+    of the lag-2 second differences d2 (white terms 6 (sigma^2 + rounding^2) in both, a smooth motion's a^2 dt^4
+    once in d1^2 and 16 times in d2^2) exceeds half of E d1^2, the extrapolation (16 d1^2 - d2^2) / 15, which
+    cancels the motion, taken where the command is constant over d2's stencil (a switching command makes the
+    acceleration jump, which no extrapolation cancels)."""
+    d1 = np.concatenate([np.diff(angle, 2) for angle, _ in signals])
+    kept, centred = _within(d1)
+    squares = centred[kept] ** 2
+    long = [(angle, command) for angle, command in signals if angle.size > 4]
+    if not long:
+        return squares
+    d1 = np.concatenate([angle[3:-1] - 2 * angle[2:-2] + angle[1:-3] for angle, _ in long])  # centred as d2
+    d2 = np.concatenate([angle[4:] - 2 * angle[2:-2] + angle[:-4] for angle, _ in long])
+    keep1, c1 = _within(d1)
+    keep2, c2 = _within(d2)
+    both = keep1 & keep2
+    motion = (np.mean(c2[both] ** 2) - np.mean(c1[both] ** 2)) / 15.0
+    if not motion > 0.5 * np.mean(squares):
+        return squares
+    held = np.concatenate([(c[:-4] == c[1:-3]) & (c[1:-3] == c[2:-2]) & (c[2:-2] == c[3:-1]) for _, c in long])
+    steady = both & held
+    return (16.0 * c1[steady] ** 2 - c2[steady] ** 2) / 15.0 if steady.sum() >= 200 else squares
 
 
 def fit_task(task: FitTask) -> FitResult:

@@ -31,11 +31,15 @@ class LogFormat:
         angles are in this unit.
     topic
         the MCAP channel to read (None: the file's only channel); other formats ignore it.
+    run_column
+        the file's column (or MCAP field) whose values split a file into runs, each a log of its own (None: one
+        run per file).
     """
 
     columns: dict[str, str] = field(default_factory=dict)
     angle_unit: str = "rad"
     topic: str | None = None
+    run_column: str | None = None
 
     def __post_init__(self) -> None:
         unknown = [name for name in self.columns if name not in COLUMN_NAMES]
@@ -59,13 +63,27 @@ class LogFormat:
                 f"--columns: the file's column {shadowed[0]!r} is read as {targets[shadowed[0]]!r}, "
                 f"so {shadowed[0]!r} needs a column of its own ({shadowed[0]}=...)"
             )
+        if self.run_column is not None and (
+            not self.run_column
+            or self.run_column in targets
+            or (self.run_column in COLUMN_NAMES and self.run_column not in self.columns)
+        ):
+            raise ConfigError(
+                f"--run-column: {self.run_column!r} is read as a signal column; name the file's run (trial) column"
+            )
         if self.angle_unit not in ANGLE_UNITS:
             raise ConfigError(f"--angle-unit: unknown unit {self.angle_unit!r} (rad, deg or counts)")
 
     @classmethod
-    def parse(cls, columns: str | None = None, angle_unit: str | None = None, topic: str | None = None) -> LogFormat:
-        """The format the command line's ``--columns NAME=COLUMN,...``, ``--angle-unit`` and ``--topic`` give
-        (None: the default); ConfigError naming the flag when one is malformed."""
+    def parse(
+        cls,
+        columns: str | None = None,
+        angle_unit: str | None = None,
+        topic: str | None = None,
+        run_column: str | None = None,
+    ) -> LogFormat:
+        """The format the command line's ``--columns NAME=COLUMN,...``, ``--angle-unit``, ``--topic`` and
+        ``--run-column`` give (None: the default); ConfigError naming the flag when one is malformed."""
         mapping: dict[str, str] = {}
         for item in (columns or "").split(",") if columns is not None else []:
             name, sep, column = (part.strip() for part in item.partition("="))
@@ -74,7 +92,7 @@ class LogFormat:
             if name in mapping:
                 raise ConfigError(f"--columns: {name!r} is mapped twice ({mapping[name]!r} and {column!r})")
             mapping[name] = column
-        return cls(columns=mapping, angle_unit=angle_unit or "rad", topic=topic)
+        return cls(columns=mapping, angle_unit=angle_unit or "rad", topic=topic, run_column=run_column)
 
     def column(self, name: str) -> str:
         """The file's column read as furuta-drake's ``name``."""
@@ -98,6 +116,8 @@ class LogFormat:
             flags.append(f"--angle-unit {self.angle_unit}")
         if self.topic is not None:
             flags.append(f"--topic {self.topic}")
+        if self.run_column is not None:
+            flags.append(f"--run-column {self.run_column}")
         return " ".join(flags)
 
     def record(self) -> dict:
@@ -106,6 +126,7 @@ class LogFormat:
             "columns": {name: self.column(name) for name in COLUMN_NAMES},
             "angle_unit": self.angle_unit,
             "topic": self.topic,
+            "run_column": self.run_column,
         }
 
 

@@ -13,7 +13,8 @@ columns are not an error: they are listed in
 
 Beyond the format, the checks refuse what would otherwise be "diagnosed" as a model error: a time gap (never
 interpolated), angles in degrees, angles wrapped into one turn, and (from the data, pooled over the logs) a theta
-or phi direction that contradicts the sign conventions of ``docs/diagnose.md``.
+or phi direction or a theta zero that contradicts the conventions of ``docs/diagnose.md``. A file of many runs
+(``--run-column``) is checked run by run (:func:`load_runs`).
 
 Sign checks, from Savitzky-Golay second derivatives of the angles. With a = J_arm + m r^2, b = J_p + m l^2,
 c = m l r, d = m g l (paper Eq. 1 in the paper's theta direction) the pendulum row reads
@@ -21,7 +22,8 @@ c = m l r, d = m g l (paper Eq. 1 in the paper's theta direction) the pendulum r
     theta_ddot = -(c / b) cos(theta) phi_ddot + (d / b) sin(theta) + sin(theta) cos(theta) phi_dot^2 - friction,
 
 so regressing theta_ddot on cos(theta) phi_ddot and sin(theta) must give a negative coupling coefficient
-(beta4 < 0 at the upright) and a positive gravity coefficient; a flipped encoder flips only the coupling. The arm
+(beta4 < 0 at the upright) and a positive gravity coefficient; a flipped encoder flips only the coupling, a zero
+off by pi (``theta_zero``) both. The arm
 row, divided by its inertia a + b sin^2(theta), gives phi_ddot = k_u tau / (a + b sin^2 theta) + ..., where
 k_u must be positive (phi counts in the direction a positive input accelerates the arm) and near 1 in radians
 (about 57 when the angles are in degrees). A sign check decides only when its coefficient is clear (|t| > 10
@@ -40,18 +42,21 @@ from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.log_readers import LOG_TIME, Where, open_log
+from furuta_drake.diagnosis.run_column import split_runs
 from furuta_drake.errors import LogError
-from furuta_drake.rig import RigParameters
+from furuta_drake.rig import THETA_ZEROS, RigParameters
 
 INPUT_COLUMNS = ("torque", "voltage")
 ANGLE_COLUMNS = ("theta", "phi")
 PERIOD_TOLERANCE = 0.01  # a constant sample period within 1 %
 GAP_FACTOR = 1.5  # a step longer than this many periods is a gap (missing samples)
-MAX_THETA_RAD = 4 * math.pi  # beyond two pendulum turns from the upright, the angles are not radians
+MAX_THETA_RAD = 4 * math.pi  # a file whose theta stays beyond two turns from the upright is not in radians
 MIN_SAMPLES = 3
 SMOOTHING_WINDOW_S = 0.04  # Savitzky-Golay window for the sign checks [s]
 CLEAR_T_STAT = 10.0  # a sign check decides only above this t statistic
 DEGREES_GAIN_RATIO = 10.0  # arm response this many times the rig's: the angles are degrees (ratio 57.3)
+DECISIVE_MISFIT_RATIO = 4.0  # the best correction of theta must fit the rig's pendulum row this much better
+THETA_FIXES = ((-1, 0.0), (1, math.pi), (-1, math.pi))  # (direction, shift) corrections of the logs' theta
 DEGREES_SIGMAS = 3.0  # ... with the gain that many standard errors above DEGREES_GAIN_RATIO
 
 
@@ -59,7 +64,7 @@ DEGREES_SIGMAS = 3.0  # ... with the gain that many standard errors above DEGREE
 class RunLog:
     """One run log, checked and in the paper's sign convention."""
 
-    name: str  # file name (e.g. "balance_1.csv"), used in report windows
+    name: str  # file name (e.g. "balance_1.csv", "trials.csv[run=7]"), used in report windows
     path: str
     time: np.ndarray  # [s], strictly increasing, as logged
     theta: np.ndarray  # [rad], paper convention: theta_logged * rig.theta_direction
@@ -69,6 +74,7 @@ class RunLog:
     sample_period: float  # [s], median step
     torque_per_volt: float = 1.0  # kt / R of the rig's motor for voltage logs [N m / V]; 1 for torque logs
     ignored_columns: tuple[str, ...] = ()  # extra columns of the file, not used
+    run: str | None = None  # the run's value in the file's run column (--run-column), None for a file of one run
 
     @property
     def torque_command(self) -> np.ndarray:
@@ -94,7 +100,7 @@ class WindowResiduals:
 def load_log(
     path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
 ) -> RunLog:
-    """Read and check one log (CSV, Parquet or MCAP by its extension; see
+    """Read and check one log holding one run (CSV, Parquet or MCAP by its extension; see
     :mod:`~furuta_drake.diagnosis.log_readers`).
 
     Parameters
@@ -102,13 +108,25 @@ def load_log(
     path
         the log file.
     rig
-        the rig file's model: ``theta`` is multiplied by its ``theta_direction``, angles in counts use its
-        ``counts_per_rev``, a voltage log needs its ``motor``.
+        the rig file's model: ``theta`` is multiplied by its ``theta_direction`` and offset by its ``theta_zero``,
+        angles in counts use its ``counts_per_rev``, a voltage log needs its ``motor``.
     rig_path
         names the rig file in errors.
     log_format
-        the file's column names, angle unit and MCAP topic (default: the columns under their own names, radians).
+        the file's column names, angle unit and MCAP topic (default: the columns under their own names, radians);
+        its ``run_column`` must be None (:func:`load_runs` reads a file of many runs).
     """
+    if log_format.run_column is not None:
+        raise ValueError("load_log reads one run; load_runs splits a file by its run column")
+    return load_runs(path, rig, rig_path, log_format)[0]
+
+
+def load_runs(
+    path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
+) -> list[RunLog]:
+    """The runs of one log file, each checked on its own time base: the whole file when ``log_format`` has no
+    ``run_column``, else one :class:`RunLog` per value of that column (in the order they first appear), named
+    ``file.csv[run=7]``. The runs are views of one array per signal, never copies of the table."""
     path = Path(path)
     reader = open_log(path, log_format.topic)
     columns = _resolve_columns(reader, log_format)
@@ -120,40 +138,64 @@ def load_log(
             f"{rig_path} has no 'motor' block (add motor: {{resistance, torque_constant, "
             f"backemf_constant}})"
         )
-    data, where = reader.read({column: label[name] for name, column in columns.items()})
-    for j, name in enumerate(columns):
+    wanted = {column: label[name] for name, column in columns.items()}
+    if log_format.run_column is not None:
+        if log_format.run_column not in reader.names:
+            shown = ", ".join(name for name in reader.names if name != LOG_TIME)
+            raise LogError(
+                f"{reader.header_where}: no run column {log_format.run_column!r} (--run-column; the file has: {shown})"
+            )
+        wanted[log_format.run_column] = f"{log_format.run_column!r} (--run-column)"
+    data, where = reader.read(wanted)
+    for j, column_label in enumerate(wanted.values()):
         bad = np.flatnonzero(~np.isfinite(data[:, j]))
         if bad.size:
             raise LogError(
-                f"{where(bad[0])}: column {label[name]} is {float(data[bad[0], j])}: every value must "
-                f"be a finite number"
+                f"{where(bad[0])}: column {column_label} is {float(data[bad[0], j])}: every value must be a "
+                f"finite number"
             )
     if len(data) < MIN_SAMPLES:
         raise LogError(f"{where(len(data) - 1)}: only {len(data)} data rows, need at least {MIN_SAMPLES}")
+    runs: list = [(None, 0, len(data))]
+    if log_format.run_column is not None:
+        data, runs, where = split_runs(data[:, 4], data, where)
     scale = log_format.radians_per_unit(rig.counts_per_rev)
     time, theta, phi, command = (np.ascontiguousarray(data[:, j]) for j in range(4))
     theta, phi = theta * scale, phi * scale
-    sample_period = _check_time(where, time, label["time"])
-    _check_angles(where, theta, phi, label, log_format.angle_unit)
-    theta = theta * rig.theta_direction
+    _check_theta_range(where, theta, label["theta"], log_format.angle_unit)
+    periods = []
+    for run, first, last in runs:
+        run_where = where if run is None else (lambda row, first=first, run=run: f"{where(first + row)} (run={run})")
+        if last - first < MIN_SAMPLES:
+            raise LogError(
+                f"{run_where(last - first - 1)}: run {run} has only {last - first} samples, need at least {MIN_SAMPLES}"
+            )
+        periods.append(_check_time(run_where, time[first:last], label["time"]))
+        _check_angles(run_where, theta[first:last], phi[first:last], label, log_format.angle_unit)
+    theta = theta * rig.theta_direction + rig.theta_zero_angle
     for array in (time, theta, phi, command):
         array.setflags(write=False)
     torque_per_volt = (
         1.0 if rig.motor is None or input_kind == "torque" else rig.motor.torque_constant / rig.motor.resistance
     )
-    used = set(columns.values()) | {LOG_TIME}
-    return RunLog(
-        name=path.name,
-        path=str(path),
-        time=time,
-        theta=theta,
-        phi=phi,
-        input_kind=input_kind,
-        input=command,
-        sample_period=sample_period,
-        torque_per_volt=torque_per_volt,
-        ignored_columns=tuple(name for name in reader.names if name not in used),
-    )
+    used = set(wanted) | {LOG_TIME}
+    ignored = tuple(name for name in reader.names if name not in used)
+    return [
+        RunLog(
+            name=path.name if run is None else f"{path.name}[run={run}]",
+            path=str(path),
+            time=time[first:last],
+            theta=theta[first:last],
+            phi=phi[first:last],
+            input_kind=input_kind,
+            input=command[first:last],
+            sample_period=period,
+            torque_per_volt=torque_per_volt,
+            ignored_columns=ignored,
+            run=run,
+        )
+        for (run, first, last), period in zip(runs, periods)
+    ]
 
 
 def _resolve_columns(reader, log_format: LogFormat) -> dict[str, str]:
@@ -191,9 +233,9 @@ def _resolve_columns(reader, log_format: LogFormat) -> dict[str, str]:
 def load_logs(
     paths, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
 ) -> list[RunLog]:
-    """:func:`load_log` for each path (all in ``log_format``), then the sign checks pooled over all of them (phi
+    """:func:`load_runs` for each path (all in ``log_format``), then the sign checks pooled over all of them (phi
     first: a flipped phi also flips the arm-pendulum coupling that the theta check reads)."""
-    logs = [load_log(path, rig, rig_path, log_format) for path in paths]
+    logs = [log for path in paths for log in load_runs(path, rig, rig_path, log_format)]
     check_input_direction(logs, rig, rig_path)
     check_theta_direction(logs, rig, rig_path)
     return logs
@@ -208,42 +250,85 @@ def ignored_columns_note(logs: list[RunLog]) -> str | None:
 
 
 def check_theta_direction(logs: list[RunLog], rig: RigParameters, rig_path: str | Path = "the rig file") -> None:
-    """Raise LogError naming ``theta_direction`` when the arm-pendulum coupling in the data has the wrong sign.
+    """Raise LogError naming ``theta_direction`` or ``theta_zero`` when the logs contradict the pendulum's sign
+    convention or its zero.
 
     Fits theta_ddot = k_c cos(theta) phi_ddot + k_g sin(theta) + k_v theta_dot + k_s sin(theta) cos(theta)
-    phi_dot^2 on all logs (theta already in the paper's direction). The paper's convention has k_c = -c/b < 0.
-    It decides only when k_c is clear and gravity is not clearly reversed (k_g = d/b > 0; in closed-loop
-    balancing k_g is confounded with the feedback, so it is not required to be clear). Run
-    :func:`check_input_direction` first: a reversed phi also reverses k_c.
+    phi_dot^2 on all logs (theta already converted). The convention has k_c = -c/b < 0 and k_g = d/b > 0. A
+    reversed direction flips k_c only, a zero off by pi flips both (only gravity knows where up is). It decides
+    only when k_c is clearly wrong or k_g clearly reversed; the key to name is then the correction (theta -> -theta,
+    theta -> theta + pi, or both) under which the rig's own pendulum row (Eq. 1) fits the data best, since in
+    closed-loop balancing k_g is confounded with the feedback. Run :func:`check_input_direction` first: a reversed
+    phi also reverses k_c.
     """
-    rows = []
-    for log in _long_enough(logs):
-        theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot = smoothed_derivatives(log)
-        rows.append(
-            (
-                np.column_stack(
-                    [np.cos(theta) * phi_ddot, np.sin(theta), theta_dot, np.sin(theta) * np.cos(theta) * phi_dot**2]
-                ),
-                theta_ddot,
-            )
+    signals = [smoothed_derivatives(log) for log in _long_enough(logs)]
+    rows = [
+        (
+            np.column_stack(
+                [np.cos(theta) * phi_ddot, np.sin(theta), theta_dot, np.sin(theta) * np.cos(theta) * phi_dot**2]
+            ),
+            theta_ddot,
         )
+        for theta, _, theta_dot, phi_dot, theta_ddot, phi_ddot in signals
+    ]
     fit = _pooled_fit(rows, logs)
     if fit is None:
         return
     coef, std = fit
     t_stat = coef / std
-    if abs(t_stat[0]) <= CLEAR_T_STAT or t_stat[1] < -CLEAR_T_STAT:
+    coupling_wrong = t_stat[0] > CLEAR_T_STAT
+    if not (coupling_wrong or t_stat[1] < -CLEAR_T_STAT):
         return
-    if coef[0] > 0:
-        expected = -rig.coupling / rig.pendulum_inertia_total
-        names = ", ".join(log.name for log in logs)
-        raise LogError(
-            f"{rig_path}: theta_direction: {rig.theta_direction} contradicts the logs ({names}): with it the "
-            f"arm-pendulum coupling d(theta_ddot)/d(cos(theta) phi_ddot) is {coef[0]:+.3g} (t = {t_stat[0]:.0f}), "
-            f"the convention gives {expected:+.3g} (near the upright a positive arm acceleration gives a "
-            f"negative pendulum acceleration): the logs count theta the other way, set theta_direction: "
-            f"{-rig.theta_direction} (unless it is phi that counts against the input)"
+    misfits = sorted((_pendulum_row_misfit(signals, rig, *fix), fix) for fix in THETA_FIXES)
+    fixes = [fix for _, fix in misfits[: 1 if misfits[1][0] > DECISIVE_MISFIT_RATIO * misfits[0][0] else 2]]
+    keys = sorted({key for fix in fixes for key in _fix_keys(fix, rig)}, reverse=True)
+    found = (
+        f"with {'it' if len(keys) == 1 else 'them'} the arm-pendulum coupling "
+        f"d(theta_ddot)/d(cos(theta) phi_ddot) is {coef[0]:+.3g} (t = {t_stat[0]:.0f}) and gravity "
+        f"d(theta_ddot)/d(sin(theta)) {coef[1]:+.3g} (t = {t_stat[1]:.0f}); the convention gives "
+        f"{-rig.coupling / rig.pendulum_inertia_total:+.3g} and {rig.gravity_torque / rig.pendulum_inertia_total:+.3g}"
+    )
+    advice = ", or ".join(
+        " and ".join(f"{key}: {value}" for key, value in _fix_keys(fix, rig).items()) for fix in fixes
+    )
+    undecided = (
+        " (the logs do not tell which: a log of free swings of the hanging pendulum does)" if len(fixes) > 1 else ""
+    )
+    raise LogError(
+        f"{rig_path}: {(' or ' if undecided else ' and ').join(f'{key}: {getattr(rig, key)}' for key in keys)} "
+        f"contradicts the logs ({', '.join(log.name for log in logs)}): {found}: "
+        f"set {advice}{undecided}"
+    )
+
+
+def _fix_keys(fix: tuple[int, float], rig: RigParameters) -> dict[str, object]:
+    """The rig-file keys and values of a correction (direction, shift) of the logs' theta."""
+    direction, shift = fix
+    keys: dict[str, object] = {}
+    if shift:
+        zero = math.remainder(rig.theta_zero_angle + shift, 2 * math.pi)
+        keys["theta_zero"] = next(
+            (name for name, angle in THETA_ZEROS.items() if math.isclose(abs(zero), angle, abs_tol=1e-9)), f"{zero:.6g}"
         )
+    if direction == -1:
+        keys["theta_direction"] = -rig.theta_direction
+    return keys
+
+
+def _pendulum_row_misfit(signals, rig: RigParameters, direction: int, shift: float) -> float:
+    """Sum of squares of the rig's pendulum row (Eq. 1, no friction) on the smoothed logs with theta replaced by
+    direction * theta + shift."""
+    b = rig.pendulum_inertia_total
+    total = 0.0
+    for theta, _, _, phi_dot, theta_ddot, phi_ddot in signals:
+        fixed = direction * theta + shift
+        predicted = (
+            -rig.coupling / b * np.cos(fixed) * phi_ddot
+            + rig.gravity_torque / b * np.sin(fixed)
+            + np.sin(fixed) * np.cos(fixed) * phi_dot**2
+        )
+        total += float(np.sum((direction * theta_ddot - predicted) ** 2))
+    return total
 
 
 def check_input_direction(logs: list[RunLog], rig: RigParameters, rig_path: str | Path = "the rig file") -> None:
@@ -371,18 +456,25 @@ def _check_time(where: Where, time: np.ndarray, label: str) -> float:
     return period
 
 
+def _check_theta_range(where: Where, theta: np.ndarray, label: str, unit: str) -> None:
+    """LogError when every sample of the file's theta (in radians after the unit conversion) is more than two
+    turns from the upright: degrees (a pendulum hanging reads 180). A pendulum that swings through full turns
+    in radians gets that far only from nearer, so one sample within two turns clears the file."""
+    closest = float(np.min(np.abs(theta)))
+    if closest > MAX_THETA_RAD:
+        read_as = "" if unit == "rad" else f" (read as {unit}, in radians)"
+        hint = "pass --angle-unit deg or give radians" if unit == "rad" else f"check --angle-unit {unit}"
+        raise LogError(
+            f"{where(0)}: column {label} is {theta[0]:.6g}{read_as} and no sample comes within two turns of the "
+            f"upright (the closest is {closest:.6g} away): the angles look like degrees; the diagnosis wants "
+            f"radians ({hint}; theta 0 upright, unwrapped)"
+        )
+
+
 def _check_angles(where: Where, theta: np.ndarray, phi: np.ndarray, label: dict[str, str], unit: str) -> None:
-    """LogError when the angles (in radians after the unit conversion) look like degrees or are wrapped."""
+    """LogError when the angles (in radians after the unit conversion) jump: wrapped, or not radians."""
     read_as = "" if unit == "rad" else f" (read as {unit}, in radians)"
     hint = "pass --angle-unit deg or give radians" if unit == "rad" else f"check --angle-unit {unit}"
-    far = np.flatnonzero(np.abs(theta) > MAX_THETA_RAD)
-    if far.size:
-        row = far[0]
-        raise LogError(
-            f"{where(row)}: column {label['theta']} is {theta[row]:.6g}{read_as}, more than two turns "
-            f"from the upright: the angles look like degrees; the diagnosis wants radians ({hint}; "
-            f"theta 0 upright, unwrapped)"
-        )
     for name, angle in (("theta", theta), ("phi", phi)):
         step = np.diff(angle)
         jumps = np.flatnonzero(np.abs(step) > math.pi)

@@ -44,12 +44,33 @@ def _held_out_blocks(blocks: int) -> set[int]:
     return {int(round((i + 0.5) * blocks / held - 0.5)) for i in range(held)}
 
 
+def _whole_runs(logs: list[RunLog], folds: int | None = None, fold: int = 0):
+    """The runs of files split by --run-column with at least MIN_BLOCKS runs, held out whole: (train runs,
+    held-out runs, the other logs). Without ``folds`` HOLDOUT_FRACTION of each file's runs, spread over it; with
+    them the runs k with k mod folds == fold."""
+    files: dict[str, list[RunLog]] = {}
+    for log in logs:
+        if log.run is not None:
+            files.setdefault(log.path, []).append(log)
+    train, heldout, rest = [], [], []
+    for log in logs:
+        runs = files.get(log.path, [])
+        if len(runs) < max(MIN_BLOCKS, folds or 0):
+            rest.append(log)
+            continue
+        k = runs.index(log)
+        held = k % folds == fold if folds else k in _held_out_blocks(len(runs))
+        (heldout if held else train).append(log)
+    return train, heldout, rest
+
+
 def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
     """Without --heldout: every log is cut into up to HOLDOUT_BLOCKS equal blocks of at least MIN_BLOCK_S and
     HOLDOUT_FRACTION of the blocks, spread over the run, are held out, so train and held-out data both see every
     phase of it (the tail of a swing-up log is only balancing). A log too short for MIN_BLOCKS blocks holds
-    out its last HOLDOUT_FRACTION."""
-    train, heldout = [], []
+    out its last HOLDOUT_FRACTION. The runs of a file split by --run-column are held out whole instead
+    (HOLDOUT_FRACTION of them, spread over the file), when it has at least MIN_BLOCKS runs."""
+    train, heldout, logs = _whole_runs(logs)
     for log in logs:
         blocks = _blocks(log)
         if blocks < MIN_BLOCKS:
@@ -64,8 +85,8 @@ def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
         (
             f"no --heldout logs: each train log was cut into up to {HOLDOUT_BLOCKS} equal blocks of at least "
             f"{MIN_BLOCK_S:g} s and {HOLDOUT_FRACTION:.0%} of them, spread over the run, were held out and never used "
-            f"for fitting (a log shorter than {MIN_BLOCKS} blocks held out its last {HOLDOUT_FRACTION:.0%}): "
-            + ", ".join(log.name for log in heldout)
+            f"for fitting (a log shorter than {MIN_BLOCKS} blocks held out its last {HOLDOUT_FRACTION:.0%}; a "
+            f"file of runs, whole runs): " + ", ".join(log.name for log in heldout)
         ),
     )
 
@@ -73,8 +94,9 @@ def split_heldout(logs: list[RunLog]) -> tuple[list[RunLog], list[RunLog], str]:
 def fold_split(logs: list[RunLog], folds: int, fold: int, rig: RigParameters) -> tuple[list[RunLog], list[RunLog]]:
     """Split ``fold`` of ``folds``: every log cut into max(folds, up to HOLDOUT_BLOCKS) equal blocks, the blocks
     b with b mod folds == fold held out (each fold holds out other blocks, spread over every log); a log too
-    short for ``folds`` blocks of one gap window each trains in every fold."""
-    train, heldout = [], []
+    short for ``folds`` blocks of one gap window each trains in every fold. The runs of a file split by
+    --run-column are the blocks instead, held out whole."""
+    train, heldout, logs = _whole_runs(logs, folds, fold)
     for log in logs:
         blocks = max(folds, _blocks(log))
         if (
