@@ -41,7 +41,8 @@ from furuta_drake.diagnosis import pipeline, replay
 from furuta_drake.diagnosis.report import write_report
 
 PHASES = {  # the selection's function that asked for a batch of fits -> the phase it is reported as
-    "select_effects": "forward",
+    "step": "forward",
+    "joint_refits": "forward",
     "_enter_pair": "pair entry",
     "_refit_forms": "form refits",
     "_backward": "backward",

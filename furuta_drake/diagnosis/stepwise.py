@@ -123,99 +123,126 @@ def select_effects(
 ) -> Selection:
     """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.rule`):
     forward, one at a time, each fitted together with the earlier ones and entering when it reduces the gap of
-    the model holding them; then backward, each kept only while the model without it is worse by the rule."""
-    bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
-    nominal_gap = evaluate_gap(nominal, heldout, counts)
-    selection = Selection(nominal_gap, [], quiet=bootstrap.within_noise(nominal_gap.per_window))
+    the model holding them; then backward, each kept only while the model without it is worse by the rule; then
+    the exchanges (:class:`Stepwise`)."""
+    return Stepwise(nominal, logs, train, heldout, counts, settings, run).select(names)
 
-    def record(result, previous):
-        selection.over_nominal[result.name] = bootstrap.evidence(nominal_gap.per_window, result.heldout.per_window)
-        selection.over_previous[result.name] = bootstrap.evidence(previous, result.heldout.per_window)
 
-    def fit(tasks, step, previous):
-        results = [_as_fit(task, result) for task, result in zip(tasks, run(fit_task, tasks))]
+class Stepwise:
+    """The selection on one split of the logs: its :class:`Selection` and the steps that fill it, each fit run by
+    ``run`` (the contained worker pool) and recorded with its held-out evidence over the nominal model and over
+    the model it was built on."""
+
+    def __init__(self, nominal: Model, logs, train, heldout, counts: int, settings: DiagnosisSettings, run):
+        self.nominal, self.logs, self.train, self.heldout = nominal, tuple(logs), train, heldout
+        self.counts, self.settings, self.run = counts, settings, run
+        self.bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
+        self.nominal_gap = evaluate_gap(nominal, heldout, counts)
+        self.selection = Selection(self.nominal_gap, [], quiet=self.bootstrap.within_noise(self.nominal_gap.per_window))
+
+    def select(self, names: list[str]) -> Selection:
+        """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges."""
+        while len(self.selection.kept) < self.settings.max_effects and self.step(names):
+            pass
+        _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit)
+        for _ in range(MAX_EXCHANGES):
+            if not _exchange(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.best_form):
+                break
+            _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit)
+        return self.selection
+
+    def record(self, result: FitResult, previous) -> None:
+        """``result``'s held-out evidence over the nominal model and over the model it was built on (``previous``,
+        its per-window excess)."""
+        self.selection.over_nominal[result.name] = self.bootstrap.evidence(
+            self.nominal_gap.per_window, result.heldout.per_window
+        )
+        self.selection.over_previous[result.name] = self.bootstrap.evidence(previous, result.heldout.per_window)
+
+    def fit(self, tasks: list[FitTask], step: int, previous) -> list[FitResult]:
+        """The ``tasks`` fitted (a failed one as a FitResult with its reason), tried at ``step`` and recorded."""
+        results = [_as_fit(task, result) for task, result in zip(tasks, self.run(fit_task, tasks))]
         for result in results:
-            selection.tried.append((step, result))
+            self.selection.tried.append((step, result))
             if not result.failure:
-                record(result, previous)
+                self.record(result, previous)
         return results
 
-    def best_form(result, result_task, previous):
+    def best_form(self, result: FitResult, result_task: FitTask, previous) -> FitResult:
         """``result``, or its refit with another form of its earlier effects when that fits the train windows
         better (:func:`_refit_forms`), recorded in its place."""
-        refitted = _refit_forms(result, result_task, run)
+        refitted = _refit_forms(result, result_task, self.run)
         if refitted is not result:
-            selection.tried = [(s, refitted if r is result else r) for s, r in selection.tried]
-            record(refitted, previous)
+            self.selection.tried = [(s, refitted if r is result else r) for s, r in self.selection.tried]
+            self.record(refitted, previous)
         return refitted
 
-    def task(new, held, **options):
+    def task(self, new: str, held: FitResult | None, **options) -> FitTask:
+        """The fit of ``new`` beside the effects of ``held`` (none: beside the nominal model alone)."""
         return FitTask(
             new=new,
             fixed=held.effects if held else {},
-            model=nominal,
-            train=train,
-            heldout=heldout,
-            logs=tuple(logs),
-            nominal_counts=counts,
-            settings=settings,
+            model=self.nominal,
+            train=self.train,
+            heldout=self.heldout,
+            logs=self.logs,
+            nominal_counts=self.counts,
+            settings=self.settings,
             fixed_samples=held.samples if held else {},
             **options,
         )
 
-    while len(selection.kept) < settings.max_effects:
-        step = len(selection.kept) + 1
-        held = selection.final
-        previous = held.heldout.per_window if held else nominal_gap.per_window
+    def step(self, names: list[str]) -> bool:
+        """One forward step: every candidate not yet held fitted beside the kept effects, the best refitted jointly,
+        and the rule's choice (or, at the first step, a pair) entered. Returns whether one entered."""
+        selection = self.selection
+        step, held = len(selection.kept) + 1, selection.final
+        previous = held.heldout.per_window if held else self.nominal_gap.per_window
         if step > 1 and at_floor(previous):
-            break
+            return False
         pool = [name for name in names if not law_of(name) & set(selection.kept)]
         fitted = {
             r.name: r
-            for r in fit([task(name, held, frozen=step > 1) for name in pool], step, previous)
+            for r in self.fit([self.task(name, held, frozen=step > 1) for name in pool], step, previous)
             if not r.failure
         }
-        if at_floor(nominal_gap.per_window):
-            break
-        if step > 1:  # the most promising, fitted again together with the earlier effects
-            best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
-            for joint in fit(
-                [task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]]) for name in best],
-                step,
-                previous,
-            ):
-                screened = fitted[joint.name]
-                kept = joint if not joint.failure and joint.train_gap <= screened.train_gap else screened
-                selection.tried = [
-                    (s, r) for s, r in selection.tried if r is not (screened if kept is joint else joint)
-                ]
-                fitted[joint.name] = kept
-                record(kept, previous)
+        if at_floor(self.nominal_gap.per_window):
+            return False
+        if step > 1:
+            self.joint_refits(fitted, held, step, previous)
         evidence = {name: selection.over_previous[name] for name in fitted}
         added = {name: name.split("+")[-1] for name in fitted}
         per_window = {name: result.heldout.per_window for name, result in fitted.items()}
-        chosen = choose(evidence, added, ENTRY, previous, per_window, bootstrap)
-        if chosen is None and step == 1 and not selection.quiet and settings.max_effects > 1:
-            pair = _enter_pair(fitted, task, lambda tasks, before=previous: fit(tasks, 2, before), selection)
+        chosen = choose(evidence, added, ENTRY, previous, per_window, self.bootstrap)
+        if chosen is None and step == 1 and not selection.quiet and self.settings.max_effects > 1:
+            pair = _enter_pair(fitted, self.task, lambda tasks, before=previous: self.fit(tasks, 2, before), selection)
             if pair is not None:
                 for name in pair:
                     selection.runners_up[name] = _runners_up(name, evidence, added, fitted)
                 selection.kept += pair
-                continue
+                return True
         if chosen is None:
-            break
-        fitted[chosen] = best_form(fitted[chosen], task(added[chosen], held), previous)
+            return False
+        fitted[chosen] = self.best_form(fitted[chosen], self.task(added[chosen], held), previous)
         evidence[chosen] = selection.over_previous[chosen]
         per_window[chosen] = fitted[chosen].heldout.per_window
-        selection.confusable += confusable(chosen, evidence, added, previous, per_window, bootstrap)
+        selection.confusable += confusable(chosen, evidence, added, previous, per_window, self.bootstrap)
         selection.runners_up[added[chosen]] = _runners_up(added[chosen], evidence, added, fitted)
         selection.kept.append(added[chosen])
-    _backward(selection, bootstrap, nominal_gap, task, fit)
-    for _ in range(MAX_EXCHANGES):
-        if not _exchange(selection, bootstrap, nominal_gap, task, fit, best_form):
-            break
-        _backward(selection, bootstrap, nominal_gap, task, fit)
-    return selection
+        return True
+
+    def joint_refits(self, fitted: dict[str, FitResult], held: FitResult, step: int, previous) -> None:
+        """The ``JOINT_REFITS`` most promising screened candidates fitted again together with the earlier effects;
+        the better of the two fits (on the train windows) replaces the screen in ``fitted``."""
+        selection = self.selection
+        best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
+        tasks = [self.task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]]) for name in best]
+        for joint in self.fit(tasks, step, previous):
+            screened = fitted[joint.name]
+            kept = joint if not joint.failure and joint.train_gap <= screened.train_gap else screened
+            selection.tried = [(s, r) for s, r in selection.tried if r is not (screened if kept is joint else joint)]
+            fitted[joint.name] = kept
+            self.record(kept, previous)
 
 
 def _runners_up(effect: str, evidence: dict, added: dict, fitted: dict) -> list[tuple[str, Effect]]:
