@@ -89,16 +89,16 @@ def noncentrality(truth_effects: dict, rival_effects: dict, amplitudes) -> float
     rig = lund_rig()
     nominal = rig_model(rig)
     truth = apply_effects(nominal, truth_effects)
-    family = Family(2.0, rig.sample_period, nominal.a, 0.0)
+    family = Family(2.0, rig.sample_period, nominal.arm_inertia_total, 0.0)
     command = family.feedforward(np.array([amplitudes]))
     train, heldout = experiment_windows(
         surrogate_runs(truth, command, rig.sample_period), command, rig.sample_period, rig
     )
     scales = Scales(
-        torque=nominal.d,
+        torque=nominal.gravity_torque,
         command=rig.torque_limit,
-        arm_inertia=nominal.a,
-        pendulum_inertia=nominal.b,
+        arm_inertia=nominal.arm_inertia_total,
+        pendulum_inertia=nominal.pendulum_inertia_total,
         period=rig.sample_period,
     )
     return float(
@@ -212,7 +212,7 @@ def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
         {"actuator_lag": Effect("", (0.004,)), "arm_coulomb_friction": Effect("presliding", (0.005, 0.002))},
     )
     gain = nominal_lqr_gain(rig)
-    dither = Family(2.0, rig.sample_period, model.a, 0.0).torque_dither(np.full((1, 5), 0.02))
+    dither = Family(2.0, rig.sample_period, model.arm_inertia_total, 0.0).torque_dither(np.full((1, 5), 0.02))
     angles, _ = surrogate_closed_loop(model, gain, dither, rig.sample_period, rig.torque_limit, rig.counts_per_rev)
     result = simulate(drake_config(rig, model, dither[0], 2.0, True, 0, gain))
     assert np.max(np.abs(result.state[:, 0])) > 0.01  # the dither moves the pendulum

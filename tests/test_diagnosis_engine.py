@@ -49,9 +49,15 @@ def test_surrogate_dynamics_equal_the_multibody_plant(name):
 
 def test_model_rig_reproduces_the_lumped_constants():
     rig = RIGS["lund"]()
-    model = Model.from_rig(rig).replace(a=0.004, b=0.0035, c=0.0026, d=0.09)
+    model = Model.from_rig(rig).replace(
+        arm_inertia_total=0.004, pendulum_inertia_total=0.0035, coupling=0.0026, gravity_torque=0.09
+    )
     back = Model.from_rig(model_rig(model, rig))
-    np.testing.assert_allclose([back.a, back.b, back.c, back.d], [0.004, 0.0035, 0.0026, 0.09], rtol=1e-12)
+    np.testing.assert_allclose(
+        [back.arm_inertia_total, back.pendulum_inertia_total, back.coupling, back.gravity_torque],
+        [0.004, 0.0035, 0.0026, 0.09],
+        rtol=1e-12,
+    )
 
 
 def hanging_log(seed: int, effect: str | None = None, level: int = 2, duration: float = 3.0) -> RunLog:
@@ -258,7 +264,13 @@ def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model
 def _scales(model):
     from furuta_drake.effects.vocabulary import Scales
 
-    return Scales(torque=model.d, command=0.05, arm_inertia=model.a, pendulum_inertia=model.b, period=2e-3)
+    return Scales(
+        torque=model.gravity_torque,
+        command=0.05,
+        arm_inertia=model.arm_inertia_total,
+        pendulum_inertia=model.pendulum_inertia_total,
+        period=2e-3,
+    )
 
 
 def test_fitted_model_is_a_simulate_config_that_runs():

@@ -70,7 +70,7 @@ def test_a_command_map_form_finds_its_true_parameter_from_the_default_starts(nom
     of the largest logged command."""
     rig, log, windows = nominal_windows
     nominal = Model.from_rig(rig)
-    true_value = size * (nominal.d if effect == "actuator_deadzone" else scales_of([log], nominal).command)
+    true_value = size * (nominal.gravity_torque if effect == "actuator_deadzone" else scales_of([log], nominal).command)
     truth = apply_effects(nominal, {effect: Effect(form, (true_value,))})
     synthetic = _surrogate_measured(truth, windows, rig.counts_per_rev)
     fit = fit_task(FitTask(effect, {}, nominal, synthetic, None, (log,), rig.counts_per_rev, FAST))

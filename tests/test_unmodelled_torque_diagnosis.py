@@ -85,7 +85,7 @@ def test_a_constant_arm_torque_is_the_same_as_a_command_offset():
 @pytest.fixture(scope="module")
 def cogging():
     """A cogging torque of 10 % of m g l varying as sin(7 phi) on the arm, missed by the nominal model."""
-    truth = NOMINAL.replace(unmodelled_terms=((0, TERMS.index("sin(7*phi)"), 0.1 * NOMINAL.d),))
+    truth = NOMINAL.replace(unmodelled_terms=((0, TERMS.index("sin(7*phi)"), 0.1 * NOMINAL.gravity_torque),))
     return truth, missing_torque_of(truth, NOMINAL)
 
 
@@ -115,7 +115,7 @@ def test_report_expression_evaluates_to_the_fitted_torque(cogging):
 def test_on_a_coulomb_only_rig_nothing_is_claimed_beyond_the_friction():
     """With the rig's arm Coulomb friction in the final model the torque claims nothing; left out, the torque
     found has the friction's shape and is named after it."""
-    level = 0.05 * NOMINAL.d
+    level = 0.05 * NOMINAL.gravity_torque
     friction = JointFrictionParameters(
         model="static", coulomb_pos=level, coulomb_neg=level, regularization_velocity=REGULARIZATION_VELOCITY
     )
@@ -171,7 +171,7 @@ def test_a_drake_rig_with_cogging_is_diagnosed_with_it_and_the_fitted_model_carr
     from furuta_drake.yamlio import dump_yaml_dataclass, load_yaml_dataclass
 
     rig = lund_rig()
-    amplitude = 0.1 * Model.from_rig(rig).d
+    amplitude = 0.1 * Model.from_rig(rig).gravity_torque
     (tmp_path / "rig.yaml").write_text(dump_yaml_dataclass(rig))
     for name, seed in (("train.csv", 11), ("heldout.csv", 12)):
         config = dataclasses.replace(

@@ -151,7 +151,10 @@ def design_experiment(
     scales = scales_of(record.train, hypotheses.nominal)
     accepted = hypotheses.hypotheses[0].model
     family = Family(
-        float(duration or AUTO_DURATION), period, accepted.a, accepted.back_emf_damping + accepted.arm_friction.viscous
+        float(duration or AUTO_DURATION),
+        period,
+        accepted.arm_inertia_total,
+        accepted.back_emf_damping + accepted.arm_friction.viscous,
     )
     bounds = Bounds(float(arm_bound), PENDULUM_BOUND[mode], rig.torque_limit)
     gain = nominal_lqr_gain(rig) if balancing else None

@@ -88,10 +88,10 @@ COMMAND_QUANTILES = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97)  # of |c
 def scales_of(logs, model: Model) -> Scales:
     magnitudes = np.abs(np.concatenate([log.torque_command for log in logs]))
     return Scales(
-        torque=model.d,
+        torque=model.gravity_torque,
         command=max(float(np.max(magnitudes)), 1e-9),
-        arm_inertia=model.a,
-        pendulum_inertia=model.b,
+        arm_inertia=model.arm_inertia_total,
+        pendulum_inertia=model.pendulum_inertia_total,
         period=float(np.median([log.sample_period for log in logs])),
         command_levels=tuple(float(q) for q in np.quantile(magnitudes, COMMAND_QUANTILES)),
     )

@@ -96,7 +96,7 @@ def design(model: Model, windows: Windows, counts: int, scales: np.ndarray):
     """The regression's (X, y, groups): per (joint, term) column the residuals' change per N m of the term's RMS
     torque, with the initial states' share projected out; y the residuals' negative; groups each row's window."""
     raw, states, jacobians = projected_residuals(model, windows, counts)
-    step = STEP * model.d
+    step = STEP * model.gravity_torque
     columns = []
     for joint in range(len(JOINTS)):
         for term, scale in enumerate(scales):
@@ -156,7 +156,7 @@ def _refit(model: Model, start: list[tuple[int, int, float]], windows: Windows, 
     their bootstrap samples (resamples, terms)."""
     keys = [(joint, term) for joint, term, _ in start]
     x0 = np.array([c for _, _, c in start])
-    span = np.maximum(4.0 * np.abs(x0), STEP * model.d)
+    span = np.maximum(4.0 * np.abs(x0), STEP * model.gravity_torque)
     low, high = x0 - span, x0 + span
 
     def model_at(x):

@@ -20,17 +20,21 @@ from furuta_drake.unmodelled import UnmodelledTorqueParameters
 def model_rig(model: Model, rig: RigParameters) -> RigParameters:
     """A rigid body with the model's lumped constants a = J_arm + m r^2, b = J_p + m l^2, c = m l r, d = m g l
     (gravity kept): m l = d / g, r = c g / d, the pendulum mass kept where the inertias allow it."""
-    ml = model.d / rig.gravity
-    r = model.c / ml
-    mass = float(np.clip(rig.pendulum_mass, 1.0001 * ml**2 / model.b, 0.9999 * model.a / r**2))
+    ml = model.gravity_torque / rig.gravity
+    r = model.coupling / ml
+    mass = float(
+        np.clip(
+            rig.pendulum_mass, 1.0001 * ml**2 / model.pendulum_inertia_total, 0.9999 * model.arm_inertia_total / r**2
+        )
+    )
     com = ml / mass
     return dataclasses.replace(
         rig,
         arm_length=r,
         pendulum_mass=mass,
         pendulum_com=com,
-        pendulum_inertia=model.b - mass * com**2,
-        arm_inertia=model.a - mass * r**2,
+        pendulum_inertia=model.pendulum_inertia_total - mass * com**2,
+        arm_inertia=model.arm_inertia_total - mass * r**2,
         arm_coulomb=0.0,
         arm_viscous=0.0,
         pendulum_coulomb=0.0,

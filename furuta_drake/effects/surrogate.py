@@ -29,17 +29,19 @@ from furuta_drake.rig import RigParameters
 REGULARIZATION_VELOCITY = 0.02  # [rad/s] smooth sign(v) for the static friction laws of the diagnosis models
 LAG_PREROLL = 5.0  # time constants of command history the lag filter runs over before a window (e^-5 of its
 # initial error left)
+LUMPED_CONSTANTS = ("arm_inertia_total", "pendulum_inertia_total", "coupling", "gravity_torque")  # a, b, c, d
 HISTORY = 256  # samples of command history a window may read before its start (delay, lag pre-roll)
 
 
 @dataclass(frozen=True)
 class Model:
-    """The nominal rig plus effect parameters, all in SI units (see the effect vocabulary)."""
+    """The nominal rig plus effect parameters, all in SI units (see the effect vocabulary); its rigid body in the
+    four lumped constants (``LUMPED_CONSTANTS``, the module docstring's a, b, c, d)."""
 
-    a: float
-    b: float
-    c: float
-    d: float
+    arm_inertia_total: float  # a = J_arm + m r^2 [kg m^2]
+    pendulum_inertia_total: float  # b = J_p + m l^2 [kg m^2]
+    coupling: float  # c = m l r [kg m^2]
+    gravity_torque: float  # d = m g l [N m]
     arm_friction: JointFrictionParameters
     pendulum_friction: JointFrictionParameters
     back_emf_damping: float = 0.0  # kt ke / R [N m s/rad]

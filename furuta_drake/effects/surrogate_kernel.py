@@ -52,10 +52,10 @@ def pack(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     :class:`~.surrogate.Model`."""
     rigid = np.array(
         [
-            model.a,
-            model.b,
-            model.c,
-            model.d,
+            model.arm_inertia_total,
+            model.pendulum_inertia_total,
+            model.coupling,
+            model.gravity_torque,
             model.back_emf_damping,
             model.spring_stiffness,
             model.spring_cubic,

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.surrogate import LUMPED_CONSTANTS, Model
 from furuta_drake.friction import JointFrictionParameters
 
 
@@ -391,7 +391,9 @@ CANDIDATES: dict[str, Candidate] = {
                 ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale"),
                 lambda s: ([0.3] * 4, [3.0] * 4),
                 lambda s: [[1.0] * 4],
-                lambda m, p: m.replace(**{key: base * scale for key, base, scale in zip("abcd", m.rig_constants, p)}),
+                lambda m, p: m.replace(
+                    **{key: base * scale for key, base, scale in zip(LUMPED_CONSTANTS, m.rig_constants, p)}
+                ),
             ),
             main="arm_inertia_scale",
             neutral=1.0,
