@@ -193,7 +193,7 @@ def scipy_closed_loop(config: SimulationConfig, gain: np.ndarray) -> tuple[float
     """CPU time, true states [theta, phi, theta_dot, phi_dot] and encoder angles at each sample of the peer
     (see the module docstring). Row k is the sample at t_k = k h, like ``SimulationResult.state``/``measured``."""
     rig, h = config.rig, config.control_period
-    count = config.encoder.resolution
+    count = config.encoder.encoder_resolution
     limit = config.controller.lqr.torque_limit
     negative_gain = -np.asarray(gain, dtype=float).ravel()
     source = config.controller.velocity_source

@@ -38,6 +38,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import independent_sim as sim  # noqa: E402  (the simulator sits next to this file)
 
+from furuta_drake.rig import encoder_resolution
+
 OUTSIDE = {"cogging_torque", "gear_backlash"}
 SEEDS = {"train": 11, "heldout": 23}  # base seeds of the train and held-out runs (a case adds its own offset)
 
@@ -154,7 +156,7 @@ def coarse_encoder(world, counts: int):
 
 def noise(world, counts: float):
     """Gaussian noise of ``counts`` encoder counts on both angles."""
-    std = counts * 2 * np.pi / world.rig.counts_per_rev
+    std = counts * encoder_resolution(world.rig.counts_per_rev)
     return dataclasses.replace(world, noise_std=std), Effect(
         "measurement_noise", "gaussian", {"noise_std": std}, {"counts": counts}
     )
@@ -177,7 +179,7 @@ def jittering_delay(world, samples: int, jitter: int):
 
 def correlated_noise(world, counts: float, time: float):
     """Noise of ``counts`` encoder counts, low-pass with correlation time ``time`` [s]."""
-    std = counts * 2 * np.pi / world.rig.counts_per_rev
+    std = counts * encoder_resolution(world.rig.counts_per_rev)
     return dataclasses.replace(world, noise_std=std, noise_correlation_time=time), Effect(
         "measurement_noise", "correlated", {"noise_std": std}, {"counts": counts, "correlation_time": time}
     )

@@ -56,7 +56,7 @@ from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
 from furuta_drake.effects.vocabulary import law_of
 from furuta_drake.outputs import versions
-from furuta_drake.rig import RigParameters
+from furuta_drake.rig import RigParameters, encoder_resolution
 from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import dump_yaml_dataclass
 
@@ -146,7 +146,7 @@ def lag(time_constant: float) -> Callable[[dict, RigParameters], dict]:
 
 def requantise(factor: int) -> Callable[[dict, RigParameters], dict]:
     def inject(columns, rig):
-        step = factor * 2 * np.pi / rig.counts_per_rev
+        step = factor * encoder_resolution(rig.counts_per_rev)
         return {
             **columns,
             **{
@@ -161,7 +161,7 @@ def requantise(factor: int) -> Callable[[dict, RigParameters], dict]:
 def noise(counts: float, seed: int = 0) -> Callable[[dict, RigParameters], dict]:
     def inject(columns, rig):
         rng = np.random.default_rng(seed + len(columns["time"]))
-        sigma = counts * 2 * np.pi / rig.counts_per_rev
+        sigma = counts * encoder_resolution(rig.counts_per_rev)
         return {
             **columns,
             **{name: columns[name] + rng.normal(0.0, sigma, columns[name].size) for name in ("theta", "phi")},
@@ -228,7 +228,7 @@ def injections(rig: RigParameters, scale: float) -> list[Injection]:
             "measurement_noise",
             f"{1.5 * s:.3g} counts",
             noise(1.5 * s),
-            value=1.5 * s * 2 * np.pi / rig.counts_per_rev,
+            value=1.5 * s * encoder_resolution(rig.counts_per_rev),
         ),
         Injection(
             "inertia_mismatch",

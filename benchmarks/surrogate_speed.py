@@ -20,7 +20,7 @@ from scipy.integrate import solve_ivp
 
 from furuta_drake.effects.surrogate import Model, _accelerations, predict_windows
 from furuta_drake.friction import JointFrictionParameters, bristle_derivative, bristle_friction_torque
-from furuta_drake.rig import qube_servo2_rig
+from furuta_drake.rig import encoder_resolution, qube_servo2_rig
 
 HORIZON, PERIOD = 250, 1e-3
 
@@ -54,7 +54,7 @@ def _reference(model: Model, command, start: int, x0: np.ndarray) -> np.ndarray:
 
 def main() -> None:
     rig, model, command, starts, x0 = _problem(20)
-    count = 2 * np.pi / rig.counts_per_rev
+    count = encoder_resolution(rig.counts_per_rev)
     predict_windows(model, x0, command, starts, HORIZON, PERIOD, 1, np.zeros(starts.size))  # compile (or load)
     t = time.perf_counter()
     compiled = predict_windows(model, x0, command, starts, HORIZON, PERIOD, 1, np.zeros(starts.size))

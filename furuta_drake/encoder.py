@@ -15,7 +15,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from furuta_drake.errors import ConfigError, require_control_period
-from furuta_drake.rig import _require_nonnegative, _require_positive
+from furuta_drake.rig import _require_nonnegative, _require_positive, encoder_resolution
 
 
 @dataclass
@@ -44,9 +44,9 @@ class EncoderParameters:
             raise ConfigError(f"{where}.seed must be a non-negative integer, got {self.seed!r}")
 
     @property
-    def resolution(self) -> float:
+    def encoder_resolution(self) -> float:
         """One count [rad]."""
-        return 2.0 * math.pi / self.counts_per_rev
+        return encoder_resolution(self.counts_per_rev)
 
 
 class Encoder(LeafSystem):
@@ -74,7 +74,7 @@ class Encoder(LeafSystem):
         params.validate()
         _require_positive(period, "Encoder period")
         require_control_period(params.sample_period, period, "encoder.sample_period")
-        self._resolution = params.resolution
+        self._resolution = params.encoder_resolution
         self._noise_std = float(params.noise_std)
         self._seed = int(params.seed)
         self._block = (-1, None)  # (block index, noise samples): a memo of the pure function _noise_block

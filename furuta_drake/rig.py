@@ -26,6 +26,11 @@ from furuta_drake.yamlio import documented_field
 THETA_ZEROS = {"upright": 0.0, "hanging": math.pi}  # the named zeros of the logs' theta [rad]
 
 
+def encoder_resolution(counts_per_rev: int) -> float:
+    """One count of an encoder of ``counts_per_rev`` counts per revolution [rad]: 2 pi / counts_per_rev."""
+    return 2.0 * math.pi / counts_per_rev
+
+
 @dataclass
 class MotorParameters:
     """Armature-controlled DC motor driving the arm: tau = kt (V - ke phi_dot) / R (inductance neglected)."""
@@ -260,7 +265,7 @@ class RigParameters:
     @property
     def encoder_resolution(self) -> float:
         """One encoder count [rad]."""
-        return 2.0 * math.pi / self.counts_per_rev
+        return encoder_resolution(self.counts_per_rev)
 
     def replace(self, **changes) -> RigParameters:
         return dataclasses.replace(self, **changes)

@@ -20,7 +20,7 @@ from furuta_drake.diagnosis.logs import load_logs
 from furuta_drake.effects.surrogate import sensor_variance
 from furuta_drake.effects.vocabulary import Effect, Scales, apply_effects, rig_model
 from furuta_drake.results import write_log_csv
-from furuta_drake.rig import lund_rig
+from furuta_drake.rig import encoder_resolution, lund_rig
 from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import dump_yaml_dataclass
 
@@ -216,7 +216,7 @@ def test_the_closed_loop_surrogate_is_drakes_lqr_loop():
     angles, _ = surrogate_closed_loop(model, gain, dither, rig.sample_period, rig.torque_limit, rig.counts_per_rev)
     result = simulate(drake_config(rig, model, dither[0], 2.0, True, 0, gain))
     assert np.max(np.abs(result.state[:, 0])) > 0.01  # the dither moves the pendulum
-    count = 2 * np.pi / rig.counts_per_rev
+    count = encoder_resolution(rig.counts_per_rev)
     assert np.max(np.abs(angles[: result.time.size, :, 0] - result.state[:, :2])) < count
 
 

@@ -21,7 +21,7 @@ from furuta_drake.effects.corrected import model_rig
 from furuta_drake.effects.surrogate import Model, _accelerations
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects
 from furuta_drake.plant import joint_indices, make_furuta_plant
-from furuta_drake.rig import RIGS
+from furuta_drake.rig import RIGS, encoder_resolution
 from furuta_drake.simulate import simulate
 
 
@@ -130,7 +130,7 @@ def test_sensor_effects_are_read_from_the_data(clean_logs):
     coarse = [hanging_log(4, "encoder_quantization", level=1)]
     assert quantization_estimate(coarse, rig.counts_per_rev) == rig.counts_per_rev / 4
     noisy = [hanging_log(5, "measurement_noise", level=2)]
-    sigma = 3.0 * 2 * np.pi / rig.counts_per_rev  # the suite's level-2 noise: 3 counts
+    sigma = 3.0 * encoder_resolution(rig.counts_per_rev)  # the suite's level-2 noise: 3 counts
     estimate, samples = noise_estimate(noisy, rig.counts_per_rev, resamples=200)
     assert estimate == pytest.approx(sigma, rel=0.25)
     assert np.percentile(samples, 2.5) < estimate < np.percentile(samples, 97.5)

@@ -14,6 +14,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.encoder import Encoder, EncoderParameters
 from furuta_drake.errors import ConfigError
+from furuta_drake.rig import encoder_resolution
 
 
 def measured_after_first_sample(encoder, x):
@@ -27,7 +28,7 @@ def measured_after_first_sample(encoder, x):
 def test_measurement_is_a_whole_count_within_half_a_count_of_the_angle(theta, phi, counts):
     encoder = Encoder(EncoderParameters(counts_per_rev=counts), period=1e-3)
     y = measured_after_first_sample(encoder, [theta, phi, 3.0, -2.0])
-    count = 2 * math.pi / counts
+    count = encoder_resolution(counts)
     np.testing.assert_allclose(y / count, np.round(y / count), atol=1e-9)
     assert np.all(np.abs(y - [theta, phi]) <= count / 2 * (1 + 1e-9))
 
@@ -56,7 +57,7 @@ def ramp_run(params, period, duration, log_period, slope=(10.0, -7.0), seed_cont
 def test_output_is_the_sample_held_for_exactly_one_period():
     period = 4e-3
     params = EncoderParameters(counts_per_rev=4096)
-    count = params.resolution
+    count = params.encoder_resolution
     times, y, start, slope = ramp_run(params, period, duration=0.1, log_period=period / 8)
     counts = np.round(y / count)
     # Between samples (t_k, t_k+1) the output is the count of the angle at t_k; at t_k itself Drake shows the
@@ -78,7 +79,7 @@ def test_noise_has_the_requested_std_is_white_and_is_reproducible_by_seed():
     # Row j (j >= 1) holds the sample taken at t_{j-1}; 5000 samples cross a noise block of 4096.
     error = y[1:] - (start + np.outer(times[:-1], slope))
     # Noise plus uniform quantisation of a moving angle: variance sigma^2 + q^2 / 12.
-    expected_std = math.sqrt(sigma**2 + params.resolution**2 / 12)
+    expected_std = math.sqrt(sigma**2 + params.encoder_resolution**2 / 12)
     n = len(error)
     for column in error.T:
         assert abs(np.mean(column)) < 4 * sigma / math.sqrt(n)

@@ -17,7 +17,7 @@ from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import FAST
 from furuta_drake.effects.surrogate import Model, predict_windows
 from furuta_drake.effects.vocabulary import Effect, apply_effects
-from furuta_drake.rig import RIGS
+from furuta_drake.rig import RIGS, encoder_resolution
 from furuta_drake.simulate import simulate
 
 
@@ -35,7 +35,7 @@ def nominal_windows():
 def _surrogate_measured(model: Model, windows, counts: int):
     """``windows`` whose measured angles are ``model``'s prediction from their initial states, read by an encoder
     of ``counts`` per revolution (rounded to whole counts)."""
-    count = 2 * np.pi / counts
+    count = encoder_resolution(counts)
     measured = [None] * len(windows.logs)
     for batch in windows.batches():
         predicted = predict_windows(

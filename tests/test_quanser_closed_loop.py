@@ -16,6 +16,7 @@ from furuta_drake.errors import ConfigError
 from furuta_drake.linearization import observer_model
 from furuta_drake.observers.filtered_derivative import FilteredDerivativeParameters, filtered_derivative
 from furuta_drake.paper import reproduce
+from furuta_drake.rig import encoder_resolution
 from furuta_drake.rig_file import load_rig
 from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import loads_yaml_dataclass
@@ -44,7 +45,7 @@ def test_swings_up_from_hanging_and_balances_within_the_clip(rig, swingup):
     assert np.max(np.abs(voltage)) <= 4.0 + 1e-12
     assert math.isfinite(catch_time(result)) and result.signals["swingup_mode"][-1, 0] == 1.0
     assert np.max(np.abs(wrap_angle(result.state[-50:, 0]))) < 0.05  # balanced at the upright
-    encoder = 2 * math.pi / rig.counts_per_rev
+    encoder = encoder_resolution(rig.counts_per_rev)
     assert np.allclose(result.measured / encoder, np.round(result.measured / encoder), atol=1e-6)
 
 

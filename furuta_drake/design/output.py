@@ -19,6 +19,7 @@ from matplotlib.figure import Figure
 from furuta_drake.design.pipeline import Design
 from furuta_drake.effects.vocabulary import describe
 from furuta_drake.outputs import atomic_output_dir, versions
+from furuta_drake.rig import encoder_resolution
 
 SIGNIFICANT_DIGITS = 6
 
@@ -265,7 +266,7 @@ def plot_design(design: Design, path: Path) -> None:
     axes[0].plot(time, design.command / design.torque_per_volt, color="k", lw=0.7)
     axes[0].set_ylabel(f"{'dither' if design.mode == 'balancing' else 'command'} [{unit}]")
     rest = 0.0 if design.mode == "balancing" else np.pi
-    count = 2 * np.pi / design.record.rig.counts_per_rev
+    count = encoder_resolution(design.record.rig.counts_per_rev)
     reference = design.runs.get(design.hypotheses.hypotheses[0].name)
     for name, run in design.runs.items():
         axes[1].plot(run.time, run.angles[:, 1], lw=0.8, label=name)

@@ -30,6 +30,7 @@ from furuta_drake.diagnosis.gap import project_out_states
 from furuta_drake.diagnosis.rule import ENTRY, Bootstrap, at_floor, choose, decide, gap_of
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import law_of
+from furuta_drake.rig import encoder_resolution
 
 TRUTH, RIVAL = "truth", "rival"
 
@@ -72,7 +73,7 @@ def predict_direction(
     """
     rng = np.random.default_rng(seed)
     step = counts / truth_model.counts_per_rev  # the truth's encoder step [counts of the rig file]
-    white = truth_model.noise_std / (2 * np.pi / counts)
+    white = truth_model.noise_std / encoder_resolution(counts)
     shape = truth.residuals.shape
     models = {TRUTH: truth, RIVAL: rival, "previous": previous}
     detected, experiment, combined, gaps = [], [], [], {TRUTH: [], RIVAL: []}

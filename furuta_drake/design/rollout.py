@@ -17,7 +17,7 @@ import numpy as np
 from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
 from furuta_drake.diagnosis.gap import COMMAND_PAD, substeps_for
 from furuta_drake.effects.surrogate import Model, predict_windows
-from furuta_drake.rig import RigParameters
+from furuta_drake.rig import RigParameters, encoder_resolution
 
 HANGING = (np.pi, 0.0, 0.0, 0.0)  # [theta, phi, theta_dot, phi_dot]: at rest, the pendulum down
 UPRIGHT = (0.0, 0.0, 0.0, 0.0)
@@ -97,7 +97,7 @@ def surrogate_closed_loop(
     x = np.tile(np.asarray(UPRIGHT, dtype=float)[:, None], (1, designs))
     lag_state, z = np.zeros(designs), np.zeros(designs)
     packed = pack(model)  # the kernel's parameters, once for every substep
-    resolution = 2 * np.pi / counts
+    resolution = encoder_resolution(counts)
     K = np.ravel(gain)
 
     angles, logged = np.empty((samples, 2, designs)), np.empty((designs, samples))

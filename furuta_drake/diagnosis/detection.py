@@ -28,6 +28,7 @@ from furuta_drake.diagnosis.result import DetectionLimit
 from furuta_drake.diagnosis.rule import Bootstrap, at_floor, decide
 from furuta_drake.effects.surrogate import Model, sensor_variance
 from furuta_drake.effects.vocabulary import CANDIDATES, PRESLIDING_STARTS, UNITS, Effect, Scales, apply_effects
+from furuta_drake.rig import encoder_resolution
 
 BISECTIONS = 14  # halvings of the log-scale bracket: the limit to within about 1 % of its bracket's ratio
 
@@ -169,7 +170,7 @@ class _Judge:
         return decide(evidence, first=self.first)
 
     def injected(self, effect_model: Model) -> list[np.ndarray]:
-        count = 2 * np.pi / self.counts
+        count = encoder_resolution(self.counts)
         predicted = fixed_state_residuals(effect_model, self.windows, self.states, self.counts)
         return [
             raw + project_out_states(np.nan_to_num(p - raw, nan=1e6 / count), J)
@@ -247,7 +248,7 @@ def _injected_limit(name: str, judge: _Judge, scales: Scales) -> DetectionLimit:
 def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:
     """White noise of std s [counts] added to the measured angles; the candidate explaining it has the model's
     sensor variance plus s^2. The noise estimate reads nothing below ``NOISE_FLOOR_COUNTS``."""
-    count = 2 * np.pi / judge.counts
+    count = encoder_resolution(judge.counts)
     rng = np.random.default_rng(seed)
     unit_noise = [rng.standard_normal(r.shape) for r in judge.raw]
 
@@ -267,7 +268,7 @@ def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:
 
 def _quantization_limit(judge: _Judge) -> DetectionLimit:
     """The measured angles re-quantised to a k times coarser encoder; the largest counts_per_rev detected."""
-    count = 2 * np.pi / judge.counts
+    count = encoder_resolution(judge.counts)
     for k in range(2, 65):
         residuals = []
         for log_windows, raw in zip(judge.windows.measured, judge.raw):

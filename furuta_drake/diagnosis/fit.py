@@ -38,6 +38,7 @@ from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
+from furuta_drake.rig import encoder_resolution
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise
@@ -100,7 +101,7 @@ def scales_of(logs, model: Model) -> Scales:
 def quantization_estimate(logs, nominal_counts: int) -> float:
     """Counts per revolution the angle increments support: nominal / k for the largest k <= 64 dividing every
     non-zero increment (in nominal counts), or the nominal counts when none does."""
-    count = 2 * np.pi / nominal_counts
+    count = encoder_resolution(nominal_counts)
     steps = np.concatenate([np.round(np.diff(np.concatenate([log.theta, log.phi])) / count) for log in logs])
     steps = np.abs(steps[(steps != 0)])
     if steps.size < 20:
@@ -122,7 +123,7 @@ def noise_estimate(logs, nominal_counts: int, resamples: int = 0, seed: int = 0)
     At a low sample rate the motion's own acceleration a dt^2 can carry the second differences; when it carries
     more than half of them (:func:`_motion_free_squares`) it is extrapolated away with the lag-2 differences,
     on the samples whose stencil the command holds constant over."""
-    count = 2 * np.pi / nominal_counts
+    count = encoder_resolution(nominal_counts)
     squares = _motion_free_squares(
         [(np.asarray(angle) / count, np.asarray(log.input)) for log in logs for angle in (log.theta, log.phi)]
     )

@@ -27,7 +27,7 @@ from scipy.signal import savgol_filter
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
 from furuta_drake.effects.surrogate import HISTORY, Model, bristle_path, predict_windows, sensor_variance
 from furuta_drake.errors import LogError
-from furuta_drake.rig import RigParameters, linearized_upright
+from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
 
 MAX_HORIZON_S = 0.25
 SMOOTHING_S = 0.03  # Savitzky-Golay window for the initial states [s]
@@ -237,7 +237,7 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
     simulated with its own sensitivities, so a kept step needs no further call. The steps are written here
     because scipy's least-squares solvers take one problem at a time: batched over windows, every window's step
     costs one surrogate call for all of them."""
-    count = 2 * np.pi / nominal_counts
+    count = encoder_resolution(nominal_counts)
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
     bristles = initial_bristles(model, windows)
     for batch in windows.batches():
@@ -292,7 +292,7 @@ def fixed_state_residuals(
 ) -> list[np.ndarray]:
     """Per log: measured minus predicted angles [counts] from given initial states (those of
     :func:`projected_residuals`, no refinement)."""
-    count = 2 * np.pi / nominal_counts
+    count = encoder_resolution(nominal_counts)
     out = [None] * len(windows.logs)
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)

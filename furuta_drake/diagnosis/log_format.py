@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 from furuta_drake.errors import ConfigError
+from furuta_drake.rig import encoder_resolution
 
 COLUMN_NAMES = ("time", "theta", "phi", "torque", "voltage")  # the names a mapping may use, in this order
 ANGLE_UNITS = ("rad", "deg", "counts")
@@ -105,7 +106,7 @@ class LogFormat:
 
     def radians_per_unit(self, counts_per_rev: int) -> float:
         """The factor from the logged angle unit to radians [rad per unit]."""
-        return {"rad": 1.0, "deg": math.pi / 180.0, "counts": 2.0 * math.pi / counts_per_rev}[self.angle_unit]
+        return {"rad": 1.0, "deg": math.pi / 180.0, "counts": encoder_resolution(counts_per_rev)}[self.angle_unit]
 
     def describe(self) -> str:
         """The format in force as command-line flags ("" for the default)."""

@@ -25,7 +25,7 @@ from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
 from furuta_drake.effects.surrogate import Model, lag_states, sensor_variance
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
-from furuta_drake.rig import RigParameters
+from furuta_drake.rig import RigParameters, encoder_resolution
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.world import add_furuta_world
 
@@ -123,7 +123,7 @@ class WindowReplayer:
 def _replay_log(task) -> np.ndarray:
     """(horizon, 2, W) residuals [counts] of one log's windows replayed in Drake (one diagram per task)."""
     model, rig, log, horizon, starts, x0, measured = task
-    count = 2 * np.pi / rig.counts_per_rev
+    count = encoder_resolution(rig.counts_per_rev)
     replayer = WindowReplayer(model, rig, log.time, log.torque_command)
     period = log.sample_period
     lags = (

@@ -24,7 +24,7 @@ import numpy as np
 
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.friction import JointFrictionParameters
-from furuta_drake.rig import RigParameters
+from furuta_drake.rig import RigParameters, encoder_resolution
 
 REGULARIZATION_VELOCITY = 0.02  # [rad/s] smooth sign(v) for the static friction laws of the diagnosis models
 LAG_PREROLL = 5.0  # time constants of command history the lag filter runs over before a window (e^-5 of its
@@ -89,8 +89,8 @@ class Model:
 def sensor_variance(model: Model, nominal_counts: int) -> float:
     """Expected variance [counts^2 of the nominal encoder] of a measured angle about the true one: the
     model's quantisation step^2 / 12 plus its white noise."""
-    count = 2 * np.pi / nominal_counts
-    step = 2 * np.pi / model.counts_per_rev
+    count = encoder_resolution(nominal_counts)
+    step = encoder_resolution(model.counts_per_rev)
     return (step / count) ** 2 / 12.0 + (model.noise_std / count) ** 2
 
 
