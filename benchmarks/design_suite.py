@@ -193,6 +193,7 @@ def write_config(out: Path, argv, args, selected: list[CaseSpec], targeted: list
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Diagnose the cases, re-run the targeted ones (and a few right ones) with a design, print and write the table."""
     args = parse_args(argv)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)

@@ -298,6 +298,7 @@ def write_config(out: Path, argv: list[str] | None, args: argparse.Namespace, su
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Simulate (or reuse) the suite, diagnose every case blind, print and write the scores."""
     args = parse_args(argv)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)

@@ -397,6 +397,7 @@ def tallies(rows: list[dict], further: list[dict]) -> dict[str, int]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Diagnose every injected case, then again continued from the baseline; print and write the tallies."""
     args = parse_args(argv)
     rig = load_rig(QUBE_REAL_RIG)
     args.out.mkdir(parents=True, exist_ok=True)
