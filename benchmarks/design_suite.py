@@ -94,7 +94,8 @@ def play_on_true_rig(case: CaseSpec, experiment: Path, directory: Path) -> tuple
     return paths[0], paths[1]
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The command line's options."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"])
@@ -110,27 +111,32 @@ def main(argv: list[str] | None = None) -> int:
         "--duration", type=float, help="length of the designed experiment [s] (default: the design's own choice)"
     )
     parser.add_argument("--workers", type=int, help="processes of each diagnosis (default: all cores)")
-    args = parser.parse_args(argv)
-    out = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    selected = [c for c in cases(args.rigs, args.seed) if not args.only or any(w in c.name for w in args.only)]
-    start = time.perf_counter()
+    return parser.parse_args(argv)
 
+
+def answer_of(case: CaseSpec, folder: Path) -> dict:
+    """The case's answer, its logs written to ``folder`` first when they are not there yet."""
+    answer_path = folder / "answer.json"
+    if not answer_path.is_file():
+        answer_path.parent.mkdir(parents=True, exist_ok=True)
+        answer = write_case(case, folder)
+        answer_path.write_text(json.dumps(answer, indent=2, sort_keys=True) + "\n")
+    return json.loads(answer_path.read_text())
+
+
+def diagnose_before(selected: list[CaseSpec], out: Path, workers: int | None) -> tuple[dict, dict]:
+    """Write (or reuse) every case's logs and diagnose it with its default logs; the answers and the reports by
+    case name."""
     answers, before = {}, {}
     for i, case in enumerate(selected, 1):
         folder = out / "suite" / case.name
-        answer_path = folder / "answer.json"
-        if not answer_path.is_file():
-            answer_path.parent.mkdir(parents=True, exist_ok=True)
-            answer = write_case(case, folder)
-            answer_path.write_text(json.dumps(answer, indent=2, sort_keys=True) + "\n")
-        answers[case.name] = json.loads(answer_path.read_text())
+        answers[case.name] = answer_of(case, folder)
         before[case.name] = diagnosed(
             out / "before" / case.name,
             folder / "rig.yaml",
             sorted(folder.glob("train_*.csv")),
             sorted(folder.glob("heldout_*.csv")),
-            args.workers,
+            workers,
         )
         report = before[case.name]
         print(
@@ -139,10 +145,12 @@ def main(argv: list[str] | None = None) -> int:
             f"{' confusable' if report.get('confusable') else ''}",
             flush=True,
         )
+    return answers, before
 
-    targeted = [
-        c for c in selected if not verdict_is_right(answers[c.name], before[c.name]) or before[c.name].get("confusable")
-    ]
+
+def redo_all(selected: list[CaseSpec], targeted: list[CaseSpec], answers: dict, before: dict, out: Path, args):
+    """Re-run every targeted case with a design, then right ones until ``--right-checks`` of them had something
+    to separate; print and return the rows."""
     rows, checks = [], 0
     for case in targeted + [c for c in selected if c not in targeted]:
         if case not in targeted and checks >= args.right_checks:
@@ -158,10 +166,11 @@ def main(argv: list[str] | None = None) -> int:
             f"{'right' if row['right_after'] else 'WRONG'}{' confusable' if row['confusable_after'] else ''}",
             flush=True,
         )
+    return rows
 
-    figures = summarise(rows)
-    print_table(rows, figures)
-    (out / "results.json").write_text(json.dumps({"figures": figures, "target": TARGET, "rows": rows}, indent=2) + "\n")
+
+def write_config(out: Path, argv, args, selected: list[CaseSpec], targeted: list[CaseSpec], rows, start: float):
+    """``config.json``: the options, the cases (all, targeted, checks), the wall time and the versions."""
     (out / "config.json").write_text(
         json.dumps(
             {
@@ -181,6 +190,26 @@ def main(argv: list[str] | None = None) -> int:
         )
         + "\n"
     )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Diagnose the cases, re-run the targeted ones (and a few right ones) with a design, print and write the table."""
+    args = parse_args(argv)
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    selected = [c for c in cases(args.rigs, args.seed) if not args.only or any(w in c.name for w in args.only)]
+    start = time.perf_counter()
+
+    answers, before = diagnose_before(selected, out, args.workers)
+    targeted = [
+        c for c in selected if not verdict_is_right(answers[c.name], before[c.name]) or before[c.name].get("confusable")
+    ]
+    rows = redo_all(selected, targeted, answers, before, out, args)
+
+    figures = summarise(rows)
+    print_table(rows, figures)
+    (out / "results.json").write_text(json.dumps({"figures": figures, "target": TARGET, "rows": rows}, indent=2) + "\n")
+    write_config(out, argv, args, selected, targeted, rows, start)
     return 0
 
 

@@ -169,7 +169,8 @@ def select_cases(args) -> list[CaseSpec]:
     return cases
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The command line's options."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="output directory (suite, reports, results)")
     parser.add_argument("--quick", action="store_true", help=f"{len(QUICK)} cases only")
@@ -182,70 +183,66 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--generate-only", action="store_true", help="write the suite and stop")
     parser.add_argument("--workers", type=int, help="processes (default: all cores)")
     parser.add_argument("--scheduler", help="Dask scheduler address for the log generation (default: local)")
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
 
-    out = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    cases = select_cases(args)
-    if args.suite is not None:
-        suite = args.suite
-        answers = json.loads((suite / "answers.json").read_text())
-        names = {case.name for case in cases}
-        answers = [a for a in answers if a["case"] in names] or answers
-    else:
-        suite = out / "suite"
-        print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}")
-        start = time.perf_counter()
-        answers = generate(cases, suite, args.duration, args.workers, args.scheduler)
-        print(f"  {time.perf_counter() - start:.0f} s")
-        if args.generate_only:
-            return 0
 
+def reused_answers(suite: Path, cases: list[CaseSpec]) -> list[dict]:
+    """The answers of a suite written earlier, restricted to ``cases`` (all of them if none is there)."""
+    answers = json.loads((suite / "answers.json").read_text())
+    names = {case.name for case in cases}
+    return [a for a in answers if a["case"] in names] or answers
+
+
+def fitted_params(report: dict) -> dict:
+    """The parameters of the accepted model (the ranking entry whose effects are the report's steps)."""
+    accepted = (r for r in report["ranking"] if r["effect"].split("+") == [step["effect"] for step in report["steps"]])
+    return next((r["params"] for r in accepted), {})
+
+
+def score_case(answer: dict, report: dict, seconds: float, cpu: float) -> dict:
+    """One row of the results: the case, what was expected and found, the interval coverage, the held-out gap
+    and the times."""
+    found = "+".join(sorted(report["effects"])) if "+" in answer["expected_verdict"] else report["verdict"]
+    inside, with_interval = coverage(answer, report)
+    return {
+        "case": answer["case"],
+        "rig": answer["rig"],
+        "expected": answer["expected_verdict"],
+        "found": found,
+        "right": verdict_is_right(answer, report),
+        "several": "+" in answer["expected_verdict"],
+        "params_inside": inside,
+        "params_with_interval": with_interval,
+        "confusable": json.dumps(report.get("confusable", [])),
+        "heldout_reduction": report["gap"]["heldout_reduction"],
+        "nominal_heldout_gap": report["gap"]["nominal"]["heldout"],
+        "runner_up": report["ranking"][0]["effect"] if report["ranking"] else "",
+        "fitted": json.dumps(fitted_params(report), sort_keys=True),
+        "seconds": seconds,
+        "cpu_seconds": cpu,
+    }
+
+
+def diagnose_all(answers: list[dict], suite: Path, out: Path, workers: int | None) -> list[dict]:
+    """Diagnose every case folder blind, print and return one scored row per case."""
     rows = []
     for i, answer in enumerate(answers, start=1):
         report, seconds, cpu = diagnose_blind(
-            suite / "cases" / answer["case"], out / "reports" / answer["case"], args.workers
+            suite / "cases" / answer["case"], out / "reports" / answer["case"], workers
         )
-        found = "+".join(sorted(report["effects"])) if "+" in answer["expected_verdict"] else report["verdict"]
-        inside, with_interval = coverage(answer, report)
-        row = {
-            "case": answer["case"],
-            "rig": answer["rig"],
-            "expected": answer["expected_verdict"],
-            "found": found,
-            "right": verdict_is_right(answer, report),
-            "several": "+" in answer["expected_verdict"],
-            "params_inside": inside,
-            "params_with_interval": with_interval,
-            "confusable": json.dumps(report.get("confusable", [])),
-            "heldout_reduction": report["gap"]["heldout_reduction"],
-            "nominal_heldout_gap": report["gap"]["nominal"]["heldout"],
-            "runner_up": report["ranking"][0]["effect"] if report["ranking"] else "",
-            "fitted": json.dumps(
-                next(
-                    (
-                        r["params"]
-                        for r in report["ranking"]
-                        if r["effect"].split("+") == [step["effect"] for step in report["steps"]]
-                    ),
-                    {},
-                ),
-                sort_keys=True,
-            ),
-            "seconds": seconds,
-            "cpu_seconds": cpu,
-        }
+        row = score_case(answer, report, seconds, cpu)
         rows.append(row)
         mark = "ok " if row["right"] else "BAD"
         print(
-            f"[{i}/{len(answers)}] {mark} {row['case']:<55} -> {found:<24} "
+            f"[{i}/{len(answers)}] {mark} {row['case']:<55} -> {row['found']:<24} "
             f"reduction {row['heldout_reduction']:6.1%}  {seconds:5.1f} s (CPU {cpu:5.1f} s)",
             flush=True,
         )
+    return rows
 
-    expected, found, matrix = confusion(rows)
-    print_confusion(expected, found, matrix)
-    figures = summarise(rows)
+
+def print_figures(figures: dict) -> None:
+    """The summary figures on one line, then the targets."""
     print(
         f"\naccuracy {figures['accuracy']:.1%} ({figures['right']}/{figures['cases']}), "
         f"false alarms on none {figures['false_alarm_rate']:.0%}, "
@@ -258,6 +255,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     print("targets: " + ", ".join(f"{k} {v}" for k, v in TARGETS.items()))
 
+
+def write_results(out: Path, rows: list[dict], figures: dict, confusion_matrix: tuple) -> None:
+    """``results.csv`` (one row per case) and ``results.json`` (figures, targets, confusion matrix, rows)."""
+    expected, found, matrix = confusion_matrix
     with open(out / "results.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -274,6 +275,10 @@ def main(argv: list[str] | None = None) -> int:
         )
         + "\n"
     )
+
+
+def write_config(out: Path, argv: list[str] | None, args: argparse.Namespace, suite: Path, answers: list[dict]) -> None:
+    """``config.json``: the options, the suite, the cases and the versions."""
     (out / "config.json").write_text(
         json.dumps(
             {
@@ -290,6 +295,33 @@ def main(argv: list[str] | None = None) -> int:
         )
         + "\n"
     )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Simulate (or reuse) the suite, diagnose every case blind, print and write the scores."""
+    args = parse_args(argv)
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    cases = select_cases(args)
+    if args.suite is not None:
+        suite = args.suite
+        answers = reused_answers(suite, cases)
+    else:
+        suite = out / "suite"
+        print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}")
+        start = time.perf_counter()
+        answers = generate(cases, suite, args.duration, args.workers, args.scheduler)
+        print(f"  {time.perf_counter() - start:.0f} s")
+        if args.generate_only:
+            return 0
+
+    rows = diagnose_all(answers, suite, out, args.workers)
+    expected, found, matrix = confusion(rows)
+    print_confusion(expected, found, matrix)
+    figures = summarise(rows)
+    print_figures(figures)
+    write_results(out, rows, figures, (expected, found, matrix))
+    write_config(out, argv, args, suite, answers)
     return 0
 
 

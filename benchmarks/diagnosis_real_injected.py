@@ -312,16 +312,20 @@ def continued(injection: Injection, report: dict) -> dict:
     }
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The command line's options."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--scale", type=float, default=1.0, help="multiplies every injected size")
     parser.add_argument("--only", nargs="+", help="the cases to run (their effect names)")
     parser.add_argument("--workers", type=int)
     parser.add_argument("--rescore", action="store_true", help="score the reports already in OUT/reports again")
-    args = parser.parse_args(argv)
-    rig = load_rig(QUBE_REAL_RIG)
-    args.out.mkdir(parents=True, exist_ok=True)
+    return parser.parse_args(argv)
+
+
+def injected_pass(args: argparse.Namespace, rig: RigParameters) -> tuple[list[dict], dict]:
+    """Write and diagnose every case (the baseline first) or, with ``--rescore``, read its report; print and return
+    the scored rows and the baseline's report."""
     rows, baseline = [], None
     for injection in injections(rig, args.scale):
         if args.only and injection.name not in args.only and injection.name != "baseline":
@@ -344,6 +348,12 @@ def main(argv: list[str] | None = None) -> int:
             f"{'' if seconds is None else f', {seconds:.0f} s'})",
             flush=True,
         )
+    return rows, baseline
+
+
+def continued_pass(args: argparse.Namespace, rig: RigParameters) -> list[dict]:
+    """Diagnose every case again from its rig file plus the baseline's fitted effects (or, with ``--rescore``,
+    read those reports); print and return the rows."""
     baseline_effects = load_rig(args.out / "reports" / "baseline" / "fitted_rig.yaml").effects
     print(f"\ncontinued from the baseline's fitted rig (effects: {', '.join(baseline_effects or {})}):")
     further = []
@@ -365,33 +375,46 @@ def main(argv: list[str] | None = None) -> int:
             f"{'named' if row['named'] else 'MISSED'} ({row['heldout_reduction']:.0%})",
             flush=True,
         )
+    return further
+
+
+def tallies(rows: list[dict], further: list[dict]) -> dict[str, int]:
+    """Injected effects named, and cases, in all, at or above the baseline's detection limit (or without one), of
+    a law the baseline does not hold, and continued from the baseline's fitted rig."""
     scored = [row for row in rows if row["case"] != "baseline"]
-    named = sum(row["named"] for row in scored)
     above = [row for row in scored if row["size_over_limit"] is None or row["size_over_limit"] >= 1.0]
     apart = [row for row in scored if not row["in_baseline"]]
+    return {
+        "named": sum(row["named"] for row in scored),
+        "cases": len(scored),
+        "named_at_or_above_limit": sum(r["named"] for r in above),
+        "cases_at_or_above_limit": len(above),
+        "named_apart_from_baseline": sum(r["named"] for r in apart),
+        "cases_apart_from_baseline": len(apart),
+        "named_continued": sum(r["named"] for r in further),
+        "cases_continued": len(further),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Diagnose every injected case, then again continued from the baseline; print and write the tallies."""
+    args = parse_args(argv)
+    rig = load_rig(QUBE_REAL_RIG)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows, baseline = injected_pass(args, rig)
+    further = continued_pass(args, rig)
+    counts = tallies(rows, further)
     print(
-        f"\nbaseline effects: {baseline['effects']}; injected effects named: {named}/{len(scored)}; "
-        f"at or above the baseline's detection limit (or without one): {sum(r['named'] for r in above)}/{len(above)}; "
-        f"of a law the baseline does not hold: {sum(r['named'] for r in apart)}/{len(apart)}; "
-        f"continued from the baseline's fitted rig: {sum(r['named'] for r in further)}/{len(further)}"
+        f"\nbaseline effects: {baseline['effects']}; injected effects named: {counts['named']}/{counts['cases']}; "
+        f"at or above the baseline's detection limit (or without one): "
+        f"{counts['named_at_or_above_limit']}/{counts['cases_at_or_above_limit']}; "
+        f"of a law the baseline does not hold: "
+        f"{counts['named_apart_from_baseline']}/{counts['cases_apart_from_baseline']}; "
+        f"continued from the baseline's fitted rig: {counts['named_continued']}/{counts['cases_continued']}"
     )
     (args.out / "results.json").write_text(
         json.dumps(
-            {
-                "baseline": baseline["effects"],
-                "named": named,
-                "cases": len(scored),
-                "named_at_or_above_limit": sum(r["named"] for r in above),
-                "cases_at_or_above_limit": len(above),
-                "named_apart_from_baseline": sum(r["named"] for r in apart),
-                "cases_apart_from_baseline": len(apart),
-                "named_continued": sum(r["named"] for r in further),
-                "cases_continued": len(further),
-                "rows": rows,
-                "rows_continued": further,
-            },
-            indent=2,
-            default=str,
+            {"baseline": baseline["effects"], **counts, "rows": rows, "rows_continued": further}, indent=2, default=str
         )
         + "\n"
     )

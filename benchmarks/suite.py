@@ -78,108 +78,162 @@ def verdict_is_right(answer: dict, report: dict) -> bool:
     return report["verdict"] == expected
 
 
+def _with_arm_friction(config: SimulationConfig, arm: JointFrictionParameters) -> SimulationConfig:
+    """``config`` with ``arm`` as the arm joint's friction law."""
+    return dataclasses.replace(config, friction=dataclasses.replace(config.friction, arm=arm))
+
+
+def _with_actuator(config: SimulationConfig, **changes) -> SimulationConfig:
+    """``config`` with the actuator's fields in ``changes`` replaced."""
+    return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, **changes))
+
+
+def _with_encoder(config: SimulationConfig, **changes) -> SimulationConfig:
+    """``config`` with the encoder's fields in ``changes`` replaced."""
+    return dataclasses.replace(config, encoder=dataclasses.replace(config.encoder, **changes))
+
+
+def _with_disturbance(config: SimulationConfig, **changes) -> SimulationConfig:
+    """``config`` with the disturbance's fields in ``changes`` replaced."""
+    return dataclasses.replace(config, disturbance=dataclasses.replace(config.disturbance, **changes))
+
+
+def _arm_coulomb_friction(config: SimulationConfig, k: float) -> SimulationConfig:
+    """Dahl friction on the arm (presliding included) at 0.05 k m g l."""
+    level_Nm = 0.05 * k * config.rig.gravity_torque
+    return _with_arm_friction(
+        config,
+        JointFrictionParameters(model="dahl", coulomb_pos=level_Nm, coulomb_neg=level_Nm, sigma0=400.0 * level_Nm),
+    )
+
+
+def _arm_viscous_friction(config: SimulationConfig, k: float) -> SimulationConfig:
+    """Extra arm viscous damping: the arm's velocity decays at 0.8 k 1/s."""
+    arm = config.friction.arm
+    damping = 0.8 * k * config.rig.arm_inertia_total
+    return _with_arm_friction(
+        config,
+        dataclasses.replace(arm, model="static" if arm.model == "none" else arm.model, viscous=arm.viscous + damping),
+    )
+
+
+def _arm_stribeck(config: SimulationConfig, k: float) -> SimulationConfig:
+    """LuGre friction on the arm: Coulomb 0.04 m g l, static (1 + k) times that, Stribeck velocity 0.1 rad/s."""
+    level_Nm = 0.04 * config.rig.gravity_torque
+    return _with_arm_friction(
+        config,
+        JointFrictionParameters(
+            model="lugre",
+            coulomb_pos=level_Nm,
+            coulomb_neg=level_Nm,
+            static_pos=(1.0 + 1.0 * k) * level_Nm,
+            static_neg=(1.0 + 1.0 * k) * level_Nm,
+            stribeck_velocity=0.1,
+            sigma0=400.0 * level_Nm,
+            sigma1=0.0,
+        ),
+    )
+
+
+def _friction_asymmetry(config: SimulationConfig, k: float) -> SimulationConfig:
+    """Dahl friction on the arm, 0.03 m g l one way and (1 + 0.75 k) times that the other."""
+    low = 0.03 * config.rig.gravity_torque
+    return _with_arm_friction(
+        config,
+        JointFrictionParameters(model="dahl", coulomb_pos=low, coulomb_neg=low * (1.0 + 0.75 * k), sigma0=400.0 * low),
+    )
+
+
+def _pendulum_friction(config: SimulationConfig, k: float) -> SimulationConfig:
+    """Static friction on the pendulum: Coulomb 0.004 k m g l, and its swing decays at 0.3 k 1/s."""
+    damping = 0.3 * k * config.rig.pendulum_inertia_total
+    level_Nm = 0.004 * k * config.rig.gravity_torque
+    pendulum = JointFrictionParameters(model="static", coulomb_pos=level_Nm, coulomb_neg=level_Nm, viscous=damping)
+    return dataclasses.replace(config, friction=dataclasses.replace(config.friction, pendulum=pendulum))
+
+
+def _encoder_quantization(config: SimulationConfig, k: float) -> SimulationConfig:
+    """Coarser encoders: the counts per revolution divided by round(4 k), at least 2."""
+    return _with_encoder(config, counts_per_rev=config.encoder.counts_per_rev // max(2, round(4 * k)))
+
+
+def _measurement_noise(config: SimulationConfig, k: float) -> SimulationConfig:
+    """White angle noise of 1.5 k encoder resolutions."""
+    return _with_encoder(config, noise_std=1.5 * k * config.rig.encoder_resolution)
+
+
+def _input_delay(config: SimulationConfig, k: float) -> SimulationConfig:
+    """An input delay of 1.5 + 1.5 k control periods (3 and 4.5 at the suite's levels)."""
+    return _with_actuator(config, delay=(1.5 + 1.5 * k) * config.encoder.sample_period)
+
+
+def _torque_gain_error(config: SimulationConfig, k: float) -> SimulationConfig:
+    """A torque gain of 1 - 0.2 k up to level 1, 1 + 0.35 (k - 1) above it."""
+    return _with_actuator(config, gain=1.0 - 0.2 * k if k <= 1.0 else 1.0 + 0.35 * (k - 1.0))
+
+
+def _actuator_deadzone(config: SimulationConfig, k: float) -> SimulationConfig:
+    """An actuator deadzone of 0.03 k m g l."""
+    return _with_actuator(config, deadzone=0.03 * k * config.rig.gravity_torque)
+
+
+def _actuator_lag(config: SimulationConfig, k: float) -> SimulationConfig:
+    """A first-order actuator lag of time constant 6 k ms."""
+    return _with_actuator(config, lag_time_constant=0.006 * k)
+
+
+def _actuator_saturation(config: SimulationConfig, k: float) -> SimulationConfig:
+    """A torque saturation at max(0.7 - 0.2 k, 0.1) times the LQR's torque limit."""
+    return _with_actuator(config, saturation=config.controller.lqr.torque_limit * max(0.7 - 0.2 * k, 0.1))
+
+
+def _arm_spring(config: SimulationConfig, k: float) -> SimulationConfig:
+    """A cable that pulls the arm back to 0.05 rad with 0.25 k m g l per radian."""
+    stiffness = 0.25 * k * config.rig.gravity_torque
+    return _with_disturbance(config, arm_spring_stiffness=stiffness, arm_spring_equilibrium=0.05)
+
+
+def _inertia_mismatch(config: SimulationConfig, k: float) -> SimulationConfig:
+    """A pendulum mass (1 + 0.2 k) times and an arm inertia (1 - 0.15 k) times the nominal ones."""
+    rig = config.rig
+    true_rig = dataclasses.replace(
+        rig, pendulum_mass=rig.pendulum_mass * (1.0 + 0.2 * k), arm_inertia=rig.arm_inertia * (1.0 - 0.15 * k)
+    )
+    return dataclasses.replace(config, rig=true_rig)
+
+
+def _cogging_torque(config: SimulationConfig, k: float) -> SimulationConfig:
+    """Cogging torque of amplitude 0.04 k m g l and 12 periods per turn (outside the vocabulary)."""
+    return _with_disturbance(config, cogging_amplitude=0.04 * k * config.rig.gravity_torque, cogging_periods=12)
+
+
+# The true-world realisation of each effect: a function of the config and the magnitude level.
+REALISATIONS = {
+    "arm_coulomb_friction": _arm_coulomb_friction,
+    "arm_viscous_friction": _arm_viscous_friction,
+    "arm_stribeck": _arm_stribeck,
+    "friction_asymmetry": _friction_asymmetry,
+    "pendulum_friction": _pendulum_friction,
+    "encoder_quantization": _encoder_quantization,
+    "measurement_noise": _measurement_noise,
+    "input_delay": _input_delay,
+    "torque_gain_error": _torque_gain_error,
+    "actuator_deadzone": _actuator_deadzone,
+    "actuator_lag": _actuator_lag,
+    "actuator_saturation": _actuator_saturation,
+    "arm_spring": _arm_spring,
+    "inertia_mismatch": _inertia_mismatch,
+    OUTSIDE_VOCABULARY: _cogging_torque,
+}
+
+
 def with_effect(config: SimulationConfig, effect: str, level: float) -> SimulationConfig:
     """``config`` with the true-world realisation of ``effect`` at magnitude ``level``: the suite's 1 (moderate)
     and 2 (strong), or any level in (0, 3] (the property checks draw them; the gain error is a loss up to level
     1 and a gain above it)."""
-    rig = config.rig
-    k = float(level)
-    mgl = rig.gravity_torque
-    period = config.encoder.sample_period
-    arm = config.friction.arm
-    friction = config.friction
-    if effect == "arm_coulomb_friction":
-        level_Nm = 0.05 * k * mgl
-        friction = dataclasses.replace(
-            friction,
-            arm=JointFrictionParameters(
-                model="dahl", coulomb_pos=level_Nm, coulomb_neg=level_Nm, sigma0=400.0 * level_Nm
-            ),
-        )
-    elif effect == "arm_viscous_friction":
-        damping = 0.8 * k * rig.arm_inertia_total  # the arm's velocity decays at 0.8 k 1/s
-        friction = dataclasses.replace(
-            friction,
-            arm=dataclasses.replace(
-                arm, model="static" if arm.model == "none" else arm.model, viscous=arm.viscous + damping
-            ),
-        )
-    elif effect == "arm_stribeck":
-        level_Nm = 0.04 * mgl
-        friction = dataclasses.replace(
-            friction,
-            arm=JointFrictionParameters(
-                model="lugre",
-                coulomb_pos=level_Nm,
-                coulomb_neg=level_Nm,
-                static_pos=(1.0 + 1.0 * k) * level_Nm,
-                static_neg=(1.0 + 1.0 * k) * level_Nm,
-                stribeck_velocity=0.1,
-                sigma0=400.0 * level_Nm,
-                sigma1=0.0,
-            ),
-        )
-    elif effect == "friction_asymmetry":
-        low = 0.03 * mgl
-        friction = dataclasses.replace(
-            friction,
-            arm=JointFrictionParameters(
-                model="dahl", coulomb_pos=low, coulomb_neg=low * (1.0 + 0.75 * k), sigma0=400.0 * low
-            ),
-        )
-    elif effect == "pendulum_friction":
-        damping = 0.3 * k * rig.pendulum_inertia_total  # the pendulum's swing decays at 0.3 k 1/s
-        level_Nm = 0.004 * k * mgl
-        friction = dataclasses.replace(
-            friction,
-            pendulum=JointFrictionParameters(
-                model="static", coulomb_pos=level_Nm, coulomb_neg=level_Nm, viscous=damping
-            ),
-        )
-    elif effect == "encoder_quantization":
-        encoder = dataclasses.replace(
-            config.encoder, counts_per_rev=config.encoder.counts_per_rev // max(2, round(4 * level))
-        )
-        return dataclasses.replace(config, encoder=encoder)
-    elif effect == "measurement_noise":
-        noise = 1.5 * k * rig.encoder_resolution
-        return dataclasses.replace(config, encoder=dataclasses.replace(config.encoder, noise_std=noise))
-    elif effect == "input_delay":
-        delay = (1.5 + 1.5 * k) * period  # 3 and 4.5 control periods
-        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, delay=delay))
-    elif effect == "torque_gain_error":
-        gain = 1.0 - 0.2 * k if k <= 1.0 else 1.0 + 0.35 * (k - 1.0)
-        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, gain=gain))
-    elif effect == "actuator_deadzone":
-        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, deadzone=0.03 * k * mgl))
-    elif effect == "actuator_lag":
-        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, lag_time_constant=0.006 * k))
-    elif effect == "actuator_saturation":
-        limit = config.controller.lqr.torque_limit * max(0.7 - 0.2 * k, 0.1)
-        return dataclasses.replace(config, actuator=dataclasses.replace(config.actuator, saturation=limit))
-    elif effect == "arm_spring":
-        stiffness = 0.25 * k * mgl  # N m/rad: a cable that pulls back with a quarter of m g l per radian
-        return dataclasses.replace(
-            config,
-            disturbance=dataclasses.replace(
-                config.disturbance, arm_spring_stiffness=stiffness, arm_spring_equilibrium=0.05
-            ),
-        )
-    elif effect == "inertia_mismatch":
-        return dataclasses.replace(
-            config,
-            rig=dataclasses.replace(
-                rig, pendulum_mass=rig.pendulum_mass * (1.0 + 0.2 * k), arm_inertia=rig.arm_inertia * (1.0 - 0.15 * k)
-            ),
-        )
-    elif effect == OUTSIDE_VOCABULARY:
-        return dataclasses.replace(
-            config,
-            disturbance=dataclasses.replace(config.disturbance, cogging_amplitude=0.04 * k * mgl, cogging_periods=12),
-        )
-    else:
+    if effect not in REALISATIONS:
         raise ValueError(f"unknown effect {effect!r}")
-    return dataclasses.replace(config, friction=friction)
+    return REALISATIONS[effect](config, float(level))
 
 
 def run_configs(rig: RigParameters, seed: int, duration: float) -> dict[str, SimulationConfig]:

@@ -49,12 +49,8 @@ def _coulomb(level):
     return {"arm_friction": friction}, lambda th, p, td, pd: -level * np.tanh(pd / 0.02)
 
 
-def cases() -> list[dict]:
-    """Each case: name, truth (in words), kind (outside | control | no_state), the world's changes, and the true
-    torques beyond the vocabulary per joint (functions of the logged state) and, for a control, the listed
-    effect's torque."""
-    offset = 4 * 2 * math.pi / RIG.counts_per_rev
-    coulomb_world, coulomb_torque = _coulomb(0.08 * MGL)
+def _cogging_cases() -> list[dict]:
+    """Cogging torque of 0.1 m g l on the arm at 6, 12 and 20 periods per turn."""
     out = []
     for periods in (6, 12, 20):
         a = 0.1 * MGL
@@ -67,7 +63,14 @@ def cases() -> list[dict]:
                 arm=lambda th, p, td, pd, a=a, n=periods: -a * np.sin(n * p),
             )
         )
-    out += [
+    return out
+
+
+def _outside_state_cases() -> list[dict]:
+    """The other outside effects with a torque of the state: a pendulum encoder zeroed 4 counts off the upright,
+    quadratic arm drag, a tilted base, an arm friction varying with the arm angle."""
+    offset = 4 * 2 * math.pi / RIG.counts_per_rev
+    return [
         dict(
             name="theta_encoder_offset",
             truth="pendulum -mgl sin(4 counts) cos(theta)",
@@ -96,6 +99,12 @@ def cases() -> list[dict]:
             world=dict(friction_ripple=0.06 * MGL),
             arm=lambda th, p, td, pd: -0.06 * MGL * np.sin(p) * np.tanh(pd / 0.01),
         ),
+    ]
+
+
+def _no_state_cases() -> list[dict]:
+    """Outside effects with no torque of the state to compare with: gear backlash, an arm encoder zeroed off."""
+    return [
         dict(
             name="backlash",
             truth="(not a torque of the state)",
@@ -108,6 +117,14 @@ def cases() -> list[dict]:
             kind="no_state",
             world=dict(encoder_offset=(0.0, 0.05)),
         ),
+    ]
+
+
+def _control_cases() -> list[dict]:
+    """Vocabulary effects with their listed torque: arm Coulomb friction 0.08 m g l, arm viscous friction, and the
+    Coulomb friction beside cogging."""
+    coulomb_world, coulomb_torque = _coulomb(0.08 * MGL)
+    return [
         dict(
             name="control_coulomb",
             truth="none (Coulomb 0.08 mgl listed)",
@@ -131,7 +148,13 @@ def cases() -> list[dict]:
             arm=lambda th, p, td, pd: -0.1 * MGL * np.sin(12 * p),
         ),
     ]
-    return out
+
+
+def cases() -> list[dict]:
+    """Each case: name, truth (in words), kind (outside | control | no_state), the world's changes, and the true
+    torques beyond the vocabulary per joint (functions of the logged state) and, for a control, the listed
+    effect's torque."""
+    return _cogging_cases() + _outside_state_cases() + _no_state_cases() + _control_cases()
 
 
 def write_case(case: dict, folder: Path, seconds: float) -> np.ndarray:
