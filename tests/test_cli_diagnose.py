@@ -6,7 +6,7 @@ import pytest
 
 from benchmarks.suite import VOCABULARY, run_configs
 from furuta_drake.cli import main
-from furuta_drake.diagnosis.report import SPEC_KEYS
+from furuta_drake.diagnosis.result import SPEC_KEYS
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig
 from furuta_drake.simulate import simulate

@@ -35,6 +35,7 @@ from furuta_drake.diagnosis.formatting import number, percent
 from furuta_drake.diagnosis.localize import band_power
 from furuta_drake.diagnosis.logs import WindowResiduals
 from furuta_drake.diagnosis.report_charts import chart_svgs, svg, windows_chart
+from furuta_drake.diagnosis.result import SPEC_KEYS
 from furuta_drake.diagnosis.torque_report import plot_torque, torque_sentence
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects.surrogate import Model, applied_torque, spring_torque
@@ -44,7 +45,6 @@ from furuta_drake.rig import RigParameters
 from furuta_drake.yamlio import dump_yaml_dataclass, to_plain
 
 SIGNIFICANT_DIGITS = 6
-SPEC_KEYS = ("verdict", "effects", "gap", "ranking", "localization")
 _NUMBER = (int, float)
 FRICTION_EFFECTS = (
     "arm_coulomb_friction",

@@ -19,6 +19,9 @@ from furuta_drake.diagnosis.logs import WindowResiduals
 Number = float | None  # None: not finite (e.g. a diverged candidate's gap)
 
 
+SPEC_KEYS = ("verdict", "effects", "gap", "ranking", "localization")  # report.json's required keys, in this order
+
+
 @dataclass
 class GapFigures:
     """The gap metric's figures: nominal and with the accepted effects, train and held-out [counts]."""
@@ -114,8 +117,6 @@ class Diagnosis:
     unmodelled_torque: dict = field(default_factory=dict)  # joint -> the torque beyond the vocabulary (kept only)
     artifacts: Artifacts | None = field(default=None, repr=False, compare=False)  # not in report.json
 
-    SPEC_KEYS = ("verdict", "effects", "gap", "ranking", "localization")
-
     def to_json(self) -> dict:
         """The ``report.json`` object (plain dicts and lists; optional keys without content left out)."""
         out = {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "artifacts"}
@@ -125,7 +126,7 @@ class Diagnosis:
             del out["confusable"]
         if not self.unmodelled_torque:
             del out["unmodelled_torque"]
-        return {**{key: out.pop(key) for key in self.SPEC_KEYS}, **out}
+        return {**{key: out.pop(key) for key in SPEC_KEYS}, **out}
 
     @classmethod
     def from_json(cls, data: dict) -> Diagnosis:
