@@ -23,7 +23,7 @@ the rival's fit would set the effect to nothing), so only the rival as the truth
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from furuta_drake.design.closed_loop import CLOSED_LOOP_SHARE, closed_loop_sizes, limited_targets
 from furuta_drake.design.rollout import nominal_lqr_gain
@@ -116,97 +116,17 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
     steps = [step["effect"] for step in report["steps"]]
     final = _entry(ranked, steps, len(steps)) if steps else None
     accepted = entry_effects(final) if final else {}
-    hypotheses = [Hypothesis(_name(accepted), accepted, apply_effects(nominal, accepted), "accepted")]
-    pairs, notes = [], []
-
-    def add(effects: dict[str, Effect], role: str, step: int, new: tuple[str, str], why: str, nested: bool):
-        name = _name(effects)
-        if any(h.name == name for h in hypotheses):
-            return
-        hypotheses.append(Hypothesis(name, effects, apply_effects(nominal, effects), role))
-        pairs.append(Pair(0, len(hypotheses) - 1, step, {k: accepted[k] for k in steps[: step - 1]}, new, why, nested))
-
+    rivals = _Rivals(
+        nominal, accepted, steps, [Hypothesis(_name(accepted), accepted, apply_effects(nominal, accepted), "accepted")]
+    )
+    notes = []
     if targets:
-        limits = {limit["effect"]: limit for limit in report["detection_limits"]}
-        scales = scales_of(train_logs, nominal)
-        for name, size in targets:
-            if name in accepted or law_of(name) & set(accepted):
-                raise ConfigError(
-                    f"--target {name}={size:g}: the diagnosis already accepted {name} (or a variant of its law)"
-                )
-            effect, increment = _target_effect(name, size, scales, hypotheses[0].model)
-            limit = limits.get(name, {}).get("value")
-            if limit is not None and _target_effect(name, limit, scales, hypotheses[0].model)[1] <= increment:
-                notes.append(
-                    f"--target {name}={size:g}: these logs already detect it (detection limit {limit:.4g} "
-                    f"{INJECTIONS[name].param}); no experiment is needed for it"
-                )
-                continue
-            add(
-                {**accepted, name: effect},
-                "target",
-                len(steps) + 1,
-                ("", name),
-                f"{name} at {INJECTIONS[name].param} = {size:g}, below what these logs detect "
-                f"({'not detected at any size' if limit is None else f'limit {limit:.4g}'})",
-                nested=True,
-            )
+        notes = _add_targets(rivals, report, train_logs, targets)
     else:
-        chosen_at = {k + 1: name for k, name in enumerate(steps)}
-        for pair in report.get("confusable", []):
-            chosen, other = pair["effects"]
-            step = next((k for k, name in chosen_at.items() if name == chosen), None)
-            entry = _entry(ranked, steps[: step - 1] + [other], step) if step else None
-            if entry is not None:
-                add(
-                    _rival(accepted, steps, step, entry),
-                    "rival",
-                    step,
-                    (chosen, other),
-                    f"confusable at step {step}: {pair['why']}",
-                    nested=False,
-                )
-        for step, chosen in chosen_at.items():
-            reference = _entry(ranked, steps[:step], step)
-            for entry in ranked if reference else []:
-                other = entry["effect"].split("+")[-1]
-                if (
-                    entry["step"] == step
-                    and other != chosen
-                    and entry["effect"].split("+")[:-1] == steps[: step - 1]
-                    and entry["heldout_reduction"] >= reference["heldout_reduction"] - NEAR
-                ):
-                    add(
-                        _rival(accepted, steps, step, entry),
-                        "rival",
-                        step,
-                        (chosen, other),
-                        f"at step {step}, {other} reduces the nominal held-out gap by "
-                        f"{entry['heldout_reduction']:.1%}, within {NEAR:.0%} of {chosen}'s "
-                        f"{reference['heldout_reduction']:.1%}",
-                        nested=False,
-                    )
-        following = sorted(
-            (
-                entry
-                for entry in ranked
-                if entry["step"] == len(steps) + 1
-                and entry["effect"].split("+")[:-1] == steps
-                and (entry["reduction_over_previous"] or 0.0) >= NEXT_STEP_REDUCTION
-            ),
-            key=lambda entry: -entry["reduction_over_previous"],
-        )
-        for entry in following[:MAX_NEXT_STEP]:
-            other = entry["effect"].split("+")[-1]
-            add(
-                {**accepted, other: entry_effects(entry)[other]},
-                "rival",
-                len(steps) + 1,
-                ("", other),
-                f"{other} reduces the held-out gap the accepted model leaves by {entry['reduction_over_previous']:.1%}"
-                f" without being accepted",
-                nested=True,
-            )
+        _add_confusable(rivals, report, ranked)
+        _add_within_near(rivals, ranked)
+        _add_next_step(rivals, ranked)
+    pairs = rivals.pairs
     limited = _limits_that_matter(report, rig, train_logs) if not pairs and not targets else None
     if limited is not None:  # the verdict is limited by what the logs can see, not by a rival
         return limited
@@ -218,7 +138,131 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
             if not targets
             else "nothing to separate: every --target is already detected by the diagnosis' logs"
         )
-    return Hypotheses(nominal, hypotheses, pairs, notes)
+    return Hypotheses(nominal, rivals.hypotheses, pairs, notes)
+
+
+@dataclass
+class _Rivals:
+    """The hypotheses read so far (the accepted one first) and each one's pair with the accepted model."""
+
+    nominal: Model
+    accepted: dict[str, Effect]
+    steps: list[str]  # the accepted effects in the order of their steps
+    hypotheses: list[Hypothesis]
+    pairs: list[Pair] = field(default_factory=list)
+
+    def add(self, effects: dict[str, Effect], role: str, step: int, new: tuple[str, str], why: str, nested: bool):
+        """Add the model of ``effects`` paired with the accepted one at ``step``, unless it is already held."""
+        name = _name(effects)
+        if any(h.name == name for h in self.hypotheses):
+            return
+        self.hypotheses.append(Hypothesis(name, effects, apply_effects(self.nominal, effects), role))
+        previous = {k: self.accepted[k] for k in self.steps[: step - 1]}
+        self.pairs.append(Pair(0, len(self.hypotheses) - 1, step, previous, new, why, nested))
+
+
+def _add_targets(rivals: _Rivals, report: dict, train_logs, targets: list[tuple[str, float]]) -> list[str]:
+    """Add the accepted model plus each ``--target`` effect at its size below the detection limit; returns notes
+    on the targets the logs already detect. ConfigError when a target is already accepted."""
+    accepted, steps, notes = rivals.accepted, rivals.steps, []
+    limits = {limit["effect"]: limit for limit in report["detection_limits"]}
+    scales = scales_of(train_logs, rivals.nominal)
+    for name, size in targets:
+        if name in accepted or law_of(name) & set(accepted):
+            raise ConfigError(
+                f"--target {name}={size:g}: the diagnosis already accepted {name} (or a variant of its law)"
+            )
+        effect, increment = _target_effect(name, size, scales, rivals.hypotheses[0].model)
+        limit = limits.get(name, {}).get("value")
+        if limit is not None and _target_effect(name, limit, scales, rivals.hypotheses[0].model)[1] <= increment:
+            notes.append(
+                f"--target {name}={size:g}: these logs already detect it (detection limit {limit:.4g} "
+                f"{INJECTIONS[name].param}); no experiment is needed for it"
+            )
+            continue
+        rivals.add(
+            {**accepted, name: effect},
+            "target",
+            len(steps) + 1,
+            ("", name),
+            f"{name} at {INJECTIONS[name].param} = {size:g}, below what these logs detect "
+            f"({'not detected at any size' if limit is None else f'limit {limit:.4g}'})",
+            nested=True,
+        )
+    return notes
+
+
+def _add_confusable(rivals: _Rivals, report: dict, ranked: list[dict]) -> None:
+    """Add the rival of each confusable pair of ``report``: the accepted model with the chosen effect's step
+    replaced by the other effect's fit at that step."""
+    steps = rivals.steps
+    chosen_at = {k + 1: name for k, name in enumerate(steps)}
+    for pair in report.get("confusable", []):
+        chosen, other = pair["effects"]
+        step = next((k for k, name in chosen_at.items() if name == chosen), None)
+        entry = _entry(ranked, steps[: step - 1] + [other], step) if step else None
+        if entry is not None:
+            rivals.add(
+                _rival(rivals.accepted, steps, step, entry),
+                "rival",
+                step,
+                (chosen, other),
+                f"confusable at step {step}: {pair['why']}",
+                nested=False,
+            )
+
+
+def _add_within_near(rivals: _Rivals, ranked: list[dict]) -> None:
+    """Add, at every accepted step, the rivals whose held-out reduction is within ``NEAR`` of the chosen
+    effect's."""
+    steps = rivals.steps
+    for step, chosen in {k + 1: name for k, name in enumerate(steps)}.items():
+        reference = _entry(ranked, steps[:step], step)
+        for entry in ranked if reference else []:
+            other = entry["effect"].split("+")[-1]
+            if (
+                entry["step"] == step
+                and other != chosen
+                and entry["effect"].split("+")[:-1] == steps[: step - 1]
+                and entry["heldout_reduction"] >= reference["heldout_reduction"] - NEAR
+            ):
+                rivals.add(
+                    _rival(rivals.accepted, steps, step, entry),
+                    "rival",
+                    step,
+                    (chosen, other),
+                    f"at step {step}, {other} reduces the nominal held-out gap by "
+                    f"{entry['heldout_reduction']:.1%}, within {NEAR:.0%} of {chosen}'s "
+                    f"{reference['heldout_reduction']:.1%}",
+                    nested=False,
+                )
+
+
+def _add_next_step(rivals: _Rivals, ranked: list[dict]) -> None:
+    """Add the accepted model plus each of the (at most ``MAX_NEXT_STEP``) next-step candidates that reduce what
+    it leaves by at least ``NEXT_STEP_REDUCTION``, largest reduction first."""
+    steps = rivals.steps
+    following = sorted(
+        (
+            entry
+            for entry in ranked
+            if entry["step"] == len(steps) + 1
+            and entry["effect"].split("+")[:-1] == steps
+            and (entry["reduction_over_previous"] or 0.0) >= NEXT_STEP_REDUCTION
+        ),
+        key=lambda entry: -entry["reduction_over_previous"],
+    )
+    for entry in following[:MAX_NEXT_STEP]:
+        other = entry["effect"].split("+")[-1]
+        rivals.add(
+            {**rivals.accepted, other: entry_effects(entry)[other]},
+            "rival",
+            len(steps) + 1,
+            ("", other),
+            f"{other} reduces the held-out gap the accepted model leaves by {entry['reduction_over_previous']:.1%}"
+            f" without being accepted",
+            nested=True,
+        )
 
 
 def _limits_that_matter(report: dict, rig, train_logs) -> Hypotheses | None:

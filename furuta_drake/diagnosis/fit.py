@@ -210,24 +210,8 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     bootstrap samples per effect, cost)."""
     settings, counts = task.settings, task.nominal_counts
     scales = scales_of(task.logs, task.model)
-    forms = (
-        {}
-        if task.frozen
-        else {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items() if CANDIDATES[name].fit}
-    )
-    for name, form_name in new_form.items():
-        forms[name] = (
-            form_name,
-            [list(task.start.values)] if task.start is not None else CANDIDATES[name].form(form_name).starts(scales),
-        )
-    sensors = {name: effect for name, effect in task.fixed.items() if task.frozen or not CANDIDATES[name].fit}
-    names = tuple(forms)
-    lows, highs, sizes, starts = [], [], [], [[]]
-    for name in names:
-        low, high = CANDIDATES[name].form(forms[name][0]).bounds(scales)
-        lows, highs, sizes = lows + low, highs + high, sizes + [len(low)]
-        starts = [s + list(t) for s in starts for t in forms[name][1]]
-    low, high = np.array(lows), np.array(highs)
+    forms, sensors = _forms(task, new_form, scales)
+    names, sizes, low, high, starts = _stacked(forms, scales)
     span = high - low
     base = apply_effects(task.model, sensors)
 
@@ -257,18 +241,10 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         linearised.update(last)  # the bootstrap at the fit's x needs these again
         return np.column_stack([_flat(column) for column in last["columns"]])
 
-    candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
     screen = subset.subset(settings.start_windows, seed=settings.seed + 1)
-    x0 = (
-        candidates[0]
-        if len(candidates) == 1
-        else min(
-            candidates, key=lambda x: float(np.sum(_flat(projected_residuals(model_at(x), screen, counts)[0]) ** 2))
-        )
-    )
     result = least_squares(
         cost,
-        x0,
+        _best_start(starts, low, high, model_at, screen, counts),
         jac=jacobian,
         bounds=(low, high),
         x_scale=np.maximum(span, 1e-12) / 10.0,
@@ -292,6 +268,45 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         split,
         total,
     )
+
+
+def _forms(task: FitTask, new_form: dict[str, str], scales: Scales) -> tuple[dict, dict]:
+    """Per fitted effect its form and starts (a fixed effect from its values, the new one from ``task.start`` or
+    its form's starts), and the effects held as they are (sensor effects, or every fixed one when frozen)."""
+    forms = (
+        {}
+        if task.frozen
+        else {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items() if CANDIDATES[name].fit}
+    )
+    for name, form_name in new_form.items():
+        forms[name] = (
+            form_name,
+            [list(task.start.values)] if task.start is not None else CANDIDATES[name].form(form_name).starts(scales),
+        )
+    sensors = {name: effect for name, effect in task.fixed.items() if task.frozen or not CANDIDATES[name].fit}
+    return forms, sensors
+
+
+def _stacked(forms: dict, scales: Scales):
+    """The fitted parameters stacked in one vector: (effect names, their sizes, lower and upper bounds, every
+    combination of the effects' starts)."""
+    names = tuple(forms)
+    lows, highs, sizes, starts = [], [], [], [[]]
+    for name in names:
+        low, high = CANDIDATES[name].form(forms[name][0]).bounds(scales)
+        lows, highs, sizes = lows + low, highs + high, sizes + [len(low)]
+        starts = [s + list(t) for s in starts for t in forms[name][1]]
+    return names, sizes, np.array(lows), np.array(highs), starts
+
+
+def _best_start(starts: list, low: np.ndarray, high: np.ndarray, model_at, screen: Windows, counts: int) -> np.ndarray:
+    """The start (clipped inside the bounds) of least squared residual on the ``screen`` windows; the only one
+    without a screen."""
+    span = high - low
+    candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
+    if len(candidates) == 1:
+        return candidates[0]
+    return min(candidates, key=lambda x: float(np.sum(_flat(projected_residuals(model_at(x), screen, counts)[0]) ** 2)))
 
 
 def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bounds, levels):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from furuta_drake.diagnosis.detection import detection_limits
 from furuta_drake.diagnosis.fit import FitResult, interval, scales_of
 from furuta_drake.diagnosis.folds import consistency
 from furuta_drake.diagnosis.gap import (
+    Windows,
     evaluate_gap,
     gap_metric_definition,
     horizon_seconds,
@@ -26,7 +28,7 @@ from furuta_drake.diagnosis.gap import (
 )
 from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.logs import ignored_columns_note, load_logs
+from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs
 from furuta_drake.diagnosis.missing_torque import beyond_vocabulary
 from furuta_drake.diagnosis.parallel import TaskPool, run_tasks
 from furuta_drake.diagnosis.per_log import heldout_rms_per_log
@@ -44,6 +46,7 @@ from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
 from furuta_drake.errors import ConfigError
+from furuta_drake.rig import RigParameters
 from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import locate_in_file
 
@@ -157,16 +160,65 @@ def _diagnose(
 ) -> Diagnosis:
     """:func:`diagnose` with its worker ``pool`` and ``background`` threads for the folds and the replays."""
     settings.validate()
-    rig_path = Path(rig)
-    rig_params = load_rig(rig_path)
-    if rig_params.unmodelled_torque is not None:  # the surrogate's fits could not hold it: refused, not ignored
-        raise locate_in_file(
-            rig_path,
-            ConfigError(
-                "unmodelled_torque: a diagnosis cannot start from a stated torque beyond the vocabulary (its fits "
-                "would leave it out); remove the key to diagnose, keep it to simulate"
-            ),
+    inputs = _inputs(Path(rig), train, heldout, candidates, log_format)
+    run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress, pool=pool)
+    fold_check = None
+    if folds is not None and folds >= 2:
+        fold_check = background.submit(
+            consistency, inputs.all_logs, inputs.rig, inputs.nominal, inputs.names, settings, run, folds
         )
+    selection, bootstrap, missing, torque_notes = _select(inputs, settings, run)
+    replay_run = partial(run_tasks, workers=workers, scheduler=scheduler, pool=pool)
+    heldout_gaps, limits = _heldout_gaps(inputs, selection, settings, bootstrap, replay_run, background)
+    record = input_record(
+        rig_path=inputs.rig_path,
+        train=train,
+        heldout=heldout,
+        seeds={"bootstrap": settings.seed, "fit_windows": settings.seed},
+        options={
+            "workers": workers,
+            "scheduler": scheduler,
+            "holdout": inputs.holdout_note,
+            "candidates": inputs.names,
+            "folds": folds,
+            "settings": dataclasses.asdict(settings),
+            "log_format": log_format.record(),
+        },
+    )
+    return _diagnosis(
+        inputs,
+        settings,
+        selection,
+        bootstrap,
+        heldout_gaps=heldout_gaps,
+        limits=limits,
+        consistency_result=_consistency(fold_check, inputs.nominal),
+        missing=missing,
+        notes=inputs.notes + torque_notes,
+        record=record,
+    )
+
+
+@dataclass(frozen=True)
+class _Inputs:
+    """The checked inputs of a diagnosis: the rig file and its nominal model, the logs (``all_logs`` for the
+    folds) split into the logs fitted on and their train and held-out windows, the candidate effects."""
+
+    rig_path: Path
+    rig: RigParameters
+    nominal: Model
+    all_logs: list[RunLog]
+    fit_logs: list[RunLog]
+    train_windows: Windows
+    heldout_windows: Windows
+    holdout_note: str
+    names: list[str]
+    notes: list[str]  # on the logs' columns left unread
+
+
+def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -> _Inputs:
+    """Load and check the rig file, the logs and the candidates; split the logs and cut their windows."""
+    rig_params = _diagnosable_rig(rig_path)
     train_logs = load_logs(train, rig_params, rig_path, log_format)
     heldout_logs = load_logs(heldout, rig_params, rig_path, log_format) if heldout else []
     notes = [note for note in [ignored_columns_note(train_logs + heldout_logs)] if note]
@@ -179,43 +231,78 @@ def _diagnose(
     unknown = [name for name in names if name not in CANDIDATES]
     if unknown:
         raise ConfigError(f"unknown candidate effect {', '.join(unknown)} (the vocabulary: {', '.join(CANDIDATES)})")
-    counts = rig_params.counts_per_rev
-    nominal = rig_model(rig_params)
-    train_windows, heldout_windows = make_windows(fit_logs, rig_params), make_windows(test_logs, rig_params)
-    run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress, pool=pool)
-    fold_check = None
-    if folds is not None and folds >= 2:
-        fold_check = background.submit(
-            consistency, train_logs + heldout_logs, rig_params, nominal, names, settings, run, folds
-        )
-    selection = select_effects(nominal, fit_logs, train_windows, heldout_windows, counts, names, settings, run)
-    bootstrap = Bootstrap(heldout_windows.count, settings.bootstrap, settings.seed)
-    missing, torque_notes = beyond_vocabulary(
-        selection, nominal, train_windows, heldout_windows, counts, bootstrap, settings
+    return _Inputs(
+        rig_path,
+        rig_params,
+        rig_model(rig_params),
+        train_logs + heldout_logs,
+        fit_logs,
+        make_windows(fit_logs, rig_params),
+        make_windows(test_logs, rig_params),
+        holdout_note,
+        names,
+        notes,
     )
-    notes += torque_notes
-    torque = torque_record(missing) if missing else {}
-    final = selection.final if selection.effects else None
-    accepted_model = apply_effects(nominal, final.effects) if final else nominal
 
-    # The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
-    # replay fails); the replays run on the workers while this process finds the detection limits.
-    replays = [(nominal, selection.nominal.initial_states)]
+
+def _diagnosable_rig(rig_path: Path) -> RigParameters:
+    """The rig file; ConfigError naming its line when it states a torque beyond the vocabulary."""
+    rig_params = load_rig(rig_path)
+    if rig_params.unmodelled_torque is not None:  # the surrogate's fits could not hold it: refused, not ignored
+        raise locate_in_file(
+            rig_path,
+            ConfigError(
+                "unmodelled_torque: a diagnosis cannot start from a stated torque beyond the vocabulary (its fits "
+                "would leave it out); remove the key to diagnose, keep it to simulate"
+            ),
+        )
+    return rig_params
+
+
+def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
+    """The selection of effects, the held-out rule's bootstrap and the torque beyond the vocabulary (None when
+    none passes the rule) with its notes."""
+    counts = inputs.rig.counts_per_rev
+    selection = select_effects(
+        inputs.nominal,
+        inputs.fit_logs,
+        inputs.train_windows,
+        inputs.heldout_windows,
+        counts,
+        inputs.names,
+        settings,
+        run,
+    )
+    bootstrap = Bootstrap(inputs.heldout_windows.count, settings.bootstrap, settings.seed)
+    missing, torque_notes = beyond_vocabulary(
+        selection, inputs.nominal, inputs.train_windows, inputs.heldout_windows, counts, bootstrap, settings
+    )
+    return selection, bootstrap, missing, torque_notes
+
+
+def _heldout_gaps(inputs: _Inputs, selection: Selection, settings, bootstrap: Bootstrap, replay_run, background):
+    """The held-out gaps of the nominal and the accepted model with what evaluated them, and the detection limits.
+
+    The headline held-out figures come from Drake diagrams of the project's systems (the surrogate's when a
+    replay fails); the replays run on the workers while this process finds the detection limits."""
+    final = _final(selection)
+    accepted_model = _accepted_model(inputs.nominal, final)
+    replays = [(inputs.nominal, selection.nominal.initial_states)]
     if final:
         replays.append((accepted_model, final.heldout.initial_states))
-    replay_run = partial(run_tasks, workers=workers, scheduler=scheduler, pool=pool)
     replaying = (
-        background.submit(replay_gaps, replays, rig_params, heldout_windows, replay_run) if settings.replay else None
+        background.submit(replay_gaps, replays, inputs.rig, inputs.heldout_windows, replay_run)
+        if settings.replay
+        else None
     )
-
     limits = []
     if settings.detection_limits:
         limits = detection_limits(
             accepted_model,
             list(final.effects) if final else [],
-            heldout_windows,
-            scales_of(fit_logs, nominal),
-            counts,
+            inputs.heldout_windows,
+            scales_of(inputs.fit_logs, inputs.nominal),
+            inputs.rig.counts_per_rev,
             bootstrap,
             settings.seed,
         )
@@ -227,19 +314,94 @@ def _diagnose(
         if all(d is not None for d in drake)
         else "surrogate (the Drake replay " + ("was not run" if not settings.replay else "failed") + ")"
     )
-    nominal_heldout, accepted_heldout = gaps[0], gaps[-1]
-    train_nominal = evaluate_gap(nominal, train_windows, counts).gap
-    reduction = 1.0 - accepted_heldout.gap / nominal_heldout.gap if nominal_heldout.gap > 0 else 0.0
-    before = window_residuals(nominal_heldout, heldout_windows, rig_params)
-    after = window_residuals(accepted_heldout, heldout_windows, rig_params) if final else None
+    return (gaps[0], gaps[-1], evaluated_by), limits
 
+
+def _final(selection: Selection):
+    """The selection's final fit, None when it kept no effect."""
+    return selection.final if selection.effects else None
+
+
+def _accepted_model(nominal: Model, final) -> Model:
+    """The nominal model with the final fit's effects (the nominal one without a final fit)."""
+    return apply_effects(nominal, final.effects) if final else nominal
+
+
+def _consistency(fold_check, nominal: Model):
+    """The folds' consistency with its judgement, None without folds."""
     consistency_result = fold_check.result() if fold_check is not None else None
     if consistency_result is not None:
         consistency_result.judgement = consistency_judgement(
             consistency_result.verdicts, consistency_result.effects, consistency_result.params_range, nominal
         )
+    return consistency_result
+
+
+def _diagnosis(
+    inputs: _Inputs,
+    settings: DiagnosisSettings,
+    selection: Selection,
+    bootstrap: Bootstrap,
+    *,
+    heldout_gaps: tuple,
+    limits: list,
+    consistency_result,
+    missing,
+    notes: list[str],
+    record: dict,
+) -> Diagnosis:
+    """Assemble the :class:`Diagnosis` record from the stages' results: ``heldout_gaps`` (the nominal and the
+    accepted model's held-out gaps, what evaluated them), ``missing`` (the torque beyond the vocabulary or None)."""
+    nominal_heldout, accepted_heldout, evaluated_by = heldout_gaps
+    final, nominal, rig_params = _final(selection), inputs.nominal, inputs.rig
+    before = window_residuals(nominal_heldout, inputs.heldout_windows, rig_params)
+    after = window_residuals(accepted_heldout, inputs.heldout_windows, rig_params) if final else None
+    torque = torque_record(missing) if missing else {}
+    return Diagnosis(
+        verdict=selection.verdict,
+        effects=selection.effects,
+        gap=_gap_figures(inputs, final, nominal_heldout, accepted_heldout, evaluated_by, before, after),
+        ranking=widen(ranking(selection, nominal), selection, bootstrap, nominal),
+        localization=localize(
+            before,
+            after,
+            noise_variance=nominal_heldout.sensor_variance,
+            noise_variance_after=accepted_heldout.sensor_variance,
+        ),
+        steps=_steps(selection, nominal),
+        uncertainty=UNCERTAINTY,
+        detection_limits=limits,
+        confusable=[{"effects": pair["effects"], "why": confusable_why(pair)} for pair in selection.confusable],
+        consistency=consistency_result,
+        choice=choice_text(selection),
+        holdout=inputs.holdout_note,
+        rule=rule_text(settings.bootstrap, settings.seed, settings.max_effects),
+        notes=notes,
+        unmodelled_torque=torque,
+        artifacts=_artifacts(inputs, final, torque, missing, before, after, nominal_heldout.sensor_variance, record),
+    )
+
+
+def _gap_figures(inputs: _Inputs, final, nominal_heldout, accepted_heldout, evaluated_by, before, after) -> GapFigures:
+    """The gap of the nominal and the accepted model on train and held-out windows and its reduction."""
+    train_nominal = evaluate_gap(inputs.nominal, inputs.train_windows, inputs.rig.counts_per_rev).gap
+    reduction = 1.0 - accepted_heldout.gap / nominal_heldout.gap if nominal_heldout.gap > 0 else 0.0
+    return GapFigures(
+        gap_metric_definition(horizon_seconds(inputs.rig)),
+        {"train": train_nominal, "heldout": nominal_heldout.gap},
+        {"train": final.train_gap if final else train_nominal, "heldout": accepted_heldout.gap},
+        reduction,
+        nominal_heldout.per_signal,
+        evaluated_by,
+        heldout_rms_per_log(before, after),
+    )
+
+
+def _steps(selection: Selection, nominal: Model) -> list[Step]:
+    """Each accepted step's effect, parameters and held-out reductions (over nominal, the step, the others)."""
     steps = []
-    for name, result, over_step in zip(selection.kept, selection.accepted if final else [], selection.over_step):
+    accepted = selection.accepted if _final(selection) else []
+    for name, result, over_step in zip(selection.kept, accepted, selection.over_step):
         params, _ = _params(result, nominal)
         over_nominal, over_others = selection.over_nominal[result.name], selection.over_others[name]
         steps.append(
@@ -253,29 +415,21 @@ def _diagnose(
                 over_others.lower_bound,
             )
         )
-    record = input_record(
-        rig_path=rig_path,
-        train=train,
-        heldout=heldout,
-        seeds={"bootstrap": settings.seed, "fit_windows": settings.seed},
-        options={
-            "workers": workers,
-            "scheduler": scheduler,
-            "holdout": holdout_note,
-            "candidates": names,
-            "folds": folds,
-            "settings": dataclasses.asdict(settings),
-            "log_format": log_format.record(),
-        },
-    )
+    return steps
+
+
+def _artifacts(inputs: _Inputs, final, torque: dict, missing, before, after, sensor_variance, record) -> Artifacts:
+    """The residual tables, effect curves, fitted config and rig files and the input record."""
+    nominal, rig_params = inputs.nominal, inputs.rig
+    accepted_model = _accepted_model(nominal, final)
     curves = [
         effect_curve(name, describe(name, effect, nominal), rig_params)
         for name, effect in (final.effects.items() if final else [])
     ]
-    artifacts = Artifacts(
+    return Artifacts(
         before,
         after,
-        nominal_heldout.sensor_variance,
+        sensor_variance,
         curves,
         fitted_config=model_config(rig_params, accepted_model, torque_parameters(torque) if torque else None),
         fitted_rig=fitted_rig(
@@ -283,35 +437,4 @@ def _diagnose(
         ),
         record=record,
         torque_scatter=missing.scatter if missing else {},
-    )
-    return Diagnosis(
-        verdict=selection.verdict,
-        effects=selection.effects,
-        gap=GapFigures(
-            gap_metric_definition(horizon_seconds(rig_params)),
-            {"train": train_nominal, "heldout": nominal_heldout.gap},
-            {"train": final.train_gap if final else train_nominal, "heldout": accepted_heldout.gap},
-            reduction,
-            nominal_heldout.per_signal,
-            evaluated_by,
-            heldout_rms_per_log(before, after),
-        ),
-        ranking=widen(ranking(selection, nominal), selection, bootstrap, nominal),
-        localization=localize(
-            before,
-            after,
-            noise_variance=nominal_heldout.sensor_variance,
-            noise_variance_after=accepted_heldout.sensor_variance,
-        ),
-        steps=steps,
-        uncertainty=UNCERTAINTY,
-        detection_limits=limits,
-        confusable=[{"effects": pair["effects"], "why": confusable_why(pair)} for pair in selection.confusable],
-        consistency=consistency_result,
-        choice=choice_text(selection),
-        holdout=holdout_note,
-        rule=rule_text(settings.bootstrap, settings.seed, settings.max_effects),
-        notes=notes,
-        unmodelled_torque=torque,
-        artifacts=artifacts,
     )
