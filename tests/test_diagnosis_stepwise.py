@@ -89,7 +89,7 @@ def _exchange_case(joint_excess: dict[frozenset, float], final_excess: float = 0
     bootstrap = Bootstrap(WINDOWS, 500, 0)
     kept = ["input_delay", "arm_coulomb_friction"]
     tried = [(1, _model([name], 0.6, i)) for i, name in enumerate(kept)] + [(2, _model(kept, final_excess, 9))]
-    selection = Selection(_gap(NOMINAL), tried, kept=list(kept))
+    selection = Selection(_gap(NOMINAL), tried, accepted=list(kept))
     selection.runners_up = {
         "input_delay": [("actuator_lag", Effect("", (0.01,))), ("arm_spring", Effect("", (0.001,)))],
         "arm_coulomb_friction": [("torque_gain_error", Effect("", (0.9,)))],
@@ -116,7 +116,7 @@ def test_a_runner_up_that_explains_the_data_clearly_better_beside_the_others_rep
     better = {frozenset(["arm_coulomb_friction", "actuator_lag"]): 0.03}
     selection, bootstrap, task, fit, asked = _exchange_case(better)
     assert _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
-    assert selection.kept == ["arm_coulomb_friction", "actuator_lag"]
+    assert selection.accepted == ["arm_coulomb_friction", "actuator_lag"]
     assert selection.exchanges[0]["out"] == "input_delay" and selection.exchanges[0]["in"] == "actuator_lag"
     assert set(asked) == {
         frozenset(["arm_coulomb_friction", "actuator_lag"]),
@@ -129,7 +129,7 @@ def test_no_exchange_when_the_runners_up_explain_the_data_no_better():
     """A lag leaving 97 % of the delay's excess (a 1.5 % smaller gap) is within the bootstrap's noise."""
     selection, bootstrap, task, fit, _ = _exchange_case({frozenset(["arm_coulomb_friction", "actuator_lag"]): 0.29})
     assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
-    assert selection.kept == ["input_delay", "arm_coulomb_friction"] and not selection.exchanges
+    assert selection.accepted == ["input_delay", "arm_coulomb_friction"] and not selection.exchanges
 
 
 def test_no_exchange_is_tried_when_the_final_model_is_at_the_floor():

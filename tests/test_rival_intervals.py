@@ -32,7 +32,7 @@ def _widened(rivals: list[tuple[float, float]]) -> dict:
     per entry of ``rivals``: the gain it moved to and the excess squared residual left [counts^2])."""
     nominal = _gap(4.0, 0)
     final = FitResult("torque_gain_error", {"torque_gain_error": Effect("", (0.8,))}, 0.3, _gap(0.09, 1))
-    selection = Selection(nominal, [(1, final)], kept=["torque_gain_error"])
+    selection = Selection(nominal, [(1, final)], accepted=["torque_gain_error"])
     for i, (gain, excess) in enumerate(rivals):
         effects = {
             "torque_gain_error": Effect("", (gain,)),

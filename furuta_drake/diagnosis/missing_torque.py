@@ -272,12 +272,12 @@ def beyond_vocabulary(selection, nominal: Model, train, heldout, counts, bootstr
     if final is not None and final.at_bounds:
         notes.append(f"fitted at the end of its search range: {', '.join(final.at_bounds)}")
     for name in stand_ins(final) if final is not None else []:
-        others = [other for other in selection.kept if other != name]
+        others = [other for other in selection.accepted if other != name]
         if any(selection.model(others[:k]) is None for k in range(1, len(others) + 1)):
             continue
         trial = beside(selection.model(others) if others else None)
         if trial is not None and trial.kept and trial.heldout.gap <= final.heldout.gap:
-            selection.kept = others
+            selection.accepted = others
             notes.append(
                 f"{name} stood in for a torque outside the vocabulary (fitted at its range's end or at an implausible "
                 f"size): the other effects with the unmodelled torque explain the held-out data as well"

@@ -208,7 +208,7 @@ class _Inputs:
     rig: RigParameters
     nominal: Model
     all_logs: list[RunLog]
-    fit_logs: list[RunLog]
+    train_logs: list[RunLog]
     train_windows: Windows
     heldout_windows: Windows
     holdout_note: str
@@ -219,14 +219,14 @@ class _Inputs:
 def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -> _Inputs:
     """Load and check the rig file, the logs and the candidates; split the logs and cut their windows."""
     rig_params = _diagnosable_rig(rig_path)
-    train_logs = load_logs(train, rig_params, rig_path, log_format)
-    heldout_logs = load_logs(heldout, rig_params, rig_path, log_format) if heldout else []
-    notes = [note for note in [ignored_columns_note(train_logs + heldout_logs)] if note]
-    if heldout_logs:
-        fit_logs, test_logs = train_logs, heldout_logs
-        holdout_note = "held-out logs: " + ", ".join(log.name for log in heldout_logs)
+    given_train = load_logs(train, rig_params, rig_path, log_format)
+    given_heldout = load_logs(heldout, rig_params, rig_path, log_format) if heldout else []
+    notes = [note for note in [ignored_columns_note(given_train + given_heldout)] if note]
+    if given_heldout:
+        train_logs, heldout_logs = given_train, given_heldout
+        holdout_note = "held-out logs: " + ", ".join(log.name for log in given_heldout)
     else:
-        fit_logs, test_logs, holdout_note = split_heldout(train_logs)
+        train_logs, heldout_logs, holdout_note = split_heldout(given_train)
     names = list(candidates or CANDIDATES)
     unknown = [name for name in names if name not in CANDIDATES]
     if unknown:
@@ -235,10 +235,10 @@ def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -
         rig_path,
         rig_params,
         rig_model(rig_params),
-        train_logs + heldout_logs,
-        fit_logs,
-        make_windows(fit_logs, rig_params),
-        make_windows(test_logs, rig_params),
+        given_train + given_heldout,
+        train_logs,
+        make_windows(train_logs, rig_params),
+        make_windows(heldout_logs, rig_params),
         holdout_note,
         names,
         notes,
@@ -265,7 +265,7 @@ def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
     counts = inputs.rig.counts_per_rev
     selection = select_effects(
         inputs.nominal,
-        inputs.fit_logs,
+        inputs.train_logs,
         inputs.train_windows,
         inputs.heldout_windows,
         counts,
@@ -301,7 +301,7 @@ def _heldout_gaps(inputs: _Inputs, selection: Selection, settings, bootstrap: Bo
             accepted_model,
             list(final.effects) if final else [],
             inputs.heldout_windows,
-            scales_of(inputs.fit_logs, inputs.nominal),
+            scales_of(inputs.train_logs, inputs.nominal),
             inputs.rig.counts_per_rev,
             bootstrap,
             settings.seed,
@@ -400,8 +400,8 @@ def _gap_figures(inputs: _Inputs, final, nominal_heldout, accepted_heldout, eval
 def _steps(selection: Selection, nominal: Model) -> list[Step]:
     """Each accepted step's effect, parameters and held-out reductions (over nominal, the step, the others)."""
     steps = []
-    accepted = selection.accepted if _final(selection) else []
-    for name, result, over_step in zip(selection.kept, accepted, selection.over_step):
+    accepted = selection.step_models if _final(selection) else []
+    for name, result, over_step in zip(selection.accepted, accepted, selection.over_step):
         params, _ = _params(result, nominal)
         over_nominal, over_others = selection.over_nominal[result.name], selection.over_others[name]
         steps.append(

@@ -72,7 +72,7 @@ def confusable_why(pair: dict) -> str:
 
 def choice_text(selection: Selection) -> str:
     """Why the verdict, in one paragraph."""
-    if not selection.kept:
+    if not selection.accepted:
         if selection.quiet:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
         if selection.negligible:
@@ -80,16 +80,16 @@ def choice_text(selection: Selection) -> str:
         return "No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's margin."
     total = selection.over_nominal[selection.final.name]
     text = (
-        f"The model holding {', '.join(selection.kept)} reduces the nominal held-out gap by {total.reduction:.1%} "
+        f"The model holding {', '.join(selection.accepted)} reduces the nominal held-out gap by {total.reduction:.1%} "
         f"(5 % lower bound {total.lower_bound:.1%}). "
     )
-    if len(selection.kept) > 1:
+    if len(selection.accepted) > 1:
         text += (
             "Without each of them the held-out gap of the others' model grows: "
             + "; ".join(
                 f"{name} brings {selection.over_others[name].reduction:.1%} (lower bound "
                 f"{selection.over_others[name].lower_bound:.1%})"
-                for name in selection.kept
+                for name in selection.accepted
             )
             + "."
         )

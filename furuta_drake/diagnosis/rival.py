@@ -28,7 +28,7 @@ def rival(selection: Selection, bootstrap: Bootstrap) -> FitResult | None:
     final = selection.final
     if final is None:
         return None
-    kept = set(selection.kept)
+    kept = set(selection.accepted)
     joint = [
         result
         for _, result in selection.tried
@@ -49,9 +49,9 @@ def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[s
     found = rival(selection, bootstrap)
     if found is None:
         return {}
-    final, several = selection.final, len(selection.kept) > 1
+    final, several = selection.final, len(selection.accepted) > 1
     out = {}
-    for name in selection.kept:
+    for name in selection.accepted:
         before = describe(name, final.effects[name], nominal)
         after = describe(name, found.effects[name], nominal)
         if before.get("form") != after.get("form"):

@@ -45,7 +45,7 @@ class Selection:
 
     nominal: GapResult  # the nominal model on the held-out windows
     tried: list[tuple[int, FitResult]]  # every model fitted, with its step (its number of effects)
-    kept: list[str] = field(default_factory=list)  # the accepted effects, in the order they entered
+    accepted: list[str] = field(default_factory=list)  # the accepted effects, in the order they entered
     over_nominal: dict[str, Comparison] = field(default_factory=dict)  # model name -> evidence over nominal
     over_previous: dict[str, Comparison] = field(default_factory=dict)  # ... over the model it was built on
     over_others: dict[str, Comparison] = field(default_factory=dict)  # kept effect -> final over final without it
@@ -61,17 +61,17 @@ class Selection:
         return next((r for _, r in self.tried if not r.failure and set(r.effects) == set(effects)), None)
 
     @property
-    def accepted(self) -> list[FitResult]:
+    def step_models(self) -> list[FitResult]:
         """The model after each accepted step: holding the first 1, 2, ... kept effects."""
-        return [self.model(self.kept[:k]) for k in range(1, len(self.kept) + 1)]
+        return [self.model(self.accepted[:k]) for k in range(1, len(self.accepted) + 1)]
 
     @property
     def final(self) -> FitResult | None:
-        return self.model(self.kept) if self.kept else None
+        return self.model(self.accepted) if self.accepted else None
 
     @property
     def closes(self) -> bool:
-        return bool(self.kept) and self.over_nominal[self.final.name].reduction >= CLOSES
+        return bool(self.accepted) and self.over_nominal[self.final.name].reduction >= CLOSES
 
     @property
     def negligible(self) -> bool:
@@ -81,7 +81,7 @@ class Selection:
 
     @property
     def verdict(self) -> str:
-        reduction = self.over_nominal[self.final.name].reduction if self.kept else None
+        reduction = self.over_nominal[self.final.name].reduction if self.accepted else None
         return verdict(self.effects, reduction, self.quiet or self.negligible)
 
     def nearest(self) -> FitResult | None:
@@ -96,7 +96,7 @@ class Selection:
         is static friction *above* it, its asymmetry levels that differ)."""
         if not self.closes:
             return []
-        return [_vocabulary_name(name, self.final.effects[name]) for name in self.kept]
+        return [_vocabulary_name(name, self.final.effects[name]) for name in self.accepted]
 
 
 def _vocabulary_name(name: str, effect: Effect) -> str:
@@ -142,7 +142,7 @@ class Stepwise:
 
     def select(self, names: list[str]) -> Selection:
         """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges."""
-        while len(self.selection.kept) < self.settings.max_effects and self.step(names):
+        while len(self.selection.accepted) < self.settings.max_effects and self.step(names):
             pass
         _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit)
         for _ in range(MAX_EXCHANGES):
@@ -196,11 +196,11 @@ class Stepwise:
         """One forward step: every candidate not yet held fitted beside the kept effects, the best refitted jointly,
         and the rule's choice (or, at the first step, a pair) entered. Returns whether one entered."""
         selection = self.selection
-        step, held = len(selection.kept) + 1, selection.final
+        step, held = len(selection.accepted) + 1, selection.final
         previous = held.heldout.per_window if held else self.nominal_gap.per_window
         if step > 1 and at_floor(previous):
             return False
-        pool = [name for name in names if not law_of(name) & set(selection.kept)]
+        pool = [name for name in names if not law_of(name) & set(selection.accepted)]
         fitted = {
             r.name: r
             for r in self.fit([self.task(name, held, frozen=step > 1) for name in pool], step, previous)
@@ -219,7 +219,7 @@ class Stepwise:
             if pair is not None:
                 for name in pair:
                     selection.runners_up[name] = _runners_up(name, evidence, added, fitted)
-                selection.kept += pair
+                selection.accepted += pair
                 return True
         if chosen is None:
             return False
@@ -228,7 +228,7 @@ class Stepwise:
         per_window[chosen] = fitted[chosen].heldout.per_window
         selection.confusable += confusable(chosen, evidence, added, previous, per_window, self.bootstrap)
         selection.runners_up[added[chosen]] = _runners_up(added[chosen], evidence, added, fitted)
-        selection.kept.append(added[chosen])
+        selection.accepted.append(added[chosen])
         return True
 
     def joint_refits(self, fitted: dict[str, FitResult], held: FitResult, step: int, previous) -> None:
@@ -273,10 +273,10 @@ def _exchange(
     final = selection.final
     if final is None or at_floor(final.heldout.per_window):  # nothing left to explain better
         return False
-    taken = set().union(*(law_of(name) for name in selection.kept))
+    taken = set().union(*(law_of(name) for name in selection.accepted))
     best = None
-    for name in selection.kept:
-        others = [other for other in selection.kept if other != name]
+    for name in selection.accepted:
+        others = [other for other in selection.accepted if other != name]
         held = selection.model(others) if others else None
         if any(selection.model(others[:k]) is None for k in range(1, len(others) + 1)):
             continue  # a model the report's steps need failed to fit
@@ -285,7 +285,7 @@ def _exchange(
         known = [selection.model([*others, r]) for r, _ in runners_up]
         missing = [task(r, held, start=start) for (r, start), model in zip(runners_up, known) if model is None]
         before = held.heldout.per_window if held else nominal_gap.per_window
-        fitted = fit(missing, len(selection.kept), before) if missing else []
+        fitted = fit(missing, len(selection.accepted), before) if missing else []
         fitted = [r if r.failure else best_form(r, t, before) for r, t in zip(fitted, missing)]
         for result in [model for model in known if model is not None] + fitted:
             if result.failure:
@@ -296,8 +296,8 @@ def _exchange(
     if best is None:
         return False
     name, result, evidence = best
-    new = next(effect for effect in result.effects if effect not in selection.kept)
-    selection.kept = [other for other in selection.kept if other != name] + [new]
+    new = next(effect for effect in result.effects if effect not in selection.accepted)
+    selection.accepted = [other for other in selection.accepted if other != name] + [new]
     selection.runners_up[new] = [(name, final.effects[name])] + [
         r for r in selection.runners_up.get(name, []) if r[0] != new
     ]
@@ -340,11 +340,11 @@ def _backward(
     enough (:func:`~furuta_drake.diagnosis.rule.decide`): every effect finally kept reduces the held-out gap of
     the model holding all the others by the rule's margin (an effect that entered beside a stronger one it
     masked must earn its place)."""
-    while selection.kept:
+    while selection.accepted:
         final = selection.final
         without = {}
-        for name in selection.kept:
-            others = [other for other in selection.kept if other != name]
+        for name in selection.accepted:
+            others = [other for other in selection.accepted if other != name]
             model = selection.model(others) if others else None
             if others and model is None:
                 held = selection.model(others[:-1]) if len(others) > 1 else None
@@ -363,16 +363,16 @@ def _backward(
             # (a model without it that failed to fit leaves the effect judged against the nominal model)
             reference = model.heldout.per_window if model else nominal_gap.per_window
             without[name] = bootstrap.evidence(reference, final.heldout.per_window)
-        failing = [name for name in selection.kept if not decide(without[name])]
+        failing = [name for name in selection.accepted if not decide(without[name])]
         if not failing:
             break
-        selection.kept.remove(min(failing, key=lambda name: without[name].lower_bound))
-    selection.over_others = {name: without[name] for name in selection.kept}
-    models = [nominal_gap] + [model.heldout for model in selection.accepted]
+        selection.accepted.remove(min(failing, key=lambda name: without[name].lower_bound))
+    selection.over_others = {name: without[name] for name in selection.accepted}
+    models = [nominal_gap] + [model.heldout for model in selection.step_models]
     selection.over_step = [
         bootstrap.evidence(before.per_window, after.per_window) for before, after in zip(models[:-1], models[1:])
     ]
-    selection.confusable = [pair for pair in selection.confusable if pair["effects"][0] in selection.kept]
+    selection.confusable = [pair for pair in selection.confusable if pair["effects"][0] in selection.accepted]
 
 
 def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
