@@ -230,30 +230,18 @@ def _evaluator(base, hypotheses, rig, scales, bounds, gain) -> Evaluator:
     open-loop command played from rest with the pendulum hanging."""
     period = rig.sample_period
     if gain is not None:
-        return Evaluator(
-            base,
-            hypotheses,
-            rig,
-            scales,
-            bounds,
-            lambda model, dithers: surrogate_closed_loop(
-                model, gain, dithers, period, rig.torque_limit, rig.counts_per_rev
-            ),
-            base.torque_dither,
-            None,
-            hanging=False,
-        )
-    return Evaluator(
-        base,
-        hypotheses,
-        rig,
-        scales,
-        bounds,
-        lambda model, commands: (surrogate_runs(model, commands, period), commands),
-        base.feedforward,
-        base.arm_motion,
-        hanging=True,
-    )
+
+        def runs(model, dithers):
+            return surrogate_closed_loop(model, gain, dithers, period, rig.torque_limit, rig.counts_per_rev)
+
+        signal, motion = base.torque_dither, None
+    else:
+
+        def runs(model, commands):
+            return surrogate_runs(model, commands, period), commands
+
+        signal, motion = base.feedforward, base.arm_motion
+    return Evaluator(base, hypotheses, rig, scales, bounds, runs, signal, motion, hanging=gain is None)
 
 
 def _refusal(search, hypotheses, family, bounds, balancing: bool, common: dict) -> Design | None:

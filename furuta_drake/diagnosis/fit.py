@@ -226,20 +226,8 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         return apply_effects(base, effects_at(x))
 
     subset = task.train.subset(settings.fit_windows, settings.seed)
-    last, linearised = {}, {}  # the last cost's residuals and states; the last Jacobian's, with its columns
-
-    def cost(x):
-        last.update(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), subset, counts)))
-        last["x"] = np.array(x)
-        return _flat(last["raw"])
-
-    def jacobian(x):
-        if "x" not in last or not np.array_equal(last["x"], x):
-            cost(x)
-        last["columns"] = _columns(model_at, x, subset, last, counts, span, high)
-        linearised.clear()
-        linearised.update(last)  # the bootstrap at the fit's x needs these again
-        return np.column_stack([_flat(column) for column in last["columns"]])
+    residuals = Residuals(model_at, subset, counts, span, high)
+    cost, jacobian, last, linearised = residuals.cost, residuals.jacobian, residuals.last, residuals.linearised
 
     screen = subset.subset(settings.start_windows, seed=settings.seed + 1)
     result = least_squares(
@@ -307,6 +295,32 @@ def _best_start(starts: list, low: np.ndarray, high: np.ndarray, model_at, scree
     if len(candidates) == 1:
         return candidates[0]
     return min(candidates, key=lambda x: float(np.sum(_flat(projected_residuals(model_at(x), screen, counts)[0]) ** 2)))
+
+
+class Residuals:
+    """A fit's residuals on ``windows`` as a function of its parameters (the initial states' share projected out,
+    :func:`~furuta_drake.diagnosis.gap.projected_residuals`) and their Jacobian (:func:`_columns`), for
+    ``scipy.optimize.least_squares``. ``last`` keeps the last evaluation (residuals, states, ``x``),
+    ``linearised`` the last Jacobian's with its columns (the bootstrap at the fit reuses them)."""
+
+    def __init__(self, model_at, windows: Windows, counts: int, span, high):
+        self.model_at, self.windows, self.counts, self.span, self.high = model_at, windows, counts, span, high
+        self.last, self.linearised = {}, {}
+
+    def cost(self, x) -> np.ndarray:
+        raw = projected_residuals(self.model_at(x), self.windows, self.counts)
+        self.last.update(zip(("raw", "states", "state_jacobians"), raw))
+        self.last["x"] = np.array(x)
+        return _flat(self.last["raw"])
+
+    def jacobian(self, x) -> np.ndarray:
+        last = self.last
+        if "x" not in last or not np.array_equal(last["x"], x):
+            self.cost(x)
+        last["columns"] = _columns(self.model_at, x, self.windows, last, self.counts, self.span, self.high)
+        self.linearised.clear()
+        self.linearised.update(last)
+        return np.column_stack([_flat(column) for column in last["columns"]])
 
 
 def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bounds, levels):

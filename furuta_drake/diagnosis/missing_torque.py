@@ -30,7 +30,7 @@ from scipy.optimize import least_squares
 from sklearn.linear_model import OrthogonalMatchingPursuit
 from threadpoolctl import threadpool_limits
 
-from furuta_drake.diagnosis.fit import _bootstrap, _columns, interval
+from furuta_drake.diagnosis.fit import Residuals, _bootstrap, interval
 from furuta_drake.diagnosis.gap import (
     GapResult,
     Windows,
@@ -162,19 +162,10 @@ def _refit(model: Model, start: list[tuple[int, int, float]], windows: Windows, 
     def model_at(x):
         return model.replace(unmodelled_terms=tuple((j, t, float(c)) for (j, t), c in zip(keys, x)))
 
-    last = {}
-
-    def cost(x):
-        last.update(zip(("raw", "states", "state_jacobians"), projected_residuals(model_at(x), windows, counts)))
-        last["x"] = np.array(x)
-        return _rows(last["raw"])
-
-    def jacobian(x):
-        if "x" not in last or not np.array_equal(last["x"], x):
-            cost(x)
-        return np.column_stack([_rows(c) for c in _columns(model_at, x, windows, last, counts, high - low, high)])
-
-    result = least_squares(cost, x0, jac=jacobian, bounds=(low, high), x_scale=span / 10, max_nfev=settings.max_nfev)
+    residuals = Residuals(model_at, windows, counts, high - low, high)
+    result = least_squares(
+        residuals.cost, x0, jac=residuals.jacobian, bounds=(low, high), x_scale=span / 10, max_nfev=settings.max_nfev
+    )
     samples = _bootstrap(model_at, result.x, windows, counts, high - low, low, high, settings, None)
     return model_at(result.x), samples
 
