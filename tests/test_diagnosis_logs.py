@@ -289,3 +289,11 @@ def test_valid_logs_round_trip(tmp_path_factory, period, n):
     np.testing.assert_allclose(log.theta, theta, atol=1e-11)
     np.testing.assert_allclose(log.torque_command, torque, atol=1e-11)
     assert log.input_kind == "torque" and log.name == "run.csv"
+
+
+def test_the_shipped_real_logs_are_the_six_documented_runs():
+    from furuta_drake.data import QUBE_REAL_DIR, qube_real_logs
+
+    logs = qube_real_logs()
+    assert [p.name for p in logs] == sorted(p.name for p in QUBE_REAL_DIR.glob("*.csv")) and len(logs) == 6
+    assert all(p.read_text().splitlines()[0] == "time,voltage,theta,phi" for p in logs)
