@@ -19,7 +19,7 @@ versions of the code: ``--compare DIR`` prints, per case, whether the verdict, e
 printed in ``report.md`` are identical to those of the reports in DIR).
 
 Run from the repository root, e.g.
-``PYTHONPATH=. python benchmarks/diagnosis_speed.py --suite own /tmp/own/suite/cases/* --workers 2``.
+``PYTHONPATH=. python benchmarks/diagnosis_speed.py --suite own runs/own/suite/cases/* --workers 2``.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ cases with a state torque); on the controls the torque claimed beyond the true o
 listed effect's torque RMS (target: <= 10 %). Backlash and the arm encoder offset have no torque of the state to
 compare with: their rows say what was found.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/unmodelled_torque.py --out /tmp/ut``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/unmodelled_torque.py --out runs/ut``
 (``--only WORD ...``: the cases whose name holds a word; ``--seconds S``: log length, default 6; ``--rescore``:
 score the reports already there again, the logs simulated again from the same seeds). Where the vocabulary took
 part of an outside arm torque (drag read as viscous friction), "error with listed" adds the accepted arm

@@ -1,11 +1,12 @@
 """Shared test constants, and the session's guard against reading outside the repository.
 
-The guard is an audit hook (``sys.addaudithook``) that records every ``open`` of a path under the repository's
-parent directory but outside the repository itself (a sibling checkout, a data folder beside the clone), except
-the Python installation, pytest's own temporary directories and, in the system's temporary directory, what this
-session made there or the tools' own scratch folders (Dask's, matplotlib's). A repository cloned into the
-temporary directory is guarded like any other: what lay beside it before the session is outside. A test that
-opened such a path fails at its teardown; an open outside any test (at import or collection) fails the session.
+The guard is an audit hook (``sys.addaudithook``) that records every ``open`` for reading of a path under the
+repository's parent directory but outside the repository itself (a sibling checkout, a data folder beside the
+clone), except the Python installation, pytest's own temporary directories and, in the system's temporary
+directory, what this session made there or the tools' own scratch folders (Dask's, matplotlib's). A repository
+cloned into the temporary directory is guarded like any other: what lay beside it before the session is outside. A
+test that opened such a path fails at its teardown; an open outside any test (at import or collection) fails the
+session.
 """
 
 from __future__ import annotations
@@ -77,8 +78,20 @@ def _is_outside_read(path) -> bool:
     )
 
 
+def _is_write(mode, flags) -> bool:
+    """Whether an ``open`` event writes (or creates) rather than reads: what the guard watches is reading."""
+    if isinstance(mode, str):
+        return any(c in mode for c in "wax")
+    return isinstance(flags, int) and bool(flags & (os.O_WRONLY | os.O_CREAT))
+
+
 def _audit(event: str, args) -> None:
-    if event == "open" and args and _is_outside_read(args[0]):
+    if event != "open" or not args:
+        return
+    mode, flags = (args[1] if len(args) > 1 else None), (args[2] if len(args) > 2 else None)
+    if _is_write(mode, flags):
+        return
+    if _is_outside_read(args[0]):
         OUTSIDE_READS.append(os.fsdecode(args[0]))
 
 
