@@ -54,7 +54,7 @@ def test_every_threshold_has_a_unit_and_a_meaning():
     names = [t.name for t in rule.THRESHOLDS]
     assert len(names) == len(set(names))
     for t in rule.THRESHOLDS:
-        assert getattr(rule, t.name) == t.value and t.meaning and t.unit in ("", "counts")
+        assert getattr(rule, t.name) == t.value and t.meaning and t.unit in ("", "counts", "factor")
 
 
 @pytest.mark.parametrize("reduction", [0.1, 0.3, 0.6, 0.95])

@@ -39,7 +39,7 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
-from furuta_drake.diagnosis.rule import Bootstrap, Comparison, is_kept
+from furuta_drake.diagnosis.rule import IMPLAUSIBLE_SCALE, Bootstrap, Comparison, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import JOINTS, TERMS, expression, term_values
@@ -47,8 +47,6 @@ from furuta_drake.effects.vocabulary import apply_effects
 
 TORQUE_WINDOWS = 200  # train windows the regression uses at the most (evenly drawn, seeded)
 FOLDS = 5  # cross-validation folds of whole windows
-IMPLAUSIBLE_SCALE = 2.0  # an inertia_mismatch scale beyond this factor either way is a stand-in: rig files state
-# masses and lengths to a few per cent, so a lumped constant off by 2x means the fit absorbs another effect
 MAX_TERMS = 6  # terms kept at the most
 CV_MARGIN = 0.01  # a further term must lower the cross-validated squared residual by more than one standard error
 # plus 1 % of the squared residual without a torque (a near-perfect fit's linearisation leaves a structured

@@ -114,7 +114,8 @@ def windows_table(localization: dict) -> Table:
 
 def rule_table() -> Table:
     """The acceptance rule's constants (imported from the selection's code) and what each decides."""
-    rows = [[t.name, f"{t.value} counts" if t.unit == "counts" else percent(t.value), t.meaning] for t in THRESHOLDS]
+    shown = {"counts": lambda v: f"{v} counts", "factor": lambda v: f"{v:g}x", "": percent}
+    rows = [[t.name, shown[t.unit](t.value), t.meaning] for t in THRESHOLDS]
     return ["constant", "value", "what it decides"], rows
 
 

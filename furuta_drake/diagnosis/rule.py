@@ -50,11 +50,12 @@ NOISE_STANDARD_ERRORS = 2.0
 LEVEL_EXCESS = 0.1
 NEAR = 0.05
 NEGLIGIBLE_COUNTS = 0.15
+IMPLAUSIBLE_SCALE = 2.0
 
 
 @dataclass(frozen=True)
 class Threshold:
-    """A number of the rule, with its unit ("" for a fraction) and what it decides."""
+    """A number of the rule, with its unit ("" for a fraction, "factor" for a ratio) and what it decides."""
 
     name: str
     value: float
@@ -81,6 +82,13 @@ THRESHOLDS = (
         "counts",
         "a gap left unexplained below it is no finding: its excess squared residual (0.0225 counts^2) is about a "
         "quarter of a rounding encoder's own variance (1/12 counts^2), so the verdict is none",
+    ),
+    Threshold(
+        "IMPLAUSIBLE_SCALE",
+        IMPLAUSIBLE_SCALE,
+        "factor",
+        "an inertia scale beyond this factor either way is a stand-in (rig files state masses and lengths to a few "
+        "per cent): the torque beyond the vocabulary is tried in its place",
     ),
 )
 
