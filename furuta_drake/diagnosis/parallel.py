@@ -73,8 +73,9 @@ class TaskPool:
         with self._lock:
             self._closed = True
             executor, self._executor = self._executor, None
-        if executor is not None:
-            executor.shutdown(wait=kind is None, cancel_futures=True)
+        if executor is not None:  # an interrupt does not wait for running tasks; an error does, so that the
+            # pool's own threads are done before the interpreter exits
+            executor.shutdown(wait=kind is None or issubclass(kind, Exception), cancel_futures=True)
 
     def executor(self) -> ProcessPoolExecutor:
         with self._lock:

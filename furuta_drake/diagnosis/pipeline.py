@@ -136,14 +136,16 @@ def diagnose(
     workers : processes (default: all cores); scheduler : address of a Dask scheduler that runs the fits instead;
         progress : called with each finished task; log_format : column mapping and units of the logs.
     """
-    # One worker pool for every batch of tasks; with --folds the folds' selections run in a thread beside the
-    # main selection, their fits filling the cores its small batches leave idle.
+    # Bad input is refused before any worker process starts. One worker pool then serves every batch of tasks;
+    # with --folds the folds' selections run in a thread beside the main selection, their fits filling the cores
+    # its small batches leave idle.
+    settings.validate()
+    inputs = _inputs(Path(rig), train, heldout, candidates, log_format)
     with ThreadPoolExecutor(max_workers=2) as background, TaskPool(1 if scheduler else workers) as pool:
         return _diagnose(
-            rig=rig,
+            inputs=inputs,
             train=train,
             heldout=heldout,
-            candidates=candidates,
             settings=settings,
             folds=folds,
             workers=workers,
@@ -156,11 +158,10 @@ def diagnose(
 
 
 def _diagnose(
-    *, rig, train, heldout, candidates, settings, folds, workers, scheduler, progress, log_format, pool, background
+    *, inputs, train, heldout, settings, folds, workers, scheduler, progress, log_format, pool, background
 ) -> Diagnosis:
-    """:func:`diagnose` with its worker ``pool`` and ``background`` threads for the folds and the replays."""
-    settings.validate()
-    inputs = _inputs(Path(rig), train, heldout, candidates, log_format)
+    """:func:`diagnose` on its checked ``inputs``, with its worker ``pool`` and ``background`` threads for the
+    folds and the replays."""
     run = partial(run_tasks, workers=workers, scheduler=scheduler, done=progress, pool=pool)
     fold_check = None
     if folds is not None and folds >= 2:
