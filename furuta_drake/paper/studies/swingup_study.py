@@ -126,24 +126,19 @@ def _observer_rows(rms: dict) -> list[dict]:
         ("balance", f"balancing ({SETTLE:g} s after the catch on)"),
     ):
         for index, joint in ((0, "theta_dot"), (1, "phi_dot")):
-            rows.append(
-                _row(
-                    f"{joint} RMS error {what}, HG vs VFE + Dahl",
-                    rms[("hg", phase)][index],
-                    rms[("vfe", phase)][index],
-                    "rad/s",
-                    "both observers on the kinematic-HG-controlled run",
+            for label, source, note in (
+                ("VFE + Dahl", "vfe", "both observers on the kinematic-HG-controlled run"),
+                ("kinematic HG", "kinematic_hg", "the kinematic HG feeds the controller"),
+            ):
+                rows.append(
+                    _row(
+                        f"{joint} RMS error {what}, HG vs {label}",
+                        rms[("hg", phase)][index],
+                        rms[(source, phase)][index],
+                        "rad/s",
+                        note,
+                    )
                 )
-            )
-            rows.append(
-                _row(
-                    f"{joint} RMS error {what}, HG vs kinematic HG",
-                    rms[("hg", phase)][index],
-                    rms[("kinematic_hg", phase)][index],
-                    "rad/s",
-                    "the kinematic HG feeds the controller",
-                )
-            )
     return rows
 
 
