@@ -244,7 +244,7 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         x, total, profiles = _search_jumps(cost, result, new_form, names, sizes, (low, high), scales.command_levels)
     at_fit = linearised if "x" in linearised and np.array_equal(linearised["x"], x) else None
     samples = _jump_samples(
-        _bootstrap(model_at, x, subset, counts, span, low, high, settings, at_fit), profiles, last, settings
+        bootstrap_samples(model_at, x, subset, counts, span, low, high, settings, at_fit), profiles, last, settings
     )
     split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
@@ -380,7 +380,7 @@ def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high)
     return columns
 
 
-def _bootstrap(
+def bootstrap_samples(
     model_at, x, windows: Windows, counts: int, span, low, high, settings: DiagnosisSettings, at_fit: dict | None
 ) -> np.ndarray:
     """(resamples, params) bootstrap of the fitted parameters over ``windows`` (module docstring); ``at_fit``: the

@@ -30,7 +30,7 @@ from scipy.optimize import least_squares
 from sklearn.linear_model import OrthogonalMatchingPursuit
 from threadpoolctl import threadpool_limits
 
-from furuta_drake.diagnosis.fit import Residuals, _bootstrap, interval
+from furuta_drake.diagnosis.fit import Residuals, bootstrap_samples, interval
 from furuta_drake.diagnosis.gap import (
     GapResult,
     Windows,
@@ -164,7 +164,7 @@ def _refit(model: Model, start: list[tuple[int, int, float]], windows: Windows, 
     result = least_squares(
         residuals.cost, x0, jac=residuals.jacobian, bounds=(low, high), x_scale=span / 10, max_nfev=settings.max_nfev
     )
-    samples = _bootstrap(model_at, result.x, windows, counts, high - low, low, high, settings, None)
+    samples = bootstrap_samples(model_at, result.x, windows, counts, high - low, low, high, settings, None)
     return model_at(result.x), samples
 
 
