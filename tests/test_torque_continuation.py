@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_unmodelled_torque_diagnosis import NOMINAL, QUBE, missing_torque_of, surrogate_log
 
 from furuta_drake.cli import main
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
@@ -18,7 +19,6 @@ from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.errors import ConfigError
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.yamlio import dump_yaml_dataclass
-from test_unmodelled_torque_diagnosis import NOMINAL, QUBE, missing_torque_of, surrogate_log
 
 COGGING = ((0, TERMS.index("sin(7*phi)"), 0.1 * NOMINAL.gravity_torque),)
 
@@ -131,7 +131,8 @@ def test_a_diagnosis_from_the_fitted_rig_finds_no_further_gap_from_the_torque(tm
     assert main(["diagnose", "--rig", str(tmp_path / "rig.yaml"), *logs, "--out", str(tmp_path / "a")]) == 0
     first = json.loads((tmp_path / "a" / "report.json").read_text())
     assert "arm" in first["unmodelled_torque"]
-    assert main(["diagnose", "--rig", str(tmp_path / "a" / "fitted_rig.yaml"), *logs, "--out", str(tmp_path / "b")]) == 0
+    fitted = str(tmp_path / "a" / "fitted_rig.yaml")
+    assert main(["diagnose", "--rig", fitted, *logs, "--out", str(tmp_path / "b")]) == 0
     second = json.loads((tmp_path / "b" / "report.json").read_text())
     assert "unmodelled_torque" not in second
     assert second["verdict"] == "none"
