@@ -24,15 +24,19 @@ SPAN = 4.0  # a refit coefficient c stays within c +- SPAN |c|
 
 
 def report_torque(report: dict) -> Effect | None:
-    """The torque of ``report`` as an effect, None when it has none. ConfigError naming a term outside the
-    library."""
+    """The torque of ``report`` as an effect, None when it has none. ConfigError naming an entry that is not a
+    library term with a numeric coefficient."""
     keys, values = [], []
     for joint, name in enumerate(JOINTS):
-        for entry in report.get(TORQUE, {}).get(name, {}).get("terms", []):
-            if entry["term"] not in TERMS:
-                raise ConfigError(f"report.json {TORQUE}.{name}: term {entry['term']!r} is not in the torque library")
-            keys.append(f"{joint}:{TERMS.index(entry['term'])}")
-            values.append(float(entry["coefficient"]))
+        for i, entry in enumerate(report.get(TORQUE, {}).get(name, {}).get("terms", [])):
+            term, coefficient = entry.get("term"), entry.get("coefficient")
+            if term not in TERMS or isinstance(coefficient, bool) or not isinstance(coefficient, (int, float)):
+                raise ConfigError(
+                    f"report.json {TORQUE}.{name}.terms[{i}]: expected a term of the torque library and a numeric "
+                    f"coefficient, got {term!r} and {coefficient!r}"
+                )
+            keys.append(f"{joint}:{TERMS.index(term)}")
+            values.append(float(coefficient))
     return Effect(";".join(keys), tuple(values)) if keys else None
 
 

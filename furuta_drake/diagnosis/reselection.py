@@ -1,11 +1,12 @@
 """The selection run again beside the kept torque (stage 4c of the diagnosis).
 
-An effect outside the vocabulary can mask a listed one in the selection: beside cogging, Coulomb friction never
-reduces the held-out gap enough to enter, so the torque found afterwards takes a friction-like share of it. Once a
-torque is kept, the selection (:class:`~furuta_drake.diagnosis.stepwise.Stepwise`) runs again with that torque in
-the model as fixed terms, so that listed effects can enter beside it; the torque is then found again beside the
-effects now kept (:func:`~furuta_drake.diagnosis.missing_torque.find_missing_torque`, judged by the same rule).
-This repeats while the kept effects change, at most ``RESELECTIONS`` times.
+An effect outside the vocabulary can distort a listed one in the selection: beside cogging, Coulomb friction
+never enters, or enters at a wrong size, and the torque found afterwards takes a friction-like share of it. Once a
+torque is kept, the selection (:class:`~furuta_drake.diagnosis.stepwise.Stepwise`) runs again with the torque's
+terms outside the listed effects' shapes in the model as fixed terms, so that listed effects are fitted beside
+the outside effect; the torque is then found again beside the effects kept there
+(:func:`~furuta_drake.diagnosis.missing_torque.find_missing_torque`, judged by the same rule). This repeats while
+the kept effects or the torque's terms change, at most ``RESELECTIONS`` times.
 
 The report's selection stays one over the rig file's model: the effects kept beside the torque, at the values
 fitted there, are judged without it against the nominal model (their held-out gaps evaluated again), so the verdict
@@ -19,9 +20,10 @@ from collections.abc import Callable
 
 from furuta_drake.diagnosis.gap import Windows, evaluate_gap
 from furuta_drake.diagnosis.missing_torque import MissingTorque, find_missing_torque, with_terms
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.rule import Bootstrap, is_kept
 from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.torque_library import LISTED_SHAPES, TERMS
 from furuta_drake.effects.vocabulary import apply_effects
 
 RESELECTIONS = 2  # selections run again beside a kept torque at the most
@@ -39,31 +41,43 @@ def reselect_beside_torque(
     settings,
 ) -> tuple[Selection, MissingTorque | None, list[str]]:
     """The selection and the torque after running ``select`` (the stepwise selection on a given base model) again
-    beside the kept torque until the kept effects no longer change (module docstring), and the report's notes.
-    A torque found again that the rule does not keep ends the passes with the last one kept."""
+    beside the kept torque (module docstring), and the report's notes. The base holds the torque's terms that no
+    listed effect's torque has the shape of (``LISTED_SHAPES``): a friction-shaped term corrects the listed
+    friction fitted beside the outside effect, and held fixed it would keep that fit. The passes stop when the kept
+    effects and the torque's terms outside those shapes no longer change, when the torque found again is not kept,
+    or when the torque kept before explains the held-out data better by the rule's margin."""
     notes = []
     for _ in range(RESELECTIONS):
-        if missing is None:
+        base = [(j, t, c) for j, t, c in missing.terms if (j, t) in _base_keys(missing)] if missing else []
+        if not base:
             break
-        again = select(with_terms(nominal, missing.terms))
-        if set(again.accepted) == set(selection.accepted):
-            break
+        again = select(with_terms(nominal, base))
         if any(again.model(again.accepted[:k]) is None for k in range(1, len(again.accepted) + 1)):
             break  # a step's model failed to fit: the report could not show the steps
-        effects = again.final.effects if again.final else {}
-        model = apply_effects(nominal, effects)
+        model = apply_effects(nominal, again.final.effects if again.final else {})
         reference = evaluate_gap(model, heldout, counts).per_window
         found = find_missing_torque(
             model, selection.nominal.per_window, reference, train, heldout, counts, bootstrap, settings
         )
-        if found is None or not found.kept:
+        worse = found is not None and is_kept(bootstrap.evidence(found.heldout.per_window, missing.heldout.per_window))
+        if found is None or not found.kept or worse:
             break
+        before, after = (", ".join(s.accepted) or "no effect" for s in (selection, again))
         notes.append(
-            "selected again beside the unmodelled torque: "
-            f"{', '.join(selection.accepted) or 'no effect'} became {', '.join(again.accepted) or 'no effect'}"
+            f"selected again with the unmodelled torque's {', '.join(TERMS[t] for _, t, _ in base)} in the model: "
+            + (f"{before} became {after}" if before != after else f"{after} fitted again beside it")
+            + "; the torque then found again beside them"
         )
+        unchanged = set(again.accepted) == set(selection.accepted) and _base_keys(found) == _base_keys(missing)
         selection, missing = rebased(again, selection, nominal, train, heldout, counts, bootstrap), found
+        if unchanged:  # the next pass would select on the same terms
+            break
     return selection, missing, notes
+
+
+def _base_keys(missing: MissingTorque) -> set[tuple[int, int]]:
+    """The (joint, term) of the torque's terms that no listed effect's torque has the shape of."""
+    return {(j, t) for j, t, _ in missing.terms if (j, TERMS[t]) not in LISTED_SHAPES}
 
 
 def rebased(

@@ -50,6 +50,12 @@ def _terms() -> tuple[str, ...]:
 
 
 TERMS = _terms()
+# (joint, term) of the shapes a listed effect's torque takes: the joints' Coulomb friction (the smooth sign at the
+# regularisation velocity of any fit), their viscous friction, the pendulum's gravity torque (inertia_mismatch)
+LISTED_SHAPES = frozenset(
+    [(joint, form.format(v=v)) for joint, v in enumerate(_RATES) for form in ("tanh({v}/0.02)", "{v}", "tanh({v}/1.0)")]
+    + [(1, "sin(theta)")]
+)
 _COMPILED = [compile_torque(term, f"torque term {term}") for term in TERMS]
 _FIRST_RATE = 1 + 2 * HARMONICS + 2  # index of the first rate term
 _FIRST_PRODUCT = _FIRST_RATE + len(_RATE_TERMS) * len(_RATES)
