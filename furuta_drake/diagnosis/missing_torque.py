@@ -185,8 +185,9 @@ def find_missing_torque(
     settings: DiagnosisSettings,
 ) -> MissingTorque | None:
     """The torque ``final`` misses on the train windows, judged on the held-out ones (module docstring); None
-    when the regression keeps no term. ``nominal_heldout``, ``final_heldout``: the per-window excess squared
-    residuals of the nominal and the final model on ``heldout``."""
+    when the regression keeps no term. Its terms add to ``final``'s own (a rig file's torque stays as stated).
+    ``nominal_heldout``, ``final_heldout``: the per-window excess squared residuals of the nominal and the final
+    model on ``heldout``."""
     windows = train.subset(TORQUE_WINDOWS, settings.seed)
     scales = term_scales(windows)
     X, y, groups = design(final, windows, counts, scales)
