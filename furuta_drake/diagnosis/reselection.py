@@ -65,7 +65,11 @@ def reselect_beside_torque(
         before, after = (", ".join(s.accepted) or "no effect" for s in (selection, again))
         notes.append(
             f"selected again with the unmodelled torque's {', '.join(TERMS[t] for _, t, _ in base)} in the model: "
-            + (f"{before} became {after}" if before != after else f"{after} fitted again beside it")
+            + (
+                f"{before} became {after}"
+                if before != after
+                else (f"{after} fitted again beside it" if again.accepted else "no effect entered beside it")
+            )
             + "; the torque then found again beside them"
         )
         unchanged = set(again.accepted) == set(selection.accepted) and _base_keys(found) == _base_keys(missing)
