@@ -134,7 +134,8 @@ def _design_parser(sub) -> None:
         default=[],
         metavar="EFFECT=VALUE",
         help="separate the accepted model from it plus EFFECT at VALUE (its main parameter, as the "
-        "report's detection_limits state it) instead of from its rivals",
+        "report's detection_limits state it) instead of from its rivals; unmodelled_torque=SIZE: the "
+        "diagnosis' unmodelled torque at an RMS of SIZE N m along its train logs",
     )
     des.add_argument(
         "--arm-bound",

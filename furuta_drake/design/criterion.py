@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from furuta_drake.design.torque_hypothesis import TORQUE, apply_hypothesis, torque_bounds
 from furuta_drake.diagnosis.gap import (
     Windows,
     fixed_state_residuals,
@@ -34,7 +35,7 @@ from furuta_drake.diagnosis.gap import (
 )
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.effects.surrogate import Model, sensor_variance
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales
 from furuta_drake.rig import RigParameters
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
@@ -43,7 +44,8 @@ RIDGE = 1e-8  # relative Tikhonov damping of the refit's normal equations (direc
 
 @dataclass(frozen=True)
 class Parametrised:
-    """A hypothesis as a function of its fitted parameters (every parameter of its fitted effects, in order)."""
+    """A hypothesis as a function of its fitted parameters (every parameter of its fitted effects, in order; the
+    unmodelled torque's coefficients among them)."""
 
     nominal: Model
     effects: dict[str, Effect]
@@ -51,7 +53,7 @@ class Parametrised:
 
     @property
     def fitted(self) -> list[str]:
-        return [name for name in self.effects if CANDIDATES[name].fit]
+        return [name for name in self.effects if name == TORQUE or CANDIDATES[name].fit]
 
     @property
     def x0(self) -> np.ndarray:
@@ -60,7 +62,8 @@ class Parametrised:
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         low, high = [], []
         for name in self.fitted:
-            lo, hi = CANDIDATES[name].form(self.effects[name].form).bounds(self.scales)
+            effect = self.effects[name]
+            lo, hi = torque_bounds(effect) if name == TORQUE else CANDIDATES[name].form(effect.form).bounds(self.scales)
             low, high = low + lo, high + hi
         return np.array(low), np.array(high)
 
@@ -70,7 +73,7 @@ class Parametrised:
             size = len(self.effects[name].values)
             effects[name] = Effect(self.effects[name].form, tuple(x[i : i + size]))
             i += size
-        return apply_effects(self.nominal, effects)
+        return apply_hypothesis(self.nominal, effects)
 
 
 def experiment_windows(

@@ -12,13 +12,17 @@ fitted parameters (``ranking[].params``). The accepted model holds the accepted 
   accepted model plus that effect: was a further effect missed?
 - with ``--target effect=value`` instead: the accepted model plus that effect at that size (its main parameter,
   in the units of ``detection_limits``), for effects whose detection limit in these logs is above the size;
+  ``--target unmodelled_torque=SIZE``: the accepted model plus the diagnosis' unmodelled torque scaled to an RMS
+  of SIZE [N m] along its train logs (:mod:`~furuta_drake.design.torque_hypothesis`);
 - with no rival and no target (the verdict limited by what the logs can see): the targets of
   :func:`~furuta_drake.design.closed_loop.limited_targets`, every actuator effect not accepted whose
   detection limit is above a size that changes the rig's LQR loop.
 
-Each rival forms a :class:`Pair` with the accepted model. A pair is *nested* when the rival is the accepted model
-plus one effect: an experiment can only show that the effect is there (if the accepted model were the truth,
-the rival's fit would set the effect to nothing), so only the rival as the truth is informative.
+A torque the diagnosis kept beyond the vocabulary is in every hypothesis (its coefficients refit like an effect's
+parameters), unless it is the target. Each rival forms a :class:`Pair` with the accepted model. A pair is
+*nested* when the rival is the accepted model plus one effect: an experiment can only show that the effect is
+there (if the accepted model were the truth, the rival's fit would set the effect to nothing), so only the rival
+as the truth is informative.
 """
 
 from __future__ import annotations
@@ -27,11 +31,12 @@ from dataclasses import dataclass, field
 
 from furuta_drake.design.closed_loop import CLOSED_LOOP_SHARE, closed_loop_sizes, limited_targets
 from furuta_drake.design.rollout import nominal_lqr_gain
+from furuta_drake.design.torque_hypothesis import TORQUE, apply_hypothesis, report_torque, scaled_torque
 from furuta_drake.diagnosis.detection import INJECTIONS
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.rule import NEAR
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, law_of, rig_model
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, law_of, rig_model
 from furuta_drake.errors import ConfigError
 
 NEXT_STEP_REDUCTION = 0.1  # a next-step candidate that reduces what is left by this much is a rival
@@ -95,9 +100,9 @@ def parse_target(text: str) -> tuple[str, float]:
     if not sep:
         raise ConfigError(f"--target {text!r}: expected effect=value (e.g. actuator_lag=0.005)")
     name = name.strip()
-    if name not in CANDIDATES:
+    if name not in CANDIDATES and name != TORQUE:
         raise ConfigError(f"--target {text!r}: unknown effect {name!r} (the vocabulary: {', '.join(CANDIDATES)})")
-    if name not in INJECTIONS:
+    if name not in INJECTIONS and name != TORQUE:
         raise ConfigError(f"--target {text!r}: {name} is a sensor effect; no command changes how well a log shows it")
     try:
         size = float(value)
@@ -115,10 +120,11 @@ def read_hypotheses(report: dict, rig, train_logs, targets: list[tuple[str, floa
     ranked = [entry for entry in report["ranking"] if entry.get("status", "ok") == "ok"]
     steps = [step["effect"] for step in report["steps"]]
     final = _entry(ranked, steps, len(steps)) if steps else None
-    accepted = entry_effects(final) if final else {}
-    rivals = _Rivals(
-        nominal, accepted, steps, [Hypothesis(_name(accepted), accepted, apply_effects(nominal, accepted), "accepted")]
-    )
+    torque = report_torque(report)
+    carried = {TORQUE: torque} if torque is not None and TORQUE not in dict(targets) else {}
+    accepted = {**(entry_effects(final) if final else {}), **carried}
+    hypothesis = Hypothesis(_name(accepted), accepted, apply_hypothesis(nominal, accepted), "accepted")
+    rivals = _Rivals(nominal, accepted, steps, [hypothesis], carried, torque)
     notes = []
     if targets:
         notes = _add_targets(rivals, report, train_logs, targets)
@@ -149,15 +155,19 @@ class _Rivals:
     accepted: dict[str, Effect]
     steps: list[str]  # the accepted effects in the order of their steps
     hypotheses: list[Hypothesis]
+    carried: dict[str, Effect]  # the diagnosis' torque, in every hypothesis when it is not the target
+    torque: Effect | None  # the diagnosis' torque
     pairs: list[Pair] = field(default_factory=list)
 
     def add(self, effects: dict[str, Effect], role: str, step: int, new: tuple[str, str], why: str, nested: bool):
-        """Add the model of ``effects`` paired with the accepted one at ``step``, unless it is already held."""
+        """Add the model of ``effects`` (and the carried torque) paired with the accepted one at ``step``, unless
+        it is already held."""
+        effects = {**effects, **self.carried}
         name = _name(effects)
         if any(h.name == name for h in self.hypotheses):
             return
-        self.hypotheses.append(Hypothesis(name, effects, apply_effects(self.nominal, effects), role))
-        previous = {k: self.accepted[k] for k in self.steps[: step - 1]}
+        self.hypotheses.append(Hypothesis(name, effects, apply_hypothesis(self.nominal, effects), role))
+        previous = {**{k: self.accepted[k] for k in self.steps[: step - 1]}, **self.carried}
         self.pairs.append(Pair(0, len(self.hypotheses) - 1, step, previous, new, why, nested))
 
 
@@ -168,6 +178,9 @@ def _add_targets(rivals: _Rivals, report: dict, train_logs, targets: list[tuple[
     limits = {limit["effect"]: limit for limit in report["detection_limits"]}
     scales = scales_of(train_logs, rivals.nominal)
     for name, size in targets:
+        if name == TORQUE:
+            _add_torque_target(rivals, size, train_logs)
+            continue
         if name in accepted or law_of(name) & set(accepted):
             raise ConfigError(
                 f"--target {name}={size:g}: the diagnosis already accepted {name} (or a variant of its law)"
@@ -190,6 +203,21 @@ def _add_targets(rivals: _Rivals, report: dict, train_logs, targets: list[tuple[
             nested=True,
         )
     return notes
+
+
+def _add_torque_target(rivals: _Rivals, size: float, train_logs) -> None:
+    """Add the accepted model plus the diagnosis' torque scaled to an RMS of ``size`` [N m] along ``train_logs``.
+    ConfigError when the diagnosis kept no torque."""
+    if rivals.torque is None:
+        raise ConfigError(f"--target {TORQUE}={size:g}: the diagnosis kept no unmodelled torque to target")
+    rivals.add(
+        {**rivals.accepted, TORQUE: scaled_torque(rivals.torque, size, train_logs)},
+        "target",
+        len(rivals.steps) + 1,
+        ("", TORQUE),
+        f"the unmodelled torque at an RMS of {size:g} N m along the diagnosis' train logs",
+        nested=True,
+    )
 
 
 def _add_confusable(rivals: _Rivals, report: dict, ranked: list[dict]) -> None:

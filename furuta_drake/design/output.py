@@ -17,7 +17,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from furuta_drake.design.pipeline import Design
-from furuta_drake.effects.vocabulary import describe
+from furuta_drake.design.torque_hypothesis import describe_effect
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.rig import encoder_resolution
 
@@ -86,7 +86,7 @@ def design_json(design: Design) -> dict:
             {
                 "name": h.name,
                 "role": h.role,
-                "effects": {name: describe(name, effect, nominal) for name, effect in h.effects.items()},
+                "effects": {name: describe_effect(name, effect, nominal) for name, effect in h.effects.items()},
             }
             for h in design.hypotheses.hypotheses
         ],

@@ -33,9 +33,9 @@ from furuta_drake.design.rollout import (
     surrogate_closed_loop,
     surrogate_runs,
 )
+from furuta_drake.design.torque_hypothesis import apply_hypothesis
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, window_samples
-from furuta_drake.effects.vocabulary import apply_effects
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.simulate import simulate
 
@@ -414,7 +414,7 @@ def _predicted_pairs(
     def old_excess(effects) -> np.ndarray:
         key = repr(effects)
         if key not in old_cache:
-            old_cache[key] = evaluate_gap(apply_effects(hypotheses.nominal, effects), old_windows, counts).per_window
+            old_cache[key] = evaluate_gap(apply_hypothesis(hypotheses.nominal, effects), old_windows, counts).per_window
         return old_cache[key]
 
     out = []

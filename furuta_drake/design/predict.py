@@ -10,7 +10,8 @@ held-out windows (the new log joins them, it does not replace them), and applies
 :mod:`furuta_drake.diagnosis.rule` with its bootstrap:
 
 - a nested pair (the truth is the rival plus one effect): detected when the truth's reduction over the rival
-  has a 5 % lower bound above the margin, so the effect is kept (and, for a first effect, closes the gap);
+  has a 5 % lower bound above the margin, so the effect is kept (and, for a first effect, closes the gap; the
+  unmodelled torque is kept on that rule alone, as the diagnosis keeps it, never having to close the gap);
 - otherwise: detected when the rule lets the truth's effect enter rather than the rival's (its parsimony
   included), keeps it (the lower bound of its reduction over the model without it above the margin) and, for
   two different laws, no longer finds the two confusable.
@@ -26,8 +27,9 @@ from __future__ import annotations
 import numpy as np
 
 from furuta_drake.design.criterion import Refit
+from furuta_drake.design.torque_hypothesis import TORQUE
 from furuta_drake.diagnosis.gap import project_out_states
-from furuta_drake.diagnosis.rule import ENTRY, Bootstrap, at_floor, choose, decide, gap_of
+from furuta_drake.diagnosis.rule import ENTRY, Bootstrap, at_floor, choose, decide, gap_of, is_kept
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import law_of
 from furuta_drake.rig import encoder_resolution
@@ -108,7 +110,7 @@ def _detected(
         return False
     truth = bootstrap.evidence(excess["previous"], excess[TRUTH])
     if nested:
-        return decide(truth, first=first_effect)
+        return is_kept(truth) if new[TRUTH] == TORQUE else decide(truth, first=first_effect)
     # The rule's keys are the effects each model adds (its parsimony counts their parameters); the chosen one
     # enters on a lenient bound (with the floor's and the same law's clauses, as in the selection) and is kept
     # when it reduces the model without it by the margin.

@@ -98,7 +98,7 @@ def design(model: Model, windows: Windows, counts: int, scales: np.ndarray):
     columns = []
     for joint in range(len(JOINTS)):
         for term, scale in enumerate(scales):
-            shifted = model.replace(unmodelled_terms=((joint, term, step / scale),))
+            shifted = with_terms(model, [(joint, term, step / scale)])
             moved = fixed_state_residuals(shifted, windows, states, counts)
             columns.append(_rows([project_out_states(m - r, J) / step for m, r, J in zip(moved, raw, jacobians)]))
     groups = _rows(
@@ -108,6 +108,12 @@ def design(model: Model, windows: Windows, counts: int, scales: np.ndarray):
         ]
     )
     return np.column_stack(columns), -_rows(raw), groups
+
+
+def with_terms(model: Model, terms) -> Model:
+    """``model`` with the torque ``terms`` (joint, term index, coefficient [N m]) added to its own: a model's
+    terms (a rig file's torque, a torque kept earlier) are a fixed base the regression adds to."""
+    return model.replace(unmodelled_terms=tuple(model.unmodelled_terms) + tuple(terms))
 
 
 def _rows(per_log: list[np.ndarray]) -> np.ndarray:
@@ -150,22 +156,22 @@ def _normal_equations(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def _refit(model: Model, start: list[tuple[int, int, float]], windows: Windows, counts: int, settings):
-    """The coefficients of ``start``'s terms fitted again by the fit's variable-projection least squares, and
-    their bootstrap samples (resamples, terms)."""
+    """``start``'s terms with their coefficients fitted again beside ``model``'s own terms by the fit's
+    variable-projection least squares, and their bootstrap samples (resamples, terms)."""
     keys = [(joint, term) for joint, term, _ in start]
     x0 = np.array([c for _, _, c in start])
     span = np.maximum(4.0 * np.abs(x0), STEP * model.gravity_torque)
     low, high = x0 - span, x0 + span
 
     def model_at(x):
-        return model.replace(unmodelled_terms=tuple((j, t, float(c)) for (j, t), c in zip(keys, x)))
+        return with_terms(model, [(j, t, float(c)) for (j, t), c in zip(keys, x)])
 
     residuals = Residuals(model_at, windows, counts, high - low, high)
     result = least_squares(
         residuals.cost, x0, jac=residuals.jacobian, bounds=(low, high), x_scale=span / 10, max_nfev=settings.max_nfev
     )
     samples = bootstrap_samples(model_at, result.x, windows, counts, high - low, low, high, settings, None)
-    return model_at(result.x), samples
+    return [(j, t, float(c)) for (j, t), c in zip(keys, result.x)], samples
 
 
 def find_missing_torque(
@@ -179,42 +185,43 @@ def find_missing_torque(
     settings: DiagnosisSettings,
 ) -> MissingTorque | None:
     """The torque ``final`` misses on the train windows, judged on the held-out ones (module docstring); None
-    when the regression keeps no term. ``nominal_heldout``, ``final_heldout``: the per-window excess squared
-    residuals of the nominal and the final model on ``heldout``."""
+    when the regression keeps no term. Its terms add to ``final``'s own (a rig file's torque stays as stated).
+    ``nominal_heldout``, ``final_heldout``: the per-window excess squared residuals of the nominal and the final
+    model on ``heldout``."""
     windows = train.subset(TORQUE_WINDOWS, settings.seed)
     scales = term_scales(windows)
     X, y, groups = design(final, windows, counts, scales)
-    fitted, samples, design_at, residual = final, None, X, y
-    while len(fitted.unmodelled_terms) < MAX_TERMS:
+    found, samples, design_at, residual = [], None, X, y
+    while len(found) < MAX_TERMS:
         coefficients = sparse_coefficients(design_at, residual, groups, settings.seed)
-        kept = {(j, t) for j, t, _ in fitted.unmodelled_terms}
+        kept = {(j, t) for j, t, _ in found}
         new = [i for i in np.flatnonzero(coefficients) if divmod(int(i), len(TERMS)) not in kept]
         if not new:
             break
         joint, term = divmod(int(max(new, key=lambda i: abs(coefficients[i]))), len(TERMS))
-        start = [*fitted.unmodelled_terms, (joint, term, float(coefficients[joint * len(TERMS) + term] / scales[term]))]
-        fitted, samples = _refit(final, start, windows, counts, settings)
-        design_at, residual, _ = design(fitted, windows, counts, scales)
+        start = [*found, (joint, term, float(coefficients[joint * len(TERMS) + term] / scales[term]))]
+        found, samples = _refit(final, start, windows, counts, settings)
+        design_at, residual, _ = design(with_terms(final, found), windows, counts, scales)
     if samples is None:
         return None
-    gap = evaluate_gap(fitted, heldout, counts)
+    gap = evaluate_gap(with_terms(final, found), heldout, counts)
     return MissingTorque(
-        list(fitted.unmodelled_terms),
+        found,
         [interval(samples[:, i]) for i in range(samples.shape[1])],
         gap,
         bootstrap.evidence(final_heldout, gap.per_window),
         bootstrap.evidence(nominal_heldout, gap.per_window),
-        window_estimates(fitted, windows, X, y),
+        window_estimates(found, windows, X, y),
     )
 
 
-def window_estimates(fitted: Model, windows: Windows, X, y) -> dict[str, dict]:
+def window_estimates(found, windows: Windows, X, y) -> dict[str, dict]:
     """Per joint with a torque: each window's own estimate of a constant torque on that joint [N m] (its residual
     regressed on the constant term's sensitivity), the fitted torque at the window's start, and the state there."""
     states = np.concatenate(windows.initial_states, axis=1)[:4]
     out = {}
     for joint, name in enumerate(JOINTS):
-        terms = [(t, c) for j, t, c in fitted.unmodelled_terms if j == joint]
+        terms = [(t, c) for j, t, c in found if j == joint]
         if not terms:
             continue
         sensitivity = _per_window(X[:, joint * len(TERMS)], windows)

@@ -35,15 +35,17 @@ from furuta_drake.diagnosis.per_log import heldout_rms_per_log
 from furuta_drake.diagnosis.record_text import choice_text, confusable_why, consistency_judgement, rule_text
 from furuta_drake.diagnosis.replay import replay_gaps
 from furuta_drake.diagnosis.report import effect_curve, input_record
+from furuta_drake.diagnosis.reselection import reselect_beside_torque
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
 from furuta_drake.diagnosis.rival import widen
 from furuta_drake.diagnosis.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, select_effects
-from furuta_drake.diagnosis.torque_report import torque_parameters, torque_record
+from furuta_drake.diagnosis.torque_report import torque_record
 from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.torque_library import library_terms, merged, torque_parameters_of
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
 from furuta_drake.errors import ConfigError
 from furuta_drake.rig import RigParameters
@@ -247,16 +249,13 @@ def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -
 
 
 def _diagnosable_rig(rig_path: Path) -> RigParameters:
-    """The rig file; ConfigError naming its line when it states a torque beyond the vocabulary."""
+    """The rig file; ConfigError naming its line when its torque beyond the vocabulary is not a sum of the
+    library's terms (the surrogate's fits hold those alone)."""
     rig_params = load_rig(rig_path)
-    if rig_params.unmodelled_torque is not None:  # the surrogate's fits could not hold it: refused, not ignored
-        raise locate_in_file(
-            rig_path,
-            ConfigError(
-                "unmodelled_torque: a diagnosis cannot start from a stated torque beyond the vocabulary (its fits "
-                "would leave it out); remove the key to diagnose, keep it to simulate"
-            ),
-        )
+    try:
+        library_terms(rig_params.unmodelled_torque)
+    except ConfigError as err:
+        raise locate_in_file(rig_path, err) from None
     return rig_params
 
 
@@ -278,7 +277,20 @@ def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
     missing, torque_notes = beyond_vocabulary(
         selection, inputs.nominal, inputs.train_windows, inputs.heldout_windows, counts, bootstrap, settings
     )
-    return selection, bootstrap, missing, torque_notes
+    selection, missing, notes = reselect_beside_torque(
+        selection,
+        missing,
+        inputs.nominal,
+        lambda base: select_effects(
+            base, inputs.train_logs, inputs.train_windows, inputs.heldout_windows, counts, inputs.names, settings, run
+        ),
+        inputs.train_windows,
+        inputs.heldout_windows,
+        counts,
+        bootstrap,
+        settings,
+    )
+    return selection, bootstrap, missing, torque_notes + notes
 
 
 def _heldout_gaps(inputs: _Inputs, selection: Selection, settings, bootstrap: Bootstrap, replay_run, background):
@@ -423,6 +435,8 @@ def _artifacts(inputs: _Inputs, final, torque: dict, missing, before, after, sen
     """The residual tables, effect curves, fitted config and rig files and the input record."""
     nominal, rig_params = inputs.nominal, inputs.rig
     accepted_model = _accepted_model(nominal, final)
+    # the rig file's torque and the one found beside it, written together
+    parameters = torque_parameters_of(merged(nominal.unmodelled_terms + tuple(missing.terms))) if torque else None
     curves = [
         effect_curve(name, describe(name, effect, nominal), rig_params)
         for name, effect in (final.effects.items() if final else [])
@@ -432,10 +446,8 @@ def _artifacts(inputs: _Inputs, final, torque: dict, missing, before, after, sen
         after,
         sensor_variance,
         curves,
-        fitted_config=model_config(rig_params, accepted_model, torque_parameters(torque) if torque else None),
-        fitted_rig=fitted_rig(
-            rig_params, final.effects if final else {}, nominal, torque_parameters(torque) if torque else None
-        ),
+        fitted_config=model_config(rig_params, accepted_model, parameters),
+        fitted_rig=fitted_rig(rig_params, final.effects if final else {}, nominal, parameters),
         record=record,
         torque_scatter=missing.scatter if missing else {},
     )

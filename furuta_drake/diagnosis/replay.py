@@ -24,6 +24,7 @@ from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, s
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
 from furuta_drake.effects.surrogate import Model, lag_states, sensor_variance
+from furuta_drake.effects.torque_library import torque_parameters_of
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.rig import RigParameters, encoder_resolution
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
@@ -124,7 +125,8 @@ def _replay_log(task) -> np.ndarray:
     """(horizon, 2, W) residuals [counts] of one log's windows replayed in Drake (one diagram per task)."""
     model, rig, log, horizon, starts, x0, measured = task
     count = encoder_resolution(rig.counts_per_rev)
-    replayer = WindowReplayer(model, rig, log.time, log.torque_command)
+    torque = torque_parameters_of(model.unmodelled_terms) if model.unmodelled_terms else None
+    replayer = WindowReplayer(model, rig, log.time, log.torque_command, unmodelled_torque=torque)
     period = log.sample_period
     lags = (
         lag_states(model, log.torque_command, starts, period, substeps_for(period))

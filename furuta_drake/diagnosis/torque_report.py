@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis.missing_torque import MissingTorque
 from furuta_drake.effects.torque_library import JOINTS, TERMS, carrier, term_values
-from furuta_drake.unmodelled import TORQUE_VARIABLES, UnmodelledTorqueParameters
+from furuta_drake.unmodelled import TORQUE_VARIABLES
 
 CLOSE = 0.8  # R^2 of the torque on an effect's torque shapes above which that effect is named the closest
 # The torque shapes of the vocabulary's state-dependent effects on each joint, as library terms (a spring's
@@ -64,11 +64,6 @@ def torque_record(missing: MissingTorque) -> dict:
             "plot": plot_name(joint),
         }
     return out
-
-
-def torque_parameters(record: dict) -> UnmodelledTorqueParameters:
-    """The expressions of a ``report.json`` ``unmodelled_torque`` value, for the fitted config and rig file."""
-    return UnmodelledTorqueParameters(**{joint: entry["expression"] for joint, entry in record.items()})
 
 
 def _leading(entry: dict) -> dict:

@@ -11,6 +11,7 @@ import numpy as np
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.config import SimulationConfig
 from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.torque_library import torque_parameters_of
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, describe, effect_from_params
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
@@ -69,13 +70,14 @@ def model_config(
     rig: RigParameters, model: Model, unmodelled_torque: UnmodelledTorqueParameters | None = None
 ) -> SimulationConfig:
     """The Drake model of ``model`` (a diagnosis model of ``rig``) as a simulate config, open loop: users add
-    their controller. ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary."""
+    their controller. ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary (by
+    default those of its own ``unmodelled_terms``)."""
     config = SimulationConfig.from_rig(
         model_rig(model, rig).replace(motor=rig.motor, effects=None, unmodelled_torque=None)
     )
     return dataclasses.replace(
         config,
-        unmodelled_torque=unmodelled_torque or UnmodelledTorqueParameters(),
+        unmodelled_torque=unmodelled_torque or torque_parameters_of(model.unmodelled_terms),
         friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
         actuator=dataclasses.replace(model_actuator(model), delay=model.delay),
         disturbance=model_disturbance(model),

@@ -19,12 +19,14 @@ of ``report.json`` holds the state alone so that a simulation adds it beside any
 
 from __future__ import annotations
 
+import ast
 import math
 
 import numpy as np
 from numba import njit
 
-from furuta_drake.unmodelled import compile_torque
+from furuta_drake.errors import ConfigError
+from furuta_drake.unmodelled import UnmodelledTorqueParameters, compile_torque
 
 JOINTS = ("arm", "pendulum")  # the generalised force on phi, on theta
 HARMONICS = 24
@@ -48,6 +50,12 @@ def _terms() -> tuple[str, ...]:
 
 
 TERMS = _terms()
+# (joint, term) of the shapes a listed effect's torque takes: the joints' Coulomb friction (the smooth sign at the
+# regularisation velocity of any fit), their viscous friction, the pendulum's gravity torque (inertia_mismatch)
+LISTED_SHAPES = frozenset(
+    [(joint, form.format(v=v)) for joint, v in enumerate(_RATES) for form in ("tanh({v}/0.02)", "{v}", "tanh({v}/1.0)")]
+    + [(1, "sin(theta)")]
+)
 _COMPILED = [compile_torque(term, f"torque term {term}") for term in TERMS]
 _FIRST_RATE = 1 + 2 * HARMONICS + 2  # index of the first rate term
 _FIRST_PRODUCT = _FIRST_RATE + len(_RATE_TERMS) * len(_RATES)
@@ -65,6 +73,84 @@ def expression(terms: list[tuple[int, float]]) -> str:
     """The numpy expression of a torque: (term index, coefficient [N m]) pairs summed."""
     parts = [f"{c:+.6g}" if TERMS[i] == "1" else f"{c:+.6g}*{TERMS[i]}" for i, c in terms]
     return " ".join(parts).lstrip("+") if parts else "0"
+
+
+def merged(terms) -> tuple[tuple[int, int, float], ...]:
+    """(joint, term index, coefficient) triples with the coefficients of a repeated (joint, term) summed, in the
+    order each first appears."""
+    out: dict[tuple[int, int], float] = {}
+    for joint, term, c in terms:
+        out[(joint, term)] = out.get((joint, term), 0.0) + float(c)
+    return tuple((joint, term, c) for (joint, term), c in out.items())
+
+
+def torque_parameters_of(terms) -> UnmodelledTorqueParameters:
+    """The expressions (a rig file's or simulate config's ``unmodelled_torque``) of a surrogate model's
+    ``unmodelled_terms``: (joint, term index, coefficient [N m]) triples."""
+    per_joint = {name: [(t, c) for j, t, c in merged(terms) if j == joint] for joint, name in enumerate(JOINTS)}
+    return UnmodelledTorqueParameters(**{name: expression(pairs) if pairs else "" for name, pairs in per_joint.items()})
+
+
+def library_terms(parameters: UnmodelledTorqueParameters | None) -> tuple[tuple[int, int, float], ...]:
+    """The (joint, term index, coefficient [N m]) triples of torque expressions written as
+    :func:`expression` writes them: a sum of numbers times library terms (a number alone is the constant).
+    ConfigError naming the joint's key and the part that is no number times a term of :data:`TERMS`."""
+    if parameters is None:
+        return ()
+    out = []
+    for joint, name in enumerate(JOINTS):
+        text = getattr(parameters, name)
+        if text.strip():
+            out += [(joint, term, c) for term, c in _summands(text, f"unmodelled_torque.{name}")]
+    return merged(out)
+
+
+_TERM_INDEX = {ast.dump(ast.parse(term, mode="eval").body): i for i, term in enumerate(TERMS)}
+
+
+def _summands(text: str, where: str) -> list[tuple[int, float]]:
+    """(term index, coefficient) of each summand of ``text``."""
+    compile_torque(text, where)  # the checked compiler's errors first
+    parts, stack = [], [(ast.parse(text.strip(), mode="eval").body, 1.0)]
+    while stack:
+        node, sign = stack.pop()
+        if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub)):
+            stack += [(node.left, sign), (node.right, -sign if isinstance(node.op, ast.Sub) else sign)]
+        elif isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            stack.append((node.operand, -sign if isinstance(node.op, ast.USub) else sign))
+        else:
+            parts.append(_summand(node, sign, text, where))
+    return parts[::-1]
+
+
+def _summand(node: ast.AST, sign: float, text: str, where: str) -> tuple[int, float]:
+    """(term index, coefficient) of one product: its numbers multiplied, its other factors in order a term."""
+    factors, stack = [], [node]
+    while stack:
+        part = stack.pop()
+        if isinstance(part, ast.BinOp) and isinstance(part.op, ast.Mult):
+            stack += [part.right, part.left]
+        else:
+            factors.append(part)
+    numbers = [_number(f) for f in factors if _number(f) is not None]
+    rest = "*".join(ast.unparse(f) for f in factors if _number(f) is None) or "1"
+    index = _TERM_INDEX.get(ast.dump(ast.parse(rest, mode="eval").body))
+    if index is None:
+        raise ConfigError(
+            f"{where}: {ast.get_source_segment(text.strip(), node)!r} is not a number times a term of the torque "
+            "library (docs/diagnose.md, section 5): a diagnosis starts only from library terms"
+        )
+    return index, sign * math.prod(numbers)
+
+
+def _number(node: ast.AST) -> float | None:
+    """The value of a number written with or without a sign, else None."""
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        value = _number(node.operand)
+        return None if value is None else (-value if isinstance(node.op, ast.USub) else value)
+    if isinstance(node, ast.Constant) and type(node.value) in (int, float):
+        return float(node.value)
+    return None
 
 
 def carrier(term: str) -> str:

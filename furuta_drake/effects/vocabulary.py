@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from furuta_drake.effects.surrogate import LUMPED_CONSTANTS, Model
+from furuta_drake.effects.torque_library import library_terms
 from furuta_drake.friction import JointFrictionParameters
 
 
@@ -502,5 +503,7 @@ def rig_effects(rig) -> dict[str, Effect]:
 
 
 def rig_model(rig) -> Model:
-    """The nominal model of a rig file: its bodies, friction and motor, and the effects it states."""
-    return apply_effects(Model.from_rig(rig), rig_effects(rig))
+    """The nominal model of a rig file: its bodies, friction and motor, the effects it states, and its torque
+    beyond the vocabulary as the surrogate's fixed terms (:func:`~.torque_library.library_terms`)."""
+    model = apply_effects(Model.from_rig(rig), rig_effects(rig))
+    return model.replace(unmodelled_terms=library_terms(rig.unmodelled_torque))
