@@ -96,11 +96,13 @@ def limited_targets(report: dict, sizes: dict[str, float]) -> list[tuple[str, fl
     for name, size in sizes.items():
         if not np.isfinite(size) or law_of(name) & accepted or name not in limits:
             continue
-        limit = limits[name]
-        if limit is None or abs(limit - _neutral(name)) > abs(size - _neutral(name)):
+        if not reaches(name, limits[name], size):
             out.append((name, float(size)))
     return out
 
 
-def _neutral(name: str) -> float:
-    return 1.0 if name == "torque_gain_error" else 0.0
+def reaches(name: str, limit: float | None, size: float) -> bool:
+    """Whether a detection limit of effect ``name`` (None: not reached) is at or below ``size``, both as
+    ``detection_limits`` states them (a gain's distance from 1, other sizes' from 0)."""
+    neutral = 1.0 if name == "torque_gain_error" else 0.0
+    return limit is not None and abs(limit - neutral) <= abs(size - neutral)
