@@ -702,8 +702,9 @@ def square_reference(times: np.ndarray, amplitude: float, period: float) -> np.n
 
 @dataclass(frozen=True)
 class RunSpec:
-    """One run: ``balance`` (discrete LQR with a multisine and an arm square-wave reference) or ``hanging``
-    (open-loop multisine); excitation RMS as a fraction of m g l (torque-equivalent)."""
+    """One run: ``balance`` (discrete LQR with a multisine and an arm square-wave reference), ``hanging``
+    (open-loop multisine; excitation RMS as a fraction of m g l, torque-equivalent) or ``played`` (a given
+    open-loop command, from rest hanging: :func:`play`)."""
 
     kind: str
     duration: float = 8.0  # [s]
@@ -739,14 +740,26 @@ class RunLog:
         return bool(np.max(np.abs(self.state[:, 0])) > FALLEN)
 
 
-def simulate(world: World, run: RunSpec) -> RunLog:
-    """Record ``run`` on the true rig ``world``; the controller knows only the nominal rig."""
+def play(world: World, command: np.ndarray, seed: int) -> RunLog:
+    """Record the open-loop ``command`` (command units, one value per sample) played from rest hanging on the true
+    rig ``world`` (a designed experiment)."""
+    run = RunSpec("played", len(command) * world.rig.sample_period, seed)
+    return simulate(world, run, np.asarray(command, dtype=float))
+
+
+def simulate(world: World, run: RunSpec, command: np.ndarray | None = None) -> RunLog:
+    """Record ``run`` on the true rig ``world``; the controller knows only the nominal rig. ``command``: the
+    excitation of a ``played`` run."""
     rig = world.rig
     h = rig.sample_period
     rng = np.random.default_rng([run.seed, 7])
     times = np.arange(round(run.duration / h)) * h
     scale = rig.bodies.d / rig.torque_per_command  # m g l in command units
-    excitation = multisine(run.excitation_rms * scale, run.f_min, run.f_max, times, rng) * fade_in(times, run.fade_in)
+    if run.kind == "played":
+        excitation = command
+    else:
+        excitation = multisine(run.excitation_rms * scale, run.f_min, run.f_max, times, rng)
+        excitation = excitation * fade_in(times, run.fade_in)
     plant, chain = Plant(world), CommandChain(world, jitter=np.random.default_rng([run.seed, 11]))
     correlated = (
         CorrelatedNoise(world.noise_std, world.noise_correlation_time, h, np.random.default_rng([run.seed, 13]))
@@ -755,7 +768,7 @@ def simulate(world: World, run: RunSpec) -> RunLog:
     )
     integrator = Integrator(plant)
     balance = run.kind == "balance"
-    x = plant.initial(0.03 if balance else math.pi + 0.1)
+    x = plant.initial({"balance": 0.03, "hanging": math.pi + 0.1, "played": math.pi}[run.kind])
     gain = discrete_lqr(rig) if balance else None
     reference = square_reference(times, run.reference_amplitude, run.reference_period)
     velocity = VelocityFilter(h, cutoff=VELOCITY_CUTOFF)

@@ -17,7 +17,8 @@ from furuta_drake.design import pipeline
 from furuta_drake.design.closed_loop import closed_loop_sizes
 from furuta_drake.design.criterion import experiment_windows
 from furuta_drake.design.inputs import read_diagnosis
-from furuta_drake.design.limits import diagnosis_heldout_windows, predicted_limits
+from furuta_drake.design.limits import diagnosis_heldout_windows, joined, predicted_limits
+from furuta_drake.design.output import design_json
 from furuta_drake.design.rollout import HANGING, nominal_lqr_gain, surrogate_runs
 from furuta_drake.diagnosis.detection import injected_limits
 from furuta_drake.diagnosis.fit import scales_of
@@ -109,24 +110,12 @@ def test_the_designed_experiment_brings_the_delay_limit_below_the_size_that_matt
     # the same 2 s of the rig at rest, hanging: the default of doing nothing sees no delay
     record = read_diagnosis(diagnosis)
     rest = np.tile(np.asarray(HANGING[:2], dtype=float), (2000, 1))
-    (idle,) = predicted_limits(
-        record, design.hypotheses, [("input_delay", size)], (rest, np.zeros(2000)), design_scales(record), 200, 0
-    )
+    scales = scales_of(record.train, rig_model(record.rig))
+    targets = [("input_delay", size)]
+    (idle,) = predicted_limits(record, design.hypotheses, targets, (rest, np.zeros(2000)), scales, RESAMPLES, 0)
     assert idle["predicted"] is None or idle["predicted"] > size
     assert idle["predicted_below_size"] is False
-
-    written = pipeline_json(design)
-    assert written["detection_limits"][0]["predicted"] == pytest.approx(limit["predicted"], rel=1e-5)
-
-
-def design_scales(record):
-    return scales_of(record.train, rig_model(record.rig))
-
-
-def pipeline_json(design) -> dict:
-    from furuta_drake.design.output import design_json
-
-    return design_json(design)
+    assert design_json(design)["detection_limits"] == design.limits
 
 
 def test_a_rig_with_nothing_to_target_gets_no_design(case, tmp_path, capsys):
@@ -143,8 +132,6 @@ def test_a_rig_with_nothing_to_target_gets_no_design(case, tmp_path, capsys):
 
 def test_the_experiment_windows_join_the_diagnosis_ones(case, tmp_path):
     """The predicted limits judge the diagnosis' held-out windows and the experiment's held-out half together."""
-    from furuta_drake.design.limits import joined
-
     _write_diagnosis(tmp_path / "diagnosis", case, None)
     record = read_diagnosis(tmp_path / "diagnosis")
     old = diagnosis_heldout_windows(record)
