@@ -187,17 +187,24 @@ def design_experiment(
             say(f"repeating the experiment to {longer:g} s")
             design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales, say)
     design.notes += _unsettled_notes(design)
+    design.limits = _predicted_limits(design, parsed, scales)
+    return design
+
+
+def _predicted_limits(design: Design, named: list[tuple[str, float]], scales) -> list[dict]:
+    """Per target of ``design`` (``named`` by --target, else the limits that matter), today's and the predicted
+    detection limit (:mod:`furuta_drake.design.limits`)."""
+    hypotheses, record = design.hypotheses, design.record
     run = design.runs.get(hypotheses.hypotheses[0].name)
-    design.limits = predicted_limits(
+    return predicted_limits(
         record,
         hypotheses,
-        target_sizes(hypotheses, parsed, record.report, rig),
+        target_sizes(hypotheses, named, record.report, record.rig),
         None if run is None else (run.angles, run.command),
         scales,
-        settings.bootstrap,
-        settings.seed,
+        design.settings.bootstrap,
+        design.settings.seed,
     )
-    return design
 
 
 def _common(record, hypotheses, bounds, settings, search, options: dict) -> dict:
