@@ -33,6 +33,7 @@ from benchmarks import diagnosis_independent as indep
 from benchmarks.design_suite import diagnosed
 from furuta_drake.design.output import write_design
 from furuta_drake.design.pipeline import DesignSettings, design_experiment
+from furuta_drake.diagnosis.detection import INJECTIONS
 from furuta_drake.errors import FurutaError
 from furuta_drake.outputs import versions
 
@@ -101,25 +102,25 @@ def limit_of(report: dict, effect: str) -> float | None | str:
 
 
 def rows_of(case, answer: dict, before: dict, design: dict, after: dict | None) -> list[dict]:
-    """One row per effect the design targets and per true actuator effect of the case."""
+    """One row per effect the design targets, true effect of the case and effect accepted before or after, in
+    its main parameter (the detection limits')."""
     truth = {e["name"]: e["params"] for e in answer["effects"]}
     targets = {limit["effect"]: limit for limit in design.get("detection_limits", [])}
-    delay = {"param": "delay", "size": None, "predicted": None, "predicted_below_size": None}
-    wanted = dict(targets)
-    if "input_delay" in truth and "input_delay" not in wanted:
-        wanted["input_delay"] = delay
+    accepted = [name for report in (before, after) if report for name in report["effects"]]
+    names = [name for name in dict.fromkeys([*targets, *truth, *accepted]) if name in INJECTIONS]
     rows = []
-    for effect, target in wanted.items():
-        param = target["param"]
+    for effect in names:
+        target, param = targets.get(effect, {}), INJECTIONS[effect].param
         rows.append(
             {
                 "case": case.name,
                 "effect": effect,
-                "true": truth.get(effect, {}).get(param, 0.0),
-                "size_that_matters": target["size"],
+                "param": param,
+                "true": truth.get(effect, {}).get(param),
+                "size_that_matters": target.get("size"),
                 "before": {"limit": limit_of(before, effect), **accepted_size(before, effect, param)},
-                "predicted": target["predicted"],
-                "predicted_below_size": target["predicted_below_size"],
+                "predicted": target.get("predicted"),
+                "predicted_below_size": target.get("predicted_below_size"),
                 "after": None
                 if after is None
                 else {"limit": limit_of(after, effect), **accepted_size(after, effect, param)},
@@ -159,9 +160,9 @@ def run_case(case, out: Path, args) -> tuple[list[dict], dict]:
     return rows_of(case, answer, before, design, after), summary
 
 
-def _number(value) -> str:
+def _number(value, missing: str = "not reached") -> str:
     if value is None:
-        return "not reached"
+        return missing
     return value if isinstance(value, str) else f"{value:.3g}"
 
 
@@ -170,7 +171,7 @@ def _fit(entry: dict | None) -> str:
         return "-"
     interval = entry["interval"]
     span = f" [{_number(interval[0])}, {_number(interval[1])}]" if interval else ""
-    return f"{'accepted' if entry['accepted'] else 'not accepted'}, {_number(entry['value'])}{span}"
+    return f"{'accepted' if entry['accepted'] else 'not accepted'}, {_number(entry['value'], 'not fitted')}{span}"
 
 
 def print_table(rows: list[dict], summaries: list[dict]) -> None:
@@ -182,14 +183,15 @@ def print_table(rows: list[dict], summaries: list[dict]) -> None:
             f"{'-' if s['after'] is None else '+'.join(s['after_effects']) or s['after']} |"
         )
     print(
-        "\n| case | effect | true | size that matters | limit before | predicted | after | fit before | fit after |"
-        "\n|---|---|---:|---:|---:|---:|---:|---|---|"
+        "\n| case | effect (param) | true | size that matters | limit before | predicted | limit after | fit before "
+        "| fit after |\n|---|---|---:|---:|---:|---:|---:|---|---|"
     )
     for r in rows:
-        after = r["after"] or {}
+        after, targeted = r["after"] or {}, r["size_that_matters"] is not None
         print(
-            f"| {r['case']} | {r['effect']} | {_number(r['true'])} | {_number(r['size_that_matters'])} | "
-            f"{_number(r['before']['limit'])} | {_number(r['predicted'])} | {_number(after.get('limit'))} | "
+            f"| {r['case']} | {r['effect']} ({r['param']}) | {_number(r['true'], '-')} | "
+            f"{_number(r['size_that_matters'], '-')} | {_number(r['before']['limit'])} | "
+            f"{_number(r['predicted']) if targeted else '-'} | {_number(after.get('limit'), '-')} | "
             f"{_fit(r['before'])} | {_fit(r['after'])} |"
         )
 

@@ -375,7 +375,7 @@ def delay_beside_friction_cases() -> list[Case]:
     the logs see the delay only above its true size (``benchmarks/design_limits.py`` designs the experiment
     that brings that detection limit down)."""
     return [
-        make_case("qube", (arm_friction, "tanh", 0.05, {"neg_level": 0.09, "smoothing": 0.02}), (delay, 3), seed=6),
+        make_case("qube", (arm_friction, "tanh", 0.2, {"neg_level": 0.35, "smoothing": 0.02}), (delay, 1), seed=6),
     ]
 
 
