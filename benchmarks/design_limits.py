@@ -15,7 +15,8 @@ is accepted before and after at what size (its 95 % interval). Writes ``OUT/resu
 reused when the script is run again with the same ``--out``.
 
 Run from the repository root: ``PYTHONPATH=. python benchmarks/design_limits.py --out runs/design_limits``
-(``--only WORD ...``: the cases whose name holds a word; ``--duration S``: the experiment's length).
+(``--only WORD ...``: the cases whose name holds a word; ``--duration S``: the experiment's length;
+``--balancing``: the design's dither added to its LQR balancing the upright, played so on the simulator).
 """
 
 from __future__ import annotations
@@ -52,24 +53,30 @@ def case_folder(case, out: Path) -> tuple[Path, dict]:
     return folder, json.loads(answer.read_text())
 
 
-def designed(before: Path, directory: Path, duration: float | None, seed: int) -> dict:
+def designed(before: Path, directory: Path, args) -> dict:
     """design.json of the design from the diagnosis ``before`` (written once), or ``{status: error, reason}``."""
     if not (directory / "design.json").is_file():
         try:
-            design = design_experiment(before, duration=duration, settings=DesignSettings(seed=seed))
+            design = design_experiment(
+                before, duration=args.duration, balancing=args.balancing, settings=DesignSettings(seed=args.seed)
+            )
         except FurutaError as err:
             return {"status": "error", "reason": str(err), "detection_limits": []}
         write_design(directory, design, force=True)
     return json.loads((directory / "design.json").read_text())
 
 
-def played(case, experiment: Path, directory: Path) -> tuple[Path, Path]:
-    """The designed command played on the case's true rig (the independent simulator), its log cut in a train
-    half and a held-out half written in the suite's log format."""
+def played(case, design: dict, experiment: Path, directory: Path) -> tuple[Path, Path]:
+    """The designed command played on the case's true rig (the independent simulator; with ``--balancing`` the
+    dither added to the design's LQR gain), its log cut in a train half and a held-out half written in the
+    suite's log format."""
     paths = (directory / "experiment_train.csv", directory / "experiment_heldout.csv")
     if not paths[1].is_file():
         command = np.loadtxt(experiment, delimiter=",", comments="#", skiprows=2)[:, 1]
-        log = sim.play(case.world, command, case.seed + PLAY_SEED)
+        gain = design["excitation"].get("lqr_gain")
+        if gain is not None:  # N m per state unit -> command units
+            gain = np.array([gain]) / case.world.rig.torque_per_command
+        log = sim.play(case.world, command, case.seed + PLAY_SEED, gain)
         half = log.time.size // 2
         directory.mkdir(parents=True, exist_ok=True)
         for path, part in zip(paths, (slice(0, half), slice(half, None))):
@@ -134,10 +141,11 @@ def run_case(case, out: Path, args) -> tuple[list[dict], dict]:
     folder, answer = case_folder(case, out)
     train, heldout = sorted(folder.glob("train_*.csv")), sorted(folder.glob("heldout_*.csv"))
     before = diagnosed(out / "before" / case.name, folder / "rig.yaml", train, heldout, args.workers)
-    design = designed(out / "before" / case.name, out / "design" / case.name, args.duration, args.seed)
+    design = designed(out / "before" / case.name, out / "design" / case.name, args)
     after = None
     if design["status"] == "design":
-        extra = played(case, out / "design" / case.name / "experiment.csv", out / "after" / case.name / "logs")
+        experiment = out / "design" / case.name / "experiment.csv"
+        extra = played(case, design, experiment, out / "after" / case.name / "logs")
         after = diagnosed(
             out / "after" / case.name / "report",
             folder / "rig.yaml",
@@ -201,6 +209,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--only", nargs="+", help="the cases whose name contains one of these words")
     parser.add_argument("--duration", type=float, help="the experiment's length [s] (default: the design's choice)")
+    parser.add_argument("--balancing", action="store_true", help="a dither added to the LQR balancing the upright")
     parser.add_argument("--seed", type=int, default=0, help="the design's seed")
     parser.add_argument("--workers", type=int, default=1, help="processes of each diagnosis (default 1)")
     args = parser.parse_args(argv)
@@ -217,7 +226,8 @@ def main(argv: list[str] | None = None) -> int:
     print_table(rows, summaries)
     (args.out / "results.json").write_text(json.dumps({"cases": summaries, "rows": rows}, indent=2) + "\n")
     config = {"argv": sys.argv[1:] if argv is None else argv, "cases": [c.name for c in cases], "seed": args.seed}
-    config.update(duration_s=args.duration, workers=args.workers, wall_time_s=time.perf_counter() - start)
+    config.update(duration_s=args.duration, balancing=args.balancing, workers=args.workers)
+    config["wall_time_s"] = time.perf_counter() - start
     (args.out / "config.json").write_text(json.dumps({**config, **versions()}, indent=2) + "\n")
     return 0
 
