@@ -102,7 +102,12 @@ def limited_targets(report: dict, sizes: dict[str, float]) -> list[tuple[str, fl
 
 
 def reaches(name: str, limit: float | None, size: float) -> bool:
-    """Whether a detection limit of effect ``name`` (None: not reached) is at or below ``size``, both as
-    ``detection_limits`` states them (a gain's distance from 1, other sizes' from 0)."""
-    neutral = 1.0 if name == "torque_gain_error" else 0.0
-    return limit is not None and abs(limit - neutral) <= abs(size - neutral)
+    """Whether a detection limit of effect ``name`` (None: not reached) detects it at ``size``, both as
+    ``detection_limits`` states them: a gain's or an inertia scale's distance from 1 at most the size's, other
+    sizes' from 0; a saturation limit at most the largest limit detected."""
+    if limit is None:
+        return False
+    if name == "actuator_saturation":
+        return size <= limit
+    neutral = 1.0 if name in ("torque_gain_error", "inertia_mismatch") else 0.0
+    return abs(limit - neutral) <= abs(size - neutral)
