@@ -88,17 +88,20 @@ def played(case, design: dict, experiment: Path, directory: Path) -> tuple[Path,
 
 
 def accepted_size(report: dict, effect: str, param: str) -> dict:
-    """The effect's fitted ``param`` in the accepted model (with its 95 % interval), or fitted at the next step
-    beside the accepted effects when it was not accepted."""
+    """The effect's fitted ``param`` in the accepted model (with its 95 % interval), or, when it was not accepted,
+    fitted beside the accepted effects at the next step (else at the latest step it was fitted)."""
     steps = [step["effect"] for step in report.get("steps") or []]
     key = f"{effect}.{param}"
     if effect in report["effects"]:
         final = next(e for e in report["ranking"] if set(e["effect"].split("+")) == set(steps))
         name = key if len(steps) > 1 else param
         return {"accepted": True, "value": final["params"].get(name), "interval": final.get("params_ci", {}).get(name)}
-    beside = [e for e in report["ranking"] if e["effect"].split("+") == steps + [effect] and e["status"] == "ok"]
-    value = beside[0]["params"].get(key if steps else param) if beside else None
-    return {"accepted": False, "value": value, "interval": None}
+    fits = [e for e in report["ranking"] if e["effect"].split("+")[-1] == effect and e["status"] == "ok"]
+    beside = [e for e in fits if e["effect"].split("+") == steps + [effect]] or sorted(fits, key=lambda e: -e["step"])
+    if not beside:
+        return {"accepted": False, "value": None, "interval": None}
+    single = "+" not in beside[0]["effect"]
+    return {"accepted": False, "value": beside[0]["params"].get(param if single else key), "interval": None}
 
 
 def limit_of(report: dict, effect: str) -> float | None | str:
