@@ -702,8 +702,10 @@ def square_reference(times: np.ndarray, amplitude: float, period: float) -> np.n
 
 @dataclass(frozen=True)
 class RunSpec:
-    """One run: ``balance`` (discrete LQR with a multisine and an arm square-wave reference) or ``hanging``
-    (open-loop multisine); excitation RMS as a fraction of m g l (torque-equivalent)."""
+    """One run: ``balance`` (discrete LQR with a multisine and an arm square-wave reference), ``hanging``
+    (open-loop multisine; excitation RMS as a fraction of m g l, torque-equivalent), or a designed experiment
+    (:func:`play`): ``played`` (a given open-loop command from rest hanging) or ``played_balance`` (a given
+    dither added to a given state feedback, from rest upright)."""
 
     kind: str
     duration: float = 8.0  # [s]
@@ -739,14 +741,30 @@ class RunLog:
         return bool(np.max(np.abs(self.state[:, 0])) > FALLEN)
 
 
-def simulate(world: World, run: RunSpec) -> RunLog:
-    """Record ``run`` on the true rig ``world``; the controller knows only the nominal rig."""
+def play(world: World, command: np.ndarray, seed: int, gain: np.ndarray | None = None) -> RunLog:
+    """Record a designed experiment on the true rig ``world``: the open-loop ``command`` (command units, one value
+    per sample) played from rest hanging, or with ``gain`` (1x4, command units per state unit) the dither added
+    to u = -gain [theta, phi, theta_dot, phi_dot] balancing from rest upright (velocities: the controller's
+    dirty derivative)."""
+    run = RunSpec("played" if gain is None else "played_balance", len(command) * world.rig.sample_period, seed)
+    return simulate(world, run, np.asarray(command, dtype=float), gain)
+
+
+def simulate(
+    world: World, run: RunSpec, command: np.ndarray | None = None, played_gain: np.ndarray | None = None
+) -> RunLog:
+    """Record ``run`` on the true rig ``world``; the controller knows only the nominal rig. ``command``: the
+    excitation of a played run, ``played_gain`` the state feedback of a ``played_balance`` one."""
     rig = world.rig
     h = rig.sample_period
     rng = np.random.default_rng([run.seed, 7])
     times = np.arange(round(run.duration / h)) * h
     scale = rig.bodies.d / rig.torque_per_command  # m g l in command units
-    excitation = multisine(run.excitation_rms * scale, run.f_min, run.f_max, times, rng) * fade_in(times, run.fade_in)
+    if run.kind.startswith("played"):
+        excitation = command
+    else:
+        excitation = multisine(run.excitation_rms * scale, run.f_min, run.f_max, times, rng)
+        excitation = excitation * fade_in(times, run.fade_in)
     plant, chain = Plant(world), CommandChain(world, jitter=np.random.default_rng([run.seed, 11]))
     correlated = (
         CorrelatedNoise(world.noise_std, world.noise_correlation_time, h, np.random.default_rng([run.seed, 13]))
@@ -754,10 +772,12 @@ def simulate(world: World, run: RunSpec) -> RunLog:
         else None
     )
     integrator = Integrator(plant)
-    balance = run.kind == "balance"
-    x = plant.initial(0.03 if balance else math.pi + 0.1)
-    gain = discrete_lqr(rig) if balance else None
+    balance = run.kind in ("balance", "played_balance")
+    x = plant.initial({"balance": 0.03, "hanging": math.pi + 0.1, "played": math.pi, "played_balance": 0.0}[run.kind])
+    gain = discrete_lqr(rig) if run.kind == "balance" else played_gain
     reference = square_reference(times, run.reference_amplitude, run.reference_period)
+    if run.kind == "played_balance":
+        reference = np.zeros_like(times)
     velocity = VelocityFilter(h, cutoff=VELOCITY_CUTOFF)
     measured, commands, states = np.zeros((times.size, 2)), np.zeros(times.size), np.zeros((times.size, 4))
     for k in range(times.size):

@@ -55,3 +55,13 @@ def test_an_accepted_effect_is_never_a_target():
 
 def test_the_share_of_a_margin_is_a_change_short_of_instability():
     assert 0.0 < CLOSED_LOOP_SHARE < 0.5
+
+
+def test_a_limit_reaches_a_size_by_its_distance_from_no_effect():
+    from furuta_drake.design.closed_loop import reaches
+
+    assert reaches("input_delay", 2e-3, 3e-3) and not reaches("input_delay", 4e-3, 3e-3)
+    assert reaches("torque_gain_error", 1.05, 0.92) and not reaches("torque_gain_error", 1.1, 0.92)
+    assert reaches("inertia_mismatch", 1.02, 1.05) and not reaches("inertia_mismatch", 1.08, 1.05)
+    assert reaches("actuator_saturation", 0.03, 0.02) and not reaches("actuator_saturation", 0.03, 0.04)
+    assert not reaches("actuator_lag", None, 1.0)

@@ -96,11 +96,18 @@ def limited_targets(report: dict, sizes: dict[str, float]) -> list[tuple[str, fl
     for name, size in sizes.items():
         if not np.isfinite(size) or law_of(name) & accepted or name not in limits:
             continue
-        limit = limits[name]
-        if limit is None or abs(limit - _neutral(name)) > abs(size - _neutral(name)):
+        if not reaches(name, limits[name], size):
             out.append((name, float(size)))
     return out
 
 
-def _neutral(name: str) -> float:
-    return 1.0 if name == "torque_gain_error" else 0.0
+def reaches(name: str, limit: float | None, size: float) -> bool:
+    """Whether a detection limit of effect ``name`` (None: not reached) detects it at ``size``, both as
+    ``detection_limits`` states them: a gain's or an inertia scale's distance from 1 at most the size's, other
+    sizes' from 0; a saturation limit at most the largest limit detected."""
+    if limit is None:
+        return False
+    if name == "actuator_saturation":
+        return size <= limit
+    neutral = 1.0 if name in ("torque_gain_error", "inertia_mismatch") else 0.0
+    return abs(limit - neutral) <= abs(size - neutral)

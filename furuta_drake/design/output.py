@@ -91,6 +91,7 @@ def design_json(design: Design) -> dict:
             for h in design.hypotheses.hypotheses
         ],
         "pairs": design.pairs,
+        "detection_limits": design.limits,
         "responses": {
             name: {
                 "peak_arm_angle_rad": run.peaks["arm"],
@@ -129,7 +130,7 @@ def _config(design: Design) -> dict:
 def design_markdown(document: dict) -> str:
     """design.md: the same content for a person."""
     lines = ["# Experiment design", ""] + _md_experiment(document) + _md_hypotheses(document)
-    lines += _md_pairs(document) + _md_responses(document)
+    lines += _md_pairs(document) + _md_limits(document) + _md_responses(document)
     bounds, unit = document["bounds"], document["input"]["unit"]
     lines += [
         "",
@@ -210,6 +211,37 @@ def _md_pairs(document: dict) -> list[str]:
     return lines + [
         f"- `{pair['hypotheses'][0]}` vs `{pair['hypotheses'][1]}`: {pair['why']}" for pair in document["pairs"]
     ]
+
+
+def _md_limits(document: dict) -> list[str]:
+    """Per targeted effect: the size that matters, today's detection limit and the predicted one."""
+    if not document["detection_limits"]:
+        return []
+    lines = [
+        "",
+        "## Detection limits",
+        "",
+        "| effect | size that matters | limit today | predicted with the experiment | falls to the size |",
+        "|---|---:|---:|---:|---|",
+    ]
+    for limit in document["detection_limits"]:
+        unit, below = limit["unit"], limit["predicted_below_size"]
+        lines.append(
+            f"| `{limit['effect']}` ({limit['param']}) | {_fmt(limit['size'])} {unit} | "
+            f"{_limit(limit['today'], unit)} | {_limit(limit['predicted'], unit)} | "
+            f"{'-' if below is None else 'yes' if below else 'no'} |"
+        )
+    return lines + [
+        "",
+        "A limit is the smallest size the acceptance rule detects on the held-out windows, the effect injected "
+        "into the accepted model's prediction (the report's detection limits); the predicted one adds the "
+        "experiment's held-out half as the accepted model plays it. A real fit must also find the parameter, so "
+        "a real detection needs somewhat more.",
+    ]
+
+
+def _limit(value, unit: str) -> str:
+    return "not reached" if value is None else f"{_fmt(value)} {unit}"
 
 
 def _md_responses(document: dict) -> list[str]:

@@ -18,6 +18,7 @@ from furuta_drake.design.criterion import Parametrised, experiment_windows, refi
 from furuta_drake.design.family import Family
 from furuta_drake.design.hypotheses import Hypotheses, parse_target, read_hypotheses
 from furuta_drake.design.inputs import DiagnosisRecord, read_diagnosis
+from furuta_drake.design.limits import diagnosis_heldout_windows, predicted_limits, target_sizes
 from furuta_drake.design.optimise import (
     SAFETY,
     Bounds,
@@ -35,7 +36,7 @@ from furuta_drake.design.rollout import (
 )
 from furuta_drake.design.torque_hypothesis import apply_hypothesis
 from furuta_drake.diagnosis.fit import scales_of
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, window_samples
+from furuta_drake.diagnosis.gap import evaluate_gap, window_samples
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.simulate import simulate
 
@@ -111,6 +112,7 @@ class Design:
     record: DiagnosisRecord
     settings: DesignSettings
     options: dict = field(default_factory=dict)
+    limits: list[dict] = field(default_factory=list)  # per target: today's and the predicted detection limit
 
 
 def design_experiment(
@@ -185,7 +187,24 @@ def design_experiment(
             say(f"repeating the experiment to {longer:g} s")
             design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales, say)
     design.notes += _unsettled_notes(design)
+    design.limits = _predicted_limits(design, parsed, scales)
     return design
+
+
+def _predicted_limits(design: Design, named: list[tuple[str, float]], scales) -> list[dict]:
+    """Per target of ``design`` (``named`` by --target, else the limits that matter), today's and the predicted
+    detection limit (:mod:`furuta_drake.design.limits`)."""
+    hypotheses, record = design.hypotheses, design.record
+    run = design.runs.get(hypotheses.hypotheses[0].name)
+    return predicted_limits(
+        record,
+        hypotheses,
+        target_sizes(hypotheses, named, record.report, record.rig),
+        None if run is None else (run.angles, run.command),
+        scales,
+        design.settings.bootstrap,
+        design.settings.seed,
+    )
 
 
 def _common(record, hypotheses, bounds, settings, search, options: dict) -> dict:
@@ -405,10 +424,8 @@ def _predicted_pairs(
     outcome of the rule (:mod:`furuta_drake.design.predict`) on the Drake runs, with the duration
     (a multiple of ``duration`` in ``REPEATS``) at which the outcome would be detected in ``SETTLES`` of the draws
     (None when none is)."""
-    from furuta_drake.diagnosis.split import split_heldout
-
-    rig, counts = record.rig, record.rig.counts_per_rev
-    old_windows = make_windows(record.heldout if record.heldout else split_heldout(record.train)[1], rig)
+    counts = record.rig.counts_per_rev
+    old_windows = diagnosis_heldout_windows(record)
     old_cache: dict[str, np.ndarray] = {}
 
     def old_excess(effects) -> np.ndarray:

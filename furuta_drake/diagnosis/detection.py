@@ -210,6 +210,21 @@ def detection_limits(
     return out
 
 
+def injected_limits(
+    model: Model,
+    accepted: list[str],
+    windows: Windows,
+    scales: Scales,
+    counts: int,
+    bootstrap: Bootstrap,
+    names: list[str],
+) -> list[DetectionLimit]:
+    """The detection limits of the injected (actuator and plant) effects ``names`` alone, on the held-out
+    ``windows`` of ``model``, as :func:`detection_limits` finds them."""
+    judge = _Judge(model, windows, counts, bootstrap, first=not accepted)
+    return [_injected_limit(name, judge, scales) for name in names]
+
+
 def _bisect(detected: Callable[[float], bool], low: float, high: float) -> float | None:
     """The smallest size in [low, high] that is detected (log-scale bisection), None when ``high`` is not."""
     if not detected(high):
