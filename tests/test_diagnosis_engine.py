@@ -126,12 +126,13 @@ def test_a_hidden_lag_at_its_true_time_constant_sits_at_the_floor_in_the_surroga
 def test_sensor_effects_are_read_from_the_data(clean_logs):
     rig = RIGS["lund"]()
     assert quantization_estimate(clean_logs, rig.counts_per_rev) == rig.counts_per_rev
-    assert noise_estimate(clean_logs, rig.counts_per_rev)[0] == 0.0
+    nominal = Model.from_rig(rig)
+    assert noise_estimate(nominal, make_windows(clean_logs, rig), rig.counts_per_rev)[0] == 0.0
     coarse = [hanging_log(4, "encoder_quantization", level=1)]
     assert quantization_estimate(coarse, rig.counts_per_rev) == rig.counts_per_rev / 4
-    noisy = [hanging_log(5, "measurement_noise", level=2)]
+    noisy = make_windows([hanging_log(5, "measurement_noise", level=2)], rig)
     sigma = 3.0 * encoder_resolution(rig.counts_per_rev)  # the suite's level-2 noise: 3 counts
-    estimate, samples = noise_estimate(noisy, rig.counts_per_rev, resamples=200)
+    estimate, samples = noise_estimate(nominal, noisy, rig.counts_per_rev, resamples=200)
     assert estimate == pytest.approx(sigma, rel=0.25)
     assert np.percentile(samples, 2.5) < estimate < np.percentile(samples, 97.5)
 

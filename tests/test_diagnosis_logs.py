@@ -155,6 +155,18 @@ def test_extra_columns_are_ignored_and_named_once(tmp_path):
     assert ignored_columns_note([plain]) is None
 
 
+def test_velocity_columns_are_named_as_unused_with_the_reason(tmp_path):
+    rows = [r + ["0.5", "-0.25"] for r in good_rows()]
+    log = load_log(write_csv(tmp_path / "run.csv", HEADER + ["theta_dot", "phi_dot"], rows), lund_rig())
+    assert log.ignored_columns == ("theta_dot", "phi_dot")
+    note = ignored_columns_note([log])
+    assert "velocity columns (phi_dot, theta_dot) are not used" in note and "start state" in note
+    other = load_log(
+        write_csv(tmp_path / "other.csv", HEADER + ["true_theta"], [r + ["7"] for r in good_rows()]), lund_rig()
+    )
+    assert "velocity" not in ignored_columns_note([other])
+
+
 def test_wrapped_angles_are_refused_with_the_line(tmp_path):
     raw = read_qube(QUBE_DATA / "swingup_250Hz_10s_a.csv")
     wrapped = dict(raw, theta=np.angle(np.exp(1j * raw["theta"])))  # into (-pi, pi]

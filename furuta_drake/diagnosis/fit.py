@@ -13,9 +13,12 @@ windows, is the 95 % interval.
 
 The sensor effects are estimated from the data directly, because no trajectory can fit white noise:
 ``encoder_quantization`` from the grid the angle increments lie on (the largest k such that every increment is
-a multiple of k counts of the rig's encoder), ``measurement_noise`` from the robust spread of the angles' second
-differences (white noise sigma gives a second difference of std sqrt(6) sigma, quantisation of a smooth motion
-almost none).
+a multiple of k counts of the rig's encoder), ``measurement_noise`` from the robust spread of the second differences
+of what the model does not predict, the residuals of its windows (white noise sigma gives a second difference of
+std sqrt(6) sigma, quantisation of a smooth motion almost none, and a smooth model error little: noise is what
+varies from one sample to the next). The motion itself is left out because the model predicts it: at a low
+sample rate a swinging pendulum's own acceleration moves the angles by counts between samples, which the angles'
+raw second differences would read as noise larger than the whole residual.
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ from furuta_drake.rig import encoder_resolution
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise
+NOISE_WINDOWS = 400  # train windows (a seeded draw) whose residuals the noise estimate reads
 BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a bound is "at" it
 INTERVAL = (2.5, 97.5)  # percentiles of the 95 % parameter intervals
 
@@ -112,22 +116,39 @@ def quantization_estimate(logs, nominal_counts: int) -> float:
     return float(nominal_counts)
 
 
-def noise_estimate(logs, nominal_counts: int, resamples: int = 0, seed: int = 0) -> tuple[float, np.ndarray]:
-    """White measurement noise sigma [rad] from the variance of the angles' second differences: white noise
-    sigma gives 6 sigma^2, the rounding to the encoder's step (independent once the noise spans a step) 6 step^2 / 12
-    more, which is subtracted (the step from :func:`quantization_estimate`); outliers (the motion's own jerks)
-    beyond 6 robust sigmas are left out. 0 when below ``NOISE_FLOOR_COUNTS`` counts. (A median absolute
-    deviation of these integer counts would be quantised itself.) Also ``resamples`` bootstrap values over blocks
-    of 100 second differences.
+def noise_estimate(
+    model: Model, windows: Windows, nominal_counts: int, resamples: int = 0, seed: int = 0
+) -> tuple[float, np.ndarray]:
+    """White measurement noise sigma [rad] read from the residuals of ``model`` on (at most ``NOISE_WINDOWS`` of)
+    ``windows``: measured minus predicted angles, from each window's own refined initial state
+    (:func:`~furuta_drake.diagnosis.gap.projected_residuals`), per window and angle with the command over it; the
+    sigma of their second differences (:func:`second_difference_noise`)."""
+    subset = windows.subset(NOISE_WINDOWS, seed)
+    raw = projected_residuals(model, subset, nominal_counts)[0]
+    signals = [
+        (r[:, angle, w], np.asarray(log.input)[start : start + r.shape[0]])
+        for log, starts, r in zip(subset.logs, subset.starts, raw)
+        for w, start in enumerate(starts)
+        for angle in (0, 1)
+        if np.all(np.isfinite(r[:, angle, w]))  # a diverged prediction reads no noise
+    ]
+    step = nominal_counts / quantization_estimate(windows.logs, nominal_counts)
+    return second_difference_noise(signals, step, encoder_resolution(nominal_counts), resamples, seed)
 
-    At a low sample rate the motion's own acceleration a dt^2 can carry the second differences; when it carries
-    more than half of them (:func:`_motion_free_squares`) it is extrapolated away with the lag-2 differences,
-    on the samples whose stencil the command holds constant over."""
-    count = encoder_resolution(nominal_counts)
-    squares = _motion_free_squares(
-        [(np.asarray(angle) / count, np.asarray(log.input)) for log in logs for angle in (log.theta, log.phi)]
-    )
-    step = nominal_counts / quantization_estimate(logs, nominal_counts)  # [counts]
+
+def second_difference_noise(
+    signals: list[tuple[np.ndarray, np.ndarray]], step: float, count: float, resamples: int = 0, seed: int = 0
+) -> tuple[float, np.ndarray]:
+    """White noise sigma [rad] of ``signals`` ((values [counts], command) pairs) from the variance of their second
+    differences: white noise sigma gives 6 sigma^2, the rounding to an encoder step of ``step`` counts (independent
+    once the noise spans a step) 6 step^2 / 12 more, which is subtracted; outliers (jerks) beyond 6 robust sigmas
+    are left out. 0 when below ``NOISE_FLOOR_COUNTS`` counts. (A median absolute deviation of these integer counts
+    would be quantised itself.) Also ``resamples`` bootstrap values over blocks of 100 second differences.
+
+    A smooth drift a dt^2 per sample (a motion or model error the signal still carries) is extrapolated away with
+    the lag-2 differences when it carries more than half of them (:func:`_motion_free_squares`), on the samples
+    whose stencil the command holds constant over."""
+    squares = _motion_free_squares(signals)
 
     def sigma(mean_square):
         value = np.sqrt(np.maximum(mean_square / 6.0 - step**2 / 12.0, 0.0))
@@ -149,7 +170,7 @@ def _within(values: np.ndarray) -> np.ndarray:
 
 
 def _motion_free_squares(signals: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-    """Per-sample squares whose mean is 6 (sigma^2 + rounding^2) [counts^2], from (angle [counts], command) pairs:
+    """Per-sample squares whose mean is 6 (sigma^2 + rounding^2) [counts^2], from (signal [counts], command) pairs:
     the squared second differences d1^2 (outliers left out); or, when the motion's share M = (E d2^2 - E d1^2) / 15
     of the lag-2 second differences d2 (white terms 6 (sigma^2 + rounding^2) in both, a smooth motion's a^2 dt^4
     once in d1^2 and 16 times in d2^2) exceeds half of E d1^2, the extrapolation (16 d1^2 - d2^2) / 15, which
@@ -185,7 +206,7 @@ def fit_task(task: FitTask) -> FitResult:
         fits = [_least_squares(task, {task.new: form}) for form in forms]
         effects, at_bound, samples, _ = min(fits, key=lambda fit: fit[3])
     else:
-        estimate, new_samples = _sensor_estimate(task.new, task.logs, counts, task.settings)
+        estimate, new_samples = _sensor_estimate(task)
         effects = {**task.fixed, task.new: Effect("", (estimate,))}
         at_bound, samples = [], {**task.fixed_samples, task.new: new_samples[:, None]}
     model = apply_effects(task.model, effects)
@@ -197,11 +218,15 @@ def fit_task(task: FitTask) -> FitResult:
     return FitResult(task.name, {name: effects[name] for name in names}, train_gap, heldout, samples, at_bound)
 
 
-def _sensor_estimate(name: str, logs, counts: int, settings: DiagnosisSettings) -> tuple[float, np.ndarray]:
-    if name == "encoder_quantization":
-        value = quantization_estimate(logs, counts)
+def _sensor_estimate(task: FitTask) -> tuple[float, np.ndarray]:
+    """The sensor effect ``task.new`` read from the data: the encoder's grid from the logs, the noise from the
+    residuals of the model holding the fixed effects."""
+    settings, counts = task.settings, task.nominal_counts
+    if task.new == "encoder_quantization":
+        value = quantization_estimate(task.logs, counts)
         return value, np.full(settings.interval_resamples, value)
-    return noise_estimate(logs, counts, settings.interval_resamples, settings.seed)
+    model = apply_effects(task.model, task.fixed)
+    return noise_estimate(model, task.train, counts, settings.interval_resamples, settings.seed)
 
 
 def _least_squares(task: FitTask, new_form: dict[str, str]):

@@ -242,11 +242,25 @@ def load_logs(
 
 
 def ignored_columns_note(logs: list[RunLog]) -> str | None:
-    """The one line saying which extra columns were ignored, or None when there were none."""
+    """The one line saying which extra columns were ignored, or None when there were none; with why velocity
+    columns (:func:`is_velocity_column`) are among them."""
     per_log = [f"{log.name}: {', '.join(log.ignored_columns)}" for log in logs if log.ignored_columns]
     if not per_log:
         return None
-    return "ignored extra columns (" + "; ".join(per_log) + ")"
+    velocities = sorted({name for log in logs for name in log.ignored_columns if is_velocity_column(name)})
+    why = (
+        f"; the velocity columns ({', '.join(velocities)}) are not used: each window's start state is refined "
+        "from the angles themselves, and a logged velocity, even the true one, does not change it"
+        if velocities
+        else ""
+    )
+    return "ignored extra columns (" + "; ".join(per_log) + ")" + why
+
+
+def is_velocity_column(name: str) -> bool:
+    """Whether a log's column is named as a velocity (``theta_dot``, ``phi_velocity``, ``alpha_vel``...)."""
+    lowered = name.lower()
+    return lowered.endswith("_dot") or "vel" in lowered
 
 
 def check_theta_direction(logs: list[RunLog], rig: RigParameters, rig_path: str | Path = "the rig file") -> None:
