@@ -35,6 +35,7 @@ from furuta_drake.diagnosis.gap import (
 )
 from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.noise_correlation import correlated_noise_estimate
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
@@ -186,8 +187,8 @@ def fit_task(task: FitTask) -> FitResult:
         effects, at_bound, samples, _ = min(fits, key=lambda fit: fit[3])
     else:
         estimate, new_samples = _sensor_estimate(task.new, task.logs, counts, task.settings)
-        effects = {**task.fixed, task.new: Effect("", (estimate,))}
-        at_bound, samples = [], {**task.fixed_samples, task.new: new_samples[:, None]}
+        effects = {**task.fixed, task.new: estimate}
+        at_bound, samples = [], {**task.fixed_samples, task.new: new_samples}
     model = apply_effects(task.model, effects)
     train_gap = evaluate_gap(model, task.train, counts).gap
     heldout = None if task.heldout is None else evaluate_gap(model, task.heldout, counts)
@@ -197,11 +198,18 @@ def fit_task(task: FitTask) -> FitResult:
     return FitResult(task.name, {name: effects[name] for name in names}, train_gap, heldout, samples, at_bound)
 
 
-def _sensor_estimate(name: str, logs, counts: int, settings: DiagnosisSettings) -> tuple[float, np.ndarray]:
+def _sensor_estimate(name: str, logs, counts: int, settings: DiagnosisSettings) -> tuple[Effect, np.ndarray]:
+    """A sensor effect read from the logs and its bootstrap samples (resamples, params); measurement noise in its
+    correlated form where the second differences show a correlation time, else white."""
+    resamples = settings.interval_resamples
     if name == "encoder_quantization":
         value = quantization_estimate(logs, counts)
-        return value, np.full(settings.interval_resamples, value)
-    return noise_estimate(logs, counts, settings.interval_resamples, settings.seed)
+        return Effect("", (value,)), np.full((resamples, 1), value)
+    correlated, samples = correlated_noise_estimate(logs, counts, NOISE_FLOOR_COUNTS, resamples, settings.seed)
+    if correlated is not None:
+        return correlated, samples
+    sigma, samples = noise_estimate(logs, counts, resamples, settings.seed)
+    return Effect("white", (sigma,)), samples[:, None]
 
 
 def _least_squares(task: FitTask, new_form: dict[str, str]):
