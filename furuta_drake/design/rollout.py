@@ -84,7 +84,7 @@ def surrogate_closed_loop(
     map, Dahl or LuGre bristle) are stepped one sample at a time, with the same RK4 substeps as
     :func:`~furuta_drake.effects.surrogate.predict_windows`.
     """
-    from furuta_drake.effects.surrogate import expected_command, applied_torque
+    from furuta_drake.effects.surrogate import applied_torque, expected_command
     from furuta_drake.effects.surrogate_kernel import integrate, lag_filter, pack
 
     dithers = np.atleast_2d(dithers)

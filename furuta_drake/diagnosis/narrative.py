@@ -114,8 +114,10 @@ def _inertia(p: dict, ci: dict | None, main_only: bool) -> str:
 
 STATEMENTS = {
     "inertia_mismatch": _inertia,
-    "input_delay": lambda p, ci, _: f"commands reach the arm about {_q(p, 'delay', ci)} late"
-    + (f", give or take {_q(p, 'delay_spread', ci)} from sample to sample" if "delay_spread" in p else ""),
+    "input_delay": lambda p, ci, _: (
+        f"commands reach the arm about {_q(p, 'delay', ci)} late"
+        + (f", give or take {_q(p, 'delay_spread', ci)} from sample to sample" if "delay_spread" in p else "")
+    ),
     "actuator_lag": lambda p, ci, _: f"the drive follows the command with a lag of about {_q(p, 'time_constant', ci)}",
     "arm_coulomb_friction": lambda p, ci, _: f"the arm's sliding (Coulomb) friction is about {_q(p, 'coulomb', ci)}",
     "arm_viscous_friction": lambda p, ci, _: f"the arm's viscous friction is about {_q(p, 'viscous', ci)}",

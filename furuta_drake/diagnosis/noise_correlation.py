@@ -83,8 +83,6 @@ def correlated_noise_estimate(
     sums2 = np.add.reduceat(s2[: blocks * BLOCK], np.arange(0, blocks * BLOCK, BLOCK)) if s2.size >= BLOCK else s2
     draws = np.random.default_rng(seed).integers(0, sums1.size, (resamples, sums1.size))
     n = sums1.size * (BLOCK if s1.size >= BLOCK else 1)
-    samples = np.array(
-        [_read(sums1[d].sum() / n, sums2[d].sum() / n, period) for d in draws], dtype=float
-    ).reshape(-1, 2)
+    samples = np.array([_read(sums1[d].sum() / n, sums2[d].sum() / n, period) for d in draws]).reshape(-1, 2)
     samples[:, 0] *= count
     return Effect("correlated", (sigma * count, tau)), samples

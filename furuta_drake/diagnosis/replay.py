@@ -3,10 +3,10 @@
 The diagram is the model's Furuta world (:func:`~furuta_drake.world.add_furuta_world`: the MultibodyPlant of
 the model's rig, its friction, spring, back-EMF and unmodelled torques, and its actuator chain) fed by the logged
 command as a zero-order-hold ``TrajectorySource``; a pure input delay of an open-loop replay is exactly a time shift
-of that source, a jittering one its expectation (piecewise linear). Each window starts from the initial state the surrogate refined for this model, with a fresh integrator
-(Drake's error-controlled RK5 at accuracy 1e-6: a gap near the sensor floor is a square root, so integration error
-that a looser accuracy leaves would show); the residuals give the same gap as
-:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
+of that source, a jittering one its expectation (piecewise linear). Each window starts from the initial state the
+surrogate refined for this model, with a fresh integrator (Drake's error-controlled RK5 at accuracy 1e-6: a gap
+near the sensor floor is a square root, so integration error that a looser accuracy leaves would show); the
+residuals give the same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
 """
 
 from __future__ import annotations
