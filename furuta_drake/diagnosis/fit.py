@@ -58,6 +58,8 @@ class FitResult:
     samples: dict[str, np.ndarray] = field(default_factory=dict)  # effect -> (resamples, params) bootstrap
     at_bounds: list[str] = field(default_factory=list)  # "effect.param (lower|upper)" fitted at a search bound
     failure: str = ""  # why the fit or its held-out prediction failed ("" when it did not)
+    train_excess: float = float("nan")  # mean excess squared residual on the train windows before the gap's clip
+    # [counts^2]: orders fits that both reach the floor (a gap of 0)
 
 
 @dataclass(frozen=True)
@@ -190,12 +192,20 @@ def fit_task(task: FitTask) -> FitResult:
         effects = {**task.fixed, task.new: estimate}
         at_bound, samples = [], {**task.fixed_samples, task.new: new_samples}
     model = apply_effects(task.model, effects)
-    train_gap = evaluate_gap(model, task.train, counts).gap
+    train = evaluate_gap(model, task.train, counts)
     heldout = None if task.heldout is None else evaluate_gap(model, task.heldout, counts)
     if heldout is not None and not np.isfinite(heldout.gap):
         raise FloatingPointError(f"{task.name}: the fitted model's prediction diverged on held-out windows")
     names = (*task.fixed, task.new)
-    return FitResult(task.name, {name: effects[name] for name in names}, train_gap, heldout, samples, at_bound)
+    return FitResult(
+        task.name,
+        {name: effects[name] for name in names},
+        train.gap,
+        heldout,
+        samples,
+        at_bound,
+        train_excess=float(train.per_window.mean()),
+    )
 
 
 def _sensor_estimate(name: str, logs, counts: int, settings: DiagnosisSettings) -> tuple[Effect, np.ndarray]:
