@@ -69,7 +69,9 @@ def model_config(
     rig: RigParameters, model: Model, unmodelled_torque: UnmodelledTorqueParameters | None = None
 ) -> SimulationConfig:
     """The Drake model of ``model`` (a diagnosis model of ``rig``) as a simulate config, open loop: users add
-    their controller. ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary."""
+    their controller. ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary. The
+    simulate world's delay is fixed and its noise white: a jittering delay enters as its mean, correlated noise as
+    white noise of its size (the rig file written beside it keeps both forms)."""
     config = SimulationConfig.from_rig(
         model_rig(model, rig).replace(motor=rig.motor, effects=None, unmodelled_torque=None)
     )
