@@ -79,10 +79,9 @@ def correlated_noise_estimate(
     if sigma < floor or tau < CORRELATED_MIN_PERIODS * period:
         return None, np.empty((0, 2))
     blocks = max(1, s1.size // BLOCK)
-    sums1 = np.add.reduceat(s1[: blocks * BLOCK], np.arange(0, blocks * BLOCK, BLOCK)) if s1.size >= BLOCK else s1
-    sums2 = np.add.reduceat(s2[: blocks * BLOCK], np.arange(0, blocks * BLOCK, BLOCK)) if s2.size >= BLOCK else s2
-    draws = np.random.default_rng(seed).integers(0, sums1.size, (resamples, sums1.size))
-    n = sums1.size * (BLOCK if s1.size >= BLOCK else 1)
-    samples = np.array([_read(sums1[d].sum() / n, sums2[d].sum() / n, period) for d in draws]).reshape(-1, 2)
+    size = s1.size // blocks
+    sums1, sums2 = (s[: blocks * size].reshape(blocks, size).sum(axis=1) for s in (s1, s2))
+    draws = np.random.default_rng(seed).integers(0, blocks, (resamples, blocks))
+    samples = np.array([_read(sums1[d].mean() / size, sums2[d].mean() / size, period) for d in draws]).reshape(-1, 2)
     samples[:, 0] *= count
     return Effect("correlated", (sigma * count, tau)), samples

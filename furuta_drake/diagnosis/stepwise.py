@@ -389,6 +389,8 @@ def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
     the form with the lowest train excess (the gap before its clip at the floor) is kept."""
     tasks, scales = [], scales_of(task.logs, task.model)
     for name, effect in task.fixed.items():
+        if not CANDIDATES[name].fit:  # a sensor effect's form is read from the data, not fitted
+            continue
         for form in CANDIDATES[name].forms:
             if form.name != effect.form:
                 tasks.append(
