@@ -215,7 +215,8 @@ def _sensor_estimate(name: str, logs, counts: int, settings: DiagnosisSettings) 
     if name == "encoder_quantization":
         value = quantization_estimate(logs, counts)
         return Effect("", (value,)), np.full((resamples, 1), value)
-    correlated, samples = correlated_noise_estimate(logs, counts, NOISE_FLOOR_COUNTS, resamples, settings.seed)
+    step = counts / quantization_estimate(logs, counts)
+    correlated, samples = correlated_noise_estimate(logs, counts, step, NOISE_FLOOR_COUNTS, resamples, settings.seed)
     if correlated is not None:
         return correlated, samples
     sigma, samples = noise_estimate(logs, counts, resamples, settings.seed)

@@ -5,11 +5,13 @@ differences n_(k+L) - 2 n_k + n_(k-L) the variance
 
     V_L = sigma^2 (6 - 8 a^L + 2 a^(2L))        (white noise: 6 sigma^2 at every lag)
 
-and the rounding to the encoder's step adds little: read before the noise, the rounding of a motion slower than
-a count per sample changes only where it crosses a count, and an interface that filters smooths it with the
-noise. The ratio V_2 / V_1 = (1 + a)(3 - a^2) / (3 - a) rises from 1 (white) towards 2 (a slow drift) and gives a; V_1
-then gives sigma. A smooth motion adds a^2 dt^4 L^4, far below the noise at the two shortest lags wherever the
-noise is read at all (:func:`furuta_drake.diagnosis.fit.noise_estimate` extrapolates it away where it is not).
+and the rounding to the encoder's step adds 6 step^2 / 12 to each, as in the white estimate (the rounding of a
+motion that crosses counts at most samples is independent from sample to sample; a slow one's adds less, and
+the correlation time read is then too long). The ratio V_2 / V_1 = (1 + a)(3 - a^2) / (3 - a) rises from 1
+(white) towards 2 (a slow drift) and gives a; V_1 then gives sigma. Both are steep functions of that ratio: a
+few percent on it moves sigma by about 10 % and tau by about 20 % at a = 0.67. A smooth motion adds
+a^2 dt^4 L^4, far below the noise at the two shortest lags wherever the noise is read at all
+(:func:`furuta_drake.diagnosis.fit.noise_estimate` extrapolates it away where it is not).
 """
 
 from __future__ import annotations
@@ -59,29 +61,34 @@ def _squares(logs, count: float) -> tuple[np.ndarray, np.ndarray, float]:
     return (d1[keep] - np.median(d1)) ** 2, (d2[keep] - np.median(d2)) ** 2, period
 
 
-def _read(v1, v2, period: float) -> tuple[float, float]:
-    """(sigma [counts], tau [s]) from the mean squares ``v1``, ``v2`` of the lag-1 and lag-2 second differences."""
-    a = coefficient(v2 / max(v1, 1e-12))
-    sigma = np.sqrt(v1 / (6.0 - 8.0 * a + 2.0 * a * a))
+def _read(v1, v2, rounding: float, period: float) -> tuple[float, float]:
+    """(sigma [counts], tau [s]) from the mean squares ``v1``, ``v2`` of the lag-1 and lag-2 second differences
+    less the ``rounding`` variance 6 step^2 / 12 in each."""
+    white1, white2 = max(v1 - rounding, 1e-12), max(v2 - rounding, 0.0)
+    a = coefficient(white2 / white1)
+    sigma = np.sqrt(white1 / (6.0 - 8.0 * a + 2.0 * a * a))
     return float(sigma), float(-period / np.log(a)) if a > 0 else 0.0
 
 
 def correlated_noise_estimate(
-    logs, nominal_counts: int, floor: float, resamples: int, seed: int
+    logs, nominal_counts: int, step: float, floor: float, resamples: int, seed: int
 ) -> tuple[Effect | None, np.ndarray]:
     """The ``correlated`` form of ``measurement_noise`` (noise_std [rad], correlation_time [s]) read from the logs
-    (angles in counts of ``nominal_counts``), and ``resamples`` bootstrap values (resamples, 2) over blocks of
-    ``BLOCK`` samples; (None, empty) when the noise is below ``floor`` counts or its correlation time below
-    ``CORRELATED_MIN_PERIODS`` sample periods (the white form's estimate stands)."""
+    (angles in counts of ``nominal_counts``, on a grid of ``step`` of them), and ``resamples`` bootstrap values
+    (resamples, 2) over blocks of ``BLOCK`` samples; (None, empty) when the noise is below ``floor`` counts or its
+    correlation time below ``CORRELATED_MIN_PERIODS`` sample periods (the white form's estimate stands)."""
     count = encoder_resolution(nominal_counts)
     s1, s2, period = _squares(logs, count)
-    sigma, tau = _read(np.mean(s1), np.mean(s2), period)
+    rounding = 6.0 * step**2 / 12.0
+    sigma, tau = _read(np.mean(s1), np.mean(s2), rounding, period)
     if sigma < floor or tau < CORRELATED_MIN_PERIODS * period:
         return None, np.empty((0, 2))
     blocks = max(1, s1.size // BLOCK)
     size = s1.size // blocks
     sums1, sums2 = (s[: blocks * size].reshape(blocks, size).sum(axis=1) for s in (s1, s2))
     draws = np.random.default_rng(seed).integers(0, blocks, (resamples, blocks))
-    samples = np.array([_read(sums1[d].mean() / size, sums2[d].mean() / size, period) for d in draws]).reshape(-1, 2)
+    samples = np.array(
+        [_read(sums1[d].mean() / size, sums2[d].mean() / size, rounding, period) for d in draws]
+    ).reshape(-1, 2)
     samples[:, 0] *= count
     return Effect("correlated", (sigma * count, tau)), samples
