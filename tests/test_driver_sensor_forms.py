@@ -75,14 +75,16 @@ def test_a_jittering_delay_finds_its_mean_and_spread_from_the_default_starts(nom
     assert fitted.values[1] == pytest.approx(spread, rel=0.02)
 
 
-def test_a_fixed_delay_is_named_fixed(nominal_windows):  # noqa: F811
-    """A delay with no spread: the jittering form, whose spread is at least a quarter sample, fits it worse."""
+@pytest.mark.parametrize("counts", [FINE_COUNTS, 4096])
+def test_a_fixed_delay_is_named_fixed(nominal_windows, counts):  # noqa: F811
+    """A delay with no spread, read by a fine encoder or the rig's: the jittering form is named only when its
+    spread's interval stays off its lower bound (at the rig's encoder the rounding may let it fit better)."""
     rig, log, windows = nominal_windows
     truth = apply_effects(Model.from_rig(rig), {"input_delay": Effect("fixed", (3e-3,))})
-    synthetic = _surrogate_measured(truth, windows, FINE_COUNTS)
+    synthetic = _surrogate_measured(truth, windows, counts)
     fit = fit_task(FitTask("input_delay", {}, Model.from_rig(rig), synthetic, None, (log,), rig.counts_per_rev, FAST))
     assert fit.effects["input_delay"].form == "fixed"
-    assert fit.effects["input_delay"].values[0] == pytest.approx(3e-3, rel=0.02)
+    assert fit.effects["input_delay"].values[0] == pytest.approx(3e-3, rel=0.03)
 
 
 @given(a=st.floats(0.0, 0.99))

@@ -185,8 +185,8 @@ def fit_task(task: FitTask) -> FitResult:
     candidate = CANDIDATES[task.new]
     if candidate.fit:
         forms = [task.start.form] if task.start is not None else [form.name for form in candidate.forms]
-        fits = [_least_squares(task, {task.new: form}) for form in forms]
-        effects, at_bound, samples, _ = min(fits, key=lambda fit: fit[3])
+        fits = {form: _least_squares(task, {task.new: form}) for form in forms}
+        effects, at_bound, samples, _ = fits[_named_form(task, fits)]
     else:
         estimate, new_samples = _sensor_estimate(task.new, task.logs, counts, task.settings)
         effects = {**task.fixed, task.new: estimate}
@@ -206,6 +206,19 @@ def fit_task(task: FitTask) -> FitResult:
         at_bound,
         train_excess=float(train.per_window.mean()),
     )
+
+
+def _named_form(task: FitTask, fits: dict) -> str:
+    """The form of lowest train cost; one that nests a simpler form (``Form.simpler``: its last parameter at the
+    lower bound) only when that parameter's 95 % interval stays off the bound, else the simpler form, fitted
+    beside it (a jitter whose spread the data do not show is a fixed delay)."""
+    best = min(fits, key=lambda form: fits[form][3])
+    form = CANDIDATES[task.new].form(best)
+    if form.simpler is None or form.simpler not in fits:
+        return best
+    low, high = (bound[-1] for bound in form.bounds(scales_of(task.logs, task.model)))
+    extra = fits[best][2][task.new][:, -1]
+    return best if np.percentile(extra, INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low) else form.simpler
 
 
 def _sensor_estimate(name: str, logs, counts: int, settings: DiagnosisSettings) -> tuple[Effect, np.ndarray]:

@@ -56,6 +56,8 @@ class Form:
     starts: Callable[[Scales], list[list[float]]]
     apply: Callable[[Model, np.ndarray], Model]
     jump: int | None = None  # the parameter at which the cost jumps, found by a line search (fit's jumps module)
+    simpler: str | None = None  # the form this one nests (its last parameter at its lower bound): named instead
+    # unless that parameter's interval stays off the bound
 
 
 @dataclass(frozen=True)
@@ -274,6 +276,7 @@ def _jittering_delay() -> Form:
         lambda s: ([0.0, SPREAD_BOUNDS[0] * s.period], [20.0 * s.period, SPREAD_BOUNDS[1] * s.period]),
         lambda s: [[k * s.period, j * s.period] for k in DELAY_STARTS[1:-1] for j in SPREAD_STARTS],
         lambda m, p: m.replace(delay=p[0], delay_spread=p[1]),
+        simpler="fixed",
     )
 
 
