@@ -169,11 +169,18 @@ def delay(world, samples: int):
 
 
 def jittering_delay(world, samples: int, jitter: int):
-    """A delay of ``samples`` plus a uniform 0..``jitter`` samples more, drawn each sample; truth: its mean."""
-    mean = (samples + 0.5 * jitter) * world.rig.sample_period
-    spread = math.sqrt(((jitter + 1) ** 2 - 1) / 12.0) * world.rig.sample_period  # std of a discrete uniform
+    """A delay of ``samples`` plus a uniform 0..``jitter`` samples more, drawn each sample; truth: its mean, and the
+    spread of the continuous uniform delay whose expected command over each sample is the same, (jitter + 1)
+    samples wide (beside the discrete draw's own std)."""
+    period = world.rig.sample_period
+    mean = (samples + 0.5 * jitter) * period
+    spread = (jitter + 1) * period / math.sqrt(12.0)
+    discrete = math.sqrt(((jitter + 1) ** 2 - 1) / 12.0) * period  # std of a discrete uniform
     return dataclasses.replace(world, delay_samples=samples, delay_jitter_samples=jitter), Effect(
-        "input_delay", "jitter", {"delay": mean}, {"samples": samples, "jitter": jitter, "spread_s": spread}
+        "input_delay",
+        "jitter",
+        {"delay": mean, "delay_spread": spread},
+        {"samples": samples, "jitter": jitter, "discrete_std_s": discrete},
     )
 
 
@@ -181,7 +188,7 @@ def correlated_noise(world, counts: float, time: float):
     """Noise of ``counts`` encoder counts, low-pass with correlation time ``time`` [s]."""
     std = counts * encoder_resolution(world.rig.counts_per_rev)
     return dataclasses.replace(world, noise_std=std, noise_correlation_time=time), Effect(
-        "measurement_noise", "correlated", {"noise_std": std}, {"counts": counts, "correlation_time": time}
+        "measurement_noise", "correlated", {"noise_std": std, "correlation_time": time}, {"counts": counts}
     )
 
 
@@ -297,6 +304,7 @@ def all_cases() -> list[Case]:
         *near_limit_cases(),
         *hidden_second_cases(),
         *delay_beside_friction_cases(),
+        *unread_form_cases(),
         make_case("lund", (lag, "inductance", 0.006)),
         make_case("qube", (lag, "inductance", 0.005)),
         make_case("lund", (lag, "filter", 0.008)),
@@ -348,8 +356,8 @@ def near_limit_cases() -> list[Case]:
 
 
 def unread_form_cases() -> list[Case]:
-    """Forms the vocabulary does not model yet: a delay that jitters from sample to sample and sensor noise with a
-    correlation time (not in :func:`all_cases`; ``--only jitter correlated`` after adding them there)."""
+    """Forms real drivers and sensors have: a delay that jitters from sample to sample (``--only jitter``) and
+    sensor noise with a correlation time (``--only correlated``)."""
     return [
         make_case("lund", (jittering_delay, 2, 2), seed=5),
         make_case("qube", (correlated_noise, 1.5, 0.005), seed=5),

@@ -164,7 +164,7 @@ def test_the_design_respects_its_bounds_under_every_hypothesis(case, tmp_path, m
     rig = lund_rig()
     assert np.max(np.abs(command)) <= rig.torque_limit + 1e-9
     nominal = rig_model(rig)
-    for effects in ({"input_delay": Effect("", (DELAY,))}, {"actuator_lag": Effect("", (DELAY,))}):
+    for effects in ({"input_delay": Effect("fixed", (DELAY,))}, {"actuator_lag": Effect("", (DELAY,))}):
         result = simulate(drake_config(rig, apply_effects(nominal, effects), command, 2.0, False, 7))
         assert np.max(np.abs(result.state[:, 1])) <= 0.3
         assert np.max(np.abs(result.state[:, 0] - np.pi)) <= pipeline.PENDULUM_BOUND["hanging"]

@@ -280,7 +280,7 @@ def test_fitted_model_is_a_simulate_config_that_runs():
     rig = RIGS["lund"]()
     model = apply_effects(
         Model.from_rig(rig),
-        {"arm_coulomb_friction": Effect("presliding", (0.01, 2e-3)), "input_delay": Effect("", (0.003,))},
+        {"arm_coulomb_friction": Effect("presliding", (0.01, 2e-3)), "input_delay": Effect("fixed", (0.003,))},
     )
     config = model_config(rig, model)
     config.validate()

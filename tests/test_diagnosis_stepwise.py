@@ -177,3 +177,36 @@ def test_a_large_relative_reduction_of_a_gap_at_the_floors_resolution_earns_no_p
     evidence = bootstrap.evidence(without, with_it)
     assert evidence.reduction > 0.9 and evidence.lower_bound > ENTRY and not is_kept(evidence)
     assert is_kept(bootstrap.evidence(3 * without, with_it))
+
+
+def test_a_joint_refit_at_the_floor_keeps_the_fit_nearer_the_data():
+    """Beside two earlier effects, the screen, its refit and the refit from the new effect's own starts all reach
+    a train gap of 0 (the floor clips it); the one with the smallest excess before the clip is kept, the others
+    leave the record."""
+    from furuta_drake.diagnosis.stepwise import Stepwise
+
+    held = {"arm_coulomb_friction": Effect("smooth", (1.0, 0.01)), "inertia_mismatch": Effect("", (1.1,) * 4)}
+    name = "arm_coulomb_friction+inertia_mismatch+input_delay"
+
+    def result(delay: float, excess: float) -> FitResult:
+        effects = {**held, "input_delay": Effect("fixed", (delay,))}
+        return FitResult(name, effects, 0.0, _gap(np.full(WINDOWS, 0.01)), train_excess=excess)
+
+    screened, refit, fresh = result(3e-3, -0.02), result(3.1e-3, -0.03), result(4e-3, -0.06)
+    stepwise = Stepwise.__new__(Stepwise)
+    stepwise.selection = Selection(_gap(NOMINAL), [(3, screened)])
+    stepwise.task = lambda new, fixed, **options: (new, options)
+    stepwise.bootstrap = Bootstrap(WINDOWS, 200, 0)
+    stepwise.nominal_gap = _gap(NOMINAL)
+    stepwise.selection.over_previous[name] = stepwise.bootstrap.evidence(NOMINAL, screened.heldout.per_window)
+
+    def fit(tasks, step, previous):
+        out = [refit if "start" in options else fresh for _, options in tasks]
+        stepwise.selection.tried += [(step, r) for r in out]
+        return out
+
+    stepwise.fit = fit
+    fitted = {name: screened}
+    stepwise.joint_refits(fitted, FitResult("+".join(held), held, 0.1, _gap(NOMINAL)), 3, NOMINAL)
+    assert fitted[name] is fresh
+    assert [r for _, r in stepwise.selection.tried] == [fresh]

@@ -36,7 +36,7 @@ def _widened(rivals: list[tuple[float, float]]) -> dict:
     for i, (gain, excess) in enumerate(rivals):
         effects = {
             "torque_gain_error": Effect("", (gain,)),
-            f"{['input_delay', 'actuator_lag'][i]}": Effect("", (1e-3,)),
+            f"{['input_delay', 'actuator_lag'][i]}": Effect(["fixed", ""][i], (1e-3,)),
         }
         selection.tried.append((2, FitResult("+".join(effects), effects, 0.2, _gap(excess, 2 + i))))
     row = RankedCandidate("torque_gain_error", {"gain": 0.8}, 0.3, 0.9, 0.85, params_ci={"gain": INTERVAL})

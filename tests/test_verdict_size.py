@@ -13,7 +13,7 @@ from furuta_drake.diagnosis.gap import GapResult
 from furuta_drake.diagnosis.record_text import choice_text
 from furuta_drake.diagnosis.rule import NEGLIGIBLE_COUNTS, Bootstrap
 from furuta_drake.diagnosis.stepwise import Selection
-from furuta_drake.effects.vocabulary import Effect
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect
 
 WINDOWS = 100
 ROUNDING_VARIANCE = 1.0 / 12.0  # [counts^2] an ideal rounding encoder's own variance
@@ -31,7 +31,8 @@ def _selection(gap: float) -> Selection:
     bootstrap = Bootstrap(WINDOWS, 300, 0)
     selection = Selection(_gap(nominal), [], quiet=False)
     for name, reduction, value in (("input_delay", 0.36, 1.02e-3), ("actuator_lag", 0.10, 4e-4)):
-        result = FitResult(name, {name: Effect("", (value,))}, gap, _gap(nominal * (1.0 - reduction) ** 2))
+        form = CANDIDATES[name].forms[0].name
+        result = FitResult(name, {name: Effect(form, (value,))}, gap, _gap(nominal * (1.0 - reduction) ** 2))
         selection.tried.append((1, result))
         selection.over_nominal[name] = bootstrap.evidence(nominal, result.heldout.per_window)
     return selection

@@ -84,7 +84,7 @@ def surrogate_closed_loop(
     map, Dahl or LuGre bristle) are stepped one sample at a time, with the same RK4 substeps as
     :func:`~furuta_drake.effects.surrogate.predict_windows`.
     """
-    from furuta_drake.effects.surrogate import _delayed_command, applied_torque
+    from furuta_drake.effects.surrogate import applied_torque, expected_command
     from furuta_drake.effects.surrogate_kernel import integrate, lag_filter, pack
 
     dithers = np.atleast_2d(dithers)
@@ -108,7 +108,7 @@ def surrogate_closed_loop(
         history[starts + k] = u
         logged[:, k] = u
         for i in range(substeps):
-            held = _delayed_command(history, starts, k * period + i * dt, dt, period, model.delay)
+            held = expected_command(history, starts, k * period + i * dt, dt, period, model)
             if model.lag > 0:
                 filtered, lag_state = lag_filter(held[None, :], lag_state, model.lag, dt)
                 held = filtered[0]

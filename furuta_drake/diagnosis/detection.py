@@ -95,7 +95,9 @@ INJECTIONS: dict[str, Injection] = {
     "input_delay": Injection(
         "delay",
         lambda sc, m: (0.01 * sc.period, 20.0 * sc.period),
-        lambda s, sc, m: Effect("", (m.delay + s,)),
+        lambda s, sc, m: (
+            Effect("jitter", (m.delay + s, m.delay_spread)) if m.delay_spread > 0 else Effect("fixed", (m.delay + s,))
+        ),
         _same,
         "added to the model's",
     ),

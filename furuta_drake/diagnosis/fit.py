@@ -38,6 +38,7 @@ from furuta_drake.diagnosis.gap import (
 )
 from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.noise_correlation import correlated_noise_estimate
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
@@ -61,6 +62,8 @@ class FitResult:
     samples: dict[str, np.ndarray] = field(default_factory=dict)  # effect -> (resamples, params) bootstrap
     at_bounds: list[str] = field(default_factory=list)  # "effect.param (lower|upper)" fitted at a search bound
     failure: str = ""  # why the fit or its held-out prediction failed ("" when it did not)
+    train_excess: float = float("nan")  # mean excess squared residual on the train windows before the gap's clip
+    # [counts^2]: orders fits that both reach the floor (a gap of 0)
 
 
 @dataclass(frozen=True)
@@ -203,30 +206,62 @@ def fit_task(task: FitTask) -> FitResult:
     candidate = CANDIDATES[task.new]
     if candidate.fit:
         forms = [task.start.form] if task.start is not None else [form.name for form in candidate.forms]
-        fits = [_least_squares(task, {task.new: form}) for form in forms]
-        effects, at_bound, samples, _ = min(fits, key=lambda fit: fit[3])
+        fits = {form: _least_squares(task, {task.new: form}) for form in forms}
+        effects, at_bound, samples, _ = fits[_named_form(task, fits)]
     else:
         estimate, new_samples = _sensor_estimate(task)
-        effects = {**task.fixed, task.new: Effect("", (estimate,))}
-        at_bound, samples = [], {**task.fixed_samples, task.new: new_samples[:, None]}
+        effects = {**task.fixed, task.new: estimate}
+        at_bound, samples = [], {**task.fixed_samples, task.new: new_samples}
     model = apply_effects(task.model, effects)
-    train_gap = evaluate_gap(model, task.train, counts).gap
+    train = evaluate_gap(model, task.train, counts)
     heldout = None if task.heldout is None else evaluate_gap(model, task.heldout, counts)
     if heldout is not None and not np.isfinite(heldout.gap):
         raise FloatingPointError(f"{task.name}: the fitted model's prediction diverged on held-out windows")
     names = (*task.fixed, task.new)
-    return FitResult(task.name, {name: effects[name] for name in names}, train_gap, heldout, samples, at_bound)
+    return FitResult(
+        task.name,
+        {name: effects[name] for name in names},
+        train.gap,
+        heldout,
+        samples,
+        at_bound,
+        train_excess=float(train.per_window.mean()),
+    )
 
 
-def _sensor_estimate(task: FitTask) -> tuple[float, np.ndarray]:
-    """The sensor effect ``task.new`` read from the data: the encoder's grid from the logs, the noise from the
-    residuals of the model holding the fixed effects."""
+def _named_form(task: FitTask, fits: dict) -> str:
+    """The form of lowest train cost; one that nests a simpler form (``Form.simpler``: its last parameter at the
+    lower bound) only when that parameter's 95 % interval stays off the bound, else the simpler form, fitted
+    beside it (a jitter whose spread the data do not show is a fixed delay)."""
+    best = min(fits, key=lambda form: fits[form][3])
+    form = CANDIDATES[task.new].form(best)
+    if form.simpler is None or form.simpler not in fits:
+        return best
+    low, high = (bound[-1] for bound in form.bounds(scales_of(task.logs, task.model)))
+    extra = fits[best][2][task.new][:, -1]
+    return best if np.percentile(extra, INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low) else form.simpler
+
+
+def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
+    """The sensor effect ``task.new`` read from the data and its bootstrap samples (resamples, params): the
+    encoder's grid from the logs; the noise from the residuals of the model holding the fixed effects, in its
+    correlated form where noise is found there and the logs' second differences show a correlation time (read
+    only then: a motion the raw angles still carry would read as a correlation), else white."""
     settings, counts = task.settings, task.nominal_counts
+    resamples = settings.interval_resamples
     if task.new == "encoder_quantization":
         value = quantization_estimate(task.logs, counts)
-        return value, np.full(settings.interval_resamples, value)
+        return Effect("", (value,)), np.full((resamples, 1), value)
     model = apply_effects(task.model, task.fixed)
-    return noise_estimate(model, task.train, counts, settings.interval_resamples, settings.seed)
+    sigma, samples = noise_estimate(model, task.train, counts, resamples, settings.seed)
+    if sigma > 0:
+        step = counts / quantization_estimate(task.logs, counts)
+        correlated, draws = correlated_noise_estimate(
+            task.logs, counts, step, NOISE_FLOOR_COUNTS, resamples, settings.seed
+        )
+        if correlated is not None:
+            return correlated, draws
+    return Effect("white", (sigma,)), samples[:, None]
 
 
 def _least_squares(task: FitTask, new_form: dict[str, str]):

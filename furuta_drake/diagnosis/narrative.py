@@ -114,7 +114,10 @@ def _inertia(p: dict, ci: dict | None, main_only: bool) -> str:
 
 STATEMENTS = {
     "inertia_mismatch": _inertia,
-    "input_delay": lambda p, ci, _: f"commands reach the arm about {_q(p, 'delay', ci)} late",
+    "input_delay": lambda p, ci, _: (
+        f"commands reach the arm about {_q(p, 'delay', ci)} late"
+        + (f", give or take {_q(p, 'delay_spread', ci)} from sample to sample" if "delay_spread" in p else "")
+    ),
     "actuator_lag": lambda p, ci, _: f"the drive follows the command with a lag of about {_q(p, 'time_constant', ci)}",
     "arm_coulomb_friction": lambda p, ci, _: f"the arm's sliding (Coulomb) friction is about {_q(p, 'coulomb', ci)}",
     "arm_viscous_friction": lambda p, ci, _: f"the arm's viscous friction is about {_q(p, 'viscous', ci)}",
@@ -129,7 +132,10 @@ STATEMENTS = {
         f"the pendulum joint has about {_q(p, 'coulomb', ci)} of Coulomb and {_q(p, 'viscous', ci)} of viscous friction"
     ),
     "encoder_quantization": lambda p, ci, _: f"the encoders resolve only {number(p['counts_per_rev'], 6)} counts/rev",
-    "measurement_noise": lambda p, ci, _: f"the angles carry white noise of about {_q(p, 'noise_std', ci)}",
+    "measurement_noise": lambda p, ci, _: (
+        f"the angles carry noise of about {_q(p, 'noise_std', ci)}, "
+        + (f"low-passed over about {_q(p, 'correlation_time', ci)}" if "correlation_time" in p else "white")
+    ),
     "torque_gain_error": lambda p, ci, _: f"the arm gets {_ratio(p['gain'], ci, 'gain', 'the commanded torque')}",
     "actuator_deadzone": lambda p, ci, _: f"commands under about {_q(p, 'deadzone', ci)} do not reach the arm",
     "actuator_saturation": lambda p, ci, _: f"the drive saturates at about {_q(p, 'limit', ci)}",

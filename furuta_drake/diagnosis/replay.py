@@ -3,10 +3,10 @@
 The diagram is the model's Furuta world (:func:`~furuta_drake.world.add_furuta_world`: the MultibodyPlant of
 the model's rig, its friction, spring, back-EMF and unmodelled torques, and its actuator chain) fed by the logged
 command as a zero-order-hold ``TrajectorySource``; a pure input delay of an open-loop replay is exactly a time shift
-of that source. Each window starts from the initial state the surrogate refined for this model, with a fresh integrator
-(Drake's error-controlled RK5 at accuracy 1e-6: a gap near the sensor floor is a square root, so integration error
-that a looser accuracy leaves would show); the residuals give the same gap as
-:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
+of that source, a jittering one its expectation (piecewise linear). Each window starts from the initial state the
+surrogate refined for this model, with a fresh integrator (Drake's error-controlled RK5 at accuracy 1e-6: a gap
+near the sensor floor is a square root, so integration error that a looser accuracy leaves would show); the
+residuals give the same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, substeps_for
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
-from furuta_drake.effects.surrogate import Model, lag_states, sensor_variance
+from furuta_drake.effects.surrogate import Model, expected_command_points, lag_states, sensor_variance
 from furuta_drake.effects.torque_library import torque_parameters_of
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.rig import RigParameters, encoder_resolution
@@ -70,10 +70,7 @@ class WindowReplayer:
             unmodelled_torque=unmodelled_torque,
         )
         self.plant, self.P, self.friction = world.plant, world.to_paper, world.friction
-        breaks = np.append(time, time[-1] + period) + model.delay
-        source = builder.AddSystem(
-            TrajectorySource(PiecewisePolynomial.ZeroOrderHold(breaks, np.append(command, command[-1]).reshape(1, -1)))
-        )
+        source = builder.AddSystem(TrajectorySource(_applied_command(model, time, command, period)))
         builder.Connect(source.get_output_port(), world.arm_torque_input)
         self.diagram = builder.Build()
         self.simulator = Simulator(self.diagram)
@@ -119,6 +116,17 @@ class WindowReplayer:
         # The lag filter's state is the last continuous entry (plant states and bristles come first).
         state[-1] = value
         return state
+
+
+def _applied_command(model: Model, time: np.ndarray, command: np.ndarray, period: float) -> PiecewisePolynomial:
+    """The command the model's actuator receives: the logged one held over each sample and shifted by the delay,
+    or with a jittering delay its expectation, exactly piecewise linear
+    (:func:`~furuta_drake.effects.surrogate.expected_command_points`)."""
+    if model.delay_spread > 0:
+        times, values = expected_command_points(command, period, model)
+        return PiecewisePolynomial.FirstOrderHold(time[0] + times, values.reshape(1, -1))
+    breaks = np.append(time, time[-1] + period) + model.delay
+    return PiecewisePolynomial.ZeroOrderHold(breaks, np.append(command, command[-1]).reshape(1, -1))
 
 
 def _replay_log(task) -> np.ndarray:

@@ -33,6 +33,7 @@ from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, law_of
 
 JOINT_REFITS = 3  # at a later step, the candidates fitted again together with the earlier effects
+FRESH_STARTS_FROM = 3  # from this step, those refits also start from the new effect's own starts
 PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together
 EXCHANGE_RUNNERS_UP = 2  # per kept effect, the runners-up of its entry step tried in its place
 MAX_EXCHANGES = 2  # exchanges made at the most (each followed by the backward pass)
@@ -232,16 +233,23 @@ class Stepwise:
         return True
 
     def joint_refits(self, fitted: dict[str, FitResult], held: FitResult, step: int, previous) -> None:
-        """The ``JOINT_REFITS`` most promising screened candidates fitted again together with the earlier effects;
-        the better of the two fits (on the train windows) replaces the screen in ``fitted``."""
+        """The ``JOINT_REFITS`` most promising screened candidates fitted again together with the earlier effects,
+        from the screen; beside two or more earlier effects also from the new effect's own starts in each of its
+        forms (the screen fits it beside earlier effects that stood in for it, so its value there can sit in
+        another basin of the joint cost: a delay beside friction and an inertia error). The best fit on the train
+        windows (its excess before the gap's clip at the floor) replaces the screen in ``fitted``."""
         selection = self.selection
         best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
         tasks = [self.task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]]) for name in best]
-        for joint in self.fit(tasks, step, previous):
-            screened = fitted[joint.name]
-            kept = joint if not joint.failure and joint.train_gap <= screened.train_gap else screened
-            selection.tried = [(s, r) for s, r in selection.tried if r is not (screened if kept is joint else joint)]
-            fitted[joint.name] = kept
+        if step >= FRESH_STARTS_FROM:
+            tasks += [self.task(name.split("+")[-1], held) for name in best]
+        results = self.fit(tasks, step, previous)
+        for i, name in enumerate(best):
+            options = [fitted[name]] + [r for r in results[i :: len(best)] if not r.failure]
+            kept = min(options, key=lambda r: r.train_excess)
+            dropped = [r for r in [fitted[name], *results[i :: len(best)]] if r is not kept]
+            selection.tried = [(s, r) for s, r in selection.tried if not any(r is d for d in dropped)]
+            fitted[name] = kept
             self.record(kept, previous)
 
 
@@ -378,9 +386,11 @@ def _backward(
 def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
     """``result`` (an accepted model with earlier effects) fitted again with every other form of its earlier
     effects that have several (their form was chosen before the new effect was there to share the residual);
-    the form with the lowest train gap is kept."""
+    the form with the lowest train excess (the gap before its clip at the floor) is kept."""
     tasks, scales = [], scales_of(task.logs, task.model)
     for name, effect in task.fixed.items():
+        if not CANDIDATES[name].fit:  # a sensor effect's form is read from the data, not fitted
+            continue
         for form in CANDIDATES[name].forms:
             if form.name != effect.form:
                 tasks.append(
@@ -389,7 +399,7 @@ def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
     if not tasks:
         return result
     fits = [fit for fit in (_as_fit(t, r) for t, r in zip(tasks, run(fit_task, tasks))) if not fit.failure]
-    return min([result] + fits, key=lambda fit: fit.train_gap)
+    return min([result] + fits, key=lambda fit: fit.train_excess)
 
 
 def _in_form(name: str, effect: Effect, form, scales) -> Effect:

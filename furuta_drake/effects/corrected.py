@@ -71,7 +71,9 @@ def model_config(
 ) -> SimulationConfig:
     """The Drake model of ``model`` (a diagnosis model of ``rig``) as a simulate config, open loop: users add
     their controller. ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary (by
-    default those of its own ``unmodelled_terms``)."""
+    default those of its own ``unmodelled_terms``). The simulate world's delay is fixed and its noise white: a
+    jittering delay enters as its mean, correlated noise as white noise of its size (the rig file written beside it
+    keeps both forms)."""
     config = SimulationConfig.from_rig(
         model_rig(model, rig).replace(motor=rig.motor, effects=None, unmodelled_torque=None)
     )

@@ -50,13 +50,15 @@ class Model:
     deadzone_form: str = "subtract"  # "subtract": u - sat(u); "threshold": u where |u| > deadzone, else 0
     saturation: float = np.inf  # [N m]
     saturation_form: str = "hard"  # "hard": clip(u, -L, L); "smooth": L tanh(u / L)
-    delay: float = 0.0  # [s]
+    delay: float = 0.0  # [s]; with a spread, the mean of a delay drawn anew every sample
+    delay_spread: float = 0.0  # [s] std of that delay, uniform over delay +- sqrt(3) delay_spread; 0: fixed
     lag: float = 0.0  # [s]
     spring_stiffness: float = 0.0  # [N m/rad]
     spring_equilibrium: float = 0.0  # [rad]
     spring_cubic: float = 0.0  # [N m/rad^3]: the spring's torque is -(k x + k3 x^3), x = phi - phi_0
     counts_per_rev: int = 4096
     noise_std: float = 0.0  # [rad]
+    noise_correlation_time: float = 0.0  # [s] first-order low-passed noise (an interface that filters); 0: white
     rig_constants: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # the rig file's (a, b, c, d)
     unmodelled_terms: tuple[tuple[int, int, float], ...] = ()  # (joint: 0 arm, 1 pendulum; term of
     # torque_library.TERMS; coefficient [N m]): a torque the vocabulary does not hold
@@ -141,6 +143,62 @@ def _delayed_command(command, starts, t, dt, period, delay):
     return (1.0 - late) * current + late * following
 
 
+def _held_integrals(command: np.ndarray, period: float):
+    """(mean, C, C2) of a command held over each ``period``: its mean, and the first and second integrals of the
+    held command less that mean from sample 0, as functions of the time [s] (the ends held beyond the log)."""
+    mean = float(np.mean(command))
+    steps = command - mean
+    first = np.concatenate([[0.0], np.cumsum(steps)]) * period  # C at k T
+    second = np.concatenate([[0.0], np.cumsum(first[:-1] * period + steps * period**2 / 2.0)])  # C2 at k T
+
+    def at(tau):
+        k = np.clip(np.floor(tau / period), 0, command.size - 1).astype(int)
+        offset = tau - k * period
+        return k, offset
+
+    def once(tau):
+        k, offset = at(tau)
+        return first[k] + steps[k] * offset
+
+    def twice(tau):
+        k, offset = at(tau)
+        return second[k] + first[k] * offset + steps[k] * offset**2 / 2.0
+
+    return mean, once, twice
+
+
+def jitter_width(model: Model) -> float:
+    """The width [s] of the uniform delay of ``model``'s jittering delay: sqrt(12) times its spread."""
+    return float(np.sqrt(12.0) * model.delay_spread)
+
+
+def expected_command(command, starts, t, dt, period, model: Model):
+    """The applied command of ``model``'s input delay, averaged over [t, t + dt) (relative to each window's start):
+    the held command delayed by ``model.delay`` (:func:`_delayed_command`), or, with a ``delay_spread``, its
+    expectation over a delay uniform on delay +- sqrt(3) delay_spread, drawn anew at every instant (a USB link, a
+    scheduler): the mean of u(s - D) over s in [t, t + dt) and D in that interval, exact through the held command's
+    second integral."""
+    if model.delay_spread <= 0:
+        return _delayed_command(command, starts, t, dt, period, model.delay)
+    width = jitter_width(model)
+    mean, _, twice = _held_integrals(command, period)
+    tau = np.asarray(starts) * period + t - model.delay  # the undelayed time of the substep's start
+    low, high = tau - width / 2.0, tau + width / 2.0
+    return mean + (twice(high + dt) - twice(low + dt) - twice(high) + twice(low)) / (dt * width)
+
+
+def expected_command_points(command: np.ndarray, period: float, model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """(times [s] from the log's first sample, values [N m]) of the expected command of a jittering delay, which is
+    linear between them: the held command averaged over the uniform delay's width, whose slope changes only where
+    an edge of that width crosses a sample."""
+    width = jitter_width(model)
+    mean, once, _ = _held_integrals(command, period)
+    edges = np.arange(command.size + 1) * period + model.delay
+    times = np.unique(np.round(np.concatenate([edges - width / 2.0, edges + width / 2.0]), 12))
+    tau = times - model.delay
+    return times, mean + (once(tau + width / 2.0) - once(tau - width / 2.0)) / width
+
+
 def bristle_path(path: np.ndarray, p: JointFrictionParameters, period: float) -> np.ndarray:
     """The arm's bristle state [rad] at every sample of a measured (smoothed) arm angle path sampled every
     ``period`` [s], from z = 0 at the first sample (the kernel's exact bristle step per sample)."""
@@ -154,7 +212,7 @@ def lag_states(model: Model, command: np.ndarray, starts: np.ndarray, period: fl
     window that opens while the command moves)."""
     dt = period / substeps
     early = np.arange(-min(int(np.ceil(LAG_PREROLL * model.lag / dt)), HISTORY * substeps), 0) * dt
-    past = _delayed_command(command, np.asarray(starts)[None, :], early[:, None], dt, period, model.delay)
+    past = expected_command(command, np.asarray(starts)[None, :], early[:, None], dt, period, model)
     return kernel.lag_filter(past, past[0].copy(), model.lag, dt)[1]
 
 
@@ -185,7 +243,7 @@ def predict_windows(
     x = np.array(x0, dtype=float)
     steps = (horizon - 1) * substeps
     times = (np.arange(steps) * dt)[:, None]
-    held = _delayed_command(command, starts[None, :], times, dt, period, model.delay)  # (steps, W)
+    held = expected_command(command, starts[None, :], times, dt, period, model)  # (steps, W)
     if model.lag > 0:
         held = kernel.lag_filter(held, lag_states(model, command, starts, period, substeps), model.lag, dt)[0]
     torque = np.ascontiguousarray(np.tile(applied_torque(model, held), (1, copies)), dtype=float)

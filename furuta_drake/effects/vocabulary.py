@@ -11,7 +11,11 @@ report's ranking lists it. Real hardware has more than one form of an effect, so
   regularisation velocity, F = -g(v) tanh(v / v_reg) (a joint that never sticks, as simulators often write it);
 - dead zone ``subtract``: u - sat_w(u) (the width is taken off every larger command, Simulink's Dead Zone);
   ``threshold``: u where |u| > w, else 0 (small commands are dropped, larger ones pass whole);
+- input delay ``fixed``: the command held ``delay`` late; ``jitter``: a delay drawn anew every sample (a USB link,
+  a scheduler), uniform on delay +- sqrt(3) delay_spread, whose expected command the model applies;
 - saturation ``hard``: a clip at the limit; ``smooth``: L tanh(u / L) (a drive that saturates gradually);
+- measurement noise ``white``; ``correlated``: first-order low-passed with a ``correlation_time`` (an interface that
+  filters before it logs), both read from the angles' second differences;
 - spring ``linear``: -k (phi - phi_0); ``cubic``: -(k x + k3 x^3), x = phi - phi_0 (a cable that stiffens).
 
 Scales come from the rig: torques from m g l and the logged commands, damping from the lumped inertias, times
@@ -53,6 +57,8 @@ class Form:
     starts: Callable[[Scales], list[list[float]]]
     apply: Callable[[Model, np.ndarray], Model]
     jump: int | None = None  # the parameter at which the cost jumps, found by a line search (fit's jumps module)
+    simpler: str | None = None  # the form this one nests (its last parameter at its lower bound): named instead
+    # unless that parameter's interval stays off the bound
 
 
 @dataclass(frozen=True)
@@ -106,9 +112,11 @@ UNITS = {
     "counts_per_rev": "counts/rev",
     "noise_std": "rad",
     "delay": "s",
+    "delay_spread": "s",
     "gain": "-",
     "deadzone": "N m",
     "time_constant": "s",
+    "correlation_time": "s",
     "limit": "N m",
     "stiffness": "N m/rad",
     "cubic_stiffness": "N m/rad^3",
@@ -244,6 +252,35 @@ def _saturation(form: str) -> Form:
     )
 
 
+DELAY_STARTS = (0.5, 1.0, 2.0, 3.5, 6.0, 10.0)  # starts of the input delay [sample periods]
+SPREAD_BOUNDS = (0.25, 5.0)  # bounds of a jittering delay's spread [sample periods]: a smaller spread is the fixed
+# form (its effect on the applied command is second order in the spread)
+SPREAD_STARTS = (0.5, 1.0, 2.0)  # [sample periods]
+
+
+def _fixed_delay() -> Form:
+    return Form(
+        "fixed",
+        ("delay",),
+        lambda s: ([0.0], [20.0 * s.period]),
+        lambda s: [[k * s.period] for k in DELAY_STARTS],
+        lambda m, p: m.replace(delay=p[0], delay_spread=0.0),
+    )
+
+
+def _jittering_delay() -> Form:
+    """A delay drawn anew every sample, uniform on delay +- sqrt(3) delay_spread: the model applies its expected
+    command (:func:`~furuta_drake.effects.surrogate.expected_command`)."""
+    return Form(
+        "jitter",
+        ("delay", "delay_spread"),
+        lambda s: ([0.0, SPREAD_BOUNDS[0] * s.period], [20.0 * s.period, SPREAD_BOUNDS[1] * s.period]),
+        lambda s: [[k * s.period, j * s.period] for k in DELAY_STARTS[1:-1] for j in SPREAD_STARTS],
+        lambda m, p: m.replace(delay=p[0], delay_spread=p[1]),
+        simpler="fixed",
+    )
+
+
 def _single(params, bounds, starts, apply) -> tuple[Form, ...]:
     return (Form("", params, bounds, starts, apply),)
 
@@ -330,22 +367,26 @@ CANDIDATES: dict[str, Candidate] = {
         ),
         Candidate(
             "measurement_noise",
-            _single(
-                ("noise_std",), lambda s: ([0.0], [1.0]), lambda s: [], lambda m, p: m.replace(noise_std=float(p[0]))
+            (
+                Form(
+                    "white",
+                    ("noise_std",),
+                    lambda s: ([0.0], [1.0]),
+                    lambda s: [],
+                    lambda m, p: m.replace(noise_std=float(p[0]), noise_correlation_time=0.0),
+                ),
+                Form(
+                    "correlated",
+                    ("noise_std", "correlation_time"),
+                    lambda s: ([0.0, 0.0], [1.0, 1.0]),
+                    lambda s: [],
+                    lambda m, p: m.replace(noise_std=float(p[0]), noise_correlation_time=float(p[1])),
+                ),
             ),
             main="noise_std",
             fit=False,
         ),
-        Candidate(
-            "input_delay",
-            _single(
-                ("delay",),
-                lambda s: ([0.0], [20.0 * s.period]),
-                lambda s: [[k * s.period] for k in (0.5, 1.0, 2.0, 3.5, 6.0, 10.0)],
-                lambda m, p: m.replace(delay=p[0]),
-            ),
-            main="delay",
-        ),
+        Candidate("input_delay", (_fixed_delay(), _jittering_delay()), main="delay"),
         Candidate(
             "torque_gain_error",
             _single(
@@ -459,6 +500,8 @@ POSITIVE = {
     "gravity_scale",
     "counts_per_rev",
     "limit",
+    "delay_spread",
+    "correlation_time",
 }
 SIGNED = {"equilibrium"}
 
