@@ -92,6 +92,14 @@ def test_the_lag_ratio_gives_back_the_noise_coefficient(a):
     assert coefficient(lag_ratio(a)) == pytest.approx(a, abs=1e-6)
 
 
+COUNT = encoder_resolution(2048)  # [rad] one count of the logs' encoder
+
+
+def _signals(logs) -> list[np.ndarray]:
+    """Both angles of every log in counts."""
+    return [np.asarray(angle) / COUNT for log in logs for angle in (log.theta, log.phi)]
+
+
 def _noisy_logs(std_counts: float, time: float | None, seed: int, counts: int = 2048, period: float = 2e-3):
     """Two 8 s logs of a swing that crosses a count at most samples (its rounding independent from sample to
     sample), read by an encoder of ``counts``, with first-order noise of ``std_counts`` counts and correlation time
@@ -117,7 +125,9 @@ def test_correlated_noise_is_read_with_its_size_and_correlation_time(std_counts,
     """The lag variances are read without bias, but sigma and tau are steep functions of their ratio: over seeds
     of these 16 000 samples the estimates spread by about 15 % (sigma) and 30 % (tau) at 1.5 counts and 2.5
     sample periods, hence the tolerances."""
-    effect, samples = correlated_noise_estimate(_noisy_logs(std_counts, time, seed=4), 2048, 1.0, 0.5, 200, seed=0)
+    effect, samples = correlated_noise_estimate(
+        _signals(_noisy_logs(std_counts, time, seed=4)), 2e-3, COUNT, 1.0, 0.5, 200, seed=0
+    )
     assert effect.form == "correlated"
     sigma, tau = effect.values
     assert sigma / encoder_resolution(2048) == pytest.approx(std_counts, rel=0.25)
@@ -126,7 +136,7 @@ def test_correlated_noise_is_read_with_its_size_and_correlation_time(std_counts,
 
 
 def test_white_noise_reads_no_correlation_time():
-    effect, _ = correlated_noise_estimate(_noisy_logs(1.5, None, seed=5), 2048, 1.0, 0.5, 50, seed=0)
+    effect, _ = correlated_noise_estimate(_signals(_noisy_logs(1.5, None, seed=5)), 2e-3, COUNT, 1.0, 0.5, 50, seed=0)
     assert effect is None
 
 

@@ -122,21 +122,26 @@ def quantization_estimate(logs, nominal_counts: int) -> float:
 def noise_estimate(
     model: Model, windows: Windows, nominal_counts: int, resamples: int = 0, seed: int = 0
 ) -> tuple[float, np.ndarray]:
-    """White measurement noise sigma [rad] read from the residuals of ``model`` on (at most ``NOISE_WINDOWS`` of)
-    ``windows``: measured minus predicted angles, from each window's own refined initial state
-    (:func:`~furuta_drake.diagnosis.gap.projected_residuals`), per window and angle with the command over it; the
-    sigma of their second differences (:func:`second_difference_noise`)."""
+    """White measurement noise sigma [rad] read from the residuals of ``model`` on ``windows``
+    (:func:`residual_signals`): the sigma of their second differences (:func:`second_difference_noise`)."""
+    step = nominal_counts / quantization_estimate(windows.logs, nominal_counts)
+    signals = residual_signals(model, windows, nominal_counts, seed)
+    return second_difference_noise(signals, step, encoder_resolution(nominal_counts), resamples, seed)
+
+
+def residual_signals(model: Model, windows: Windows, nominal_counts: int, seed: int = 0) -> list[tuple]:
+    """Per window and angle of (at most ``NOISE_WINDOWS`` of) ``windows``, the measured minus predicted angle
+    [counts] from the window's own refined initial state (:func:`~furuta_drake.diagnosis.gap.projected_residuals`)
+    with the command over it: the model predicts the motion, so what is left is noise and model error."""
     subset = windows.subset(NOISE_WINDOWS, seed)
     raw = projected_residuals(model, subset, nominal_counts)[0]
-    signals = [
+    return [
         (r[:, angle, w], np.asarray(log.input)[start : start + r.shape[0]])
         for log, starts, r in zip(subset.logs, subset.starts, raw)
         for w, start in enumerate(starts)
         for angle in (0, 1)
         if np.all(np.isfinite(r[:, angle, w]))  # a diverged prediction reads no noise
     ]
-    step = nominal_counts / quantization_estimate(windows.logs, nominal_counts)
-    return second_difference_noise(signals, step, encoder_resolution(nominal_counts), resamples, seed)
 
 
 def second_difference_noise(
@@ -244,20 +249,23 @@ def _named_form(task: FitTask, fits: dict) -> str:
 
 def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
     """The sensor effect ``task.new`` read from the data and its bootstrap samples (resamples, params): the
-    encoder's grid from the logs; the noise from the residuals of the model holding the fixed effects, in its
-    correlated form where noise is found there and the logs' second differences show a correlation time (read
-    only then: a motion the raw angles still carry would read as a correlation), else white."""
+    encoder's grid from the logs; the noise from the residuals of the model holding the fixed effects
+    (:func:`residual_signals`): white, or in its correlated form where the white estimate finds noise and the
+    residuals' second differences show a correlation time (a model error's drift, which the white estimate
+    extrapolates away, would read as one where there is no noise)."""
     settings, counts = task.settings, task.nominal_counts
     resamples = settings.interval_resamples
+    grid = quantization_estimate(task.logs, counts)
     if task.new == "encoder_quantization":
-        value = quantization_estimate(task.logs, counts)
-        return Effect("", (value,)), np.full((resamples, 1), value)
-    model = apply_effects(task.model, task.fixed)
-    sigma, samples = noise_estimate(model, task.train, counts, resamples, settings.seed)
+        return Effect("", (grid,)), np.full((resamples, 1), grid)
+    count, step = encoder_resolution(counts), counts / grid
+    signals = residual_signals(apply_effects(task.model, task.fixed), task.train, counts, settings.seed)
+    sigma, samples = second_difference_noise(signals, step, count, resamples, settings.seed)
     if sigma > 0:
-        step = counts / quantization_estimate(task.logs, counts)
+        period = float(np.median([log.sample_period for log in task.train.logs]))
+        values = [values for values, _ in signals]
         correlated, draws = correlated_noise_estimate(
-            task.logs, counts, step, NOISE_FLOOR_COUNTS, resamples, settings.seed
+            values, period, count, step, NOISE_FLOOR_COUNTS, resamples, settings.seed
         )
         if correlated is not None:
             return correlated, draws

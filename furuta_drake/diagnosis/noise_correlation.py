@@ -20,7 +20,6 @@ import numpy as np
 from scipy.optimize import brentq
 
 from furuta_drake.effects.vocabulary import Effect
-from furuta_drake.rig import encoder_resolution
 
 CORRELATED_MIN_PERIODS = 1.0  # the correlated form is read when tau exceeds this many sample periods (shorter:
 # the noise is white to the second differences, a within a factor e of white's 0)
@@ -42,23 +41,21 @@ def coefficient(ratio: float) -> float:
     return float(brentq(lambda a: lag_ratio(a) - ratio, 0.0, A_MAX))
 
 
-def _squares(logs, count: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Per centre sample the squared lag-1 and lag-2 second differences [counts^2] of both angles of the logs at
-    the median sample period (samples beyond 6 robust sigmas of either left out), and that period [s]."""
-    period = float(np.median([log.sample_period for log in logs]))
+def _squares(signals: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Per centre sample the squared lag-1 and lag-2 second differences [counts^2] of ``signals`` (each in counts,
+    at one sample period; those shorter than a lag-2 stencil left out), samples beyond 6 robust sigmas of either
+    left out."""
     first, second = [], []
-    for log in logs:
-        if abs(log.sample_period - period) > 0.01 * period or log.time.size < 5:
-            continue
-        for angle in (np.asarray(log.theta) / count, np.asarray(log.phi) / count):
-            first.append(angle[3:-1] - 2 * angle[2:-2] + angle[1:-3])
-            second.append(angle[4:] - 2 * angle[2:-2] + angle[:-4])
+    for values in signals:
+        if values.size >= 5:
+            first.append(values[3:-1] - 2 * values[2:-2] + values[1:-3])
+            second.append(values[4:] - 2 * values[2:-2] + values[:-4])
     d1, d2 = np.concatenate(first), np.concatenate(second)
     keep = np.ones(d1.size, dtype=bool)
     for d in (d1, d2):
         centre = np.median(d)
         keep &= np.abs(d - centre) <= 6.0 * (1.4826 * np.median(np.abs(d - centre)) + 1.0)
-    return (d1[keep] - np.median(d1)) ** 2, (d2[keep] - np.median(d2)) ** 2, period
+    return (d1[keep] - np.median(d1)) ** 2, (d2[keep] - np.median(d2)) ** 2
 
 
 def _read(v1, v2, rounding: float, period: float) -> tuple[float, float]:
@@ -71,14 +68,14 @@ def _read(v1, v2, rounding: float, period: float) -> tuple[float, float]:
 
 
 def correlated_noise_estimate(
-    logs, nominal_counts: int, step: float, floor: float, resamples: int, seed: int
+    signals: list[np.ndarray], period: float, count: float, step: float, floor: float, resamples: int, seed: int
 ) -> tuple[Effect | None, np.ndarray]:
-    """The ``correlated`` form of ``measurement_noise`` (noise_std [rad], correlation_time [s]) read from the logs
-    (angles in counts of ``nominal_counts``, on a grid of ``step`` of them), and ``resamples`` bootstrap values
-    (resamples, 2) over blocks of ``BLOCK`` samples; (None, empty) when the noise is below ``floor`` counts or its
-    correlation time below ``CORRELATED_MIN_PERIODS`` sample periods (the white form's estimate stands)."""
-    count = encoder_resolution(nominal_counts)
-    s1, s2, period = _squares(logs, count)
+    """The ``correlated`` form of ``measurement_noise`` (noise_std [rad], correlation_time [s]) read from
+    ``signals`` (angles or their residuals in counts of ``count`` rad, sampled every ``period`` s, on a grid of
+    ``step`` counts), and ``resamples`` bootstrap values (resamples, 2) over blocks of ``BLOCK`` samples; (None,
+    empty) when the noise is below ``floor`` counts or its correlation time below ``CORRELATED_MIN_PERIODS``
+    sample periods (the white form's estimate stands)."""
+    s1, s2 = _squares(signals)
     rounding = 6.0 * step**2 / 12.0
     sigma, tau = _read(np.mean(s1), np.mean(s2), rounding, period)
     if sigma < floor or tau < CORRELATED_MIN_PERIODS * period:
