@@ -1,25 +1,28 @@
-"""The accepted model's intervals widened by how far its parameters move when the strongest candidate not
-accepted is fitted beside it, so that they hold when an effect below the detection limits acts."""
+"""The accepted model's intervals inflated about the fitted value by rule.INTERVAL_INFLATION and widened by how
+far its parameters move when the strongest candidate not accepted is fitted beside it, so that they hold when an
+effect below the detection limits acts."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import REPO
 from hypothesis import given
 from hypothesis import strategies as st
 
 from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.gap import GapResult
 from furuta_drake.diagnosis.result import RankedCandidate
-from furuta_drake.diagnosis.rival import widen
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.rival import inflated, widen
+from furuta_drake.diagnosis.rule import INTERVAL_INFLATION, Bootstrap
 from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import Effect
 from furuta_drake.rig import RIGS
 
 WINDOWS = 100
-INTERVAL = [0.78, 0.82]  # the gain's bootstrap interval given the model holding the gain error alone
+INTERVAL = [0.78, 0.82]  # the gain's bootstrap interval given the model holding the gain error alone (fit: 0.8)
+INFLATED = [0.8 - INTERVAL_INFLATION * 0.02, 0.8 + INTERVAL_INFLATION * 0.02]
 
 
 def _gap(excess: float, seed: int) -> GapResult:
@@ -47,23 +50,45 @@ def _widened(rivals: list[tuple[float, float]]) -> dict:
 
 def test_the_interval_spans_the_gain_the_model_holding_the_rival_fits():
     row = _widened([(0.86, 0.05)])
-    assert row.params_ci["gain"] == pytest.approx([0.78, 0.88])  # the interval, and shifted by +0.06
+    assert row.params_ci["gain"] == pytest.approx([INFLATED[0], INFLATED[1] + 0.06])  # and shifted by +0.06
     assert row.params_ci_if_complete["gain"] == INTERVAL
 
 
 def test_the_rival_is_the_candidate_that_explains_the_held_out_data_best():
     row = _widened([(0.86, 0.08), (0.74, 0.02)])  # the lag leaves less: it is the rival
-    assert row.params_ci["gain"] == pytest.approx([0.72, 0.82])  # shifted by -0.06
+    assert row.params_ci["gain"] == pytest.approx([INFLATED[0] - 0.06, INFLATED[1]])  # shifted by -0.06
 
 
 def test_a_rival_fitted_with_the_kept_effects_frozen_moves_nothing():
     row = _widened([(0.8, 0.05)])
-    assert row.params_ci["gain"] == INTERVAL
+    assert row.params_ci["gain"] == pytest.approx(INFLATED)
+
+
+def test_without_a_rival_the_interval_is_still_inflated():
+    row = _widened([])
+    assert row.params_ci["gain"] == pytest.approx(INFLATED)
+    assert row.params_ci_if_complete["gain"] == INTERVAL
 
 
 @given(st.floats(0.5, 1.5))
 def test_the_widened_interval_holds_both_the_interval_and_its_shift(gain):
     row = _widened([(gain, 0.05)])
     low, high = row.params_ci["gain"]
-    assert low <= min(INTERVAL[0], INTERVAL[0] + gain - 0.8) + 1e-12
-    assert high >= max(INTERVAL[1], INTERVAL[1] + gain - 0.8) - 1e-12
+    assert low <= min(INFLATED[0], INFLATED[0] + gain - 0.8) + 1e-12
+    assert high >= max(INFLATED[1], INFLATED[1] + gain - 0.8) - 1e-12
+
+
+@given(st.floats(0.0, 1.0), st.floats(0.0, 1.0), st.floats(0.0, 1.0))
+def test_an_inflated_interval_holds_the_bootstrap_s_and_stays_non_negative(value, below, above):
+    low, high = max(value - below, 0.0), value + above
+    out_low, out_high = inflated(value, low, high, "arm_viscous_friction.viscous")
+    assert out_low <= low and out_high >= high and out_low >= 0.0
+    assert out_high - value == pytest.approx(INTERVAL_INFLATION * above)
+    signed_low, _ = inflated(value, low, high, "equilibrium")
+    assert signed_low == pytest.approx(value - INTERVAL_INFLATION * (value - low))
+
+
+def test_the_docs_state_the_inflation():
+    docs = " ".join((REPO / "docs" / "diagnose.md").read_text().split())
+    low, high = f"x - {INTERVAL_INFLATION:g} (x - lo)", f"x + {INTERVAL_INFLATION:g} (hi - x)"
+    assert f"[{low}, {high}]" in docs and "`INTERVAL_INFLATION`" in docs

@@ -1,13 +1,17 @@
-"""Intervals that hold when the model is not complete: the accepted model's parameter intervals widened by how
-far its parameters move when the strongest candidate not accepted is fitted beside it.
+"""Intervals that hold when the model is not complete: the accepted model's parameter intervals inflated about
+the fitted value by ``rule.INTERVAL_INFLATION``, then widened by how far its parameters move when the strongest
+candidate not accepted is fitted beside it.
 
 The block bootstrap of :mod:`~furuta_drake.diagnosis.fit` states the spread of a fit *given* its model. An effect
 below the detection limits may still act on the logs, and the accepted effects then absorb part of it: their
-values are biased by an amount the bootstrap cannot see. The forward pass has already fitted the model holding
-the accepted effects and each further candidate *together* (the joint refits of the step after the last one
-kept, or the model before the backward pass dropped an effect); the one that reduces the final model's held-out
-gap the most is the *rival*. Each interval [lo, hi] of a parameter whose value moves by d in the rival becomes
-[min(lo, lo + d), max(hi, hi + d)]: the interval holds whether or not the rival is present.
+values are biased by an amount the bootstrap cannot see. Each interval [lo, hi] of a fitted value x first becomes
+[x - k (x - lo), x + k (hi - x)] with k = ``INTERVAL_INFLATION`` (never below 0 for a parameter that cannot be
+negative), the factor calibrated on the suites with and without a small hidden second effect
+(benchmarks/interval_coverage_fits.py). The forward pass has also fitted the model holding the accepted effects
+and each further candidate *together* (the joint refits of the step after the last one kept, or the model before
+the backward pass dropped an effect); the one that reduces the final model's held-out gap the most is the
+*rival*. A parameter whose value moves by d in the rival then spans [min(lo, lo + d), max(hi, hi + d)] of the
+inflated interval: it holds whether or not the rival is present.
 """
 
 from __future__ import annotations
@@ -16,10 +20,10 @@ import dataclasses
 
 from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.result import RankedCandidate
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.rule import INTERVAL_INFLATION, Bootstrap
 from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import describe
+from furuta_drake.effects.vocabulary import SIGNED, describe
 
 
 def rival(selection: Selection, bootstrap: Bootstrap) -> FitResult | None:
@@ -61,19 +65,28 @@ def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[s
     return out
 
 
+def inflated(value: float, low: float, high: float, name: str) -> list[float]:
+    """The interval [``low``, ``high``] of the fitted ``value`` of parameter ``name`` (its last dotted part a
+    vocabulary name) inflated about it by ``INTERVAL_INFLATION``; not below 0 unless the parameter is signed."""
+    inflated_low = min(low, value - INTERVAL_INFLATION * (value - low))  # never narrower than the bootstrap's
+    high = max(high, value + INTERVAL_INFLATION * (high - value))
+    return [inflated_low if name.rsplit(".", 1)[-1] in SIGNED else max(inflated_low, min(low, 0.0)), high]
+
+
 def widen(ranking: list[RankedCandidate], selection: Selection, bootstrap: Bootstrap, nominal: Model):
-    """``ranking`` with the final model's ``params_ci`` widened by the rival's shifts (module docstring); the
-    bootstrap's own intervals kept as ``params_ci_if_complete``."""
-    moves = shifts(selection, bootstrap, nominal)
-    if not moves:
+    """``ranking`` with the final model's ``params_ci`` inflated and widened by the rival's shifts (module
+    docstring); the bootstrap's own intervals kept as ``params_ci_if_complete``."""
+    if selection.final is None:
         return ranking
+    moves = shifts(selection, bootstrap, nominal)
     out = []
     for row in ranking:
         if row.effect == selection.final.name and row.params_ci:
-            widened = {
-                key: [min(low, low + moves.get(key, 0.0)), max(high, high + moves.get(key, 0.0))]
-                for key, (low, high) in row.params_ci.items()
-            }
+            widened = {}
+            for key, (low, high) in row.params_ci.items():
+                low, high = inflated(row.params[key], low, high, key)
+                move = moves.get(key, 0.0)
+                widened[key] = [min(low, low + move), max(high, high + move)]
             row = dataclasses.replace(row, params_ci=widened, params_ci_if_complete=row.params_ci)
         out.append(row)
     return out

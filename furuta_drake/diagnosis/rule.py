@@ -51,6 +51,7 @@ LEVEL_EXCESS = 0.1
 NEAR = 0.05
 NEGLIGIBLE_COUNTS = 0.15
 IMPLAUSIBLE_SCALE = 2.0
+INTERVAL_INFLATION = 1.5
 
 
 @dataclass(frozen=True)
@@ -89,6 +90,14 @@ THRESHOLDS = (
         "factor",
         "an inertia scale beyond this factor either way is a stand-in (rig files state masses and lengths to a few "
         "per cent): the torque beyond the vocabulary is tried in its place",
+    ),
+    Threshold(
+        "INTERVAL_INFLATION",
+        INTERVAL_INFLATION,
+        "factor",
+        "the accepted model's bootstrap intervals are inflated about the fitted value by this factor (then widened "
+        "by the rival's shift): calibrated so that 95 % intervals cover known parameters 90-99 % of the time with "
+        "and without a small second effect below its detection limit",
     ),
 )
 

@@ -94,9 +94,15 @@ class Effect:
 
 
 PRESLIDING = (1e-5, 0.05)  # bounds of the presliding displacement Fc / sigma0 of the arm friction [rad]
-PRESLIDING_STARTS = (1e-3, 1e-2)  # [rad]
+# Starts of the presliding displacement and the regularisation velocity: each sets the travel or the velocity at
+# which the friction torque turns, a bend the cost is non-convex in, so a log grid spans their bounds' middle.
+PRESLIDING_STARTS = (1e-3, 3e-3, 1e-2)  # [rad]
 REGULARIZATION = (1e-4, 1.0)  # bounds of the smooth form's regularisation velocity [rad/s]
-REGULARIZATION_STARTS = (3e-3, 0.05)  # [rad/s]
+REGULARIZATION_STARTS = (3e-3, 0.01, 0.03, 0.1)  # [rad/s]
+# Starts of the Stribeck curve: its velocity sets where the torque falls from the static level to Coulomb's (from
+# one start, 0.1 rad/s, the fit of a fast curve stalls on a slow one or on the smooth form), so a log grid spans
+# its bounds; the static level starts at twice the Coulomb level.
+STRIBECK_VELOCITY_STARTS = (0.03, 0.1, 0.3)  # [rad/s]
 # Starts of the arm friction levels [m g l]: the cost is multimodal in the level (a level far too low leaves the
 # arm free to move in the model where it sticks in the data, and the fit stalls), so they span two decades.
 FRICTION_LEVEL_STARTS = (0.005, 0.02, 0.06, 0.2)
@@ -316,7 +322,11 @@ CANDIDATES: dict[str, Candidate] = {
             _friction_forms(
                 ("coulomb", "static", "stribeck_velocity"),
                 lambda s: ([0.0, 0.0, 0.01], [0.5 * s.torque, s.torque, 1.0]),
-                lambda s: [[level * s.torque, 2.5 * level * s.torque, 0.1] for level in FRICTION_LEVEL_STARTS],
+                lambda s: [
+                    [level * s.torque, 2.0 * level * s.torque, velocity]
+                    for level in FRICTION_LEVEL_STARTS
+                    for velocity in STRIBECK_VELOCITY_STARTS
+                ],
                 lambda m, p: _bristle_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2]),
                 lambda m, p: _smooth_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2]),
             ),
