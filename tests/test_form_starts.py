@@ -44,7 +44,7 @@ def _truths(s: Scales) -> dict[tuple[str, str], list[list[float]]]:
         ("friction_asymmetry", "presliding"): [[0.03 * T, 0.0525 * T, 2.5e-3], [0.03 * T, 0.075 * T, 2.5e-3]],
         ("friction_asymmetry", "smooth"): [[0.03 * T, 0.0525 * T, 0.01], [0.03 * T, 0.075 * T, 0.03]],
         ("pendulum_friction", ""): [[0.004 * T, 0.3 * b], [0.008 * T, 0.6 * b]],
-        ("input_delay", ""): [[3.0 * P], [8.3 * P]],
+        ("input_delay", "fixed"): [[3.0 * P], [8.3 * P]],
         ("torque_gain_error", ""): [[0.8], [1.35]],
         ("actuator_deadzone", "subtract"): [[0.03 * T], [0.06 * T]],
         ("actuator_deadzone", "threshold"): [[0.03 * T], [0.06 * T]],
@@ -57,7 +57,16 @@ def _truths(s: Scales) -> dict[tuple[str, str], list[list[float]]]:
     }
 
 
-FITTED = [(name, form.name) for name, c in CANDIDATES.items() if c.fit for form in c.forms]
+# a jittering delay's spread moves these windows by a fraction of a count: its forms are recovered with a fine
+# encoder in test_driver_sensor_forms.py
+FINE_ENCODER_FORMS = {("input_delay", "jitter")}
+FITTED = [
+    (name, form.name)
+    for name, c in CANDIDATES.items()
+    if c.fit
+    for form in c.forms
+    if (name, form.name) not in FINE_ENCODER_FORMS
+]
 FRICTION_LAWS = {"arm_coulomb_friction", "arm_stribeck", "friction_asymmetry"}  # 5-20 s a fit: end to end
 CASES = [
     pytest.param(name, form, size, marks=[pytest.mark.slow] if name in FRICTION_LAWS else [])
@@ -156,5 +165,5 @@ def test_a_coarser_encoder_is_read_from_the_angle_increments(nominal_windows, co
 def test_white_noise_is_read_from_the_second_differences(nominal_windows, noise_counts):
     rig, logs, windows = nominal_windows
     noisy = _read(logs, rig.counts_per_rev, noise_counts=noise_counts, seed=3)
-    sigma = _sensor_fit("measurement_noise", noisy, rig, windows)
+    sigma = _sensor_fit("measurement_noise", noisy, rig, make_windows(noisy, rig))  # read from their residuals
     assert sigma == pytest.approx(noise_counts * encoder_resolution(rig.counts_per_rev), rel=0.1)
