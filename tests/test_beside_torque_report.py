@@ -9,17 +9,28 @@ from __future__ import annotations
 import json
 import re
 from html import unescape
+from types import SimpleNamespace
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.html import report_html
 from furuta_drake.diagnosis.narrative import next_steps, verdict_sentence
+from furuta_drake.diagnosis.pipeline import _artifacts
 from furuta_drake.diagnosis.report import report_json, report_markdown
 from furuta_drake.diagnosis.result import Diagnosis, GapFigures, RankedCandidate
+from furuta_drake.diagnosis.rule import Comparison
+from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.diagnosis.torque_report import beside_record
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.torque_library import TERMS
+from furuta_drake.effects.vocabulary import effect_from_params
+from furuta_drake.rig import RIGS
 
+QUBE = RIGS["qube_servo2"]()
+NOMINAL = Model.from_rig(QUBE)
 COULOMB = 0.0012  # N m, the friction beside the cogging
 COGGING = -0.0015  # N m, the coefficient of sin(12*phi)
 WITH_TORQUE, ALONE = 0.95, 0.24  # held-out reductions of the friction with and without the torque
@@ -161,3 +172,29 @@ def test_a_report_without_either_key_still_renders_its_old_headline(tmp_path):
         "no effect of the vocabulary explains: the best candidate tried" in headline and "removes only 51 %" in headline
     )
     assert "beside the torque" not in markdown
+
+
+@pytest.mark.parametrize("alone, torque_kept", [(ALONE, True), (ALONE, False), (0.9, True)])
+def test_the_fitted_rig_file_holds_the_friction_beside_a_kept_torque(alone, torque_kept):
+    """fitted_rig.yaml and fitted_model.yaml hold the injected friction beside a kept torque, also when the friction
+    alone leaves the gap unexplained (``alone`` below one half); without a torque they hold only accepted effects."""
+    params = {"coulomb": COULOMB, "regularization_velocity": 0.001, "form": "smooth"}
+    fit = FitResult(
+        "arm_coulomb_friction", {"arm_coulomb_friction": effect_from_params("arm_coulomb_friction", params)}, 1, None
+    )
+    selection = Selection(
+        nominal=None,
+        tried=[(1, fit)],
+        accepted=["arm_coulomb_friction"],
+        over_nominal={fit.name: Comparison(1.4 * (1 - alone), alone, alone - 0.1, 0.0, 0.0)},
+    )
+    cogging = (0, TERMS.index("sin(12*phi)"), COGGING)
+    missing = SimpleNamespace(terms=[cogging], scatter={})
+    inputs = SimpleNamespace(nominal=NOMINAL, rig=QUBE)
+    artifacts = _artifacts(inputs, selection, TORQUE if torque_kept else {}, missing, [], None, 0.0, {})
+    holds = torque_kept or alone >= 0.5  # the friction is in the files
+    stated = (artifacts.fitted_rig.effects or {}).get("arm_coulomb_friction")
+    assert stated == (params if holds else None)
+    assert artifacts.fitted_config.friction.arm.coulomb_pos == pytest.approx(COULOMB if holds else 0.0)
+    expression = artifacts.fitted_rig.unmodelled_torque.arm if torque_kept else None
+    assert (expression is not None and "sin(12*phi)" in expression) == torque_kept
