@@ -55,7 +55,12 @@ class Accepted:
 
 def final_entry(report: dict) -> dict | None:
     """The ranking entry of the model holding exactly the accepted effects (None when there is none)."""
-    wanted = set(report.get("effects", []))
+    return _entry_of(report, report.get("effects", []))
+
+
+def _entry_of(report: dict, names: list[str]) -> dict | None:
+    """The ranking entry of the model holding exactly ``names`` (None when there is none)."""
+    wanted = set(names)
     return next(
         (e for e in report.get("ranking", []) if wanted and set(e["effect"].split("+")) == wanted),
         None,
@@ -180,7 +185,8 @@ def _capital(text: str) -> str:
 
 def verdict_sentence(report: dict) -> str:
     """The answer in one plain sentence with its strength: what the logs show and how much of the held-out gap
-    the accepted effects remove."""
+    the accepted effects remove; for an unexplained gap with a kept torque, that torque and the listed effects
+    fitted beside it."""
     gap = report["gap"]
     nominal = number(gap["nominal"]["heldout"], 2)
     effects = accepted_effects(report)
@@ -236,9 +242,8 @@ def _beside_torque(report: dict) -> str:
 
 def beside_alone(report: dict) -> float | None:
     """The held-out reduction of the listed effects kept beside the torque, without it (their ranking entry's)."""
-    names = set((report.get("beside_torque") or {}).get("effects", []))
-    entry = next((e for e in report.get("ranking", []) if names and set(e["effect"].split("+")) == names), {})
-    return entry.get("heldout_reduction")
+    entry = _entry_of(report, (report.get("beside_torque") or {}).get("effects", []))
+    return (entry or {}).get("heldout_reduction")
 
 
 def _best_attempt(report: dict, effects: list[Accepted]) -> str:
