@@ -144,7 +144,8 @@ def _effects(report: dict) -> str:
 
 
 def _gap_left(report: dict, directory: Path) -> str:
-    """For an unexplained verdict, what the gap is; the unmodelled torque when the report has one."""
+    """For an unexplained verdict, what the gap is; the unmodelled torque and the listed effects kept beside it
+    when the report has them."""
     parts = []
     if report["verdict"] == "unexplained":
         parts += [
@@ -155,6 +156,15 @@ def _gap_left(report: dict, directory: Path) -> str:
     torque = report.get("unmodelled_torque")
     if torque:
         parts += ['<h2 id="unmodelled-torque">The unmodelled torque</h2>', *_unmodelled(torque, directory)]
+    header, rows = tables.beside_table(report)
+    if rows:
+        parts += [
+            '<h2 id="beside-torque">The listed effects beside the torque</h2>',
+            f"<p>{_text(tables.beside_sentence(report))}</p>",
+            _table(
+                header, [[_Raw(f"<code>{_text(r[0])}</code>"), r[1], _Raw(f"<code>{_text(r[2])}</code>")] for r in rows]
+            ),
+        ]
     return "\n".join(parts)
 
 

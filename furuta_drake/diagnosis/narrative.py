@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 from furuta_drake.diagnosis.formatting import ends, number, percent, quantity
+from furuta_drake.diagnosis.torque_report import torque_words
 from furuta_drake.effects.corrected import rig_entry
 from furuta_drake.effects.vocabulary import UNITS
 
@@ -54,7 +55,12 @@ class Accepted:
 
 def final_entry(report: dict) -> dict | None:
     """The ranking entry of the model holding exactly the accepted effects (None when there is none)."""
-    wanted = set(report.get("effects", []))
+    return _entry_of(report, report.get("effects", []))
+
+
+def _entry_of(report: dict, names: list[str]) -> dict | None:
+    """The ranking entry of the model holding exactly ``names`` (None when there is none)."""
+    wanted = set(names)
     return next(
         (e for e in report.get("ranking", []) if wanted and set(e["effect"].split("+")) == wanted),
         None,
@@ -65,15 +71,34 @@ def accepted_effects(report: dict) -> list[Accepted]:
     """The accepted effects in the report's order, their parameters from the final model's fit."""
     entry = final_entry(report) or {}
     steps = {step["effect"]: step for step in report.get("steps", [])}
-    several = len(report.get("effects", [])) > 1
     out = []
-    for name in report.get("effects", []):
-        prefix = f"{name}." if several else ""
-        params = {k[len(prefix) :]: v for k, v in entry.get("params", {}).items() if k.startswith(prefix)}
-        intervals = {k[len(prefix) :]: v for k, v in entry.get("params_ci", {}).items() if k.startswith(prefix)}
-        if not params and name in steps:  # a report without the final entry: the step's own fit
-            params = {k.split(".")[-1]: v for k, v in steps[name]["params"].items() if k.startswith(prefix)}
-        out.append(Accepted(name, params, intervals, steps.get(name)))
+    for effect in _per_effect(report.get("effects", []), entry):
+        if not effect.params and effect.name in steps:  # a report without the final entry: the step's own fit
+            prefix = f"{effect.name}." if len(report["effects"]) > 1 else ""
+            effect.params = {
+                k.split(".")[-1]: v for k, v in steps[effect.name]["params"].items() if k.startswith(prefix)
+            }
+        effect.step = steps.get(effect.name)
+        out.append(effect)
+    return out
+
+
+def beside_effects(report: dict) -> list[Accepted]:
+    """The listed effects kept beside the torque beyond the vocabulary (``beside_torque``), with their parameters
+    fitted beside it; none for a report without that key."""
+    beside = report.get("beside_torque") or {}
+    return _per_effect(beside.get("effects", []), beside)
+
+
+def _per_effect(names: list[str], fit: dict) -> list[Accepted]:
+    """Each of ``names`` with its parameters and intervals from ``fit`` (``params``, ``params_ci``; keys prefixed
+    'effect.' when it holds several)."""
+    out = []
+    for name in names:
+        prefix = f"{name}." if len(names) > 1 else ""
+        params = {k[len(prefix) :]: v for k, v in fit.get("params", {}).items() if k.startswith(prefix)}
+        intervals = {k[len(prefix) :]: v for k, v in fit.get("params_ci", {}).items() if k.startswith(prefix)}
+        out.append(Accepted(name, params, intervals))
     return out
 
 
@@ -166,7 +191,8 @@ def _capital(text: str) -> str:
 
 def verdict_sentence(report: dict) -> str:
     """The answer in one plain sentence with its strength: what the logs show and how much of the held-out gap
-    the accepted effects remove."""
+    the accepted effects remove; for an unexplained gap with a kept torque, that torque and the listed effects
+    fitted beside it."""
     gap = report["gap"]
     nominal = number(gap["nominal"]["heldout"], 2)
     effects = accepted_effects(report)
@@ -174,6 +200,11 @@ def verdict_sentence(report: dict) -> str:
         return (
             f"The rig file's model already predicts the logs {NEVER_SEEN} to within their noise (held-out gap "
             f"{nominal} counts above the encoder noise): no unmodelled effect is needed."
+        )
+    if report["verdict"] == "unexplained" and report.get("unmodelled_torque"):
+        return (
+            f"The rig file's model misses these logs (held-out gap {nominal} counts) by a torque no effect of the "
+            f"vocabulary holds: {_beside_torque(report)}."
         )
     if report["verdict"] == "unexplained":
         return (
@@ -193,6 +224,32 @@ def verdict_sentence(report: dict) -> str:
         f"{_capital(_joined([effect_statement(e) for e in effects]))}; {together} "
         f"{percent(reduction)} of the gap on logs {NEVER_SEEN}{strength}."
     )
+
+
+def _beside_torque(report: dict) -> str:
+    """The kept torque in words (:func:`~.torque_report.torque_words`), the listed effects fitted beside it with
+    their values, and how much of the gap they remove together; without effects beside it, the best candidate."""
+    torques = []
+    for joint, entry in report["unmodelled_torque"].items():
+        words, kind = torque_words(joint, entry)
+        torques.append(f"{words} ({kind})" if kind else words)
+    text = _joined(torques)
+    beside, effects = report.get("beside_torque") or {}, beside_effects(report)
+    if not effects:
+        reduction = next(iter(report["unmodelled_torque"].values())).get("heldout_reduction")
+        best = _best_attempt(report, [])
+        return f"{text}; it removes {percent(reduction)} of the gap on logs {NEVER_SEEN}, where {best}"
+    return (
+        f"{text}, and beside it {_joined([effect_statement(e) for e in effects])}; together they remove "
+        f"{percent(beside.get('heldout_reduction'))} of the gap on logs {NEVER_SEEN}, the listed "
+        f"{'effects' if len(effects) > 1 else 'effect'} alone {percent(beside_alone(report))}"
+    )
+
+
+def beside_alone(report: dict) -> float | None:
+    """The held-out reduction of the listed effects kept beside the torque, without it (their ranking entry's)."""
+    entry = _entry_of(report, (report.get("beside_torque") or {}).get("effects", []))
+    return (entry or {}).get("heldout_reduction")
 
 
 def _best_attempt(report: dict, effects: list[Accepted]) -> str:
@@ -300,10 +357,10 @@ def undetectable(report: dict) -> list[str]:
 def next_steps(report: dict) -> list[tuple[str, str]]:
     """What to do next: (what and why, the command to run from the report's folder)."""
     steps = []
-    if report.get("effects"):
+    if report.get("effects") or report.get("unmodelled_torque"):
         steps.append(
             (
-                "Continue from the fitted rig file (the accepted effects are in its effects: section): diagnose "
+                f"Continue from the fitted rig file ({_held_in_rig(report)}): diagnose "
                 "new logs against it, so a further effect need not compete with these",
                 "furuta-drake diagnose --rig fitted_rig.yaml --train NEW_TRAIN.csv --heldout NEW_HELDOUT.csv "
                 "--out next-diagnosis",
@@ -327,6 +384,19 @@ def next_steps(report: dict) -> list[tuple[str, str]]:
         steps.append(("Nothing to add to the rig file; the detection limits below say what could still hide", ""))
         steps += _smaller_target(report)
     return steps
+
+
+def _held_in_rig(report: dict) -> str:
+    """What ``fitted_rig.yaml`` holds beyond the rig file: the accepted effects (else those fitted beside the kept
+    torque) and the torque beyond the vocabulary."""
+    held = []
+    if report.get("effects"):
+        held.append("the accepted effects are in its effects: section")
+    elif beside_effects(report):
+        held.append("the effects fitted beside the torque are in its effects: section")
+    if report.get("unmodelled_torque"):
+        held.append("the torque beyond the vocabulary is in its unmodelled_torque: section")
+    return ", ".join(held)
 
 
 def _smaller_target(report: dict) -> list[tuple[str, str]]:

@@ -42,7 +42,7 @@ from furuta_drake.diagnosis.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, select_effects
-from furuta_drake.diagnosis.torque_report import torque_record
+from furuta_drake.diagnosis.torque_report import beside_record, torque_record
 from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import library_terms, merged, torque_parameters_of
@@ -370,11 +370,12 @@ def _diagnosis(
     before = window_residuals(nominal_heldout, inputs.heldout_windows, rig_params)
     after = window_residuals(accepted_heldout, inputs.heldout_windows, rig_params) if final else None
     torque = torque_record(missing) if missing else {}
+    ranked = widen(ranking(selection, nominal), selection, bootstrap, nominal)
     return Diagnosis(
         verdict=selection.verdict,
         effects=selection.effects,
         gap=_gap_figures(inputs, final, nominal_heldout, accepted_heldout, evaluated_by, before, after),
-        ranking=widen(ranking(selection, nominal), selection, bootstrap, nominal),
+        ranking=ranked,
         localization=localize(
             before,
             after,
@@ -391,7 +392,10 @@ def _diagnosis(
         rule=rule_text(settings.bootstrap, settings.seed, settings.max_effects),
         notes=notes,
         unmodelled_torque=torque,
-        artifacts=_artifacts(inputs, final, torque, missing, before, after, nominal_heldout.sensor_variance, record),
+        beside_torque=beside_record(selection.accepted, ranked, torque),
+        artifacts=_artifacts(
+            inputs, selection, torque, missing, before, after, nominal_heldout.sensor_variance, record
+        ),
     )
 
 
@@ -431,10 +435,13 @@ def _steps(selection: Selection, nominal: Model) -> list[Step]:
     return steps
 
 
-def _artifacts(inputs: _Inputs, final, torque: dict, missing, before, after, sensor_variance, record) -> Artifacts:
-    """The residual tables, effect curves, fitted config and rig files and the input record."""
+def _artifacts(inputs: _Inputs, selection, torque: dict, missing, before, after, sensor_variance, record) -> Artifacts:
+    """The residual tables, effect curves, fitted config and rig files and the input record. With a kept torque
+    the fitted files hold the listed effects kept beside it even when they alone leave the gap unexplained: the
+    torque was found beside them."""
     nominal, rig_params = inputs.nominal, inputs.rig
-    accepted_model = _accepted_model(nominal, final)
+    final = _final(selection)
+    fitted = selection.final if torque else final
     # the rig file's torque and the one found beside it, written together
     parameters = torque_parameters_of(merged(nominal.unmodelled_terms + tuple(missing.terms))) if torque else None
     curves = [
@@ -446,8 +453,8 @@ def _artifacts(inputs: _Inputs, final, torque: dict, missing, before, after, sen
         after,
         sensor_variance,
         curves,
-        fitted_config=model_config(rig_params, accepted_model, parameters),
-        fitted_rig=fitted_rig(rig_params, final.effects if final else {}, nominal, parameters),
+        fitted_config=model_config(rig_params, _accepted_model(nominal, fitted), parameters),
+        fitted_rig=fitted_rig(rig_params, fitted.effects if fitted else {}, nominal, parameters),
         record=record,
         torque_scatter=missing.scatter if missing else {},
     )

@@ -216,6 +216,10 @@ def report_markdown(report: dict, figures: dict[str, str]) -> str:
         lines += ["", f"## The unmodelled torque on the {joint}", "", tables.unmodelled_sentence(joint, fit)]
         lines += _table_markdown("", *tables.unmodelled_table(fit))
         lines += ["", f"![Unmodelled torque on the {joint}]({fit['plot']})"] if fit.get("plot") else []
+    header, rows = tables.beside_table(report)
+    if rows:
+        lines += ["", "## The listed effects beside the torque", "", tables.beside_sentence(report)]
+        lines += _table_markdown("", header, rows)
     if report.get("detection_limits"):
         lines += ["", "## What these logs could not see", "", "![Detection limits](detection_limits.svg)", ""]
         lines += [f"- {narrative.limit_sentence(limit)}." for limit in report["detection_limits"]]
@@ -253,7 +257,8 @@ def _evidence_markdown(report: dict, figures: dict[str, str]) -> list[str]:
         "- `config.yaml`: the exact inputs (paths and sha256), versions, seeds and options.",
         "- `fitted_model.yaml`: the fitted model as a simulate config "
         "(`furuta-drake simulate --config fitted_model.yaml`).",
-        "- `fitted_rig.yaml`: the rig file with the accepted effects in its `effects:` section (a further "
+        "- `fitted_rig.yaml`: the rig file with the accepted effects (or those beside a kept torque) in its "
+        "`effects:` section, the torque in `unmodelled_torque:` (a further "
         "diagnosis continues from it: `furuta-drake diagnose --rig fitted_rig.yaml ...`).",
     ]
 

@@ -31,6 +31,24 @@ def effects_table(report: dict) -> Table:
     return ["effect", "what it is (95 % interval)", "gap it removes beside the others", "rig file line"], rows
 
 
+def beside_table(report: dict) -> Table:
+    """One row per listed effect kept beside the torque beyond the vocabulary: its name, the physical statement
+    with intervals, its rig-file line; no rows when the report has none or accepts them (the accepted effects'
+    table then shows them)."""
+    effects = [] if report.get("effects") else narrative.beside_effects(report)
+    rows = [[e.name, narrative.effect_statement(e, with_intervals=True), narrative.rig_line(e)] for e in effects]
+    return ["effect", "what it is (95 % interval)", "rig file line"], rows
+
+
+def beside_sentence(report: dict) -> str:
+    """What the listed effects fitted beside the torque remove, with it and alone."""
+    return (
+        f"Fitted beside the torque beyond the vocabulary; with it they remove "
+        f"{percent(report['beside_torque'].get('heldout_reduction'))} of the held-out gap, alone "
+        f"{percent(narrative.beside_alone(report))}. fitted_rig.yaml holds these lines and the torque."
+    )
+
+
 def steps_table(report: dict) -> Table:
     """One row per accepted step: the held-out gap and the reductions over nominal, the step before, the others."""
     rows = [

@@ -115,6 +115,7 @@ class Diagnosis:
     rule: str = ""  # the acceptance rule
     notes: list[str] = field(default_factory=list)  # what the command tells its user (e.g. ignored columns)
     unmodelled_torque: dict = field(default_factory=dict)  # joint -> the torque beyond the vocabulary (kept only)
+    beside_torque: dict = field(default_factory=dict)  # the listed effects kept beside that torque
     artifacts: Artifacts | None = field(default=None, repr=False, compare=False)  # not in report.json
 
     def to_json(self) -> dict:
@@ -124,8 +125,9 @@ class Diagnosis:
             del out["consistency"]
         if not self.confusable:
             del out["confusable"]
-        if not self.unmodelled_torque:
-            del out["unmodelled_torque"]
+        for key in ("unmodelled_torque", "beside_torque"):
+            if not getattr(self, key):
+                del out[key]
         return {**{key: out.pop(key) for key in SPEC_KEYS}, **out}
 
     @classmethod

@@ -66,18 +66,42 @@ def torque_record(missing: MissingTorque) -> dict:
     return out
 
 
+def beside_record(accepted: list[str], ranking: list, torque: dict) -> dict:
+    """The ``report.json`` value of ``beside_torque``: the listed effects kept beside the kept torque (the
+    selection's, ``accepted``), their parameters and 95 % intervals from their model's ``ranking`` entry (keys
+    prefixed 'effect.' when it holds several), and the held-out reduction of the nominal gap by these effects with
+    the torque; empty when no torque (``torque``: the ``unmodelled_torque`` value) or no listed effect is kept."""
+    entry = next(
+        (r for r in ranking if r.status == "ok" and set(r.effect.split("+")) == set(accepted)),
+        None,
+    )
+    if not torque or not accepted or entry is None:
+        return {}
+    return {
+        "effects": list(accepted),
+        "params": dict(entry.params),
+        "params_ci": dict(entry.params_ci),
+        "heldout_reduction": next(iter(torque.values()))["heldout_reduction"],
+    }
+
+
 def _leading(entry: dict) -> dict:
     return max(entry["terms"], key=lambda t: abs(t["coefficient"]))
 
 
+def torque_words(joint: str, entry: dict) -> tuple[str, str]:
+    """The torque's size and leading term ("an arm torque of about 1.5 mN m varying as sin(12*phi)"), and what
+    it looks like ('' when its term has no known kind)."""
+    lead = _leading(entry)
+    size = max(abs(t["coefficient"]) for t in entry["terms"])
+    article = "an" if joint[0] in "aeiou" else "a"
+    return f"{article} {joint} torque of about {size * 1e3:.2g} mN m varying as {lead['term']}", _kind(lead["term"])
+
+
 def torque_sentence(joint: str, entry: dict) -> str:
     """One plain sentence: the torque's size, its leading term and what it looks like."""
-    lead = _leading(entry)
-    kind = _kind(lead["term"])
-    size = max(abs(t["coefficient"]) for t in entry["terms"])
-    article = "An" if joint[0] in "aeiou" else "A"
-    text = f"{article} {joint} torque of about {size * 1e3:.2g} mN m varying as {lead['term']}"
-    text += f": {kind}" if kind else ""
+    words, kind = torque_words(joint, entry)
+    text = words[:1].upper() + words[1:] + (f": {kind}" if kind else "")
     if entry["closest_effect"]:
         text += f"; its shape is closest to {entry['closest_effect']}"
     return text + f" (expression `{entry['expression']}` N m)."
