@@ -56,13 +56,14 @@ def read_through_encoder(angles: np.ndarray, model: Model, seed: int) -> np.ndar
 
 
 def target_sizes(hypotheses: Hypotheses, named: list[tuple[str, float]], report: dict, rig) -> list[tuple[str, float]]:
-    """The (effect, size) of every target hypothesis: the ``--target`` ones given in ``named``, else those of
-    the limits that matter on the rig's LQR (:func:`~furuta_drake.design.closed_loop.limited_targets`)."""
+    """The (effect, size) of every target hypothesis that has a detection limit (an injected effect: the
+    unmodelled torque's detection is the pair's prediction): the ``--target`` ones given in ``named``, else those
+    of the limits that matter on the rig's LQR (:func:`~furuta_drake.design.closed_loop.limited_targets`)."""
     held = {name for h in hypotheses.hypotheses if h.role == "target" for name in h.effects}
     if not held:
         return []
     sizes = named or limited_targets(report, closed_loop_sizes(rig, nominal_lqr_gain(rig)))
-    return [(name, size) for name, size in sizes if name in held]
+    return [(name, size) for name, size in sizes if name in held and name in INJECTIONS]
 
 
 def predicted_limits(
