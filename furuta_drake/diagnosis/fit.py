@@ -39,6 +39,7 @@ from furuta_drake.diagnosis.gap import (
 from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.noise_correlation import correlated_noise_estimate
+from furuta_drake.diagnosis.rule import beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
@@ -236,15 +237,18 @@ def fit_task(task: FitTask) -> FitResult:
 
 def _named_form(task: FitTask, fits: dict) -> str:
     """The form of lowest train cost; one that nests a simpler form (``Form.simpler``: its last parameter at the
-    lower bound) only when that parameter's 95 % interval stays off the bound, else the simpler form, fitted
-    beside it (a jitter whose spread the data do not show is a fixed delay)."""
+    lower bound) only when that parameter's 95 % interval stays off the bound and the extra parameter removes more
+    mean squared residual than the floor resolves (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below
+    it the extra parameter fits the encoder's rounding), else the simpler form, fitted beside it (a jitter whose
+    spread the data do not show is a fixed delay)."""
     best = min(fits, key=lambda form: fits[form][3])
     form = CANDIDATES[task.new].form(best)
     if form.simpler is None or form.simpler not in fits:
         return best
     low, high = (bound[-1] for bound in form.bounds(scales_of(task.logs, task.model)))
     extra = fits[best][2][task.new][:, -1]
-    return best if np.percentile(extra, INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low) else form.simpler
+    off_bound = np.percentile(extra, INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low)
+    return best if off_bound and beyond_resolution(fits[form.simpler][3] - fits[best][3]) else form.simpler
 
 
 def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
@@ -275,7 +279,7 @@ def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
 def _least_squares(task: FitTask, new_form: dict[str, str]):
     """Least squares of every fitted parameter of ``task.model`` with ``task.fixed`` (started from their values)
     and the new effect in the form ``new_form`` (from the best of its starts); returns (effects, at_bounds,
-    bootstrap samples per effect, cost)."""
+    bootstrap samples per effect, the mean squared residual [counts^2])."""
     settings, counts = task.settings, task.nominal_counts
     scales = scales_of(task.logs, task.model)
     forms, sensors = _forms(task, new_form, scales)
@@ -322,7 +326,7 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         {**sensors, **effects_at(x)},
         at_bounds(names, [forms[n][0] for n in names], x, low, high),
         split,
-        total,
+        total / result.fun.size,  # the mean squared residual [counts^2]
     )
 
 
