@@ -27,6 +27,7 @@ from benchmarks.suite import run_configs, true_params, with_effect
 from furuta_drake.diagnosis.fit import FitTask, fit_task, interval
 from furuta_drake.diagnosis.gap import make_windows
 from furuta_drake.diagnosis.logs import RunLog, load_logs
+from furuta_drake.diagnosis.rival import inflated
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES
@@ -134,8 +135,8 @@ def covered(row: dict, inflation: float, with_rival: bool) -> bool:
     low, high = row["own"]
     if with_rival:
         low, high = min(low, low + row["shift"]), max(high, high + row["shift"])
-    x = row["fitted"]
-    return x - inflation * (x - low) <= row["true"] <= x + inflation * (high - x)
+    low, high = inflated(row["fitted"], low, high, row["param"], inflation)
+    return low <= row["true"] <= high
 
 
 def summary(rows: list[dict]) -> None:

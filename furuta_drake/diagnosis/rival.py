@@ -65,11 +65,11 @@ def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[s
     return out
 
 
-def inflated(value: float, low: float, high: float, name: str) -> list[float]:
+def inflated(value: float, low: float, high: float, name: str, factor: float = INTERVAL_INFLATION) -> list[float]:
     """The interval [``low``, ``high``] of the fitted ``value`` of parameter ``name`` (its last dotted part a
-    vocabulary name) inflated about it by ``INTERVAL_INFLATION``; not below 0 unless the parameter is signed."""
-    inflated_low = min(low, value - INTERVAL_INFLATION * (value - low))  # never narrower than the bootstrap's
-    high = max(high, value + INTERVAL_INFLATION * (high - value))
+    vocabulary name) inflated about it by ``factor``; not below 0 unless the parameter is signed."""
+    inflated_low = min(low, value - factor * (value - low))  # never narrower than the bootstrap's
+    high = max(high, value + factor * (high - value))
     return [inflated_low if name.rsplit(".", 1)[-1] in SIGNED else max(inflated_low, min(low, 0.0)), high]
 
 
