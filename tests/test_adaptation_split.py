@@ -1,13 +1,10 @@
-"""The adaptation laws as their own systems (the K_sigma adapter, Eq. 16-18; the Fc and sigma0 adapter, Sec. VII)
-give the closed loop the code gave while the laws ran inside the Dahl observer, to 1e-12.
-
-``data/adaptation_reference.npz`` holds the states, F_hat and adapted values of two 2 s balancing runs of the Lund
-rig under diagram (iii) (VFE + Dahl + adaptation, Dahl friction on the arm), every fifth sample (``EVERY``),
-written with that code (commit cb891d7) by the same configuration as :func:`adaptive_config` below.
+"""The adaptation laws as their own systems of the diagram (the K_sigma adapter, Eq. 16-18; the Fc and sigma0
+adapter, Sec. VII), wired to the Dahl observer in the balancing loop of diagram (iii) (VFE + Dahl + adaptation):
+found by name, and adapting towards the rig's friction while the loop balances. The laws' own dynamics are unit
+tested in test_adaptation.py and test_parameter_adaptation.py.
 """
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,8 +17,6 @@ from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters, KSigmaAda
 from furuta_drake.observers.parameter_adaptation import DahlParameterAdapter, ParameterAdaptationParameters
 from furuta_drake.simulate import simulate
 
-REFERENCE = np.load(Path(__file__).parent / "data" / "adaptation_reference.npz")
-EVERY = 5  # the reference keeps every fifth sample of the runs
 LAWS = {
     "k_sigma": (DahlAdaptation(k_sigma=KSigmaAdaptationParameters(enable_time=0.5, gamma=20000.0)), "K_sigma"),
     "parameters": (DahlAdaptation(parameters=ParameterAdaptationParameters(enable_time=0.5)), "dahl_parameters"),
@@ -49,15 +44,16 @@ def adaptive_config(adaptation: DahlAdaptation) -> SimulationConfig:
 
 
 @pytest.mark.parametrize("law", LAWS)
-def test_adapter_systems_reproduce_the_closed_loop_to_1e_12(law):
+def test_the_adapter_raises_the_positive_branch_towards_the_rigs_friction_while_balancing(law):
+    """The rig's arm friction (0.015 N m for phi_dot > 0) is above the observer's model (0.012 N m): the K_sigma
+    of that branch rises above 1 (the true ratio is 1.25), or the adapted Fc+ above 0.012 N m; the loop balances
+    (|theta| within 0.02 rad after the first second)."""
     adaptation, signal = LAWS[law]
     result = simulate(adaptive_config(adaptation))
-    np.testing.assert_allclose(result.state[::EVERY], REFERENCE[f"{law}_state"], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(
-        result.signals["friction_estimate"][::EVERY], REFERENCE[f"{law}_friction_estimate"], rtol=0, atol=1e-12
-    )
-    np.testing.assert_allclose(result.signals[signal][::EVERY], REFERENCE[f"{law}_adapted"], rtol=0, atol=1e-12)
-    assert np.ptp(result.signals[signal][:, 0]) > 0  # the law did adapt in this run
+    adapted = result.signals[signal]
+    assert adapted[0, 0] == pytest.approx(1.0 if law == "k_sigma" else 0.012)
+    assert adapted[-1, 0] > adapted[0, 0] * 1.05
+    assert np.max(np.abs(result.state[result.time > 1.0, 0])) < 0.02
 
 
 @pytest.mark.parametrize("law", LAWS)
