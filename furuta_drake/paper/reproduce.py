@@ -109,18 +109,26 @@ def table1(runs: TableRuns) -> list[dict]:
             name: squared_error_statistics(run.measured[_after_transient(run), index])
             for name, run in (("HG", runs.hg_run), ("VFE", runs.vfe_run))
         }
-        for statistic in ("mean", "std"):
-            paper_hg, paper_vfe = PAPER_TABLE1[(signal, statistic)]
-            rows.append(
-                {
-                    "signal": signal,
-                    "statistic": statistic,
-                    "HG": stats["HG"][statistic],
-                    "VFE": stats["VFE"][statistic],
-                    "paper_HG": paper_hg,
-                    "paper_VFE": paper_vfe,
-                }
-            )
+        rows += _beside_paper({"signal": signal}, stats, PAPER_TABLE1)
+    return rows
+
+
+def _beside_paper(key: dict, stats: dict, paper: dict) -> list[dict]:
+    """The mean and std rows of one signal (``key`` holds its name): HG and VFE ``stats`` beside the ``paper``
+    table's values."""
+    rows = []
+    for statistic in ("mean", "std"):
+        paper_hg, paper_vfe = paper[(key["signal"], statistic)]
+        rows.append(
+            {
+                **key,
+                "statistic": statistic,
+                "HG": stats["HG"][statistic],
+                "VFE": stats["VFE"][statistic],
+                "paper_HG": paper_hg,
+                "paper_VFE": paper_vfe,
+            }
+        )
     return rows
 
 
@@ -138,19 +146,7 @@ def table2(runs: TableRuns) -> list[dict]:
                 name.upper(): squared_error_statistics(run.estimates[name][keep, 2 + index] - reference[keep, index])
                 for name in ("hg", "vfe")
             }
-            for statistic in ("mean", "std"):
-                paper_hg, paper_vfe = PAPER_TABLE2[(signal, statistic)]
-                rows.append(
-                    {
-                        "reference": reference_name,
-                        "signal": signal,
-                        "statistic": statistic,
-                        "HG": stats["HG"][statistic],
-                        "VFE": stats["VFE"][statistic],
-                        "paper_HG": paper_hg,
-                        "paper_VFE": paper_vfe,
-                    }
-                )
+            rows += _beside_paper({"reference": reference_name, "signal": signal}, stats, PAPER_TABLE2)
     return rows
 
 
