@@ -127,12 +127,13 @@ def test_sensor_effects_are_read_from_the_data(clean_logs):
     rig = RIGS["lund"]()
     assert quantization_estimate(clean_logs, rig.counts_per_rev) == rig.counts_per_rev
     nominal = Model.from_rig(rig)
-    assert noise_estimate(nominal, make_windows(clean_logs, rig), rig.counts_per_rev)[0] == 0.0
+    assert noise_estimate(nominal, make_windows(clean_logs, rig), rig.counts_per_rev)[0].values == (0.0,)
     coarse = [hanging_log(4, "encoder_quantization", level=1)]
     assert quantization_estimate(coarse, rig.counts_per_rev) == rig.counts_per_rev / 4
     noisy = make_windows([hanging_log(5, "measurement_noise", level=2)], rig)
     sigma = 3.0 * encoder_resolution(rig.counts_per_rev)  # the suite's level-2 noise: 3 counts
-    estimate, samples = noise_estimate(nominal, noisy, rig.counts_per_rev, resamples=200)
+    effect, samples = noise_estimate(nominal, noisy, rig.counts_per_rev, resamples=200)
+    estimate = effect.values[0]
     assert estimate == pytest.approx(sigma, rel=0.25)
     assert np.percentile(samples, 2.5) < estimate < np.percentile(samples, 97.5)
 

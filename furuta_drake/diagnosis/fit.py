@@ -122,12 +122,23 @@ def quantization_estimate(logs, nominal_counts: int) -> float:
 
 def noise_estimate(
     model: Model, windows: Windows, nominal_counts: int, resamples: int = 0, seed: int = 0
-) -> tuple[float, np.ndarray]:
-    """White measurement noise sigma [rad] read from the residuals of ``model`` on ``windows``
-    (:func:`residual_signals`): the sigma of their second differences (:func:`second_difference_noise`)."""
+) -> tuple[Effect, np.ndarray]:
+    """``measurement_noise`` read from the residuals of ``model`` on ``windows`` (:func:`residual_signals`) and
+    its ``resamples`` bootstrap values (resamples, params): white (sigma [rad] from the second differences,
+    :func:`second_difference_noise`), or in its correlated form where the white estimate finds noise and the
+    residuals' second differences show a correlation time (a model error's drift, which the white estimate
+    extrapolates away, would read as one where there is no noise)."""
+    count = encoder_resolution(nominal_counts)
     step = nominal_counts / quantization_estimate(windows.logs, nominal_counts)
     signals = residual_signals(model, windows, nominal_counts, seed)
-    return second_difference_noise(signals, step, encoder_resolution(nominal_counts), resamples, seed)
+    sigma, samples = second_difference_noise(signals, step, count, resamples, seed)
+    if sigma > 0:
+        period = float(np.median([log.sample_period for log in windows.logs]))
+        values = [values for values, _ in signals]
+        correlated, draws = correlated_noise_estimate(values, period, count, step, NOISE_FLOOR_COUNTS, resamples, seed)
+        if correlated is not None:
+            return correlated, draws
+    return Effect("white", (sigma,)), samples[:, None]
 
 
 def residual_signals(model: Model, windows: Windows, nominal_counts: int, seed: int = 0) -> list[tuple]:
@@ -253,27 +264,13 @@ def _named_form(task: FitTask, fits: dict) -> str:
 
 def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
     """The sensor effect ``task.new`` read from the data and its bootstrap samples (resamples, params): the
-    encoder's grid from the logs; the noise from the residuals of the model holding the fixed effects
-    (:func:`residual_signals`): white, or in its correlated form where the white estimate finds noise and the
-    residuals' second differences show a correlation time (a model error's drift, which the white estimate
-    extrapolates away, would read as one where there is no noise)."""
+    encoder's grid from the logs, the noise from the residuals of the model holding the fixed effects."""
     settings, counts = task.settings, task.nominal_counts
-    resamples = settings.interval_resamples
-    grid = quantization_estimate(task.logs, counts)
     if task.new == "encoder_quantization":
-        return Effect("", (grid,)), np.full((resamples, 1), grid)
-    count, step = encoder_resolution(counts), counts / grid
-    signals = residual_signals(apply_effects(task.model, task.fixed), task.train, counts, settings.seed)
-    sigma, samples = second_difference_noise(signals, step, count, resamples, settings.seed)
-    if sigma > 0:
-        period = float(np.median([log.sample_period for log in task.train.logs]))
-        values = [values for values, _ in signals]
-        correlated, draws = correlated_noise_estimate(
-            values, period, count, step, NOISE_FLOOR_COUNTS, resamples, settings.seed
-        )
-        if correlated is not None:
-            return correlated, draws
-    return Effect("white", (sigma,)), samples[:, None]
+        grid = quantization_estimate(task.logs, counts)
+        return Effect("", (grid,)), np.full((settings.interval_resamples, 1), grid)
+    model = apply_effects(task.model, task.fixed)
+    return noise_estimate(model, task.train, counts, settings.interval_resamples, settings.seed)
 
 
 def _least_squares(task: FitTask, new_form: dict[str, str]):
