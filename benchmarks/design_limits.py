@@ -7,6 +7,8 @@ that diagnosis (with no rival it targets every actuator effect not accepted whos
 size that changes the rig's LQR loop, and predicts the limit its experiment reaches); the designed command is
 played open loop from rest hanging on the same independent simulator and the case's true rig; the first half of
 its log joins the train logs and the second half the held-out ones, and the case is diagnosed again (after).
+Without ``--balancing``/``--hanging`` and ``--duration`` the design chooses the mode and duration whose predicted
+limits are lowest (:mod:`furuta_drake.design.choice`); the candidates it compared are printed.
 
 Prints, per case and effect the design targets (and the case's true effects): its true size, the size that
 changes the closed loop, the detection limit before, predicted by the design and after, and whether the effect
@@ -16,7 +18,8 @@ reused when the script is run again with the same ``--out``.
 
 Run from the repository root: ``PYTHONPATH=. python benchmarks/design_limits.py --out runs/design_limits``
 (``--only WORD ...``: the cases whose name holds a word; ``--duration S``: the experiment's length;
-``--balancing``: the design's dither added to its LQR balancing the upright, played so on the simulator).
+``--balancing``: the design's dither added to its LQR balancing the upright, played so on the simulator;
+``--hanging``: an open-loop design).
 """
 
 from __future__ import annotations
@@ -164,6 +167,8 @@ def run_case(case, out: Path, args) -> tuple[list[dict], dict]:
         "design": design["status"],
         "design_reason": design.get("reason", ""),
         "duration_s": design.get("duration_s"),
+        "mode": design.get("mode"),
+        "choice": design.get("choice"),
         "hypotheses": [h["name"] for h in design.get("hypotheses", [])],
         "after": None if after is None else after["verdict"],
         "after_effects": None if after is None else after["effects"],
@@ -185,10 +190,33 @@ def _fit(entry: dict | None) -> str:
     return f"{'accepted' if entry['accepted'] else 'not accepted'}, {_number(entry['value'], 'not fitted')}{span}"
 
 
+def print_choices(summaries: list[dict]) -> None:
+    """The candidate experiments each design compared by their predicted limits (shortfall: limit over size)."""
+    print("\n| case | mode | duration [s] | predicted limits (shortfall) | chosen |\n|---|---|---:|---|---|")
+    for s in summaries:
+        for c in (s["choice"] or {}).get("candidates", []):
+            limits = "; ".join(
+                f"{t['effect']} {_number(t['predicted'])} ({_number(t['shortfall'], 'inf')})"
+                for t in c["detection_limits"]
+            )
+            print(
+                f"| {s['case']} | {c['mode']} | {c['duration_s']:g} | {limits or c['status']} | "
+                f"{'yes' if c['chosen'] else ''} |"
+            )
+        for longer in (s["choice"] or {}).get("longer", []):
+            print(
+                f"{s['case']}: {longer['effect']} in {longer['mode']} reaches {longer['size']:.3g} at "
+                f"{_number(longer['duration_reaching_size_s'], 'no duration')} s (exponent "
+                f"{_number(longer['exponent'], '-')})"
+            )
+
+
 def print_table(rows: list[dict], summaries: list[dict]) -> None:
     print("\n| case | verdict before | design | verdict after |\n|---|---|---|---|")
     for s in summaries:
-        design = s["design"] + (f" ({s['duration_s']:g} s)" if s["duration_s"] else f": {s['design_reason']}")
+        design = s["design"] + (
+            f" ({s['mode']}, {s['duration_s']:g} s)" if s["duration_s"] else f": {s['design_reason']}"
+        )
         print(
             f"| {s['case']} | {'+'.join(s['before_effects']) or s['before']} | {design} | "
             f"{'-' if s['after'] is None else '+'.join(s['after_effects']) or s['after']} |"
@@ -212,7 +240,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--only", nargs="+", help="the cases whose name contains one of these words")
     parser.add_argument("--duration", type=float, help="the experiment's length [s] (default: the design's choice)")
-    parser.add_argument("--balancing", action="store_true", help="a dither added to the LQR balancing the upright")
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--balancing", dest="balancing", action="store_true", help="a dither added to the LQR")
+    mode.add_argument("--hanging", dest="balancing", action="store_false", help="open loop from rest hanging")
+    parser.set_defaults(balancing=None)
     parser.add_argument("--seed", type=int, default=0, help="the design's seed")
     parser.add_argument("--workers", type=int, default=1, help="processes of each diagnosis (default 1)")
     args = parser.parse_args(argv)
@@ -227,6 +258,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{case.name}: before {summary['before']}, design {summary['design']}, after {summary['after']}", flush=True
         )
     print_table(rows, summaries)
+    print_choices(summaries)
     (args.out / "results.json").write_text(json.dumps({"cases": summaries, "rows": rows}, indent=2) + "\n")
     config = {"argv": sys.argv[1:] if argv is None else argv, "cases": [c.name for c in cases], "seed": args.seed}
     config.update(duration_s=args.duration, balancing=args.balancing, workers=args.workers)

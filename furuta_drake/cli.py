@@ -113,14 +113,16 @@ def _design_parser(sub) -> None:
         "--duration",
         type=float,
         help="length of the experiment [s]; its first half trains, its second is held out (default: the "
-        "shortest repeat of an 8 s experiment predicted to settle every pair, up to 64 s)",
+        "shortest repeat of an 8 s experiment predicted to settle every pair, up to 64 s; when the design "
+        "targets detection limits, the one of 8, 16 and 32 s predicted to bring them lowest)",
     )
     mode = des.add_mutually_exclusive_group()
     mode.add_argument(
         "--hanging",
         dest="balancing",
         action="store_false",
-        help="an open-loop command played from rest with the pendulum hanging (default)",
+        help="an open-loop command played from rest with the pendulum hanging (default, unless the design "
+        "targets detection limits: then the mode predicted to bring them lowest)",
     )
     mode.add_argument(
         "--balancing",
@@ -144,7 +146,7 @@ def _design_parser(sub) -> None:
         help="largest arm angle |phi| allowed under any hypothesis [rad] (default 1)",
     )
     des.add_argument("--seed", type=int, default=0, help="seed of the search and of the predicted noise (default 0)")
-    des.set_defaults(run=_run_design, balancing=False)
+    des.set_defaults(run=_run_design, balancing=None)
 
 
 def _rig_parser(sub) -> None:

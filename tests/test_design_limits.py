@@ -100,7 +100,7 @@ def test_the_designed_experiment_brings_the_delay_limit_below_the_size_that_matt
 
     diagnosis = tmp_path / "diagnosis"
     _write_diagnosis(diagnosis, case, today)
-    design = pipeline.design_experiment(diagnosis, duration=2.0, settings=pipeline.FAST)
+    design = pipeline.design_experiment(diagnosis, duration=2.0, balancing=False, settings=pipeline.FAST)
     assert design.status == "design"
     (limit,) = design.limits
     assert limit["effect"] == "input_delay" and limit["size"] == pytest.approx(size)

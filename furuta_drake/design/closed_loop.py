@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from furuta_drake.design.choice import shortfall
 from furuta_drake.effects.vocabulary import law_of
 from furuta_drake.rig import RigParameters, linearized_upright
 
@@ -104,10 +105,5 @@ def limited_targets(report: dict, sizes: dict[str, float]) -> list[tuple[str, fl
 def reaches(name: str, limit: float | None, size: float) -> bool:
     """Whether a detection limit of effect ``name`` (None: not reached) detects it at ``size``, both as
     ``detection_limits`` states them: a gain's or an inertia scale's distance from 1 at most the size's, other
-    sizes' from 0; a saturation limit at most the largest limit detected."""
-    if limit is None:
-        return False
-    if name == "actuator_saturation":
-        return size <= limit
-    neutral = 1.0 if name in ("torque_gain_error", "inertia_mismatch") else 0.0
-    return abs(limit - neutral) <= abs(size - neutral)
+    sizes' from 0; a saturation limit at most the largest limit detected (its shortfall at most 1)."""
+    return shortfall(name, limit, size) <= 1

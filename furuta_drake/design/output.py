@@ -111,6 +111,8 @@ def design_json(design: Design) -> dict:
         "search": design.search,
         "notes": design.notes,
     }
+    if design.choice:
+        out["choice"] = design.choice
     return out
 
 
@@ -130,7 +132,7 @@ def _config(design: Design) -> dict:
 def design_markdown(document: dict) -> str:
     """design.md: the same content for a person."""
     lines = ["# Experiment design", ""] + _md_experiment(document) + _md_hypotheses(document)
-    lines += _md_pairs(document) + _md_limits(document) + _md_responses(document)
+    lines += _md_pairs(document) + _md_limits(document) + _md_choice(document) + _md_responses(document)
     bounds, unit = document["bounds"], document["input"]["unit"]
     lines += [
         "",
@@ -238,6 +240,53 @@ def _md_limits(document: dict) -> list[str]:
         "experiment's held-out half as the accepted model plays it. A real fit must also find the parameter, so "
         "a real detection needs somewhat more.",
     ]
+
+
+def _md_choice(document: dict) -> list[str]:
+    """The candidate experiments compared by their predicted limits, why one was chosen and what a longer one of
+    its mode would reach."""
+    choice = document.get("choice")
+    if not choice:
+        return []
+    units = {limit["effect"]: limit["unit"] for limit in document["detection_limits"]}
+    lines = [
+        "",
+        "## Which experiment",
+        "",
+        "| mode | duration [s] | predicted limits (shortfall) | chosen |",
+        "|---|---:|---|---|",
+    ]
+    for c in choice["candidates"]:
+        limits = "; ".join(
+            f"`{t['effect']}` {_limit(t['predicted'], units[t['effect']])} ({_fmt(t['shortfall'])})"
+            for t in c["detection_limits"]
+        )
+        mode = "open loop, hanging" if c["mode"] == "hanging" else "dither on the LQR, balancing"
+        lines.append(
+            f"| {mode} | {c['duration_s']:g} | {limits or c['status'] + ': ' + c['reason']} | "
+            f"{'yes' if c['chosen'] else ''} |"
+        )
+    lines += ["", f"Criterion: {choice['criterion']}. Chosen: {choice['why']}."]
+    return lines + [line for longer in choice["longer"] for line in ("", _md_longer(longer))]
+
+
+def _md_longer(longer: dict) -> str:
+    """What a longer experiment of the chosen mode would bring a target's limit to."""
+    kind = "an open-loop" if longer["mode"] == "hanging" else "a balancing"
+    unit, size, reaching = longer["unit"], longer["size"], longer["duration_reaching_size_s"]
+    measured = ", ".join(f"{_limit(v, unit)} at {d:g} s" for d, v in zip(longer["durations_s"], longer["predicted"]))
+    if reaching is not None:
+        return (
+            f"{kind.capitalize()} experiment of about {reaching:.3g} s would bring the `{longer['effect']}` "
+            f"detection limit to its size, {_fmt(size)} {unit} (predicted: {measured}; the shortfall extrapolated "
+            f"as the duration to the power {longer['exponent']:.2f})."
+        )
+    if longer["exponent"] is None:
+        return f"The `{longer['effect']}` limit's scaling with the duration was not measured ({measured})."
+    return (
+        f"No {kind.split(' ')[1]} experiment of any duration is predicted to bring the `{longer['effect']}` "
+        f"detection limit to {_fmt(size)} {unit}: it does not fall with the duration ({measured})."
+    )
 
 
 def _limit(value, unit: str) -> str:

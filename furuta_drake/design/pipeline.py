@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from furuta_drake.design.choice import MODES, choice_record, chosen
 from furuta_drake.design.criterion import Parametrised, experiment_windows, refit_residuals
 from furuta_drake.design.family import Family
 from furuta_drake.design.hypotheses import Hypotheses, parse_target, read_hypotheses
@@ -45,6 +46,7 @@ DRAKE_RESCALES = 2
 SETTLES = 0.8  # a design settles a pair when the rule tells its hypotheses apart in this share of noise draws
 REPEATS = (2, 3, 4, 6, 8)  # longer experiments tried for the suggested duration (multiples of it)
 AUTO_DURATION = 8.0  # [s] the experiment searched when no duration is given
+LIMIT_REPEATS = (1, 2, 4)  # multiples of AUTO_DURATION compared when the design targets detection limits
 
 
 @dataclass(frozen=True)
@@ -113,13 +115,14 @@ class Design:
     settings: DesignSettings
     options: dict = field(default_factory=dict)
     limits: list[dict] = field(default_factory=list)  # per target: today's and the predicted detection limit
+    choice: dict = field(default_factory=dict)  # the candidate experiments compared by their predicted limits
 
 
 def design_experiment(
     diagnosis: str | Path,
     *,
     duration: float | None = None,
-    balancing: bool = False,
+    balancing: bool | None = None,
     targets: list[str] = (),
     arm_bound: float = 1.0,
     settings: DesignSettings = DesignSettings(),
@@ -132,9 +135,11 @@ def design_experiment(
     diagnosis : the output directory of ``furuta-drake diagnose``.
     duration : length of the experiment [s]; its first half trains, its second half is held out. None: the
         shortest repeat of an ``AUTO_DURATION`` experiment predicted to settle every pair, up to ``REPEATS[-1]``
-        times as long.
-    balancing : a dither added to the project's LQR balancing the upright, instead of an open-loop command played
-        from rest with the pendulum hanging.
+        times as long; when the design targets detection limits, the one of ``AUTO_DURATION`` times
+        ``LIMIT_REPEATS`` whose predicted limits are lowest (:mod:`furuta_drake.design.choice`).
+    balancing : True: a dither added to the project's LQR balancing the upright; False: an open-loop command
+        played from rest with the pendulum hanging; None: the open loop, or, when the design targets detection
+        limits, the mode whose predicted limits are lowest.
     targets : ``effect=value`` texts: separate the accepted model from it plus that effect at that size (the main
         parameter's value, as ``detection_limits`` states it) instead of from its rivals.
     arm_bound : the largest arm angle |phi| allowed under any hypothesis [rad].
@@ -144,26 +149,13 @@ def design_experiment(
     _check_options(duration, arm_bound)
     parsed = [parse_target(text) for text in targets]
     record = read_diagnosis(diagnosis)
-    rig, period = record.rig, record.rig.sample_period
-    _check_duration(duration, rig)
-    hypotheses = read_hypotheses(record.report, rig, record.train, parsed)
-    mode = "balancing" if balancing else "hanging"
+    _check_duration(duration, record.rig)
+    hypotheses = read_hypotheses(record.report, record.rig, record.train, parsed)
     say = progress or (lambda line: None)
     say(f"{len(hypotheses.hypotheses)} hypotheses, {len(hypotheses.pairs)} pairs to separate")
-    scales = scales_of(record.train, hypotheses.nominal)
-    accepted = hypotheses.hypotheses[0].model
-    family = Family(
-        float(duration or AUTO_DURATION),
-        period,
-        accepted.arm_inertia_total,
-        accepted.back_emf_damping + accepted.arm_friction.viscous,
-    )
-    bounds = Bounds(float(arm_bound), PENDULUM_BOUND[mode], rig.torque_limit)
-    gain = nominal_lqr_gain(rig) if balancing else None
-    evaluator = _evaluator(family.base(), hypotheses, rig, scales, bounds, gain)
-    search = optimise(
-        evaluator, hypotheses, settings.generations, settings.population, settings.refit_iterations, settings.seed, say
-    )
+    sizes = target_sizes(hypotheses, parsed, record.report, record.rig)
+    choosing = bool(sizes) and (balancing is None or duration is None)
+    mode = None if choosing and balancing is None else "balancing" if balancing else "hanging"
     options = {
         "duration": duration,
         "mode": mode,
@@ -171,47 +163,144 @@ def design_experiment(
         "arm_bound": arm_bound,
         "settings": dataclasses.asdict(settings),
     }
-    common = _common(record, hypotheses, bounds, settings, search, options)
-    refusal = _refusal(search, hypotheses, family, bounds, balancing, common)
-    if refusal is not None:
-        return refusal
-    if search.inseparable:
+    context = _Context(record, hypotheses, scales_of(record.train, hypotheses.nominal), sizes, settings, options, say)
+    if choosing:
+        modes = MODES if mode is None else (mode,)
+        durations = [duration] if duration is not None else [AUTO_DURATION * r for r in LIMIT_REPEATS]
+        return _chosen_design(context, modes, durations)
+    return _design_in_mode(context, mode, duration)
+
+
+@dataclass(frozen=True)
+class _Context:
+    """What every stage of one design reads: the diagnosis, its hypotheses, scales and targets' sizes, the
+    settings, the options as given and the progress callback."""
+
+    record: DiagnosisRecord
+    hypotheses: Hypotheses
+    scales: object
+    sizes: list[tuple[str, float]]
+    settings: DesignSettings
+    options: dict
+    say: Callable[[str], None]
+
+
+@dataclass
+class _Searched:
+    """The search of one mode: its family (at the duration searched), LQR gain (balancing) and common record."""
+
+    mode: str
+    family: Family
+    gain: np.ndarray | None
+    search: Search
+    common: dict
+
+
+def _searched(context: _Context, mode: str, duration: float | None) -> _Searched:
+    """The cross-entropy search of the family's shapes in ``mode`` (section 3 of docs/design.md)."""
+    record, hypotheses, rig = context.record, context.hypotheses, context.record.rig
+    accepted = hypotheses.hypotheses[0].model
+    family = Family(
+        float(duration or AUTO_DURATION),
+        rig.sample_period,
+        accepted.arm_inertia_total,
+        accepted.back_emf_damping + accepted.arm_friction.viscous,
+    )
+    bounds = Bounds(float(context.options["arm_bound"]), PENDULUM_BOUND[mode], rig.torque_limit)
+    gain = nominal_lqr_gain(rig) if mode == "balancing" else None
+    evaluator = _evaluator(family.base(), hypotheses, rig, context.scales, bounds, gain)
+    settings = context.settings
+    search = optimise(
+        evaluator,
+        hypotheses,
+        settings.generations,
+        settings.population,
+        settings.refit_iterations,
+        settings.seed,
+        context.say,
+    )
+    common = _common(record, hypotheses, bounds, settings, search, context.options, mode)
+    if search.inseparable and search.directions and search.best is not None:
         common["notes"].append(
             "left out, no experiment of the family separates them: " + _inseparable_text(search, hypotheses)
         )
-    design = _final(search, family, balancing, gain, common, scales, say)
+    return _Searched(mode, family, gain, search, common)
+
+
+def _design_in_mode(context: _Context, mode: str, duration: float | None) -> Design:
+    """The design in ``mode``: at ``duration``, or (None) the shortest repeat predicted to settle every pair."""
+    searched = _searched(context, mode, duration)
+    family = searched.family
+    refusal = _refusal(searched, context.hypotheses)
+    if refusal is not None:
+        return refusal
+    design = _final(searched, family, context)
     if duration is None and design.status == "design":
         needed = [pair["suggested_duration_s"] for pair in design.pairs]
         longer = max((d for d in needed if d is not None), default=family.duration)
         if longer > family.duration:
-            say(f"repeating the experiment to {longer:g} s")
-            design = _final(search, dataclasses.replace(family, duration=longer), balancing, gain, common, scales, say)
+            context.say(f"repeating the experiment to {longer:g} s")
+            design = _final(searched, dataclasses.replace(family, duration=longer), context)
     design.notes += _unsettled_notes(design)
-    design.limits = _predicted_limits(design, parsed, scales)
+    design.limits = _predicted_limits(design, context)
     return design
 
 
-def _predicted_limits(design: Design, named: list[tuple[str, float]], scales) -> list[dict]:
-    """Per target of ``design`` (``named`` by --target, else the limits that matter), today's and the predicted
-    detection limit (:mod:`furuta_drake.design.limits`)."""
+def _chosen_design(context: _Context, modes: tuple[str, ...], durations: list[float]) -> Design:
+    """Every mode of ``modes`` at every duration of ``durations`` played in Drake and its detection limits
+    predicted; the candidate :func:`~furuta_drake.design.choice.chosen` picks, its pairs predicted, with the
+    comparison in ``choice``."""
+    candidates, played = [], []
+    for mode in modes:
+        searched = _searched(context, mode, durations[0])
+        refusal = _refusal(searched, context.hypotheses)
+        for duration in durations if refusal is None else [searched.family.duration]:
+            design, runs = refusal, {}
+            if refusal is None:
+                context.say(f"{mode} for {duration:g} s: playing it in Drake and predicting its detection limits")
+                design, runs = _played(searched, dataclasses.replace(searched.family, duration=duration), context)
+                design.limits = _predicted_limits(design, context) if design.status == "design" else []
+            candidates.append({"mode": mode, "duration_s": duration, "status": design.status, "reason": design.reason})
+            candidates[-1]["limits"] = design.limits
+            played.append((design, runs, searched))
+    index = chosen(candidates)
+    design, runs, searched = played[0 if index is None else index]
+    if index is not None:
+        design.pairs = _predicted_pairs(
+            searched.search,
+            runs,
+            context.hypotheses,
+            context.record,
+            context.scales,
+            context.settings,
+            design.duration,
+        )
+        design.notes += _unsettled_notes(design)
+    design.choice = choice_record(candidates, index)
+    return design
+
+
+def _predicted_limits(design: Design, context: _Context) -> list[dict]:
+    """Per target of the context (``--target`` ones, else the limits that matter), today's and the predicted
+    detection limit of ``design`` (:mod:`furuta_drake.design.limits`)."""
     hypotheses, record = design.hypotheses, design.record
     run = design.runs.get(hypotheses.hypotheses[0].name)
     return predicted_limits(
         record,
         hypotheses,
-        target_sizes(hypotheses, named, record.report, record.rig),
+        context.sizes,
         None if run is None else (run.angles, run.command),
-        scales,
+        context.scales,
         design.settings.bootstrap,
         design.settings.seed,
     )
 
 
-def _common(record, hypotheses, bounds, settings, search, options: dict) -> dict:
+def _common(record, hypotheses, bounds, settings, search, options: dict, mode: str) -> dict:
     """What every outcome of the design records: the mode, the rig's period and input, the bounds, hypotheses,
     diagnosis, settings, notes, the search's summary and the options."""
     return dict(
-        mode=options["mode"],
+        mode=mode,
         period=record.rig.sample_period,
         input_kind=record.input_kind,
         torque_per_volt=record.train[0].torque_per_volt if record.input_kind == "voltage" else 1.0,
@@ -263,9 +352,11 @@ def _evaluator(base, hypotheses, rig, scales, bounds, gain) -> Evaluator:
     return Evaluator(base, hypotheses, rig, scales, bounds, runs, signal, motion, hanging=gain is None)
 
 
-def _refusal(search, hypotheses, family, bounds, balancing: bool, common: dict) -> Design | None:
+def _refusal(searched: _Searched, hypotheses: Hypotheses) -> Design | None:
     """The Design that says why there is none: no direction separates the pairs, or no design keeps within the
     bounds under every hypothesis; None when the search found one."""
+    search, family, common = searched.search, searched.family, searched.common
+    bounds, balancing = common["bounds"], searched.mode == "balancing"
     if search.directions and search.best is not None:
         return None
     if not search.directions:
@@ -298,9 +389,23 @@ def _unsettled_notes(design: Design) -> list[str]:
     return notes
 
 
-def _final(search: Search, family: Family, balancing: bool, gain, common: dict, scales, say) -> Design:
-    """The search's best design played for ``family.duration``: checked in Drake under every hypothesis (scaled
-    down if a bound is left) and its outcome predicted; ``refused`` when it still leaves a bound."""
+def _final(searched: _Searched, family: Family, context: _Context) -> Design:
+    """:func:`_played`, with its outcome predicted per pair."""
+    design, runs = _played(searched, family, context)
+    if design.status == "design":
+        context.say("predicting the diagnosis' outcome")
+        design.pairs = _predicted_pairs(
+            searched.search, runs, context.hypotheses, context.record, context.scales, context.settings, family.duration
+        )
+    return design
+
+
+def _played(searched: _Searched, family: Family, context: _Context) -> tuple[Design, dict[int, Run]]:
+    """The search's best design played for ``family.duration`` and checked in Drake under every hypothesis
+    (scaled down if a bound is left), with the Drake runs per hypothesis index; ``refused`` when it still leaves
+    a bound. Its pairs are left for :func:`_predicted_pairs`."""
+    search, gain, common = searched.search, searched.gain, searched.common
+    balancing = searched.mode == "balancing"
     hypotheses, bounds = common["hypotheses"], common["bounds"]
     played = (family.torque_dither if balancing else family.feedforward)(search.best.amplitudes)[0]
     best, runs = _checked_in_drake(
@@ -312,7 +417,7 @@ def _final(search: Search, family: Family, balancing: bool, gain, common: dict, 
         balancing,
         gain,
         common["settings"],
-        say,
+        context.say,
     )
     excitation = {
         "family": "band-limited multisine "
@@ -323,10 +428,10 @@ def _final(search: Search, family: Family, balancing: bool, gain, common: dict, 
         excitation["lqr_gain"] = [float(v) for v in np.ravel(gain)]
     common = {**common, "notes": list(common["notes"])}
     if runs is None:
-        return Design(
+        why = "the best design leaves a bound under some hypothesis in Drake even scaled down: "
+        refused = Design(
             "refused",
-            "the best design leaves a bound under some hypothesis in Drake even scaled down: "
-            + _violations(best.peaks, bounds, hypotheses),
+            why + _violations(best.peaks, bounds, hypotheses),
             duration=family.duration,
             command=None,
             excitation=excitation,
@@ -334,18 +439,18 @@ def _final(search: Search, family: Family, balancing: bool, gain, common: dict, 
             runs={},
             **common,
         )
-    say("predicting the diagnosis' outcome")
-    pairs = _predicted_pairs(search, runs, hypotheses, common["record"], scales, common["settings"], family.duration)
-    return Design(
+        return refused, {}
+    design = Design(
         "design",
         "",
         duration=family.duration,
         command=best.command,
         excitation=excitation,
-        pairs=pairs,
+        pairs=[],
         runs={hypotheses.hypotheses[h].name: run for h, run in runs.items()},
         **common,
     )
+    return design, runs
 
 
 def _checked_in_drake(
