@@ -230,7 +230,10 @@ def redo(case: CaseSpec, answer: dict, report: dict, out: Path, args, targeted: 
             write_design(
                 design_dir,
                 design_experiment(
-                    out / "before" / case.name, duration=args.duration, settings=DesignSettings(seed=args.seed)
+                    out / "before" / case.name,
+                    duration=args.duration,
+                    balancing=False,  # played open loop from rest hanging
+                    settings=DesignSettings(seed=args.seed),
                 ),
                 force=True,
             )
