@@ -5,7 +5,8 @@ The cases (:func:`benchmarks.diagnosis_independent.delay_beside_friction_cases`)
 and an input delay of several ms. Each is diagnosed blind with its four 8 s logs (before); ``design`` is run on
 that diagnosis (with no rival it targets every actuator effect not accepted whose detection limit is above the
 size that changes the rig's LQR loop, and predicts the limit its experiment reaches); the designed command is
-played open loop from rest hanging on the same independent simulator and the case's true rig; the first half of
+played on the same independent simulator and the case's true rig as the design says (open loop from rest
+hanging, or the dither added to the design's LQR balancing the upright); the first half of
 its log joins the train logs and the second half the held-out ones, and the case is diagnosed again (after).
 Without ``--balancing``/``--hanging`` and ``--duration`` the design chooses the mode and duration whose predicted
 limits are lowest (:mod:`furuta_drake.design.choice`); the candidates it compared are printed.
