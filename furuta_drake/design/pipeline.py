@@ -38,6 +38,7 @@ from furuta_drake.design.rollout import (
 from furuta_drake.design.torque_hypothesis import apply_hypothesis
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.gap import evaluate_gap, window_samples
+from furuta_drake.effects.vocabulary import Scales
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.simulate import simulate
 
@@ -178,7 +179,7 @@ class _Context:
 
     record: DiagnosisRecord
     hypotheses: Hypotheses
-    scales: object
+    scales: Scales
     sizes: list[tuple[str, float]]
     settings: DesignSettings
     options: dict
