@@ -42,6 +42,16 @@ def test_ties_go_to_the_shorter_then_to_the_open_loop():
     assert chosen([candidate("balancing", 8.0, None), candidate("hanging", 8.0, None)]) == 1
 
 
+def test_the_shortest_candidate_reaching_every_size_is_chosen():
+    """Once a limit falls to its size the verdict can see the effect: a longer experiment bringing it further
+    down costs the lab time and buys nothing, so the shorter one reaching the size wins."""
+    reaching = [candidate("balancing", 32.0, 0.31e-3), candidate("balancing", 16.0, 0.45e-3)]
+    assert chosen(reaching + [candidate("balancing", 8.0, 0.74e-3)]) == 1
+    assert "brings every target to its size" in choice_record(reaching, chosen(reaching))["why"]
+    # reaching both targets beats bringing one further down and leaving the other above its size
+    assert chosen([candidate("hanging", 8.0, 0.6e-3), candidate("balancing", 32.0, 0.45e-3)]) == 1
+
+
 def test_the_worst_target_decides_across_effects():
     """Two targets of different units compare by their limit over their size: a candidate that brings one far
     below its size but leaves the other twice above loses to one leaving both just above."""

@@ -5,8 +5,10 @@ When the design targets detection limits and the mode or the duration is left to
 its detection limits predicted (:mod:`furuta_drake.design.limits`). A candidate's **shortfall** on a target is its
 predicted limit over the target's size, both measured from the effect's neutral value (1 for a gain or inertia
 scale, 0 otherwise; the size over the limit for a saturation, whose larger limits detect more); a limit not
-reached counts as infinite. The chosen candidate has the smallest worst shortfall over the targets, then the
-smallest next one, and so on; ties go to the shorter experiment, then to the open loop.
+reached counts as infinite. The chosen candidate is the shortest that brings every target to its size (every
+shortfall at most 1: a lab's time is the cost, and a limit further below the size buys nothing the verdict
+needs), the open loop first; when none does, the one of smallest worst shortfall over the targets, then the
+smallest next one, and so on, ties going to the shorter experiment, then to the open loop.
 
 A target that the chosen experiment leaves above its size gets the duration the chosen mode's limits
 extrapolate to: the shortfall fitted as a power of the duration, ``shortfall = c T^b``, over the mode's
@@ -38,9 +40,10 @@ def shortfall(name: str, limit: float | None, size: float) -> float:
 
 
 def ranking_key(candidate: dict) -> tuple:
-    """The order of the choice: the shortfalls, worst first, then the duration, then the open loop first."""
+    """The order of the choice: the shortfalls, worst first, each counted as 1 where it reaches the size (all
+    candidates that reach every size tie there), then the duration, then the open loop first."""
     shortfalls = sorted((shortfall(t["effect"], t["predicted"], t["size"]) for t in candidate["limits"]), reverse=True)
-    return tuple(shortfalls), candidate["duration_s"], MODES.index(candidate["mode"])
+    return tuple(max(s, 1.0) for s in shortfalls), candidate["duration_s"], MODES.index(candidate["mode"])
 
 
 def chosen(candidates: list[dict]) -> int:
@@ -125,8 +128,9 @@ def choice_record(candidates: list[dict], choice: int | None) -> dict:
 
 
 CRITERION = (
-    "the smallest worst shortfall (predicted detection limit over the target's size, from the effect's neutral "
-    "value; not reached: infinite) over the targets, then the next worst; ties: the shorter, then the open loop"
+    "the shortest candidate whose shortfalls (predicted detection limit over the target's size, from the "
+    "effect's neutral value; not reached: infinite) are all at most 1, the open loop first; when none is, the "
+    "smallest worst shortfall over the targets, then the next worst; ties: the shorter, then the open loop"
 )
 
 
@@ -136,6 +140,8 @@ def _why(candidates: list[dict], choice: int | None) -> str:
     best = candidates[choice]
     rivals = sorted((c for i, c in enumerate(candidates) if i != choice and c["status"] == "design"), key=ranking_key)
     text = f"{_named(best)}: worst shortfall {_worst(best):.3g}"
+    if _worst(best) <= 1.0:
+        return text + ", the shortest candidate that brings every target to its size"
     if not rivals:
         return text + ", the only candidate within the bounds"
     tie = ranking_key(rivals[0])[0] == ranking_key(best)[0]
@@ -149,4 +155,4 @@ def _named(candidate: dict) -> str:
 
 
 def _worst(candidate: dict) -> float:
-    return ranking_key(candidate)[0][0]
+    return max(shortfall(t["effect"], t["predicted"], t["size"]) for t in candidate["limits"])
