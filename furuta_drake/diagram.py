@@ -87,6 +87,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         )
         if config.controller.friction_compensation:
             builder.Connect(observers.compensation, command.controller.GetInputPort("friction_compensation_Nm"))
+    if command.state_reference is not None:
+        connect_arm_reference(builder, command.state_reference, observers.arm_dahl)
     loggers = add_loggers(builder, period, world=world, measured=measured, command=command, observers=observers)
     if meshcat is not None:
         from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
@@ -105,11 +107,13 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
 class Command:
     """What :func:`add_command` added: ``torque``, the commanded arm torque [N m] (excitation plus controller,
     held at the control period); the ``controller`` (None in open loop), whose ``state_estimate`` input (and
-    ``friction_compensation_Nm`` when compensating) the caller connects; its ``lqr_gain`` (1x4)."""
+    ``friction_compensation_Nm`` when compensating) the caller connects; its ``lqr_gain`` (1x4); and the
+    paper-order ``state_reference`` [rad, rad/s] it tracks (None: the upright)."""
 
     torque: OutputPort
     controller: object | None
     lqr_gain: np.ndarray | None
+    state_reference: OutputPort | None = None
 
 
 def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: FurutaWorld) -> Command:
@@ -125,7 +129,7 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
         hold = builder.AddNamedSystem("torque_excitation_hold", ZeroOrderHold(period, 1))
         builder.Connect(source.get_output_port(), hold.get_input_port())
         torques.append(hold.get_output_port())
-    controller = gain = None
+    controller = gain = state_reference = None
     if controller_config.mode == "quanser_swingup":
         controller = builder.AddNamedSystem(
             "quanser_swingup", QuanserSwingUpController(controller_config.quanser_swingup)
@@ -166,7 +170,8 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
         torques.append(controller.GetOutputPort("arm_torque_Nm"))
         if reference is not None:
             source = builder.AddNamedSystem("arm_reference", TrajectorySource(reference))
-            builder.Connect(source.get_output_port(), controller.GetInputPort("state_reference"))
+            state_reference = source.get_output_port()
+            builder.Connect(state_reference, controller.GetInputPort("state_reference"))
     # Every command is the output of a block updated at the control period, so at each tick the observers read
     # the torque applied over the previous period (Drake's discrete semantics: updates read pre-update values).
     if len(torques) == 1:
@@ -177,7 +182,7 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
             builder.Connect(port, total.get_input_port(i))
         torque = total.get_output_port()
     builder.Connect(torque, world.arm_torque_input)
-    return Command(torque, controller, gain)
+    return Command(torque, controller, gain, state_reference)
 
 
 def controller_gain(plant: MultibodyPlant, config: SimulationConfig) -> np.ndarray:
@@ -191,11 +196,13 @@ class Observers:
     """What :func:`add_observers` added: ``estimates``, the state estimate [rad, rad/s] of each velocity source
     that runs; ``compensation``, the F_hat [N m] a compensating controller subtracts (None when the controller
     does not compensate); ``signals``, the observers' further outputs a run logs (``friction_estimate``,
-    ``friction_error_estimate``, and ``K_sigma`` or ``dahl_parameters`` when the Dahl observer adapts)."""
+    ``friction_error_estimate``, and ``K_sigma`` or ``dahl_parameters`` when the Dahl observer adapts);
+    ``arm_dahl``, the arm's Dahl observers, whose Eq. 9 errors are taken from the arm's reference."""
 
     estimates: dict[str, OutputPort] = field(default_factory=dict)
     compensation: OutputPort | None = None
     signals: dict[str, OutputPort] = field(default_factory=dict)
+    arm_dahl: list[LeafSystem] = field(default_factory=list)
 
 
 def add_observers(
@@ -251,6 +258,7 @@ def _add_hg(builder, config, model, measured, command, out: Observers, compensat
             period=period,
         )
         out.compensation = hg_dahl.GetOutputPort("friction_estimate_Nm")
+        out.arm_dahl.append(hg_dahl)
     return hg
 
 
@@ -270,6 +278,7 @@ def _add_nested_vfe(builder, config, model, measured, command, out: Observers, c
     )
     vfe, dahl, adapter = nested.vfe, nested.dahl, nested.adapter
     out.estimates["vfe"] = vfe.GetOutputPort("state_estimate")
+    out.arm_dahl += [dahl] if dahl is not None else []
     adaptation = observers.dahl.adaptation
     if adaptation is not None and adaptation.parameters is not None:
         out.signals["dahl_parameters"] = adapter.GetOutputPort("dahl_parameters")
@@ -280,6 +289,19 @@ def _add_nested_vfe(builder, config, model, measured, command, out: Observers, c
     if compensate:
         out.compensation = dahl.GetOutputPort("friction_estimate_Nm")
     return vfe
+
+
+def connect_arm_reference(builder: DiagramBuilder, state_reference: OutputPort, arm_dahl: list[LeafSystem]) -> None:
+    """The arm's [phi_ref, v_phi_ref] of the paper-order ``state_reference`` into each of the ``arm_dahl``
+    observers: Eq. 9's eps_phi and eps_v are the arm's errors from its reference, not from the upright's zero."""
+    if not arm_dahl:
+        return
+    rows = np.zeros((2, 4))
+    rows[0, 1] = rows[1, 3] = 1.0
+    select = builder.AddNamedSystem("arm_reference_of_dahl", MatrixGain(rows))
+    builder.Connect(state_reference, select.get_input_port())
+    for dahl in arm_dahl:
+        builder.Connect(select.get_output_port(), dahl.GetInputPort("arm_reference_rad"))
 
 
 def _add_angle_rates(builder, config, source: str, true_state: OutputPort, measured: OutputPort) -> OutputPort:

@@ -5,8 +5,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import Simulator
 
 from furuta_drake.config import SimulationConfig, dump_config, load_config
+from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.observers.dahl import DahlAdaptation
@@ -112,3 +114,31 @@ def test_friction_compensation_needs_the_dahl_observer():
     config = dataclasses.replace(config, controller=dataclasses.replace(config.controller, friction_compensation=True))
     with pytest.raises(ConfigError, match="velocity_source"):
         config.validate()
+
+
+@pytest.mark.parametrize("source", ["hg", "vfe"])
+def test_the_dahl_observers_errors_are_from_the_arms_reference(source):
+    """Eq. 9's eps_phi = phi - phi_ref and eps_v = v - v_ref: under a square-wave arm reference of 0.2 rad (held,
+    so v_ref = 0), every arm Dahl observer's errors are the measured arm angle minus 0.2 rad and its velocity
+    estimate, not the errors from the upright's zero."""
+    config = lund(
+        duration=0.6,
+        friction=coulomb_arm(0.015),
+        controller=dataclasses.replace(
+            SimulationConfig.from_rig("lund").controller, velocity_source=source, friction_compensation=True
+        ),
+    )
+    config = dataclasses.replace(
+        config, excitation=dataclasses.replace(config.excitation, arm_reference_amplitude=0.2, arm_reference_period=4.0)
+    )
+    built = build_furuta_diagram(config)
+    simulator = Simulator(built.diagram)
+    simulator.AdvanceTo(config.duration)
+    root = simulator.get_context()
+    dahl = built.diagram.GetSubsystemByName(f"{source}_dahl_observer")
+    context = dahl.GetMyContextFromRoot(root)
+    phi = dahl.GetInputPort("measured_angles_rad").Eval(context)[1]
+    v = dahl.GetInputPort("arm_velocity_estimate_rad_per_s").Eval(context)[0]
+    eps, eps_v = dahl.tracking_errors(context)
+    assert eps == pytest.approx(phi - 0.2, abs=1e-12) and eps_v == pytest.approx(v, abs=1e-12)
+    assert abs(phi) > 0.05  # the arm has moved towards its reference, so the two readings differ
