@@ -197,10 +197,10 @@ class DahlFrictionObserver(LeafSystem):
         elif adaptation is not None:
             self._parameters = self.DeclareVectorInputPort("dahl_parameters", 3)
             state = {*state, self._parameters.ticket()}
-        self.DeclareDiscreteState([0.0])
+        bristle = self.DeclareDiscreteState([0.0])
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction, prerequisites_of_calc=state)
-        self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle, prerequisites_of_calc={xd})
+        self.DeclareStateOutputPort("bristle_state_rad", bristle)
         if self._parameters is not None:
             self.DeclareVectorOutputPort("bristle_injection_rad_per_s", 1, self._calc_injection)
 
@@ -219,9 +219,6 @@ class DahlFrictionObserver(LeafSystem):
     def _calc_friction(self, context, output: BasicVector):
         torque = self._model_torque(context, context.get_discrete_state(0).GetAtIndex(0))
         output.SetAtIndex(0, torque if self._gain is None else self._gain.Eval(context)[0] * torque)
-
-    def _calc_bristle(self, context, output: BasicVector):
-        output.SetAtIndex(0, context.get_discrete_state(0).GetAtIndex(0))
 
     def _calc_injection(self, context, output: BasicVector):
         v = self._velocity.Eval(context)[0]
