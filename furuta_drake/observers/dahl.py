@@ -253,12 +253,13 @@ class DahlFrictionObserver(LeafSystem):
     def _update(self, context, discrete_state):
         """Eq. 8-9 over one period: z_hat by the exact step with K_z held (module docstring)."""
         v = float(self._velocity.Eval(context)[0])  # a float: math, not numpy scalars, in the step
-        z = context.get_discrete_state(0).GetAtIndex(0)
+        bristle = discrete_state.get_mutable_vector(0)  # holds z_hat before the update
+        z = bristle.GetAtIndex(0)
         sigma0, level = self._model(context, v)
         z_next = float(dahl_exact_step(z, v, self.period, sigma0, level))
         if self.params.rho is not None:
             z_next += held_input_gain(sigma0 * abs(v) / level, self.period) * self._injection(context, v, sigma0, level)
-        discrete_state.get_mutable_vector(0).SetAtIndex(0, z_next)
+        bristle.SetAtIndex(0, z_next)
 
 
 def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
