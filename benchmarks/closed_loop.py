@@ -18,7 +18,14 @@ the wall time also counts their time slices, so the package's best wall time is 
 - the C++ floor: the same sampled loop from Drake's C++ systems only (the MultibodyPlant, a ``ZeroOrderHold``
   sampler in place of the quantising encoder, the observer's discrete ``LinearSystem``, the LQR as
   ``MatrixGain`` -> ``Saturation`` -> ``ZeroOrderHold``, the same loggers and integrator); the Dahl observer and
-  the adapter have no C++ equivalent, so both VFE configurations share the VFE floor;
+  the adapter have no C++ equivalent, so both VFE configurations share the VFE floor. (Written as
+  ``SymbolicVectorSystem`` blocks they would evaluate in C++, but Drake calls every subsystem's time
+  derivatives and a ``SymbolicVectorSystem`` demands continuous dynamics, so in a diagram with a continuous
+  plant each block needs a placeholder continuous state, evaluated at every integrator stage, and its outputs
+  are invalidated at every stage: such a block costs as much as the Python callbacks it replaces.) So the
+  package's excess over the floor is its Python blocks' callbacks, each a crossing between C++ and Python at
+  every sample or step: the encoder's sample, the Dahl observer's update and F_hat, the adapter's update and
+  K_sigma, and the divergence monitor; ``--profile`` lists them with their calls;
 - the scipy peer: the same sampled loop written for this benchmark, the package's closed-form Furuta equations
   (the diagnosis surrogate's, in the lumped constants a, b, c, d; tests pin them to the MultibodyPlant)
   integrated by ``solve_ivp`` (RK45, rtol 1e-8, atol 1e-10; a looser

@@ -104,7 +104,8 @@ class _EnvelopeMonitor:
     """Simulator monitor: NaN or infinite state, |theta| above the bound, a joint faster than the bound.
 
     Called after every integrator step, so the common case is a few float comparisons on the plant's state
-    (a NaN or inf makes the sum non-finite); only a failed check looks for the reason."""
+    (a NaN or inf makes the sum non-finite), read through a view of the context's state vector taken at the
+    first call (the simulator writes the state in place); only a failed check looks for the reason."""
 
     def __init__(self, plant, theta_index: int, config: SimulationConfig):
         self.plant = plant
@@ -114,13 +115,13 @@ class _EnvelopeMonitor:
         self.nq = plant.num_positions()
         self.reason: str | None = None
         self.time = math.nan
-        self._plant_context = None  # the root context's plant context, found on the first call
+        self._state = None  # a read-only view of the plant's continuous state, taken on the first call
         self._succeeded = EventStatus.Succeeded()
 
     def __call__(self, root_context):
-        if self._plant_context is None:
-            self._plant_context = self.plant.GetMyContextFromRoot(root_context)
-        x = self._plant_context.get_continuous_state_vector().CopyToVector().tolist()
+        if self._state is None:
+            self._state = self.plant.GetMyContextFromRoot(root_context).get_continuous_state_vector().value()
+        x = self._state.tolist()
         velocities = x[self.nq :]
         if (
             math.isfinite(sum(x))

@@ -197,10 +197,10 @@ class DahlFrictionObserver(LeafSystem):
         elif adaptation is not None:
             self._parameters = self.DeclareVectorInputPort("dahl_parameters", 3)
             state = {*state, self._parameters.ticket()}
-        self.DeclareDiscreteState([0.0])
+        bristle = self.DeclareDiscreteState([0.0])
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction, prerequisites_of_calc=state)
-        self.DeclareVectorOutputPort("bristle_state_rad", 1, self._calc_bristle, prerequisites_of_calc={xd})
+        self.DeclareStateOutputPort("bristle_state_rad", bristle)
         if self._parameters is not None:
             self.DeclareVectorOutputPort("bristle_injection_rad_per_s", 1, self._calc_injection)
 
@@ -219,9 +219,6 @@ class DahlFrictionObserver(LeafSystem):
     def _calc_friction(self, context, output: BasicVector):
         torque = self._model_torque(context, context.get_discrete_state(0).GetAtIndex(0))
         output.SetAtIndex(0, torque if self._gain is None else self._gain.Eval(context)[0] * torque)
-
-    def _calc_bristle(self, context, output: BasicVector):
-        output.SetAtIndex(0, context.get_discrete_state(0).GetAtIndex(0))
 
     def _calc_injection(self, context, output: BasicVector):
         v = self._velocity.Eval(context)[0]
@@ -256,12 +253,13 @@ class DahlFrictionObserver(LeafSystem):
     def _update(self, context, discrete_state):
         """Eq. 8-9 over one period: z_hat by the exact step with K_z held (module docstring)."""
         v = float(self._velocity.Eval(context)[0])  # a float: math, not numpy scalars, in the step
-        z = context.get_discrete_state(0).GetAtIndex(0)
+        bristle = discrete_state.get_mutable_vector(0)  # holds z_hat before the update
+        z = bristle.GetAtIndex(0)
         sigma0, level = self._model(context, v)
         z_next = float(dahl_exact_step(z, v, self.period, sigma0, level))
         if self.params.rho is not None:
             z_next += held_input_gain(sigma0 * abs(v) / level, self.period) * self._injection(context, v, sigma0, level)
-        discrete_state.get_mutable_vector(0).SetAtIndex(0, z_next)
+        bristle.SetAtIndex(0, z_next)
 
 
 def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:

@@ -79,18 +79,15 @@ class KSigmaAdapter(LeafSystem):
         self._velocity = self.DeclareVectorInputPort("arm_velocity_estimate_rad_per_s", 1)
         self._bristle = self.DeclareVectorInputPort("bristle_state_rad", 1)
         self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
-        self.DeclareDiscreteState([params.initial, params.initial])
+        branches = self.DeclareDiscreteState([params.initial, params.initial])
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         xd = self.xd_ticket()
         self.DeclareVectorOutputPort("K_sigma", 1, self._calc_gain, prerequisites_of_calc={xd, self._velocity.ticket()})
-        self.DeclareVectorOutputPort("K_sigma_branches", 2, self._calc_branches, prerequisites_of_calc={xd})
+        self.DeclareStateOutputPort("K_sigma_branches", branches)
 
     def _calc_gain(self, context, output: BasicVector):
         branch = K_SIGMA_POS if self._velocity.Eval(context)[0] > 0 else K_SIGMA_NEG
         output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(branch))
-
-    def _calc_branches(self, context, output: BasicVector):
-        output.SetFromVector(context.get_discrete_state_vector().value())
 
     def _update(self, context, discrete_state):
         """Eq. 18 on the branch of v's sign, from the inputs before the sample."""
