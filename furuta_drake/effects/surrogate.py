@@ -216,6 +216,9 @@ def lag_states(model: Model, command: np.ndarray, starts: np.ndarray, period: fl
     return kernel.lag_filter(past, past[0].copy(), model.lag, dt)[1]
 
 
+INPUT_CHAIN = ("delay", "delay_spread", "lag", "deadzone", "deadzone_form", "gain", "saturation", "saturation_form")
+
+
 def predict_windows(
     model: Model,
     x0: np.ndarray,
@@ -239,13 +242,51 @@ def predict_windows(
     :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and cost far more
     per step than these windows' short, smooth intervals need).
     """
+    return predict_models([model], x0, command, starts, horizon, period, substeps, bristle0, copies)
+
+
+def predict_models(
+    models: list[Model],
+    x0: np.ndarray,
+    command: np.ndarray,
+    starts: np.ndarray,
+    horizon: int,
+    period: float,
+    substeps: int,
+    bristle0: np.ndarray | None = None,
+    copies: int = 1,
+) -> np.ndarray:
+    """:func:`predict_windows` of several models (holding the same number of unmodelled torque terms) in one
+    kernel call: ``x0`` (4, M copies W) holds model m's states in its m-th block of copies W columns, and the
+    result's columns follow them; the input chain is evaluated once per distinct chain (``INPUT_CHAIN``: the
+    models of a finite-difference Jacobian's columns mostly differ in the dynamics alone). Every column equals
+    its model's own :func:`predict_windows` to the last bit."""
+    chains: dict[tuple, np.ndarray] = {}
+    for model in models:
+        chain = tuple(getattr(model, name) for name in INPUT_CHAIN)
+        if chain not in chains:
+            chains[chain] = np.tile(window_torques(model, command, starts, horizon, period, substeps), (1, copies))
+    torque = np.concatenate([chains[tuple(getattr(m, name) for name in INPUT_CHAIN)] for m in models], axis=1)
+    return integrate_windows(models, x0, torque, period, substeps, bristle0)
+
+
+def window_torques(model: Model, command, starts, horizon: int, period: float, substeps: int) -> np.ndarray:
+    """The arm torque [N m] of ``model``'s input chain (delay, lag, static map) at every substep of every window
+    (steps, W) (each window's column depends on its own start alone)."""
     dt = period / substeps
-    x = np.array(x0, dtype=float)
-    steps = (horizon - 1) * substeps
-    times = (np.arange(steps) * dt)[:, None]
+    times = (np.arange((horizon - 1) * substeps) * dt)[:, None]
     held = expected_command(command, starts[None, :], times, dt, period, model)  # (steps, W)
     if model.lag > 0:
         held = kernel.lag_filter(held, lag_states(model, command, starts, period, substeps), model.lag, dt)[0]
-    torque = np.ascontiguousarray(np.tile(applied_torque(model, held), (1, copies)), dtype=float)
+    return applied_torque(model, held)
+
+
+def integrate_windows(
+    models: list[Model], x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None
+) -> np.ndarray:
+    """Angles (horizon, 2, W) of windows from ``x0`` (4, W) under their arm torques ``torque`` (steps, W) at every
+    substep (:func:`window_torques`), model m from its m-th block of W / M windows (:func:`predict_models`)."""
+    x = np.ascontiguousarray(x0, dtype=float)
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
-    return kernel.integrate(np.ascontiguousarray(x), z, torque, dt, substeps, *kernel.pack(model))[0]
+    torque = np.ascontiguousarray(torque, dtype=float)
+    return kernel.integrate(x, z, torque, period / substeps, substeps, *kernel.pack_rows(models))[0]
