@@ -14,6 +14,7 @@ torque as rows [joint (0 arm, 1 pendulum), term index of :data:`~.torque_library
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 from numba import njit
@@ -215,16 +216,15 @@ def _rk4_window(t, p, td, pd, z, column, dt, substeps, out, w, bristles, rigid, 
     return t, p, td, pd, z
 
 
-@njit(cache=True)
-def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
-    """RK4 of every window from ``x0`` (4, W) and the arm's bristle ``z0`` (W,) under ``torque`` (steps, W)
-    [N m] held over each substep of ``dt`` [s]; the parameters come as M rows (``rigid`` (M, 8), ``arm`` and
-    ``pendulum`` (M, 11), ``terms`` (M, T, 3)), row m for the m-th block of W / M windows (the models of a
-    finite-difference Jacobian's columns in one call; each window's arithmetic is that of a call of its model
-    alone). At every stage the bristle (a Dahl or LuGre arm) is its exact step from the substep's start over the
-    stage's arm displacement (:func:`bristle_step`), so the stiff bristle needs no step of its own. Returns (the
-    angles after every ``substeps`` substeps (steps / substeps + 1, 2, W), row 0 the start; the final states
-    (4, W); the final bristles (W,))."""
+def _integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
+    """:func:`integrate`: RK4 of every window from ``x0`` (4, W) and the arm's bristle ``z0`` (W,) under
+    ``torque`` (steps, W) [N m] held over each substep of ``dt`` [s]; the parameters come as M rows (``rigid``
+    (M, 8), ``arm`` and ``pendulum`` (M, 11), ``terms`` (M, T, 3)), row m for the m-th block of W / M windows (the
+    models of a finite-difference Jacobian's columns in one call; each window's arithmetic is that of a call of
+    its model alone). At every stage the bristle (a Dahl or LuGre arm) is its exact step from the substep's start
+    over the stage's arm displacement (:func:`bristle_step`), so the stiff bristle needs no step of its own.
+    Returns (the angles after every ``substeps`` substeps (steps / substeps + 1, 2, W), row 0 the start; the final
+    states (4, W); the final bristles (W,))."""
     steps, width = torque.shape
     out = np.empty((steps // substeps + 1, 2, width))
     final, final_z = np.empty((4, width)), np.empty(width)
@@ -251,6 +251,42 @@ def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
                 pendulum_m,
                 terms[m],
             )
+    return out, final, final_z
+
+
+def _compiled_unchecked(function):
+    """``function`` compiled with numpy's error model (a division by zero gives inf or nan instead of raising,
+    and no division pays for the check), under a name of its own so that its cached machine code is apart from
+    that of the checked compilation."""
+    name = function.__name__ + "_unchecked"
+    code = function.__code__.replace(co_name=name, co_qualname=name)
+    return njit(cache=True, error_model="numpy")(types.FunctionType(code, function.__globals__, name))
+
+
+_checked = njit(cache=True)(_integrate)
+_unchecked = _compiled_unchecked(_integrate)
+
+
+def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
+    """RK4 of every window (:func:`_integrate`) without the division checks, exactly as checked: a division by a
+    zero state (the mass matrix' determinant, a LuGre Stribeck level) makes the window's states inf or nan, and
+    those windows, or every window when a divisor among the parameters is zero, run again checked, which raises
+    ZeroDivisionError where a division by zero happens and otherwise gives the same numbers."""
+    rows = (rigid, arm, pendulum, terms)
+    divisors = np.concatenate([arm[:, [F_VS, F_VREG, F_SIGMA0]].ravel(), pendulum[:, [F_VS, F_VREG]].ravel()])
+    if dt == 0.0 or substeps == 0 or np.any(divisors == 0.0):
+        return _checked(x0, z0, torque, dt, substeps, *rows)
+    out, final, final_z = _unchecked(x0, z0, torque, dt, substeps, *rows)
+    finite = np.isfinite(out).all(axis=(0, 1)) & np.isfinite(final).all(axis=0) & np.isfinite(final_z)
+    if not finite.all():
+        again = np.flatnonzero(~finite)
+        block = x0.shape[1] // rigid.shape[0]
+        models = again // block
+        for m in np.unique(models):
+            w = again[models == m]
+            one = tuple(row[m : m + 1] for row in rows)
+            sub = _checked(x0[:, w], z0[w], np.ascontiguousarray(torque[:, w]), dt, substeps, *one)
+            out[:, :, w], final[:, w], final_z[w] = sub
     return out, final, final_z
 
 
