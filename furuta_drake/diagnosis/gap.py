@@ -323,21 +323,30 @@ def fixed_state_residuals(
     return fixed_state_residuals_of([model], windows, states, nominal_counts)[0]
 
 
+MODELS_PER_CALL = 16  # models integrated in one surrogate call by fixed_state_residuals_of (bounds its memory)
+
+
 def fixed_state_residuals_of(
     models: list[Model], windows: Windows, states: list[np.ndarray], nominal_counts: int
 ) -> list[list[np.ndarray]]:
-    """:func:`fixed_state_residuals` of each of ``models`` (holding the same number of unmodelled torque terms,
-    as the parameter steps of a finite-difference Jacobian do), all of them in one surrogate call per batch."""
+    """:func:`fixed_state_residuals` of each of ``models``, up to ``MODELS_PER_CALL`` of those holding the same
+    number of unmodelled torque terms in one surrogate call per batch (the parameter steps of a finite-difference
+    Jacobian)."""
     count = encoder_resolution(nominal_counts)
     out = [[None] * len(windows.logs) for _ in models]
+    alike: dict[int, list[int]] = {}
+    for k, model in enumerate(models):
+        alike.setdefault(len(model.unmodelled_terms), []).append(k)
+    calls = [group[i : i + MODELS_PER_CALL] for group in alike.values() for i in range(0, len(group), MODELS_PER_CALL)]
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
-        W = x.shape[1]
-        predicted = _predict(models, np.tile(x, (1, len(models))), batch, substeps_for(batch.period))
-        for k in range(len(models)):
-            r = (batch.measured - predicted[:, :, k * W : (k + 1) * W]) / count
-            for j, i in enumerate(batch.members):
-                out[k][i] = r[:, :, batch.bounds[j] : batch.bounds[j + 1]]
+        W, substeps = x.shape[1], substeps_for(batch.period)
+        for call in calls:
+            predicted = _predict([models[k] for k in call], np.tile(x, (1, len(call))), batch, substeps)
+            for slot, k in enumerate(call):
+                r = (batch.measured - predicted[:, :, slot * W : (slot + 1) * W]) / count
+                for j, i in enumerate(batch.members):
+                    out[k][i] = r[:, :, batch.bounds[j] : batch.bounds[j + 1]]
     return out
 
 
