@@ -290,3 +290,15 @@ def integrate_windows(
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     torque = np.ascontiguousarray(torque, dtype=float)
     return kernel.integrate(x, z, torque, period / substeps, substeps, *kernel.pack_rows(models))[0]
+
+
+def load_kernel() -> None:
+    """Compile the kernel's functions for the argument types of :func:`predict_windows` in this process (or load
+    them from numba's cache), e.g. before worker processes are forked, which then inherit them instead of each
+    compiling or loading its own."""
+    model = Model(
+        1e-3, 1e-4, 5e-5, 1e-2, JointFrictionParameters.dahl(1e-3, 1e-3, sigma0=1.0), JointFrictionParameters()
+    )
+    command, starts = np.zeros(HISTORY + 8), np.array([HISTORY])
+    bristle_path(command, model.arm_friction, 1e-3)
+    predict_windows(model.replace(lag=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1, np.zeros(1))
