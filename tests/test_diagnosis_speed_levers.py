@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from furuta_drake.diagnosis.parallel import Failure, TaskPool, run_tasks
-from furuta_drake.effects.surrogate import Model, predict_models, predict_windows
+from furuta_drake.effects.surrogate import Model, integrate_windows, predict_windows, window_torques
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import RIGS
 
@@ -57,8 +57,9 @@ def test_copies_of_the_windows_predict_bitwise_as_tiled_windows(delay, lag, dead
     seed=st.integers(0, 2**16),
 )
 def test_several_models_in_one_call_predict_bitwise_as_each_alone(delay, lag, substeps, dahl, seed):
-    """predict_models of the parameter steps of a finite-difference Jacobian (dynamics and input chain moved one
-    at a time, from copies of the same states) equals each model's own predict_windows to the last bit."""
+    """integrate_windows of the parameter steps of a finite-difference Jacobian (dynamics and input chain moved one
+    at a time, from copies of the same states) in one call equals each model's own predict_windows to the last
+    bit."""
     friction = JointFrictionParameters.dahl(1.5e-3, 1.5e-3, sigma0=1.5) if dahl else Model.from_rig(QUBE).arm_friction
     model = Model.from_rig(QUBE).replace(delay=delay, lag=lag, spring_stiffness=1e-3, arm_friction=friction)
     models = [
@@ -74,16 +75,9 @@ def test_several_models_in_one_call_predict_bitwise_as_each_alone(delay, lag, su
     x0 = rng.normal(size=(4, starts.size))
     z0 = 1e-4 * rng.normal(size=starts.size) if dahl else None
     period = 1e-3 * substeps
-    together = predict_models(
-        models,
-        np.tile(x0, (1, len(models))),
-        command,
-        starts,
-        20,
-        period,
-        substeps,
-        None if z0 is None else np.tile(z0, len(models)),
-    )
+    torque = np.concatenate([window_torques(m, command, starts, 20, period, substeps) for m in models], axis=1)
+    bristles = None if z0 is None else np.tile(z0, len(models))
+    together = integrate_windows(models, np.tile(x0, (1, len(models))), torque, period, substeps, bristles)
     alone = np.concatenate([predict_windows(m, x0, command, starts, 20, period, substeps, z0) for m in models], axis=2)
     assert np.array_equal(together, alone, equal_nan=True)
 

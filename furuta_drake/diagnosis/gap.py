@@ -27,10 +27,10 @@ from scipy.signal import savgol_filter
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
 from furuta_drake.effects.surrogate import (
     HISTORY,
+    INPUT_CHAIN,
     Model,
     bristle_path,
     integrate_windows,
-    predict_models,
     sensor_variance,
     window_torques,
 )
@@ -213,10 +213,17 @@ def _perturbation(model: Model, n: int) -> np.ndarray:
 
 
 def _predict(models: list[Model], x: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
-    """:func:`predict_models` of the batch's windows from initial states (4, M W) or, with the arm's bristle state
-    as a 5th row, (5, M W): model m from its block of W columns."""
-    bristles = x[4] if x.shape[0] > 4 else None
-    return predict_models(models, x[:4], batch.command, batch.starts, batch.horizon, batch.period, substeps, bristles)
+    """The predicted angles (h, 2, M W) of the batch's windows from initial states (4, M W) or, with the arm's
+    bristle state as a 5th row, (5, M W): model m from its block of W columns, all in one kernel call, the input
+    chain evaluated once per distinct chain (``INPUT_CHAIN``: the models of a finite-difference Jacobian's columns
+    mostly differ in their dynamics alone)."""
+    torques: dict[tuple, np.ndarray] = {}
+    chains = [tuple(getattr(model, name) for name in INPUT_CHAIN) for model in models]
+    for model, chain in zip(models, chains):
+        if chain not in torques:
+            torques[chain] = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    torque = np.concatenate([torques[chain] for chain in chains], axis=1)
+    return integrate_windows(models, x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
 
 
 def _angles(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:

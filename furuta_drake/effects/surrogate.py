@@ -217,6 +217,7 @@ def lag_states(model: Model, command: np.ndarray, starts: np.ndarray, period: fl
 
 
 INPUT_CHAIN = ("delay", "delay_spread", "lag", "deadzone", "deadzone_form", "gain", "saturation", "saturation_form")
+# the fields of a Model that :func:`window_torques` reads
 
 
 def predict_windows(
@@ -238,36 +239,12 @@ def predict_windows(
     (a Dahl or LuGre arm only); ``copies``: x0 (4, copies W) holds that many states per window, in blocks of W
     (perturbed states: the input chain is evaluated once per window).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
-    (delay, lag, static map) is evaluated for every substep at once; the fixed-step RK4 is the compiled
-    :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and cost far more
-    per step than these windows' short, smooth intervals need).
+    (delay, lag, static map) is evaluated for every substep at once (:func:`window_torques`); the fixed-step RK4
+    is the compiled :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and
+    cost far more per step than these windows' short, smooth intervals need).
     """
-    return predict_models([model], x0, command, starts, horizon, period, substeps, bristle0, copies)
-
-
-def predict_models(
-    models: list[Model],
-    x0: np.ndarray,
-    command: np.ndarray,
-    starts: np.ndarray,
-    horizon: int,
-    period: float,
-    substeps: int,
-    bristle0: np.ndarray | None = None,
-    copies: int = 1,
-) -> np.ndarray:
-    """:func:`predict_windows` of several models (holding the same number of unmodelled torque terms) in one
-    kernel call: ``x0`` (4, M copies W) holds model m's states in its m-th block of copies W columns, and the
-    result's columns follow them; the input chain is evaluated once per distinct chain (``INPUT_CHAIN``: the
-    models of a finite-difference Jacobian's columns mostly differ in the dynamics alone). Every column equals
-    its model's own :func:`predict_windows` to the last bit."""
-    chains: dict[tuple, np.ndarray] = {}
-    for model in models:
-        chain = tuple(getattr(model, name) for name in INPUT_CHAIN)
-        if chain not in chains:
-            chains[chain] = np.tile(window_torques(model, command, starts, horizon, period, substeps), (1, copies))
-    torque = np.concatenate([chains[tuple(getattr(m, name) for name in INPUT_CHAIN)] for m in models], axis=1)
-    return integrate_windows(models, x0, torque, period, substeps, bristle0)
+    torque = np.tile(window_torques(model, command, starts, horizon, period, substeps), (1, copies))
+    return integrate_windows([model], x0, torque, period, substeps, bristle0)
 
 
 def window_torques(model: Model, command, starts, horizon: int, period: float, substeps: int) -> np.ndarray:
@@ -285,7 +262,8 @@ def integrate_windows(
     models: list[Model], x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None
 ) -> np.ndarray:
     """Angles (horizon, 2, W) of windows from ``x0`` (4, W) under their arm torques ``torque`` (steps, W) at every
-    substep (:func:`window_torques`), model m from its m-th block of W / M windows (:func:`predict_models`)."""
+    substep (:func:`window_torques`), model m from its m-th block of W / M windows (the models, holding the same
+    number of unmodelled torque terms, in one kernel call); every window's angles are those of its model alone."""
     x = np.ascontiguousarray(x0, dtype=float)
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     torque = np.ascontiguousarray(torque, dtype=float)
