@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from furuta_drake.diagnosis.parallel import Failure, TaskPool, run_tasks
-from furuta_drake.effects.surrogate import Model, predict_windows
+from furuta_drake.effects.surrogate import Model, integrate_windows, predict_windows, window_torques
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import RIGS
 
@@ -46,6 +46,40 @@ def test_copies_of_the_windows_predict_bitwise_as_tiled_windows(delay, lag, dead
     tiled = predict_windows(model, x0, command, np.tile(starts, copies), 20, period, substeps, z0)
     shared = predict_windows(model, x0, command, starts, 20, period, substeps, z0, copies=copies)
     assert np.array_equal(tiled, shared, equal_nan=True)
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    delay=st.floats(0.0, 0.01),
+    lag=st.floats(0.0, 0.02),
+    substeps=st.sampled_from([1, 2, 4]),
+    dahl=st.booleans(),
+    seed=st.integers(0, 2**16),
+)
+def test_several_models_in_one_call_predict_bitwise_as_each_alone(delay, lag, substeps, dahl, seed):
+    """integrate_windows of the parameter steps of a finite-difference Jacobian (dynamics and input chain moved one
+    at a time, from copies of the same states) in one call equals each model's own predict_windows to the last
+    bit."""
+    friction = JointFrictionParameters.dahl(1.5e-3, 1.5e-3, sigma0=1.5) if dahl else Model.from_rig(QUBE).arm_friction
+    model = Model.from_rig(QUBE).replace(delay=delay, lag=lag, spring_stiffness=1e-3, arm_friction=friction)
+    models = [
+        model,
+        model.replace(arm_inertia_total=1.001 * model.arm_inertia_total),
+        model.replace(delay=delay + 1e-4),
+        model.replace(spring_stiffness=2e-3),
+        model.replace(lag=lag + 1e-3),
+    ]
+    rng = np.random.default_rng(seed)
+    command = 0.03 * rng.standard_normal(3000)
+    starts = rng.integers(300, 2900, 6)
+    x0 = rng.normal(size=(4, starts.size))
+    z0 = 1e-4 * rng.normal(size=starts.size) if dahl else None
+    period = 1e-3 * substeps
+    torque = np.concatenate([window_torques(m, command, starts, 20, period, substeps) for m in models], axis=1)
+    bristles = None if z0 is None else np.tile(z0, len(models))
+    together = integrate_windows(models, np.tile(x0, (1, len(models))), torque, period, substeps, bristles)
+    alone = np.concatenate([predict_windows(m, x0, command, starts, 20, period, substeps, z0) for m in models], axis=2)
+    assert np.array_equal(together, alone, equal_nan=True)
 
 
 def _task(x):

@@ -103,3 +103,43 @@ def test_a_windows_lag_state_is_the_filtered_command_history():
     states = lag_states(model, command, starts, period, 1)
     np.testing.assert_allclose(states, expected, atol=math.exp(-5) * np.ptp(command))
     assert np.max(np.abs(command[starts] - expected)) > 10 * math.exp(-5) * np.ptp(command)
+
+
+def _rows(arm: JointFrictionParameters, rigid=(1.0e-3, 1.2e-4, 8.0e-5, 0.0147, 0.0, 0.0, 0.0, 0.0)):
+    pendulum = JointFrictionParameters(model="static", coulomb_pos=1e-5, coulomb_neg=1e-5)
+    return (
+        np.array([rigid]),
+        kernel.pack_friction(arm)[None],
+        kernel.pack_friction(pendulum)[None],
+        np.zeros((1, 0, 3)),
+    )
+
+
+@settings(max_examples=20, deadline=None)
+@given(model=st.sampled_from(["static", "dahl", "lugre"]), data=st.data(), seed=st.integers(0, 2**16))
+def test_integrate_without_division_checks_equals_the_checked_kernel_bitwise(model, data, seed):
+    """The kernel run without division checks gives the checked compilation's numbers to the last bit, diverging
+    windows (torques of 1e6 N m overflow to inf and nan) included."""
+    rng = np.random.default_rng(seed)
+    x0 = np.ascontiguousarray(rng.normal(size=(4, 12)))
+    z0 = 1e-4 * rng.normal(size=12)
+    torque = 0.01 * rng.normal(size=(40, 12))
+    torque[:, :3] = 1e6
+    rows = _rows(data.draw(joints(model)))
+    fast = kernel.integrate(x0, z0, torque, 1e-3, 2, *rows)
+    checked = kernel._checked(x0, z0, torque, 1e-3, 2, *rows)
+    assert not np.isfinite(checked[0][:, :, :3]).all()
+    for a, b in zip(fast, checked):
+        assert np.array_equal(a, b, equal_nan=True)
+
+
+def test_integrate_raises_at_a_division_by_zero_as_the_checked_kernel():
+    """A singular mass matrix (a b = c^2 with the pendulum upright: det = a b - c^2 = 0) and a zero regularisation
+    velocity of a static friction law raise ZeroDivisionError, as Python's division does."""
+    x0, z0, torque = np.zeros((4, 2)), np.zeros(2), np.zeros((5, 2))
+    arm = JointFrictionParameters(model="static", coulomb_pos=1e-3, coulomb_neg=1e-3, regularization_velocity=0.02)
+    with pytest.raises(ZeroDivisionError):
+        kernel.integrate(x0, z0, torque, 1e-3, 1, *_rows(arm, rigid=(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)))
+    arm = JointFrictionParameters(model="static", coulomb_pos=1e-3, coulomb_neg=1e-3, regularization_velocity=0.0)
+    with pytest.raises(ZeroDivisionError):
+        kernel.integrate(x0, z0, torque, 1e-3, 1, *_rows(arm))

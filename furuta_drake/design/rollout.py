@@ -85,7 +85,7 @@ def surrogate_closed_loop(
     :func:`~furuta_drake.effects.surrogate.predict_windows`.
     """
     from furuta_drake.effects.surrogate import applied_torque, expected_command
-    from furuta_drake.effects.surrogate_kernel import integrate, lag_filter, pack
+    from furuta_drake.effects.surrogate_kernel import integrate, lag_filter, pack_rows
 
     dithers = np.atleast_2d(dithers)
     designs, samples = dithers.shape
@@ -96,7 +96,7 @@ def surrogate_closed_loop(
     starts = COMMAND_PAD + np.arange(designs) * width
     x = np.tile(np.asarray(UPRIGHT, dtype=float)[:, None], (1, designs))
     lag_state, z = np.zeros(designs), np.zeros(designs)
-    packed = pack(model)  # the kernel's parameters, once for every substep
+    packed = pack_rows([model])  # the kernel's parameters, once for every substep
     resolution = encoder_resolution(counts)
     K = np.ravel(gain)
 

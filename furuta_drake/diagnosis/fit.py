@@ -32,7 +32,7 @@ from furuta_drake.diagnosis.gap import (
     GapResult,
     Windows,
     evaluate_gap,
-    fixed_state_residuals,
+    fixed_state_residuals_of,
     project_out_states,
     projected_residuals,
 )
@@ -146,7 +146,7 @@ def residual_signals(model: Model, windows: Windows, nominal_counts: int, seed: 
     [counts] from the window's own refined initial state (:func:`~furuta_drake.diagnosis.gap.projected_residuals`)
     with the command over it: the model predicts the motion, so what is left is noise and model error."""
     subset = windows.subset(NOISE_WINDOWS, seed)
-    raw = projected_residuals(model, subset, nominal_counts)[0]
+    raw = projected_residuals(model, subset, nominal_counts, sensitivities=False)[0]
     return [
         (r[:, angle, w], np.asarray(log.input)[start : start + r.shape[0]])
         for log, starts, r in zip(subset.logs, subset.starts, raw)
@@ -363,7 +363,11 @@ def _best_start(starts: list, low: np.ndarray, high: np.ndarray, model_at, scree
     candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
     if len(candidates) == 1:
         return candidates[0]
-    return min(candidates, key=lambda x: float(np.sum(_flat(projected_residuals(model_at(x), screen, counts)[0]) ** 2)))
+
+    def screened(x) -> float:
+        return float(np.sum(_flat(projected_residuals(model_at(x), screen, counts, sensitivities=False)[0]) ** 2))
+
+    return min(candidates, key=screened)
 
 
 class Residuals:
@@ -431,22 +435,22 @@ def _jump_samples(samples: np.ndarray, profiles: dict, last: dict, settings: Dia
 
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:
     """Per parameter, the per-log residual change (horizon, 2, W) per unit of the parameter, at the initial
-    states of ``last``, with what the states could absorb projected out (Kaufman)."""
-    columns = []
+    states of ``last``, with what the states could absorb projected out (Kaufman); every column's model in one
+    surrogate call."""
+    steps, models = [], []
     for i in range(x.size):
         step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)
         if x[i] + step > high[i]:
             step = -step
         shifted = x.copy()
         shifted[i] += step
-        shifted_r = fixed_state_residuals(model_at(shifted), windows, last["states"], counts)
-        columns.append(
-            [
-                project_out_states(new - old, J) / step
-                for new, old, J in zip(shifted_r, last["raw"], last["state_jacobians"])
-            ]
-        )
-    return columns
+        steps.append(step)
+        models.append(model_at(shifted))
+    shifted_r = fixed_state_residuals_of(models, windows, last["states"], counts)
+    return [
+        [project_out_states(new - old, J) / step for new, old, J in zip(r, last["raw"], last["state_jacobians"])]
+        for r, step in zip(shifted_r, steps)
+    ]
 
 
 def bootstrap_samples(

@@ -25,7 +25,15 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
-from furuta_drake.effects.surrogate import HISTORY, Model, bristle_path, predict_windows, sensor_variance
+from furuta_drake.effects.surrogate import (
+    HISTORY,
+    INPUT_CHAIN,
+    Model,
+    bristle_path,
+    integrate_windows,
+    sensor_variance,
+    window_torques,
+)
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
 
@@ -194,7 +202,7 @@ def residuals(model: Model, windows: Windows, nominal_counts: int) -> list[np.nd
     ``GAUSS_NEWTON_STEPS`` Levenberg-Marquardt steps on each window's initial state (variable projection: every
     model is judged with its own best initial states; the sensitivities are batch finite differences, and the
     residual is re-simulated from the refined states)."""
-    return projected_residuals(model, windows, nominal_counts)[0]
+    return projected_residuals(model, windows, nominal_counts, sensitivities=False)[0]
 
 
 def _perturbation(model: Model, n: int) -> np.ndarray:
@@ -204,39 +212,49 @@ def _perturbation(model: Model, n: int) -> np.ndarray:
     return np.append(_PERTURBATION, 0.05 * model.arm_friction.bristle_bound)
 
 
-def _predict(model: Model, x: np.ndarray, batch: Batch, substeps: int, copies: int = 1) -> np.ndarray:
-    """:func:`predict_windows` of the batch's windows from initial states (4, copies W) or, with the arm's bristle
-    state as a 5th row, (5, copies W)."""
-    bristles = x[4] if x.shape[0] > 4 else None
-    return predict_windows(
-        model, x[:4], batch.command, batch.starts, batch.horizon, batch.period, substeps, bristles, copies
-    )
+def _predict(models: list[Model], x: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
+    """The predicted angles (h, 2, M W) of the batch's windows from initial states (4, M W) or, with the arm's
+    bristle state as a 5th row, (5, M W): model m from its block of W columns, all in one kernel call, the input
+    chain evaluated once per distinct chain (``INPUT_CHAIN``: the models of a finite-difference Jacobian's columns
+    mostly differ in their dynamics alone)."""
+    torques: dict[tuple, np.ndarray] = {}
+    chains = [tuple(getattr(model, name) for name in INPUT_CHAIN) for model in models]
+    for model, chain in zip(models, chains):
+        if chain not in torques:
+            torques[chain] = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    torque = np.concatenate([torques[chain] for chain in chains], axis=1)
+    return integrate_windows(models, x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
 
 
-def _linearised(model: Model, x: np.ndarray, batch: Batch, substeps: int, delta: np.ndarray, count: float):
-    """Residuals (h, 2, W) [counts] from the initial states x (n, W) and their sensitivities (h, 2, W, n) [counts
-    per unit of state], by forward differences of step ``delta``: one surrogate call of width (n + 1) W."""
-    n, W = x.shape
-    points = np.concatenate([x] + [x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
-    predicted = _predict(model, points, batch, substeps, copies=n + 1)
-    base = predicted[:, :, :W]
-    J = np.stack([(predicted[:, :, (i + 1) * W : (i + 2) * W] - base) / delta[i] / count for i in range(n)], axis=-1)
-    return (batch.measured - base) / count, J
+def _angles(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
+    """The predicted angles (h, 2, k) of windows from their initial states x (n, k) under their arm torques
+    (steps, k) (:func:`~furuta_drake.effects.surrogate.window_torques` of the batch's windows, or a choice of
+    its columns: each window's prediction depends on its own column alone)."""
+    return integrate_windows([model], x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
 
 
-def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
+def _state_jacobian(model, x, angles, torque, batch: Batch, substeps: int, delta: np.ndarray, count: float):
+    """The residuals' sensitivities (h, 2, k, n) [counts per unit of state] to the initial states x (n, k) whose
+    predicted angles are ``angles``, by forward differences of step ``delta``: one surrogate call of width n k."""
+    n, k = x.shape
+    points = np.concatenate([x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
+    predicted = _angles(model, points, np.tile(torque, (1, n)), batch, substeps)
+    return np.stack([(predicted[:, :, i * k : (i + 1) * k] - angles) / delta[i] / count for i in range(n)], axis=-1)
+
+
+def projected_residuals(model: Model, windows: Windows, nominal_counts: int, sensitivities: bool = True):
     """:func:`residuals`, per log the refined initial states (4, W), or (5, W) with the arm's bristle state for a
     Dahl or LuGre arm (near a stick the bristle is a hidden state like the velocities: its value read from the
     arm path is only the start), and per log the residuals' sensitivities to them (h, 2, W, 4 or 5) [counts per
-    unit of state] at the refined states.
+    unit of state] at the refined states (None per log without ``sensitivities``).
 
     Each window takes ``GAUSS_NEWTON_STEPS`` Levenberg-Marquardt steps with its own damping: a step is kept only
     where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
     overshoot), and the window's damping shrinks 3x after a kept step and grows 10x, to at least 1 (about half
-    the Gauss-Newton step), after a refused one. Each trial is
-    simulated with its own sensitivities, so a kept step needs no further call. The steps are written here
-    because scipy's least-squares solvers take one problem at a time: batched over windows, every window's step
-    costs one surrogate call for all of them."""
+    the Gauss-Newton step), after a refused one. The sensitivities are simulated for the kept steps alone (each
+    window's prediction depends on its own state and command alone), and the input chain once per batch. The
+    steps are written here because scipy's least-squares solvers take one problem at a time: batched over
+    windows, every window's step costs one surrogate call for all of them."""
     count = encoder_resolution(nominal_counts)
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
     bristles = initial_bristles(model, windows)
@@ -244,34 +262,51 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
         substeps = substeps_for(batch.period)
         z0 = _batch_bristles(bristles, batch)
         x = batch.initial_states if z0 is None else np.vstack([batch.initial_states, z0])
-        n, W = x.shape
-        delta = _perturbation(model, n)
-        prior = np.zeros(n)
-        if n > 4:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
-            bound = model.arm_friction.bristle_bound  # over its whole range weighs one count^2)
-            prior[4] = 1.0 / bound**2
-        r, J = _linearised(model, x, batch, substeps, delta, count)
-        cost = np.nansum(r**2, axis=(0, 1))
-        damping = np.full(W, LM_DAMPING)
-        for _ in range(GAUSS_NEWTON_STEPS):
-            Jw = J.transpose(2, 0, 1, 3).reshape(W, -1, n)
-            normal = np.einsum("wki,wkj->wij", Jw, Jw)
-            diagonal = np.einsum("wii->wi", normal)
-            normal = normal + (damping[:, None] * diagonal + prior + 1e-9)[:, :, None] * np.eye(n)
-            gradient = np.einsum("wki,wk->wi", Jw, np.nan_to_num(r.transpose(2, 0, 1).reshape(W, -1)))
-            trial = x + np.linalg.solve(normal, gradient[..., None])[..., 0].T
-            if n > 4:
-                trial[4] = np.clip(trial[4], -bound, bound)
-            r_trial, J_trial = _linearised(model, trial, batch, substeps, delta, count)
-            cost_trial = np.nansum(r_trial**2, axis=(0, 1))
-            better = cost_trial < cost
-            x, r, J = np.where(better, trial, x), np.where(better, r_trial, r), np.where(better[:, None], J_trial, J)
-            cost = np.where(better, cost_trial, cost)
-            damping = np.where(better, damping / 3.0, np.maximum(damping * 10.0, 1.0))
+        x, r, J = _refined(model, x, batch, substeps, count, sensitivities)
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
-            out[i], states[i], jacobians[i] = r[:, :, part], x[:, part], J[:, :, part]
+            out[i], states[i] = r[:, :, part], x[:, part]
+            jacobians[i] = J[:, :, part] if sensitivities else None
     return out, states, jacobians
+
+
+def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: float, sensitivities: bool):
+    """:func:`projected_residuals` of one batch from the initial states x (n, W): the refined states, their
+    residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
+    n, W = x.shape
+    delta = _perturbation(model, n)
+    prior = np.zeros(n)
+    if n > 4:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
+        bound = model.arm_friction.bristle_bound  # over its whole range weighs one count^2)
+        prior[4] = 1.0 / bound**2
+    torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    angles = _angles(model, x, torque, batch, substeps)
+    r, J = (batch.measured - angles) / count, _state_jacobian(model, x, angles, torque, batch, substeps, delta, count)
+    cost = np.nansum(r**2, axis=(0, 1))
+    damping = np.full(W, LM_DAMPING)
+    for step in range(GAUSS_NEWTON_STEPS):
+        Jw = J.transpose(2, 0, 1, 3).reshape(W, -1, n)
+        normal = np.einsum("wki,wkj->wij", Jw, Jw)
+        diagonal = np.einsum("wii->wi", normal)
+        normal = normal + (damping[:, None] * diagonal + prior + 1e-9)[:, :, None] * np.eye(n)
+        gradient = np.einsum("wki,wk->wi", Jw, np.nan_to_num(r.transpose(2, 0, 1).reshape(W, -1)))
+        trial = x + np.linalg.solve(normal, gradient[..., None])[..., 0].T
+        if n > 4:
+            trial[4] = np.clip(trial[4], -bound, bound)
+        angles = _angles(model, trial, torque, batch, substeps)
+        r_trial = (batch.measured - angles) / count
+        cost_trial = np.nansum(r_trial**2, axis=(0, 1))
+        better = cost_trial < cost
+        kept = np.flatnonzero(better)
+        if kept.size and (sensitivities or step < GAUSS_NEWTON_STEPS - 1):
+            J = J.copy()
+            J[:, :, kept] = _state_jacobian(
+                model, trial[:, kept], angles[:, :, kept], torque[:, kept], batch, substeps, delta, count
+            )
+        x, r = np.where(better, trial, x), np.where(better, r_trial, r)
+        cost = np.where(better, cost_trial, cost)
+        damping = np.where(better, damping / 3.0, np.maximum(damping * 10.0, 1.0))
+    return x, r, J
 
 
 def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
@@ -292,13 +327,33 @@ def fixed_state_residuals(
 ) -> list[np.ndarray]:
     """Per log: measured minus predicted angles [counts] from given initial states (those of
     :func:`projected_residuals`, no refinement)."""
+    return fixed_state_residuals_of([model], windows, states, nominal_counts)[0]
+
+
+MODELS_PER_CALL = 16  # models integrated in one surrogate call by fixed_state_residuals_of (bounds its memory)
+
+
+def fixed_state_residuals_of(
+    models: list[Model], windows: Windows, states: list[np.ndarray], nominal_counts: int
+) -> list[list[np.ndarray]]:
+    """:func:`fixed_state_residuals` of each of ``models``, up to ``MODELS_PER_CALL`` of those holding the same
+    number of unmodelled torque terms in one surrogate call per batch (the parameter steps of a finite-difference
+    Jacobian)."""
     count = encoder_resolution(nominal_counts)
-    out = [None] * len(windows.logs)
+    out = [[None] * len(windows.logs) for _ in models]
+    alike: dict[int, list[int]] = {}
+    for k, model in enumerate(models):
+        alike.setdefault(len(model.unmodelled_terms), []).append(k)
+    calls = [group[i : i + MODELS_PER_CALL] for group in alike.values() for i in range(0, len(group), MODELS_PER_CALL)]
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
-        r = (batch.measured - _predict(model, x, batch, substeps_for(batch.period))) / count
-        for j, i in enumerate(batch.members):
-            out[i] = r[:, :, batch.bounds[j] : batch.bounds[j + 1]]
+        W, substeps = x.shape[1], substeps_for(batch.period)
+        for call in calls:
+            predicted = _predict([models[k] for k in call], np.tile(x, (1, len(call))), batch, substeps)
+            for slot, k in enumerate(call):
+                r = (batch.measured - predicted[:, :, slot * W : (slot + 1) * W]) / count
+                for j, i in enumerate(batch.members):
+                    out[k][i] = r[:, :, batch.bounds[j] : batch.bounds[j + 1]]
     return out
 
 
@@ -326,7 +381,7 @@ def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: lis
 
 def evaluate_gap(model: Model, windows: Windows, nominal_counts: int) -> GapResult:
     """The gap of ``model`` on ``windows`` (see the module docstring), from the surrogate."""
-    r, states, _ = projected_residuals(model, windows, nominal_counts)
+    r, states, _ = projected_residuals(model, windows, nominal_counts, sensitivities=False)
     return gap_from_residuals(r, sensor_variance(model, nominal_counts), states)
 
 

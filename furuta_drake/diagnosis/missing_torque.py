@@ -35,7 +35,7 @@ from furuta_drake.diagnosis.gap import (
     GapResult,
     Windows,
     evaluate_gap,
-    fixed_state_residuals,
+    fixed_state_residuals_of,
     project_out_states,
     projected_residuals,
 )
@@ -95,12 +95,12 @@ def design(model: Model, windows: Windows, counts: int, scales: np.ndarray):
     torque, with the initial states' share projected out; y the residuals' negative; groups each row's window."""
     raw, states, jacobians = projected_residuals(model, windows, counts)
     step = STEP * model.gravity_torque
-    columns = []
-    for joint in range(len(JOINTS)):
-        for term, scale in enumerate(scales):
-            shifted = with_terms(model, [(joint, term, step / scale)])
-            moved = fixed_state_residuals(shifted, windows, states, counts)
-            columns.append(_rows([project_out_states(m - r, J) / step for m, r, J in zip(moved, raw, jacobians)]))
+    joint_terms = [(joint, term, step / scale) for joint in range(len(JOINTS)) for term, scale in enumerate(scales)]
+    shifted = [with_terms(model, [joint_term]) for joint_term in joint_terms]
+    columns = [
+        _rows([project_out_states(m - r, J) / step for m, r, J in zip(moved, raw, jacobians)])
+        for moved in fixed_state_residuals_of(shifted, windows, states, counts)
+    ]
     groups = _rows(
         [
             np.broadcast_to(np.arange(r.shape[2]) + sum(s.size for s in windows.starts[:i]), r.shape)

@@ -44,7 +44,7 @@ from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, select_effects
 from furuta_drake.diagnosis.torque_report import beside_record, torque_record
 from furuta_drake.effects.corrected import fitted_rig, model_config
-from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.surrogate import Model, load_kernel
 from furuta_drake.effects.torque_library import library_terms, merged, torque_parameters_of
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
 from furuta_drake.errors import ConfigError
@@ -143,6 +143,7 @@ def diagnose(
     # its small batches leave idle.
     settings.validate()
     inputs = _inputs(Path(rig), train, heldout, candidates, log_format)
+    load_kernel()  # before the workers fork: they inherit the compiled kernel
     with ThreadPoolExecutor(max_workers=2) as background, TaskPool(1 if scheduler else workers) as pool:
         return _diagnose(
             inputs=inputs,

@@ -216,6 +216,10 @@ def lag_states(model: Model, command: np.ndarray, starts: np.ndarray, period: fl
     return kernel.lag_filter(past, past[0].copy(), model.lag, dt)[1]
 
 
+INPUT_CHAIN = ("delay", "delay_spread", "lag", "deadzone", "deadzone_form", "gain", "saturation", "saturation_form")
+# the fields of a Model that :func:`window_torques` reads
+
+
 def predict_windows(
     model: Model,
     x0: np.ndarray,
@@ -235,17 +239,44 @@ def predict_windows(
     (a Dahl or LuGre arm only); ``copies``: x0 (4, copies W) holds that many states per window, in blocks of W
     (perturbed states: the input chain is evaluated once per window).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
-    (delay, lag, static map) is evaluated for every substep at once; the fixed-step RK4 is the compiled
-    :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and cost far more
-    per step than these windows' short, smooth intervals need).
+    (delay, lag, static map) is evaluated for every substep at once (:func:`window_torques`); the fixed-step RK4
+    is the compiled :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and
+    cost far more per step than these windows' short, smooth intervals need).
     """
+    torque = np.tile(window_torques(model, command, starts, horizon, period, substeps), (1, copies))
+    return integrate_windows([model], x0, torque, period, substeps, bristle0)
+
+
+def window_torques(model: Model, command, starts, horizon: int, period: float, substeps: int) -> np.ndarray:
+    """The arm torque [N m] of ``model``'s input chain (delay, lag, static map) at every substep of every window
+    (steps, W) (each window's column depends on its own start alone)."""
     dt = period / substeps
-    x = np.array(x0, dtype=float)
-    steps = (horizon - 1) * substeps
-    times = (np.arange(steps) * dt)[:, None]
+    times = (np.arange((horizon - 1) * substeps) * dt)[:, None]
     held = expected_command(command, starts[None, :], times, dt, period, model)  # (steps, W)
     if model.lag > 0:
         held = kernel.lag_filter(held, lag_states(model, command, starts, period, substeps), model.lag, dt)[0]
-    torque = np.ascontiguousarray(np.tile(applied_torque(model, held), (1, copies)), dtype=float)
+    return applied_torque(model, held)
+
+
+def integrate_windows(
+    models: list[Model], x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None
+) -> np.ndarray:
+    """Angles (horizon, 2, W) of windows from ``x0`` (4, W) under their arm torques ``torque`` (steps, W) at every
+    substep (:func:`window_torques`), model m from its m-th block of W / M windows (the models, holding the same
+    number of unmodelled torque terms, in one kernel call); every window's angles are those of its model alone."""
+    x = np.ascontiguousarray(x0, dtype=float)
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
-    return kernel.integrate(np.ascontiguousarray(x), z, torque, dt, substeps, *kernel.pack(model))[0]
+    torque = np.ascontiguousarray(torque, dtype=float)
+    return kernel.integrate(x, z, torque, period / substeps, substeps, *kernel.pack_rows(models))[0]
+
+
+def load_kernel() -> None:
+    """Compile the kernel's functions for the argument types of :func:`predict_windows` in this process (or load
+    them from numba's cache), e.g. before worker processes are forked, which then inherit them instead of each
+    compiling or loading its own."""
+    model = Model(
+        1e-3, 1e-4, 5e-5, 1e-2, JointFrictionParameters.dahl(1e-3, 1e-3, sigma0=1.0), JointFrictionParameters()
+    )
+    command, starts = np.zeros(HISTORY + 8), np.array([HISTORY])
+    bristle_path(command, model.arm_friction, 1e-3)
+    predict_windows(model.replace(lag=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1, np.zeros(1))

@@ -14,6 +14,7 @@ torque as rows [joint (0 arm, 1 pendulum), term index of :data:`~.torque_library
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 from numba import njit
@@ -64,6 +65,15 @@ def pack(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     )
     terms = np.array(model.unmodelled_terms, dtype=float).reshape(-1, 3)
     return rigid, pack_friction(model.arm_friction), pack_friction(model.pendulum_friction), terms
+
+
+def pack_rows(models) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`pack` of each of ``models`` stacked as rows, for :func:`integrate` (the models hold the same number
+    of unmodelled torque terms)."""
+    packed = [pack(model) for model in models]
+    if len({terms.shape for *_, terms in packed}) > 1:
+        raise ValueError("models integrated in one call must hold the same number of unmodelled torque terms")
+    return tuple(np.stack(rows) for rows in zip(*packed))
 
 
 @njit(cache=True, inline="always")
@@ -171,50 +181,112 @@ def _values(row, n):
     return (row[0], row[1], row[2], row[3], row[4], row[5], row[6], row[7], row[8], row[9], row[10])
 
 
-@njit(cache=True)
-def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
-    """RK4 of every window from ``x0`` (4, W) and the arm's bristle ``z0`` (W,) under ``torque`` (steps, W)
-    [N m] held over each substep of ``dt`` [s]. At every stage the bristle (a Dahl or LuGre arm) is its exact
-    step from the substep's start over the stage's arm displacement (:func:`bristle_step`), so the stiff bristle
-    needs no step of its own. Returns (the angles after every ``substeps`` substeps (steps / substeps + 1, 2, W),
-    row 0 the start; the final states (4, W); the final bristles (W,))."""
+@njit(cache=True, inline="always")
+def _rk4_window(t, p, td, pd, z, column, dt, substeps, out, w, bristles, rigid, arm, pendulum, terms):
+    """One window's RK4 from (t, p, td, pd) and the bristle ``z`` under the torque ``column`` (steps,), its angles
+    written to ``out[:, :, w]`` every ``substeps`` substeps; returns the final (t, p, td, pd, z)."""
+    h = 0.5 * dt
+    row, substep = 0, 0
+    out[0, 0, w], out[0, 1, w] = t, p
+    for i in range(column.size):
+        tau = column[i]
+        a0, a1, a2, a3 = _stage(t, p, td, pd, p, z, tau, bristles, rigid, arm, pendulum, terms)
+        b0, b1, b2, b3 = _stage(
+            t + h * a0, p + h * a1, td + h * a2, pd + h * a3, p, z, tau, bristles, rigid, arm, pendulum, terms
+        )
+        c0, c1, c2, c3 = _stage(
+            t + h * b0, p + h * b1, td + h * b2, pd + h * b3, p, z, tau, bristles, rigid, arm, pendulum, terms
+        )
+        d0, d1, d2, d3 = _stage(
+            t + dt * c0, p + dt * c1, td + dt * c2, pd + dt * c3, p, z, tau, bristles, rigid, arm, pendulum, terms
+        )
+        sixth = dt / 6.0
+        p_next = p + sixth * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+        t += sixth * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
+        td += sixth * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
+        pd += sixth * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
+        if bristles:
+            moved = p_next - p
+            z = bristle_step(z, moved, moved / dt, arm)
+        p = p_next
+        substep += 1
+        if substep == substeps:
+            row, substep = row + 1, 0
+            out[row, 0, w], out[row, 1, w] = t, p
+    return t, p, td, pd, z
+
+
+def _integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
+    """:func:`integrate`: RK4 of every window from ``x0`` (4, W) and the arm's bristle ``z0`` (W,) under
+    ``torque`` (steps, W) [N m] held over each substep of ``dt`` [s]; the parameters come as M rows (``rigid``
+    (M, 8), ``arm`` and ``pendulum`` (M, 11), ``terms`` (M, T, 3)), row m for the m-th block of W / M windows (the
+    models of a finite-difference Jacobian's columns in one call; each window's arithmetic is that of a call of
+    its model alone). At every stage the bristle (a Dahl or LuGre arm) is its exact step from the substep's start
+    over the stage's arm displacement (:func:`bristle_step`), so the stiff bristle needs no step of its own.
+    Returns (the angles after every ``substeps`` substeps (steps / substeps + 1, 2, W), row 0 the start; the final
+    states (4, W); the final bristles (W,))."""
     steps, width = torque.shape
     out = np.empty((steps // substeps + 1, 2, width))
     final, final_z = np.empty((4, width)), np.empty(width)
-    rigid, arm, pendulum = _values(rigid, 8), _values(arm, 11), _values(pendulum, 11)
-    bristles = arm[F_KIND] == DAHL or arm[F_KIND] == LUGRE
-    h = 0.5 * dt
     columns = np.ascontiguousarray(torque.T)
-    for w in range(width):
-        t, p, td, pd, z = x0[0, w], x0[1, w], x0[2, w], x0[3, w], z0[w]
-        out[0, 0, w], out[0, 1, w] = t, p
-        row, substep = 0, 0
-        for i in range(steps):
-            tau = columns[w, i]
-            a0, a1, a2, a3 = _stage(t, p, td, pd, p, z, tau, bristles, rigid, arm, pendulum, terms)
-            b0, b1, b2, b3 = _stage(
-                t + h * a0, p + h * a1, td + h * a2, pd + h * a3, p, z, tau, bristles, rigid, arm, pendulum, terms
+    block = width // rigid.shape[0]
+    for m in range(rigid.shape[0]):
+        rigid_m, arm_m, pendulum_m = _values(rigid[m], 8), _values(arm[m], 11), _values(pendulum[m], 11)
+        bristles = arm_m[F_KIND] == DAHL or arm_m[F_KIND] == LUGRE
+        for w in range(m * block, (m + 1) * block):
+            final[0, w], final[1, w], final[2, w], final[3, w], final_z[w] = _rk4_window(
+                x0[0, w],
+                x0[1, w],
+                x0[2, w],
+                x0[3, w],
+                z0[w],
+                columns[w],
+                dt,
+                substeps,
+                out,
+                w,
+                bristles,
+                rigid_m,
+                arm_m,
+                pendulum_m,
+                terms[m],
             )
-            c0, c1, c2, c3 = _stage(
-                t + h * b0, p + h * b1, td + h * b2, pd + h * b3, p, z, tau, bristles, rigid, arm, pendulum, terms
-            )
-            d0, d1, d2, d3 = _stage(
-                t + dt * c0, p + dt * c1, td + dt * c2, pd + dt * c3, p, z, tau, bristles, rigid, arm, pendulum, terms
-            )
-            sixth = dt / 6.0
-            p_next = p + sixth * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-            t += sixth * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-            td += sixth * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
-            pd += sixth * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
-            if bristles:
-                moved = p_next - p
-                z = bristle_step(z, moved, moved / dt, arm)
-            p = p_next
-            substep += 1
-            if substep == substeps:
-                row, substep = row + 1, 0
-                out[row, 0, w], out[row, 1, w] = t, p
-        final[0, w], final[1, w], final[2, w], final[3, w], final_z[w] = t, p, td, pd, z
+    return out, final, final_z
+
+
+def _compiled_unchecked(function):
+    """``function`` compiled with numpy's error model (a division by zero gives inf or nan instead of raising,
+    and no division pays for the check), under a name of its own so that its cached machine code is apart from
+    that of the checked compilation."""
+    name = function.__name__ + "_unchecked"
+    code = function.__code__.replace(co_name=name, co_qualname=name)
+    return njit(cache=True, error_model="numpy")(types.FunctionType(code, function.__globals__, name))
+
+
+_checked = njit(cache=True)(_integrate)
+_unchecked = _compiled_unchecked(_integrate)
+
+
+def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
+    """RK4 of every window (:func:`_integrate`) without the division checks, exactly as checked: a division by a
+    zero state (the mass matrix' determinant, a LuGre Stribeck level) makes the window's states inf or nan, and
+    those windows, or every window when a divisor among the parameters is zero, run again checked, which raises
+    ZeroDivisionError where a division by zero happens and otherwise gives the same numbers."""
+    rows = (rigid, arm, pendulum, terms)
+    divisors = np.concatenate([arm[:, [F_VS, F_VREG, F_SIGMA0]].ravel(), pendulum[:, [F_VS, F_VREG]].ravel()])
+    if dt == 0.0 or substeps == 0 or np.any(divisors == 0.0):
+        return _checked(x0, z0, torque, dt, substeps, *rows)
+    out, final, final_z = _unchecked(x0, z0, torque, dt, substeps, *rows)
+    finite = np.isfinite(out).all(axis=(0, 1)) & np.isfinite(final).all(axis=0) & np.isfinite(final_z)
+    if not finite.all():
+        again = np.flatnonzero(~finite)
+        block = x0.shape[1] // rigid.shape[0]
+        models = again // block
+        for m in np.unique(models):
+            w = again[models == m]
+            one = tuple(row[m : m + 1] for row in rows)
+            sub = _checked(x0[:, w], z0[w], np.ascontiguousarray(torque[:, w]), dt, substeps, *one)
+            out[:, :, w], final[:, w], final_z[w] = sub
     return out, final, final_z
 
 
