@@ -2,14 +2,16 @@
 independent simulator (benchmarks/independent_sim.py).
 
 The cases (:func:`benchmarks.diagnosis_independent.delay_beside_friction_cases`): strong asymmetric arm friction
-and an input delay of several ms. Each is diagnosed blind with its four 8 s logs (before); ``design`` is run on
-that diagnosis (with no rival it targets every actuator effect not accepted whose detection limit is above the
-size that changes the rig's LQR loop, and predicts the limit its experiment reaches); the designed command is
-played on the same independent simulator and the case's true rig as the design says (open loop from rest
-hanging, or the dither added to the design's LQR balancing the upright); the first half of
-its log joins the train logs and the second half the held-out ones, and the case is diagnosed again (after).
-Without ``--balancing``/``--hanging`` and ``--duration`` the design chooses the mode and duration whose predicted
-limits are lowest (:mod:`furuta_drake.design.choice`); the candidates it compared are printed.
+and an input delay of several ms; with ``--all-cases``, the cases of the whole independent suite that ``--only``
+names (a delay the logs cannot tell from an actuator lag, say: the design then separates that confusable pair).
+Each is diagnosed blind with its four 8 s logs (before); ``design`` is run on that diagnosis (with no rival it
+targets every actuator effect not accepted whose detection limit is above the size that changes the rig's LQR
+loop, and predicts the limit its experiment reaches); the designed command is played on the same independent
+simulator and the case's true rig as the design says (open loop from rest hanging, or the dither added to the
+design's LQR balancing the upright); the first half of its log joins the train logs and the second half the
+held-out ones, and the case is diagnosed again (after). Without ``--balancing``/``--hanging`` and ``--duration``
+the design chooses the mode and duration by their predicted limits (:mod:`furuta_drake.design.choice`); the
+candidates it compared are printed.
 
 Prints, per case and effect the design targets (and the case's true effects): its true size, the size that
 changes the closed loop, the detection limit before, predicted by the design and after, and whether the effect
@@ -18,9 +20,9 @@ is accepted before and after at what size (its 95 % interval). Writes ``OUT/resu
 reused when the script is run again with the same ``--out``.
 
 Run from the repository root: ``PYTHONPATH=. python benchmarks/design_limits.py --out runs/design_limits``
-(``--only WORD ...``: the cases whose name holds a word; ``--duration S``: the experiment's length;
-``--balancing``: the design's dither added to its LQR balancing the upright, played so on the simulator;
-``--hanging``: an open-loop design).
+(``--only WORD ...``: the cases whose name holds a word; ``--all-cases``: the cases from the whole suite;
+``--duration S``: the experiment's length; ``--balancing``: the design's dither added to its LQR balancing the
+upright, played so on the simulator; ``--hanging``: an open-loop design).
 """
 
 from __future__ import annotations
@@ -240,6 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--only", nargs="+", help="the cases whose name contains one of these words")
+    parser.add_argument("--all-cases", action="store_true", help="draw the cases from the whole independent suite")
     parser.add_argument("--duration", type=float, help="the experiment's length [s] (default: the design's choice)")
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--balancing", dest="balancing", action="store_true", help="a dither added to the LQR")
@@ -249,7 +252,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=1, help="processes of each diagnosis (default 1)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    cases = indep.select(indep.delay_beside_friction_cases(), False, args.only)
+    pool = indep.all_cases() if args.all_cases else indep.delay_beside_friction_cases()
+    cases = indep.select(pool, False, args.only)
     start, rows, summaries = time.perf_counter(), [], []
     for case in cases:
         case_rows, summary = run_case(case, args.out, args)
@@ -262,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
     print_choices(summaries)
     (args.out / "results.json").write_text(json.dumps({"cases": summaries, "rows": rows}, indent=2) + "\n")
     config = {"argv": sys.argv[1:] if argv is None else argv, "cases": [c.name for c in cases], "seed": args.seed}
-    config.update(duration_s=args.duration, balancing=args.balancing, workers=args.workers)
+    config.update(all_cases=args.all_cases, duration_s=args.duration, balancing=args.balancing, workers=args.workers)
     config["wall_time_s"] = time.perf_counter() - start
     (args.out / "config.json").write_text(json.dumps({**config, **versions()}, indent=2) + "\n")
     return 0

@@ -250,3 +250,45 @@ def test_a_target_below_the_detection_limit_is_a_hypothesis_and_one_above_it_is_
         read_hypotheses(report, rig, logs, [parse_target("actuator_lag=0.005")])
     with pytest.raises(ConfigError, match="already accepted input_delay"):
         read_hypotheses(report, rig, logs, [parse_target("input_delay=0.001")])
+
+
+def test_a_late_step_rival_must_do_that_steps_work_not_ride_on_the_earlier_effects():
+    """Three steps (a spring, Coulomb friction, then a lag of 2 ms confusable with a delay of 2 ms): the earlier
+    two close most of the nominal gap, so a third candidate that adds nothing (the encoder's grid) still reduces
+    the nominal gap within a few points of the lag. It is no rival: only the delay, which removes as much of the
+    gap the two leave as the lag does, is paired with the accepted model."""
+    from furuta_drake.design.hypotheses import read_hypotheses
+
+    spring = {"arm_spring.stiffness": 0.024, "arm_spring.equilibrium": 0.05, "arm_spring.form": "linear"}
+    friction = {
+        "arm_coulomb_friction.coulomb": 0.005,
+        "arm_coulomb_friction.regularization_velocity": 0.02,
+        "arm_coulomb_friction.form": "smooth",
+    }
+
+    def entry(third: str, params: dict, over_nominal: float, over_previous: float) -> dict:
+        return {
+            "effect": f"arm_spring+arm_coulomb_friction+{third}",
+            "params": {**spring, **friction, **{f"{third}.{k}": v for k, v in params.items()}},
+            "step": 3,
+            "status": "ok",
+            "heldout_reduction": over_nominal,
+            "reduction_over_previous": over_previous,
+        }
+
+    ranking = [
+        entry("actuator_lag", {"time_constant": 0.002}, 0.99, 0.6),
+        entry("input_delay", {"delay": 0.002, "form": "fixed"}, 0.99, 0.59),
+        entry("encoder_quantization", {"counts_per_rev": 4096.0}, 0.97, 0.0),
+    ]
+    report = {
+        "ranking": ranking,
+        "steps": [{"effect": "arm_spring"}, {"effect": "arm_coulomb_friction"}, {"effect": "actuator_lag"}],
+        "detection_limits": [],
+    }
+    found = read_hypotheses(report, lund_rig(), [])
+    assert [h.name for h in found.hypotheses] == [
+        "arm_spring+arm_coulomb_friction+actuator_lag",
+        "arm_spring+arm_coulomb_friction+input_delay",
+    ]
+    assert [pair.new for pair in found.pairs] == [("actuator_lag", "input_delay")]

@@ -15,7 +15,7 @@ from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.record_text import confusable_why
 from furuta_drake.diagnosis.replay import replay_gap
-from furuta_drake.diagnosis.rule import MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
+from furuta_drake.diagnosis.rule import FLOOR_COUNTS, MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.corrected import model_rig
 from furuta_drake.effects.surrogate import Model, _accelerations
@@ -199,8 +199,33 @@ def test_two_laws_that_explain_the_data_alike_are_confusable_and_a_clear_winner_
     pairs = confusable(chosen, evidence, added, nominal, candidates, bootstrap)
     assert [sorted(pair["effects"]) for pair in pairs] == [["actuator_lag", "input_delay"]]
     low, high = pairs[0]["difference"]
-    assert low <= 0.0 <= high and not pairs[0]["at_floor"]
+    assert low <= 0.0 <= high and not pairs[0]["by_excess"]
     assert "holds 0" in confusable_why(pairs[0])
+
+
+def test_laws_apart_by_less_than_the_floor_resolves_are_confusable_off_the_floor_too():
+    """A delay and a lag beside friction and a spring leave a gap of a tenth of a count: the two fits' reductions
+    of it differ by several points, beyond their bootstrap interval, yet by an excess squared residual (0.6 x the
+    floor's 0.03^2 counts^2) below what the floor resolves; another law 3x the floor's square behind is no rival."""
+    rng = np.random.default_rng(5)
+    floor = FLOOR_COUNTS**2
+    previous = 0.01 + rng.normal(0.0, 0.001, 60)  # a gap of 0.1 counts, above the floor
+    noise = rng.normal(0.0, 0.0001, (3, 60))
+    candidates = {
+        "actuator_lag": 0.003 + noise[0],
+        "input_delay": 0.003 + 0.6 * floor + noise[1],
+        "torque_gain_error": 0.003 + 3.0 * floor + noise[2],
+    }
+    added = {name: name for name in candidates}
+    bootstrap, evidence = _evidence(previous, candidates)
+    assert not at_floor(candidates["actuator_lag"])
+    assert all(is_kept(e) for e in evidence.values())
+    reductions = bootstrap.difference_interval(previous, candidates["actuator_lag"], candidates["input_delay"])
+    assert reductions[0] > 0.0  # the reductions alone would tell them apart
+    pairs = confusable("actuator_lag", evidence, added, previous, candidates, bootstrap)
+    assert [pair["effects"] for pair in pairs] == [["actuator_lag", "input_delay"]]
+    assert pairs[0]["by_excess"] and pairs[0]["difference"][0] < floor
+    assert "below the floor's resolution" in confusable_why(pairs[0])
 
 
 def balancing_log(rig_name: str, seed: int, effect: str, level: int, duration: float) -> RunLog:

@@ -3,10 +3,10 @@
 Every hypothesis is a complete model of the rig: the rig file's nominal model with a set of effects at their
 fitted parameters (``ranking[].params``). The accepted model holds the accepted steps. Its rivals:
 
-- **confusable** pairs and the models **within** ``NEAR`` of held-out reduction of the accepted one at the same
-  step (variants of the accepted law too: the rule's parsimony chooses among them on a few points): the
-  accepted model with that step's effect replaced by the rival's (its parameters from its fit at that
-  step; the other effects keep the accepted values);
+- **confusable** pairs and the models **within** ``NEAR`` of the accepted one's held-out reduction at the same
+  step, of the gap the earlier effects leave (variants of the accepted law too: the rule's parsimony chooses among
+  them on a few points): the accepted model with that step's effect replaced by the rival's (its parameters from
+  its fit at that step; the other effects keep the accepted values);
 - **next-step** models: the candidates of the step after the last accepted one that reduce what is left by at
   least ``NEXT_STEP_REDUCTION`` on held-out data without being accepted (at most ``MAX_NEXT_STEP``), as the
   accepted model plus that effect: was a further effect missed?
@@ -241,8 +241,10 @@ def _add_confusable(rivals: _Rivals, report: dict, ranked: list[dict]) -> None:
 
 
 def _add_within_near(rivals: _Rivals, ranked: list[dict]) -> None:
-    """Add, at every accepted step, the rivals whose held-out reduction is within ``NEAR`` of the chosen
-    effect's."""
+    """Add, at every accepted step, the rivals whose held-out reduction of the gap the earlier effects leave is
+    within ``NEAR`` of the chosen effect's (over the nominal model, every candidate of a late step is within it of
+    the chosen one, the earlier effects having closed most of the gap: one that adds nothing would be a rival no
+    experiment can show)."""
     steps = rivals.steps
     for step, chosen in {k + 1: name for k, name in enumerate(steps)}.items():
         reference = _entry(ranked, steps[:step], step)
@@ -252,16 +254,16 @@ def _add_within_near(rivals: _Rivals, ranked: list[dict]) -> None:
                 entry["step"] == step
                 and other != chosen
                 and entry["effect"].split("+")[:-1] == steps[: step - 1]
-                and entry["heldout_reduction"] >= reference["heldout_reduction"] - NEAR
+                and entry["reduction_over_previous"] >= reference["reduction_over_previous"] - NEAR
             ):
                 rivals.add(
                     _rival(rivals.accepted, steps, step, entry),
                     "rival",
                     step,
                     (chosen, other),
-                    f"at step {step}, {other} reduces the nominal held-out gap by "
-                    f"{entry['heldout_reduction']:.1%}, within {NEAR:.0%} of {chosen}'s "
-                    f"{reference['heldout_reduction']:.1%}",
+                    f"at step {step}, {other} reduces the held-out gap the earlier effects leave by "
+                    f"{entry['reduction_over_previous']:.1%}, within {NEAR:.0%} of {chosen}'s "
+                    f"{reference['reduction_over_previous']:.1%}",
                     nested=False,
                 )
 

@@ -46,7 +46,9 @@ def rule_text(bootstrap: int, seed: int, max_effects: int) -> str:
         f"model's held-out gap with a {bound} lower bound above {ENTRY:.0%}; the verdict is none when no effect is "
         f"kept and the nominal gap is below {FLOOR_COUNTS} counts or {noise} its bootstrap standard error; "
         f"two supported candidates of different laws whose "
-        f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0 are reported as confusable; "
+        f"difference of reductions has a {CONFUSABLE_LEVEL:.0%} interval holding 0, or whose mean excess squared "
+        f"residuals differ by no more than {FLOOR_COUNTS}^2 counts^2 at that interval's bound, are reported as "
+        f"confusable; "
         f"accepted effects that together reduce the nominal gap by less than {CLOSES:.0%} leave it "
         f"unexplained, unless it is below {NEGLIGIBLE_COUNTS} counts: then the verdict is none and the nearest "
         f"candidate is named."
@@ -57,7 +59,7 @@ def confusable_why(pair: dict) -> str:
     """Why two effects are confusable (:func:`furuta_drake.diagnosis.rule.confusable`'s ``pair``), in one clause."""
     (first, second), (r_first, r_second) = pair["effects"], pair["reductions"]
     low, high = pair["difference"]
-    if pair["at_floor"]:
+    if pair["by_excess"]:
         difference = (
             f"mean excess squared residuals, [{low:+.3g}, {high:+.3g}] counts^2, stays below the floor's "
             f"resolution ({FLOOR_COUNTS}^2 counts^2)"

@@ -24,7 +24,10 @@ place against the model holding all the others:
   removes exceeds ``FLOOR_COUNTS``^2 at its 5 % lower bound: large enough to matter, significant, and above the
   floor's resolution; the weakest one that is not is dropped, and the others judged again;
 - two supported candidates of different laws are *confusable* when the 90 % bootstrap interval of the
-  difference of their reductions holds 0: the data explain them equally well, and the report says so;
+  difference of their reductions holds 0, or when one removes no more excess squared residual than the other
+  beyond ``FLOOR_COUNTS``^2 at its 5 % bound (at the floor, and beside a small remaining gap, where relative
+  reductions magnify differences the floor does not resolve): the data explain them equally well, and the report
+  says so;
 - the verdict is ``unexplained`` when the nominal model is not within the noise and the accepted effects together
   reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it), unless that gap is
   *negligible* (:func:`negligible`): below ``NEGLIGIBLE_COUNTS``, a small fraction of a count after the sensor's
@@ -276,27 +279,34 @@ def confusable(
     bootstrap: Bootstrap,
 ) -> list[dict]:
     """The supported candidates of other laws that explain the held-out data as well as ``chosen``, each as
-    ``{"effects": [chosen's effect, other's effect], "reductions": [theirs], "at_floor": bool, "difference":
-    [low, high]}``: the ``CONFUSABLE_LEVEL`` interval of the difference of their reductions (which holds 0), or at
-    the floor of their mean excess squared residuals [counts^2] (which stays below the floor's resolution)."""
+    ``{"effects": [chosen's effect, other's effect], "reductions": [theirs], "by_excess": bool, "difference":
+    [low, high]}``: the ``CONFUSABLE_LEVEL`` interval of the difference of their reductions, which holds 0, or else
+    of their mean excess squared residuals [counts^2], whose lower bound stays below the floor's resolution
+    (:func:`beyond_resolution`). The second alone at the floor, where both reductions are 1; off it too, because
+    beside a small remaining gap a difference below that resolution is no evidence, however large the relative
+    reductions it makes (as for :func:`is_kept`)."""
     out = []
     for name in order(evidence):
         if name == chosen or not is_kept(evidence[name]) or new[name] in law_of(new[chosen]):
             continue
-        floor = at_floor(per_window[chosen])
-        if floor:  # both reductions are 1 there: the excess residuals tell them apart
-            low, high = bootstrap.excess_difference_interval(per_window[name], per_window[chosen])
-            alike = not beyond_resolution(low)
+        reductions = (
+            None
+            if at_floor(per_window[chosen])  # both reductions are 1 there: the excess residuals tell them apart
+            else bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
+        )
+        excess = bootstrap.excess_difference_interval(per_window[name], per_window[chosen])
+        if reductions is not None and reductions[0] <= 0.0 <= reductions[1]:
+            by_excess, difference = False, reductions
+        elif not beyond_resolution(excess[0]):
+            by_excess, difference = True, excess
         else:
-            low, high = bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
-            alike = low <= 0.0 <= high
-        if alike:
-            out.append(
-                {
-                    "effects": [new[chosen], new[name]],
-                    "reductions": [evidence[chosen].reduction, evidence[name].reduction],
-                    "at_floor": floor,
-                    "difference": [low, high],
-                }
-            )
+            continue
+        out.append(
+            {
+                "effects": [new[chosen], new[name]],
+                "reductions": [evidence[chosen].reduction, evidence[name].reduction],
+                "by_excess": by_excess,
+                "difference": list(difference),
+            }
+        )
     return out
