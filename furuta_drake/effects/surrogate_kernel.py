@@ -259,7 +259,8 @@ def _compiled_unchecked(function):
     and no division pays for the check), under a name of its own so that its cached machine code is apart from
     that of the checked compilation."""
     name = function.__name__ + "_unchecked"
-    code = function.__code__.replace(co_name=name, co_qualname=name)
+    names = {"co_name": name} | ({"co_qualname": name} if hasattr(function.__code__, "co_qualname") else {})
+    code = function.__code__.replace(**names)  # co_qualname: Python 3.11 on
     return njit(cache=True, error_model="numpy")(types.FunctionType(code, function.__globals__, name))
 
 
