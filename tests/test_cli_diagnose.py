@@ -86,6 +86,9 @@ def test_ctrl_c_leaves_no_output_and_says_so(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        # a Ctrl-C's default action, whatever the test runner's: a shell's background job starts with SIGINT
+        # ignored, and the child would inherit that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(6.0)  # imports, loading and the first fits
     assert process.poll() is None, process.communicate()
