@@ -114,7 +114,8 @@ def _design_parser(sub) -> None:
         type=float,
         help="length of the experiment [s]; its first half trains, its second is held out (default: the "
         "shortest repeat of an 8 s experiment predicted to settle every pair, up to 64 s; when the design "
-        "targets detection limits, the one of 8, 16 and 32 s predicted to bring them lowest)",
+        "targets detection limits, the shortest of 8, 16 and 32 s predicted to bring them to their sizes, else the "
+        "one bringing them lowest)",
     )
     mode = des.add_mutually_exclusive_group()
     mode.add_argument(
@@ -122,7 +123,7 @@ def _design_parser(sub) -> None:
         dest="balancing",
         action="store_false",
         help="an open-loop command played from rest with the pendulum hanging (default, unless the design "
-        "targets detection limits: then the mode predicted to bring them lowest)",
+        "targets detection limits: then the mode of the experiment chosen by its predicted limits)",
     )
     mode.add_argument(
         "--balancing",
