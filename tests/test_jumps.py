@@ -4,7 +4,7 @@ is constant between two command magnitudes, is found on the plateau holding the 
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from furuta_drake.diagnosis.jumps import line_search
@@ -16,6 +16,9 @@ def _threshold(u: np.ndarray, width: float) -> np.ndarray:
 
 @settings(deadline=None, max_examples=30)
 @given(st.integers(0, 10_000), st.floats(0.05, 0.8), st.floats(0.0, 1.0))
+# the truth's plateau 13 micro N m wide beside one of 0.1 mN m whose cost is almost the same: a search that
+# spread its values over the whole wide plateau never reached the narrow one
+@example(seed=1094, true_share=0.13655426631965006, start_share=0.0)
 def test_a_threshold_width_is_found_on_the_plateau_of_the_truth(seed, true_share, start_share):
     rng = np.random.default_rng(seed)
     u = rng.standard_normal(400) * 0.05  # commands [N m]

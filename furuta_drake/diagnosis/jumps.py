@@ -3,9 +3,10 @@
 A threshold drops every command below it and passes larger ones whole, so with the command held over each sample
 the cost is constant between two logged command magnitudes and jumps at each: its gradient is zero or undefined,
 and a least-squares step from any start stalls where it began. The search instead compares costs: on the logged
-command levels and the fitted value, then ``ZOOM_ROUNDS`` times on ``ZOOM_POINTS`` values between the neighbours of
-the best ones (a plateau of the best cost is bracketed whole: the truth may lie at either end), keeping the best
-value found.
+command levels and the fitted value, then ``ZOOM_ROUNDS`` times on ``ZOOM_POINTS`` values across each edge of the
+plateau of the best cost (from its end to the next value tried): a lower cost lies beyond an edge, not inside a
+plateau, and the truth's own plateau may be far narrower than the plateau beside it, so the rounds spend their
+values on the edges; the best value found is kept.
 """
 
 from __future__ import annotations
@@ -14,8 +15,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-ZOOM_POINTS = 9  # values per round between the best one's neighbours
-ZOOM_ROUNDS = 4  # rounds: the bracket shrinks by (2 / (ZOOM_POINTS - 1)) per round
+ZOOM_POINTS = 5  # values per round across each edge of the best plateau, its two ends included
+ZOOM_ROUNDS = 5  # rounds: each edge's bracket shrinks by 1 / (ZOOM_POINTS - 1) per round
 
 
 def line_search(
@@ -51,7 +52,8 @@ def line_search(
         grid = sorted(tried)
         lowest = min(tried.values())
         ties = [i for i, value in enumerate(grid) if tried[value] == lowest]  # a plateau of the best cost
-        evaluate(np.linspace(grid[max(ties[0] - 1, 0)], grid[min(ties[-1] + 1, len(grid) - 1)], ZOOM_POINTS))
+        evaluate(np.linspace(grid[max(ties[0] - 1, 0)], grid[ties[0]], ZOOM_POINTS))
+        evaluate(np.linspace(grid[ties[-1]], grid[min(ties[-1] + 1, len(grid) - 1)], ZOOM_POINTS))
     best = min(tried, key=tried.get)
     return at(best), tried[best], profile
 
