@@ -27,8 +27,8 @@ QUBE = RIGS["qube_servo2"]()
     seed=st.integers(0, 2**16),
 )
 def test_copies_of_the_windows_predict_bitwise_as_tiled_windows(delay, lag, deadzone, substeps, seed):
-    """predict_windows from copies x W states (the finite differences of the state sensitivities) equals the same
-    call with every window start repeated copies times, to the last bit, whatever the actuator chain."""
+    """The windows' torques tiled over copies x W states (the finite differences of the state sensitivities)
+    predict the same as every window start repeated copies times, to the last bit, whatever the actuator chain."""
     model = Model.from_rig(QUBE).replace(
         delay=delay,
         lag=lag,
@@ -44,7 +44,8 @@ def test_copies_of_the_windows_predict_bitwise_as_tiled_windows(delay, lag, dead
     z0 = 1e-4 * rng.normal(size=copies * starts.size)
     period = 1e-3 * substeps
     tiled = predict_windows(model, x0, command, np.tile(starts, copies), 20, period, substeps, z0)
-    shared = predict_windows(model, x0, command, starts, 20, period, substeps, z0, copies=copies)
+    torque = np.tile(window_torques(model, command, starts, 20, period, substeps), (1, copies))
+    shared = integrate_windows([model], x0, torque, period, substeps, z0)
     assert np.array_equal(tiled, shared, equal_nan=True)
 
 

@@ -229,21 +229,19 @@ def predict_windows(
     period: float,
     substeps: int,
     bristle0: np.ndarray | None = None,
-    copies: int = 1,
 ) -> np.ndarray:
     """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
 
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period), with
     ``HISTORY`` samples before every start (the delay and the lag read the command's past);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
-    (a Dahl or LuGre arm only); ``copies``: x0 (4, copies W) holds that many states per window, in blocks of W
-    (perturbed states: the input chain is evaluated once per window).
+    (a Dahl or LuGre arm only).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
     (delay, lag, static map) is evaluated for every substep at once (:func:`window_torques`); the fixed-step RK4
     is the compiled :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and
     cost far more per step than these windows' short, smooth intervals need).
     """
-    torque = np.tile(window_torques(model, command, starts, horizon, period, substeps), (1, copies))
+    torque = window_torques(model, command, starts, horizon, period, substeps)
     return integrate_windows([model], x0, torque, period, substeps, bristle0)
 
 
