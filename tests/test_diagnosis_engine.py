@@ -529,3 +529,16 @@ def test_a_second_effect_of_clear_size_on_a_small_uneven_remainder_is_kept_a_sma
     assert is_kept(evidence["quarter"])
     assert evidence["tenth"].lower_bound > 0.05 and not is_kept(evidence["tenth"])
     assert not is_kept(evidence["worst_two"])
+
+
+def test_a_delay_just_past_a_sample_replays_in_drake_as_in_the_surrogate():
+    """A fit can land a delay a fraction of a microsecond past a whole number of samples: the applied command then
+    jumps just after each sample. Drake's error-controlled steps stop at every jump, so the replay agrees with the
+    surrogate (which integrates each substep's mean command) as closely as for a delay of whole samples; a step
+    that straddles such a jump leaves an error its step control does not see."""
+    rig = RIGS["lund"]()
+    windows = make_windows([hanging_log(3, "input_delay")], rig)
+    model = apply_effects(Model.from_rig(rig), {"input_delay": Effect("fixed", (4.0005e-3,))})
+    surrogate = evaluate_gap(model, windows, rig.counts_per_rev)
+    drake = replay_gap(model, rig, windows, surrogate.initial_states)
+    assert abs(drake.gap - surrogate.gap) < 0.002  # counts

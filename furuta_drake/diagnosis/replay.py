@@ -5,8 +5,8 @@ the model's rig, its friction, spring, back-EMF and unmodelled torques, and its 
 command as a zero-order-hold ``TrajectorySource``; a pure input delay of an open-loop replay is exactly a time shift
 of that source, a jittering one its expectation (piecewise linear). Each window starts from the initial state the
 surrogate refined for this model, with a fresh integrator (Drake's error-controlled RK5 at accuracy 1e-6: a gap
-near the sensor floor is a square root, so integration error that a looser accuracy leaves would show); the
-residuals give the same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
+near the sensor floor is a square root, so integration error that a looser accuracy leaves would show), which
+stops at every jump of the applied command so that no step straddles one; the residuals give the same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
 """
 
 from __future__ import annotations
@@ -70,7 +70,11 @@ class WindowReplayer:
             unmodelled_torque=unmodelled_torque,
         )
         self.plant, self.P, self.friction = world.plant, world.to_paper, world.friction
-        source = builder.AddSystem(TrajectorySource(_applied_command(model, time, command, period)))
+        applied = _applied_command(model, time, command, period)
+        # The applied command jumps (or kinks) at its breaks; the integrator stops there, so that no error-controlled
+        # step straddles one (a break a fraction of a microsecond after a sample would otherwise go unresolved).
+        self.breaks = _between_samples(np.asarray(applied.get_segment_times()), time, period)
+        source = builder.AddSystem(TrajectorySource(applied))
         builder.Connect(source.get_output_port(), world.arm_torque_input)
         self.diagram = builder.Build()
         self.simulator = Simulator(self.diagram)
@@ -107,6 +111,8 @@ class WindowReplayer:
         out = np.empty((times.size, 2))
         out[0] = x0[:2]
         for k, t in enumerate(times[1:], start=1):
+            for stop in self.breaks[np.searchsorted(self.breaks, times[k - 1]) : np.searchsorted(self.breaks, t)]:
+                self.simulator.AdvanceTo(stop)
             self.simulator.AdvanceTo(t)
             out[k] = (self.P @ self.plant.GetPositionsAndVelocities(self.plant_context))[:2]
         return out
@@ -116,6 +122,14 @@ class WindowReplayer:
         # The lag filter's state is the last continuous entry (plant states and bristles come first).
         state[-1] = value
         return state
+
+
+def _between_samples(breaks: np.ndarray, time: np.ndarray, period: float) -> np.ndarray:
+    """The ``breaks`` [s] that fall between the samples ``time`` (further than a millionth of a ``period`` from
+    every sample: a break on a sample is a stop already)."""
+    i = np.clip(np.searchsorted(time, breaks), 1, time.size - 1)
+    distance = np.minimum(np.abs(breaks - time[i - 1]), np.abs(breaks - time[i]))
+    return breaks[distance > 1e-6 * period]
 
 
 def _applied_command(model: Model, time: np.ndarray, command: np.ndarray, period: float) -> PiecewisePolynomial:
