@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from furuta_drake.diagnosis.detection import detection_limits
+from furuta_drake.diagnosis.final_fit import refit_final
 from furuta_drake.diagnosis.fit import FitResult, interval, scales_of
 from furuta_drake.diagnosis.folds import consistency
 from furuta_drake.diagnosis.gap import (
@@ -262,7 +263,8 @@ def _diagnosable_rig(rig_path: Path) -> RigParameters:
 
 def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
     """The selection of effects, the held-out rule's bootstrap and the torque beyond the vocabulary (None when
-    none passes the rule) with its notes."""
+    none passes the rule) with its notes. Without such a torque the accepted model is then refitted on every train
+    window (:func:`refit_final`); a kept torque was found beside the selection's fit, which stays."""
     counts = inputs.rig.counts_per_rev
     selection = select_effects(
         inputs.nominal,
@@ -291,6 +293,19 @@ def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
         bootstrap,
         settings,
     )
+    if missing is None:
+        selection, refit_notes = refit_final(
+            selection,
+            inputs.nominal,
+            inputs.train_windows,
+            inputs.heldout_windows,
+            inputs.train_logs,
+            counts,
+            settings,
+            bootstrap,
+            run,
+        )
+        notes = notes + refit_notes
     return selection, bootstrap, missing, torque_notes + notes
 
 
