@@ -54,7 +54,8 @@ from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import locate_in_file
 
 UNCERTAINTY = (
-    "95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
+    "95 % intervals from a block bootstrap over the fit's train windows (a window is a block; the accepted "
+    "model's refit: every train window), "
     "linearised at the fit: one Gauss-Newton step per resample; quantisation is read exactly, noise "
     "is bootstrapped over blocks of second differences; the accepted model's intervals also span the move of "
     "its parameters when the strongest candidate not accepted is fitted beside it (an effect below the "
