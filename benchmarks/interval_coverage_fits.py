@@ -7,7 +7,7 @@ bootstrap intervals are the *own* ones; the rival is the joint fit of A and the 
 [min(lo, lo + d), max(hi, hi + d)]. Then both are inflated about the fitted value by each factor of
 ``INFLATIONS``; the table gives each method's coverage over the known parameters, with its binomial standard
 error sqrt(p (1 - p) / n). As the report does, A is then fitted again on every train window from its fit
-(:func:`~furuta_drake.diagnosis.final_fit.every_window_task`, when the logs hold more windows than a fit draws)
+(:func:`~furuta_drake.diagnosis.final_fit.every_window_tasks`, when the logs hold more windows than a fit draws)
 and the refit's value and own interval are checked, the rival's move still measured from the fit on the drawn
 windows; the tables are given for the refit (the report's) and for the drawn windows' fit.
 
@@ -27,7 +27,7 @@ import numpy as np
 
 import benchmarks.diagnosis_independent as ind
 from benchmarks.suite import run_configs, true_params, with_effect
-from furuta_drake.diagnosis.final_fit import every_window_task
+from furuta_drake.diagnosis.final_fit import every_window_tasks, refit
 from furuta_drake.diagnosis.fit import FitTask, fit_task, interval
 from furuta_drake.diagnosis.gap import make_windows
 from furuta_drake.diagnosis.logs import RunLog, load_logs
@@ -69,9 +69,9 @@ def case_rows(label: str, rig, logs: tuple, accepted: str, truth: dict, hidden: 
 
     alone = fit(accepted, {})
     rival = min((fit(other, alone.effects) for other in RIVALS if other != accepted), key=lambda j: j.train_gap)
-    every = every_window_task(alone, nominal, windows, None, logs, rig.counts_per_rev, SETTINGS)
-    final = fit_task(every) if every is not None else alone
-    effect, moved, refit = alone.effects[accepted], rival.effects[accepted], final.effects[accepted]
+    every = every_window_tasks(alone, nominal, windows, None, logs, rig.counts_per_rev, SETTINGS)
+    final = refit(alone, every, lambda function, tasks: [function(task) for task in tasks]) or alone
+    effect, moved, refitted = alone.effects[accepted], rival.effects[accepted], final.effects[accepted]
     params = CANDIDATES[accepted].form(effect.form).params
     rows = []
     for i, param in enumerate(params):
@@ -82,10 +82,10 @@ def case_rows(label: str, rig, logs: tuple, accepted: str, truth: dict, hidden: 
                 "case": label,
                 "param": param,
                 "true": truth[param],
-                "fitted": refit.values[i],
+                "fitted": refitted.values[i],
                 "own": interval(final.samples[accepted][:, i]),
                 "subset": {"fitted": effect.values[i], "own": interval(alone.samples[accepted][:, i])},
-                "refitted": every is not None,
+                "refitted": final is not alone,
                 "shift": moved.values[i] - effect.values[i] if moved.form == effect.form else 0.0,
                 "rival": rival.name,
                 "hidden": hidden,

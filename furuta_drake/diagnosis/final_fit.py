@@ -4,7 +4,8 @@ The selection fits each candidate on a seeded draw of ``DiagnosisSettings.fit_wi
 A law with a sharp feature (a Stribeck peak, a stick-slip event) is then fitted to the events those windows hold,
 and its parameters carry the draw's bias. Once the selection has decided the accepted effects, their model is
 fitted again on every train window, started from the selection's values (a warm start: a few least-squares
-iterations), and its bootstrap resamples every train window. The report's parameters, intervals and final
+iterations) and, for the effect that entered last, also from its forms' own starts; the fit of least train cost
+is kept, and its bootstrap resamples every train window. The report's parameters, intervals and final
 held-out figures are the refit's; the decision stays the selection's: a refit that would change the verdict or the
 effects' names is not reported (the selection's fit is).
 """
@@ -23,10 +24,8 @@ from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES
 
-REFIT_NFEV = 6  # cost evaluations of the warm-started refit (it starts near the minimum)
 
-
-def every_window_task(
+def every_window_tasks(
     fitted: FitResult,
     model: Model,
     train: Windows,
@@ -34,16 +33,17 @@ def every_window_task(
     logs: tuple,
     counts: int,
     settings: DiagnosisSettings,
-) -> FitTask | None:
-    """The refit of ``fitted`` (effects fitted beside ``model``) on every window of ``train``, each fitted effect
-    started from its value (the last one as the task's new effect, in its form), sensor effects kept as they are;
-    None when ``train`` holds no more than ``settings.fit_windows`` windows (the fit saw them all) or no effect is
-    fitted."""
+) -> list[FitTask]:
+    """The refits of ``fitted`` (effects fitted beside ``model``) on every window of ``train``: every fitted effect
+    from its value (a warm start; the last one as the task's new effect, in its form), and the same with the last
+    one from its forms' own starts (the drawn windows' fit can sit in another basin of the cost on every window: a
+    Stribeck peak shaped to the stick-slip events the draw holds); sensor effects kept as they are. Empty when
+    ``train`` holds no more than ``settings.fit_windows`` windows (the fit saw them all) or no effect is fitted."""
     names = [name for name in fitted.effects if CANDIDATES[name].fit]
     if train.count <= settings.fit_windows or not names:
-        return None
+        return []
     new = names[-1]
-    return FitTask(
+    task = FitTask(
         new=new,
         fixed={name: effect for name, effect in fitted.effects.items() if name != new},
         model=model,
@@ -51,10 +51,21 @@ def every_window_task(
         heldout=heldout,
         logs=tuple(logs),
         nominal_counts=counts,
-        settings=dataclasses.replace(settings, fit_windows=train.count, max_nfev=REFIT_NFEV),
+        settings=dataclasses.replace(settings, fit_windows=train.count),
         fixed_samples=fitted.samples,
-        start=fitted.effects[new],
     )
+    return [dataclasses.replace(task, start=fitted.effects[new]), task]
+
+
+def refit(fitted: FitResult, tasks: list[FitTask], run: Callable) -> FitResult | None:
+    """Of ``tasks`` (:func:`every_window_tasks` of ``fitted``) run by ``run``, the fit of least mean excess squared
+    residual on the train windows, named and ordered as ``fitted``; None when every one failed (or none was
+    given)."""
+    results = [result for result in run(fit_task, tasks) if not isinstance(result, Failure)]
+    if not results:
+        return None
+    best = min(results, key=lambda result: result.train_excess)
+    return dataclasses.replace(best, name=fitted.name, effects={name: best.effects[name] for name in fitted.effects})
 
 
 def refit_final(
@@ -72,14 +83,15 @@ def refit_final(
     that model over the nominal one, the step before and each model without one of its effects evaluated again;
     ``selection`` itself when there is nothing to refit. Also the report's notes (a refit not reported)."""
     final = selection.final
-    task = every_window_task(final, model, train, heldout, logs, counts, settings) if final else None
-    if task is None:
+    tasks = every_window_tasks(final, model, train, heldout, logs, counts, settings) if final else []
+    if not tasks:
         return selection, []
-    (result,) = run(fit_task, [task])
-    if isinstance(result, Failure):
-        return selection, [f"the accepted model's refit on every train window failed ({result.reason})"]
-    refit = dataclasses.replace(result, name=final.name, effects={name: result.effects[name] for name in final.effects})
-    out = _with_final(selection, refit, bootstrap)
+    refitted = refit(final, tasks, run)
+    if refitted is None:
+        return selection, [
+            "the accepted model's refit on every train window failed; its fit on the drawn windows is reported"
+        ]
+    out = _with_final(selection, refitted, bootstrap)
     if out.verdict != selection.verdict or out.effects != selection.effects:
         return selection, [
             "the accepted model refitted on every train window would change the verdict; "
@@ -88,19 +100,22 @@ def refit_final(
     return out, []
 
 
-def _with_final(selection: Selection, refit: FitResult, bootstrap: Bootstrap) -> Selection:
-    """``selection`` with ``refit`` in place of its final model and the final model's held-out evidence (over the
-    nominal model, over the step before, over each model without one kept effect) that of ``refit``."""
+def _with_final(selection: Selection, refitted: FitResult, bootstrap: Bootstrap) -> Selection:
+    """``selection`` with ``refitted`` in place of its final model and the final model's held-out evidence (over
+    the nominal model, over the step before, over each model without one kept effect) that of ``refitted``."""
     final, nominal = selection.final, selection.nominal.per_window
     out = dataclasses.replace(
         selection,
-        tried=[(step, refit if result is final else result) for step, result in selection.tried],
-        over_nominal={**selection.over_nominal, refit.name: bootstrap.evidence(nominal, refit.heldout.per_window)},
+        tried=[(step, refitted if result is final else result) for step, result in selection.tried],
+        over_nominal={
+            **selection.over_nominal,
+            refitted.name: bootstrap.evidence(nominal, refitted.heldout.per_window),
+        },
         subset_fit=final,
     )
     chain = [nominal] + [model.heldout.per_window for model in out.step_models]
-    out.over_previous = {**selection.over_previous, refit.name: bootstrap.evidence(chain[-2], chain[-1])}
-    out.over_step = [*selection.over_step[:-1], out.over_previous[refit.name]]
+    out.over_previous = {**selection.over_previous, refitted.name: bootstrap.evidence(chain[-2], chain[-1])}
+    out.over_step = [*selection.over_step[:-1], out.over_previous[refitted.name]]
     without = {name: out.model([other for other in out.accepted if other != name]) for name in out.accepted}
     out.over_others = {
         name: bootstrap.evidence(model.heldout.per_window if model else nominal, chain[-1])
