@@ -10,18 +10,19 @@ import dataclasses
 
 import numpy as np
 import pytest
+from test_form_starts import _surrogate_measured
 
 from benchmarks.suite import run_configs
 from furuta_drake.diagnosis.final_fit import refit_final
 from furuta_drake.diagnosis.fit import FitTask, fit_task, interval
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, substeps_for
+from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.stepwise import Selection
-from furuta_drake.effects.surrogate import Model, predict_windows
+from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import Effect, apply_effects
-from furuta_drake.rig import RIGS, encoder_resolution
+from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate
 
 SETTINGS = DiagnosisSettings(fit_windows=6, interval_resamples=100, bootstrap=200, detection_limits=False)
@@ -33,31 +34,12 @@ LIMIT = 2.0  # the true saturation limit, in units of the largest command before
 def _log(seed: int, burst: bool) -> RunLog:
     """The suite's 3 s Lund hanging run (open-loop multisine, nominal rig in Drake), its command amplified by
     ``BURST_GAIN`` from ``BURST_FROM`` on when ``burst`` (the angles only set the windows' initial states: the
-    measured angles are the true model's prediction, :func:`_measured`)."""
+    measured angles are the true model's prediction)."""
     result = simulate(run_configs(RIGS["lund"](), seed, 3.0)["hanging"])
     command = result.torque.copy()
     if burst:
         command[result.time >= BURST_FROM] *= BURST_GAIN
     return RunLog(f"hanging_{seed}.csv", "", result.time, *result.measured[:, :2].T, "torque", command, 1e-3)
-
-
-def _measured(model: Model, windows, counts: int):
-    """``windows`` measuring ``model``'s prediction from their initial states, read by the rig's encoder."""
-    count = encoder_resolution(counts)
-    measured = [None] * len(windows.logs)
-    for batch in windows.batches():
-        predicted = predict_windows(
-            model,
-            batch.initial_states,
-            batch.command,
-            batch.starts,
-            batch.horizon,
-            batch.period,
-            substeps_for(batch.period),
-        )
-        for j, i in enumerate(batch.members):
-            measured[i] = np.round(predicted[:, :, batch.bounds[j] : batch.bounds[j + 1]] / count) * count
-    return dataclasses.replace(windows, measured=measured)
 
 
 def _selection(fitted, nominal: Model, heldout, counts: int) -> tuple[Selection, Bootstrap]:
@@ -88,9 +70,11 @@ def problem():
     train_log = _log(7, burst=True)
     limit = LIMIT * float(np.max(np.abs(train_log.input[train_log.time < BURST_FROM])))
     truth = apply_effects(nominal, {"actuator_saturation": Effect("hard", (limit,))})
-    train = _measured(truth, make_windows([train_log], rig), counts)
+    train = _surrogate_measured(truth, make_windows([train_log], rig), counts)
     fitted = fit_task(FitTask("actuator_saturation", {}, nominal, train, None, (train_log,), counts, SETTINGS))
-    heldout = {burst: _measured(truth, make_windows([_log(8, burst=burst)], rig), counts) for burst in (False, True)}
+    heldout = {
+        burst: _surrogate_measured(truth, make_windows([_log(8, burst=burst)], rig), counts) for burst in (False, True)
+    }
     return nominal, limit, train, heldout, (train_log,), fitted
 
 
