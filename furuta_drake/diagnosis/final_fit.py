@@ -94,8 +94,8 @@ def refit_final(
     out = _with_final(selection, refitted, bootstrap)
     if out.verdict != selection.verdict or out.effects != selection.effects:
         return selection, [
-            "the accepted model refitted on every train window would change the verdict; "
-            "its fit on the selection's windows is reported"
+            "the accepted model refitted on every train window would change the verdict or the effects' names; "
+            "its fit on the drawn windows is reported"
         ]
     return out, []
 
