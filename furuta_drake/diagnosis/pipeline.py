@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from furuta_drake.diagnosis.detection import detection_limits
+from furuta_drake.diagnosis.final_fit import refit_final
 from furuta_drake.diagnosis.fit import FitResult, interval, scales_of
 from furuta_drake.diagnosis.folds import consistency
 from furuta_drake.diagnosis.gap import (
@@ -53,7 +54,8 @@ from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import locate_in_file
 
 UNCERTAINTY = (
-    "95 % intervals from a block bootstrap over the fit's train windows (a window is a block), "
+    "95 % intervals from a block bootstrap over the fit's train windows (a window is a block; the accepted "
+    "model's refit: every train window), "
     "linearised at the fit: one Gauss-Newton step per resample; quantisation is read exactly, noise "
     "is bootstrapped over blocks of second differences; the accepted model's intervals also span the move of "
     "its parameters when the strongest candidate not accepted is fitted beside it (an effect below the "
@@ -262,7 +264,8 @@ def _diagnosable_rig(rig_path: Path) -> RigParameters:
 
 def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
     """The selection of effects, the held-out rule's bootstrap and the torque beyond the vocabulary (None when
-    none passes the rule) with its notes."""
+    none passes the rule) with its notes. Without such a torque the accepted model is then refitted on every train
+    window (:func:`refit_final`); a kept torque was found beside the selection's fit, which stays."""
     counts = inputs.rig.counts_per_rev
     selection = select_effects(
         inputs.nominal,
@@ -291,6 +294,19 @@ def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
         bootstrap,
         settings,
     )
+    if missing is None:
+        selection, refit_notes = refit_final(
+            selection,
+            inputs.nominal,
+            inputs.train_windows,
+            inputs.heldout_windows,
+            inputs.train_logs,
+            counts,
+            settings,
+            bootstrap,
+            run,
+        )
+        notes = notes + refit_notes
     return selection, bootstrap, missing, torque_notes + notes
 
 

@@ -11,7 +11,9 @@ negative), the factor calibrated on the suites with and without a small hidden s
 and each further candidate *together* (the joint refits of the step after the last one kept, or the model before
 the backward pass dropped an effect); the one that reduces the final model's held-out gap the most is the
 *rival*. A parameter whose value moves by d in the rival then spans [min(lo, lo + d), max(hi, hi + d)] of the
-inflated interval: it holds whether or not the rival is present.
+inflated interval: it holds whether or not the rival is present. The move is measured from the final model as the
+selection fitted it (the rival's fit windows), also when the report's final model is its refit on every train
+window (:mod:`~furuta_drake.diagnosis.final_fit`).
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from furuta_drake.effects.vocabulary import SIGNED, describe
 def rival(selection: Selection, bootstrap: Bootstrap) -> FitResult | None:
     """The model holding every kept effect and one more, refitted together (a kept effect's values moved), that
     reduces the final model's held-out gap the most; None when none was fitted."""
-    final = selection.final
+    final = _selected(selection)
     if final is None:
         return None
     kept = set(selection.accepted)
@@ -49,11 +51,12 @@ def rival(selection: Selection, bootstrap: Bootstrap) -> FitResult | None:
 
 
 def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[str, float]:
-    """Per reported parameter of the final model (its ranking keys), the move of its value in the rival model."""
+    """Per reported parameter of the final model (its ranking keys), the move of its value in the rival model from
+    the final model as the selection fitted it."""
     found = rival(selection, bootstrap)
     if found is None:
         return {}
-    final, several = selection.final, len(selection.accepted) > 1
+    final, several = _selected(selection), len(selection.accepted) > 1
     out = {}
     for name in selection.accepted:
         before = describe(name, final.effects[name], nominal)
@@ -63,6 +66,11 @@ def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[s
         prefix = f"{name}." if several else ""
         out.update({prefix + key: after[key] - value for key, value in before.items() if key != "form"})
     return out
+
+
+def _selected(selection: Selection) -> FitResult | None:
+    """The final model as the selection fitted it (on the fit windows the rivals were fitted on)."""
+    return selection.subset_fit or selection.final
 
 
 def inflated(value: float, low: float, high: float, name: str, factor: float = INTERVAL_INFLATION) -> list[float]:

@@ -56,6 +56,8 @@ class Selection:
     runners_up: dict[str, list[tuple[str, Effect]]] = field(default_factory=dict)  # kept effect -> the other
     # laws' candidates at its entry step, best first, with their fits there
     exchanges: list[dict] = field(default_factory=list)  # {"out", "in", "evidence"}: the exchanges made
+    subset_fit: FitResult | None = None  # the final model as the selection fitted it, on its fit windows, when
+    # ``final`` is its refit on every train window (:mod:`~furuta_drake.diagnosis.final_fit`)
 
     def model(self, effects) -> FitResult | None:
         """The fitted model holding exactly ``effects`` (in any order), or None."""
