@@ -33,6 +33,7 @@ from furuta_drake.diagnosis.gap import (
     Windows,
     evaluate_gap,
     fixed_state_residuals,
+    jitter_variances,
     project_out_states,
     projected_residuals,
 )
@@ -247,9 +248,9 @@ def fit_task(task: FitTask) -> FitResult:
 
 
 def _named_form(task: FitTask, fits: dict) -> str:
-    """The form of lowest train cost; one that nests a simpler form (``Form.simpler``: its last parameter at the
-    lower bound) only when that parameter's 95 % interval stays off the bound and the extra parameter removes more
-    mean squared residual than the floor resolves (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below
+    """The form of lowest train excess (the mean squared residual less a jittering delay's own variance); one that
+    nests a simpler form (``Form.simpler``: its last parameter at the lower bound) only when that parameter's 95 %
+    interval stays off the bound and the extra parameter removes more excess than the floor resolves (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below
     it the extra parameter fits the encoder's rounding), else the simpler form, fitted beside it (a jitter whose
     spread the data do not show is a fixed delay)."""
     best = min(fits, key=lambda form: fits[form][3])
@@ -276,7 +277,7 @@ def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
 def _least_squares(task: FitTask, new_form: dict[str, str]):
     """Least squares of every fitted parameter of ``task.model`` with ``task.fixed`` (started from their values)
     and the new effect in the form ``new_form`` (from the best of its starts); returns (effects, at_bounds,
-    bootstrap samples per effect, the mean squared residual [counts^2])."""
+    bootstrap samples per effect, the mean squared residual less a jittering delay's variance [counts^2])."""
     settings, counts = task.settings, task.nominal_counts
     scales = scales_of(task.logs, task.model)
     forms, sensors = _forms(task, new_form, scales)
@@ -323,8 +324,17 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         {**sensors, **effects_at(x)},
         at_bounds(names, [forms[n][0] for n in names], x, low, high),
         split,
-        total / result.fun.size,  # the mean squared residual [counts^2]
+        total / result.fun.size - _mean_jitter_variance(model_at(x), subset, counts),
     )
+
+
+def _mean_jitter_variance(model: Model, windows: Windows, counts: int) -> float:
+    """The mean variance [counts^2] a jittering delay of ``model`` adds to the residuals of ``windows`` (0 without
+    one): the fit's mean squared residual less it is the excess the gap reads, which orders the forms."""
+    if model.delay_spread <= 0:
+        return 0.0
+    states = projected_residuals(model, windows, counts)[1]
+    return float(np.mean(np.concatenate([v[1:].ravel() for v in jitter_variances(model, windows, states, counts)])))
 
 
 def _forms(task: FitTask, new_form: dict[str, str], scales: Scales) -> tuple[dict, dict]:

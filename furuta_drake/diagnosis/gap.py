@@ -14,7 +14,11 @@ upright's unstable pole amplifies initial-state errors by at most e^1.5 and at m
 
 where sigma_s^2 is the variance the model's own sensor adds (1/12 count^2 for the rig's encoder; more for a
 coarser encoder or measurement noise), so sensor effects shrink the gap by explaining the residual's floor,
-and dynamic effects by shrinking the residual.
+and dynamic effects by shrinking the residual. A model whose input delay jitters predicts the response to the
+expected command; the command's random deviation from it, independent from sample to sample, adds to each sample n
+of a window the variance sigma_j^2(n) = sum_k g_nk^2 v_k (the window's impulse responses g_nk and the command's
+variance v_k over the delay, :mod:`~furuta_drake.effects.jitter`), which is subtracted from that sample's r^2 in
+the same way (zero for every other model).
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
+from furuta_drake.effects.jitter import response_variance
 from furuta_drake.effects.surrogate import HISTORY, Model, bristle_path, predict_windows, sensor_variance
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
@@ -275,13 +280,18 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int):
 
 
 def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
-    """``change`` (h, 2, W) of a log's residuals minus its least-squares fit on the window's state sensitivities
-    (h, 2, W, 4): what a change of the model's parameters does to the residuals once the initial states are
-    re-projected (Kaufman's approximation of the variable-projection Jacobian)."""
+    """``change`` (h, 2, W) of a log's residuals, or (h, 2, K, W) K changes of each window, minus its least-squares
+    fit on the window's state sensitivities (h, 2, W, 4): what a change of the model's parameters does to the
+    residuals once the initial states are re-projected (Kaufman's approximation of the variable-projection
+    Jacobian)."""
     h, _, W, n = state_jacobian.shape
     Jw = state_jacobian.transpose(2, 0, 1, 3).reshape(W, -1, n)
-    cw = change.transpose(2, 0, 1).reshape(W, -1)
     normal = np.einsum("wki,wkj->wij", Jw, Jw) + 1e-9 * np.eye(n)
+    if change.ndim == 4:
+        cw = change.transpose(3, 0, 1, 2).reshape(W, -1, change.shape[2])
+        fitted = np.einsum("wki,wic->wkc", Jw, np.linalg.solve(normal, np.einsum("wki,wkc->wic", Jw, cw)))
+        return change - fitted.reshape(W, h, 2, -1).transpose(1, 2, 3, 0)
+    cw = change.transpose(2, 0, 1).reshape(W, -1)
     coef = np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, cw)[..., None])[..., 0]
     fitted = np.einsum("wki,wi->wk", Jw, coef)
     return change - fitted.reshape(W, h, 2).transpose(1, 2, 0)
@@ -312,10 +322,51 @@ class GapResult:
     initial_states: list[np.ndarray]  # per log (4, W), refined for this model (5, W: with the arm's bristle)
 
 
-def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: list[np.ndarray]) -> GapResult:
-    """The gap and its parts from per-log (horizon, 2, W) residuals [counts] and the sensor variance."""
+def jitter_variances(model: Model, windows: Windows, states: list[np.ndarray], nominal_counts: int):
+    """Per log (horizon, 2, W) the variance [counts^2] a jittering delay adds to each residual of the windows from
+    the initial ``states`` (:func:`~furuta_drake.effects.jitter.response_variance`), with the share the refit of
+    each window's initial state absorbs projected out (:func:`project_out_states`: the responses of the command's
+    deviations are smooth, and a window's own best start takes most of them); None without a spread."""
+    if model.delay_spread <= 0:
+        return None
+    count = encoder_resolution(nominal_counts)
+    out = [None] * len(windows.logs)
+    for batch in windows.batches():
+        x = np.concatenate([states[i] for i in batch.members], axis=1)
+        substeps = substeps_for(batch.period)
+        J = _linearised(model, x, batch, substeps, _perturbation(model, x.shape[0]), count)[1]
+
+        def residual_of(responses, part, J=J):
+            return project_out_states(responses, J[:, :, part])
+
+        z0 = x[4] if x.shape[0] > 4 else None
+        variance = response_variance(
+            model, x[:4], batch.command, batch.starts, batch.horizon, batch.period, substeps, z0, residual_of
+        )
+        for j, i in enumerate(batch.members):
+            out[i] = variance[:, :, batch.bounds[j] : batch.bounds[j + 1]] / count**2
+    return out
+
+
+def squared_excess(r: list[np.ndarray], jitter: list[np.ndarray] | None = None) -> list[np.ndarray]:
+    """Per log the squared residuals (horizon - 1, 2, W) [counts^2] past each window's start, less the jittering
+    delay's variance of each sample when the model has one."""
     squared = [x[1:] ** 2 for x in r]  # row 0 is the start
-    per_window = np.concatenate([x.mean(axis=(0, 1)) for x in squared]) - variance
+    return squared if jitter is None else [x - j[1:] for x, j in zip(squared, jitter)]
+
+
+def window_excess(r: list[np.ndarray], variance: float, jitter: list[np.ndarray] | None = None) -> np.ndarray:
+    """Each window's mean squared residual less the model's sensor and jitter variance [counts^2]."""
+    return np.concatenate([x.mean(axis=(0, 1)) for x in squared_excess(r, jitter)]) - variance
+
+
+def gap_from_residuals(
+    r: list[np.ndarray], variance: float, initial_states: list[np.ndarray], jitter: list[np.ndarray] | None = None
+) -> GapResult:
+    """The gap and its parts from per-log (horizon, 2, W) residuals [counts], the sensor variance and the jittering
+    delay's variance of each sample (:func:`jitter_variances`; None: none)."""
+    squared = squared_excess(r, jitter)
+    per_window = window_excess(r, variance, jitter)
     samples = sum(x.shape[0] * x.shape[2] for x in squared)
     per_signal = {
         name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - variance, 0.0)))
@@ -327,7 +378,8 @@ def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: lis
 def evaluate_gap(model: Model, windows: Windows, nominal_counts: int) -> GapResult:
     """The gap of ``model`` on ``windows`` (see the module docstring), from the surrogate."""
     r, states, _ = projected_residuals(model, windows, nominal_counts)
-    return gap_from_residuals(r, sensor_variance(model, nominal_counts), states)
+    jitter = jitter_variances(model, windows, states, nominal_counts)
+    return gap_from_residuals(r, sensor_variance(model, nominal_counts), states, jitter)
 
 
 def window_residuals(result: GapResult, windows: Windows, rig: RigParameters) -> list[WindowResiduals]:

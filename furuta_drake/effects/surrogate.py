@@ -226,6 +226,7 @@ def predict_windows(
     substeps: int,
     bristle0: np.ndarray | None = None,
     copies: int = 1,
+    change: np.ndarray | None = None,
 ) -> np.ndarray:
     """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
 
@@ -233,7 +234,8 @@ def predict_windows(
     ``HISTORY`` samples before every start (the delay and the lag read the command's past);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
     (a Dahl or LuGre arm only); ``copies``: x0 (4, copies W) holds that many states per window, in blocks of W
-    (perturbed states: the input chain is evaluated once per window).
+    (perturbed states: the input chain is evaluated once per window); ``change``: (steps, copies W) added to the
+    command of every copy before the lag and the static map (a command impulse), or None.
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
     (delay, lag, static map) is evaluated for every substep at once; the fixed-step RK4 is the compiled
     :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and cost far more
@@ -244,8 +246,11 @@ def predict_windows(
     steps = (horizon - 1) * substeps
     times = (np.arange(steps) * dt)[:, None]
     held = expected_command(command, starts[None, :], times, dt, period, model)  # (steps, W)
-    if model.lag > 0:
-        held = kernel.lag_filter(held, lag_states(model, command, starts, period, substeps), model.lag, dt)[0]
+    lags = lag_states(model, command, starts, period, substeps) if model.lag > 0 else None
+    if change is not None:
+        held, lags, copies = np.tile(held, (1, copies)) + change, None if lags is None else np.tile(lags, copies), 1
+    if lags is not None:
+        held = kernel.lag_filter(held, lags, model.lag, dt)[0]
     torque = np.ascontiguousarray(np.tile(applied_torque(model, held), (1, copies)), dtype=float)
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     return kernel.integrate(np.ascontiguousarray(x), z, torque, dt, substeps, *kernel.pack(model))[0]
