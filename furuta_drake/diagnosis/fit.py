@@ -250,9 +250,10 @@ def fit_task(task: FitTask) -> FitResult:
 def _named_form(task: FitTask, fits: dict) -> str:
     """The form of lowest train excess (the mean squared residual less a jittering delay's own variance); one that
     nests a simpler form (``Form.simpler``: its last parameter at the lower bound) only when that parameter's 95 %
-    interval stays off the bound and the extra parameter removes more excess than the floor resolves (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below
-    it the extra parameter fits the encoder's rounding), else the simpler form, fitted beside it (a jitter whose
-    spread the data do not show is a fixed delay)."""
+    interval stays off the bound and the extra parameter removes more excess than the floor resolves
+    (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below it the extra parameter fits the encoder's
+    rounding), else the simpler form, fitted beside it (a jitter whose spread the data do not show is a fixed
+    delay)."""
     best = min(fits, key=lambda form: fits[form][3])
     form = CANDIDATES[task.new].form(best)
     if form.simpler is None or form.simpler not in fits:
