@@ -42,7 +42,7 @@ from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.noise_correlation import correlated_noise_estimate
 from furuta_drake.diagnosis.rule import beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.surrogate import Model, sensor_variance
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
 from furuta_drake.rig import encoder_resolution
 
@@ -248,7 +248,8 @@ def fit_task(task: FitTask) -> FitResult:
 
 
 def _named_form(task: FitTask, fits: dict) -> str:
-    """The form of lowest train excess (the mean squared residual less a jittering delay's own variance); one that
+    """The form of lowest train cost (the mean squared residual less a jittering delay's own variance, at most its
+    excess over the sensor's); one that
     nests a simpler form (``Form.simpler``: its last parameter at the lower bound) only when that parameter's 95 %
     interval stays off the bound and the extra parameter removes more excess than the floor resolves
     (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below it the extra parameter fits the encoder's
@@ -278,7 +279,8 @@ def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
 def _least_squares(task: FitTask, new_form: dict[str, str]):
     """Least squares of every fitted parameter of ``task.model`` with ``task.fixed`` (started from their values)
     and the new effect in the form ``new_form`` (from the best of its starts); returns (effects, at_bounds,
-    bootstrap samples per effect, the mean squared residual less a jittering delay's variance [counts^2])."""
+    bootstrap samples per effect, the mean squared residual less a jittering delay's variance, :func:`_less_jitter`
+    [counts^2])."""
     settings, counts = task.settings, task.nominal_counts
     scales = scales_of(task.logs, task.model)
     forms, sensors = _forms(task, new_form, scales)
@@ -325,17 +327,19 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         {**sensors, **effects_at(x)},
         at_bounds(names, [forms[n][0] for n in names], x, low, high),
         split,
-        total / result.fun.size - _mean_jitter_variance(model_at(x), subset, counts),
+        _less_jitter(total / result.fun.size, model_at(x), subset, counts),
     )
 
 
-def _mean_jitter_variance(model: Model, windows: Windows, counts: int) -> float:
-    """The mean variance [counts^2] a jittering delay of ``model`` adds to the residuals of ``windows`` (0 without
-    one): the fit's mean squared residual less it is the excess the gap reads, which orders the forms."""
+def _less_jitter(mean_square: float, model: Model, windows: Windows, counts: int) -> float:
+    """``mean_square`` [counts^2] of ``model``'s residuals on ``windows`` less the mean variance its jittering delay
+    adds to them, at most the part above the sensor's variance (a spread claims no variance the residuals do not
+    hold); ``mean_square`` itself without a jitter."""
     if model.delay_spread <= 0:
-        return 0.0
+        return mean_square
     states = projected_residuals(model, windows, counts)[1]
-    return float(np.mean(np.concatenate([v[1:].ravel() for v in jitter_variances(model, windows, states, counts)])))
+    claimed = float(np.mean(np.concatenate([v[1:].ravel() for v in jitter_variances(model, windows, states, counts)])))
+    return mean_square - min(claimed, max(mean_square - sensor_variance(model, counts), 0.0))
 
 
 def _forms(task: FitTask, new_form: dict[str, str], scales: Scales) -> tuple[dict, dict]:
