@@ -10,7 +10,7 @@ Residuals
 are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that the
 upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
 
-    gap = sqrt(max(mean over windows, samples and both angles of r^2 - sigma_s^2, 0))   [counts]
+    gap = sqrt(max(mean over windows, samples and both angles of r^2 - sigma_s^2 - sigma_j^2, 0))   [counts]
 
 where sigma_s^2 is the variance the model's own sensor adds (1/12 count^2 for the rig's encoder; more for a
 coarser encoder or measurement noise), so sensor effects shrink the gap by explaining the residual's floor,
