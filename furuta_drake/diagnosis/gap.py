@@ -23,13 +23,14 @@ the same way (zero for every other model).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
-from furuta_drake.effects.jitter import response_variance
+from furuta_drake.effects.jitter import command_variance, response_variance
 from furuta_drake.effects.surrogate import HISTORY, Model, bristle_path, predict_windows, sensor_variance
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
@@ -209,12 +210,14 @@ def _perturbation(model: Model, n: int) -> np.ndarray:
     return np.append(_PERTURBATION, 0.05 * model.arm_friction.bristle_bound)
 
 
-def _predict(model: Model, x: np.ndarray, batch: Batch, substeps: int, copies: int = 1) -> np.ndarray:
+def _predict(
+    model: Model, x: np.ndarray, batch: Batch, substeps: int, copies: int = 1, change: np.ndarray | None = None
+) -> np.ndarray:
     """:func:`predict_windows` of the batch's windows from initial states (4, copies W) or, with the arm's bristle
-    state as a 5th row, (5, copies W)."""
+    state as a 5th row, (5, copies W), the command changed by ``change`` (or None)."""
     bristles = x[4] if x.shape[0] > 4 else None
     return predict_windows(
-        model, x[:4], batch.command, batch.starts, batch.horizon, batch.period, substeps, bristles, copies
+        model, x[:4], batch.command, batch.starts, batch.horizon, batch.period, substeps, bristles, copies, change
     )
 
 
@@ -339,10 +342,13 @@ def jitter_variances(model: Model, windows: Windows, states: list[np.ndarray], n
         def residual_of(responses, part, J=J):
             return project_out_states(responses, J[:, :, part])
 
-        z0 = x[4] if x.shape[0] > 4 else None
-        variance = response_variance(
-            model, x[:4], batch.command, batch.starts, batch.horizon, batch.period, substeps, z0, residual_of
-        )
+        def predict(part, copies, change, x=x, batch=batch, substeps=substeps):
+            windows_part = dataclasses.replace(batch, starts=batch.starts[part])
+            return _predict(model, np.tile(x[:, part], copies), windows_part, substeps, copies, change)
+
+        samples = batch.starts[None, :] + np.arange(batch.horizon - 1)[:, None]
+        v = command_variance(batch.command, batch.period, model)[samples]
+        variance = response_variance(v, predict, residual_of)
         for j, i in enumerate(batch.members):
             out[i] = variance[:, :, batch.bounds[j] : batch.bounds[j + 1]] / count**2
     return out

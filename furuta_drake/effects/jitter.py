@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from furuta_drake.effects.surrogate import Model, jitter_width, predict_windows
+from furuta_drake.effects.surrogate import Model, jitter_width
 
 MAX_COLUMNS = 20_000  # impulse-response columns (windows x samples) per surrogate call: bounds the memory
 
@@ -51,47 +51,34 @@ def command_variance(command: np.ndarray, period: float, model: Model) -> np.nda
     return np.maximum(second / (high - low) - mean * mean, 0.0)
 
 
-def response_variance(
-    model: Model,
-    x0: np.ndarray,
-    command: np.ndarray,
-    starts: np.ndarray,
-    horizon: int,
-    period: float,
-    substeps: int,
-    bristle0: np.ndarray | None = None,
-    residual_of=None,
-) -> np.ndarray:
-    """sigma_j^2 [rad^2] (horizon, 2, W) of the windows :func:`~.surrogate.predict_windows` predicts from ``x0``
-    (module docstring); zeros without a spread. The impulse responses are forward differences of one command
-    impulse per sample, of the deviation's own size (the root mean of v_k over the windows), batched over
-    windows. ``residual_of(responses, part)``: what of the responses (horizon, 2, horizon - 1, w) of the windows
-    ``part`` (a slice) stays in the residual (the gap refits each window's initial state, which absorbs the
-    responses' smooth share); None: all of them."""
-    variance = command_variance(command, period, model)[starts[None, :] + np.arange(horizon - 1)[:, None]]
-    out = np.zeros((horizon, 2, starts.size))
+def response_variance(variance: np.ndarray, predict, residual_of=None) -> np.ndarray:
+    """sigma_j^2 (horizon, 2, W) [the angles' unit^2] of W windows (module docstring) from ``variance``
+    (horizon - 1, W), v_k of each window's samples [N m^2], and ``predict(part, copies, change)``: the angles
+    (horizon, 2, copies w) predicted for the w windows ``part`` (a slice), ``copies`` times, with the command of
+    each sample changed by ``change`` (horizon - 1, copies w) before the lag and static map (the ``change`` of
+    :func:`~.surrogate.predict_windows`). The impulse responses are forward differences of one command impulse
+    per sample, of the deviation's own size (the root mean of v_k), batched over windows; ``residual_of(responses,
+    part)``: what of the responses (horizon, 2, horizon - 1, w) stays in the residual (the gap refits each
+    window's initial state, which absorbs their smooth share); None: all of them. Zeros where every v_k is."""
+    samples, W = variance.shape
+    out = np.zeros((samples + 1, 2, W))
     size = float(np.sqrt(np.mean(variance))) if variance.size else 0.0
     if size == 0.0:
         return out
-    chunk = max(1, MAX_COLUMNS // horizon)
-    for first in range(0, starts.size, chunk):
-        part = slice(first, first + chunk)
-        z0 = None if bristle0 is None else bristle0[part]
-        g = _impulse_change(model, x0[:, part], command, starts[part], horizon, period, substeps, z0, size) / size
+    chunk = max(1, MAX_COLUMNS // (samples + 1))
+    for first in range(0, W, chunk):
+        part = slice(first, min(first + chunk, W))
+        g = _impulse_change(predict, part, samples, size) / size
         g = g if residual_of is None else residual_of(g, part)
         out[:, :, part] = np.einsum("nskw,kw->nsw", g**2, variance[:, part])
     return out
 
 
-def _impulse_change(model, x0, command, starts, horizon, period, substeps, bristle0, size) -> np.ndarray:
-    """(horizon, 2, horizon - 1, W): the predicted angles' change when the command of sample k (axis 2) rises by
-    ``size`` [N m], one surrogate call of width horizon W (copy 0 the unperturbed windows)."""
-    W, copies, steps = starts.size, horizon, (horizon - 1) * substeps
-    impulse = np.zeros((steps, copies, W))
-    for k in range(horizon - 1):
-        impulse[k * substeps : (k + 1) * substeps, k + 1] = size
-    z0 = None if bristle0 is None else np.tile(bristle0, copies)
-    predicted = predict_windows(
-        model, np.tile(x0, copies), command, starts, horizon, period, substeps, z0, copies, impulse.reshape(steps, -1)
-    ).reshape(horizon, 2, copies, W)
+def _impulse_change(predict, part: slice, samples: int, size: float) -> np.ndarray:
+    """(samples + 1, 2, samples, w): the predicted angles' change when the command of sample k (axis 2) rises by
+    ``size`` [N m], one call of width (samples + 1) w (copy 0 the unperturbed windows)."""
+    w, copies = part.stop - part.start, samples + 1
+    impulse = np.zeros((samples, copies, w))
+    impulse[np.arange(samples), np.arange(1, copies)] = size
+    predicted = predict(part, copies, impulse.reshape(samples, -1)).reshape(samples + 1, 2, copies, w)
     return predicted[:, :, 1:] - predicted[:, :, :1]

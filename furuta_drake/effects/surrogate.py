@@ -234,8 +234,8 @@ def predict_windows(
     ``HISTORY`` samples before every start (the delay and the lag read the command's past);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
     (a Dahl or LuGre arm only); ``copies``: x0 (4, copies W) holds that many states per window, in blocks of W
-    (perturbed states: the input chain is evaluated once per window); ``change``: (steps, copies W) added to the
-    command of every copy before the lag and the static map (a command impulse), or None.
+    (perturbed states: the input chain is evaluated once per window); ``change``: (horizon - 1, copies W) added to
+    the command of each sample of every copy before the lag and the static map (a command impulse), or None.
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
     (delay, lag, static map) is evaluated for every substep at once; the fixed-step RK4 is the compiled
     :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and cost far more
@@ -248,7 +248,8 @@ def predict_windows(
     held = expected_command(command, starts[None, :], times, dt, period, model)  # (steps, W)
     lags = lag_states(model, command, starts, period, substeps) if model.lag > 0 else None
     if change is not None:
-        held, lags, copies = np.tile(held, (1, copies)) + change, None if lags is None else np.tile(lags, copies), 1
+        held = np.tile(held, (1, copies)) + np.repeat(change, substeps, axis=0)
+        lags, copies = None if lags is None else np.tile(lags, copies), 1
     if lags is not None:
         held = kernel.lag_filter(held, lags, model.lag, dt)[0]
     torque = np.ascontiguousarray(np.tile(applied_torque(model, held), (1, copies)), dtype=float)
