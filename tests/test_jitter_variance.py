@@ -106,16 +106,17 @@ def test_the_variance_matches_the_spread_of_angles_under_delays_drawn_every_samp
 def test_the_gap_of_the_true_jittering_delay_subtracts_what_its_draws_add(nominal_windows):  # noqa: F811
     """The hanging run's windows, their angles the model's response to a command read at a delay drawn anew every
     sample (a fine encoder): the true jittering delay's mean squared residual, once each window's start is
-    refitted, is what its predicted variance says to first order, so its gap's mean excess is a fraction of the
-    residuals' mean square (eight draws: their own sampled variance is within about 15 %; the initial states'
-    nonlinear refit takes slightly more than the linear projection the prediction subtracts)."""
+    refitted, is what its predicted variance says to first order, so its gap's mean excess is a small part of the
+    residuals' mean square, which would all be excess without it (24 draws: their sampled mean square is within
+    about a tenth of its expectation; the prediction runs somewhat above it on these windows, hence the
+    tolerance)."""
     rig, logs, windows = nominal_windows
     hanging = make_windows([log for log in logs if log.name.startswith("hanging")], rig)
     model = _jitter(Model.from_rig(rig), 3e-3, 0.87e-3).replace(counts_per_rev=FINE_COUNTS)
     fixed, count = model.replace(delay=0.0, delay_spread=0.0), encoder_resolution(FINE_COUNTS)
     rng = np.random.default_rng(5)
     excess, raw = [], []
-    for _ in range(8):
+    for _ in range(24):
         (batch,) = hanging.batches()
         drawn = 3e-3 + math.sqrt(3.0) * 0.87e-3 * rng.uniform(-1.0, 1.0, batch.command.size)
         samples = np.arange(batch.command.size)[None, :]
@@ -125,4 +126,15 @@ def test_the_gap_of_the_true_jittering_delay_subtracts_what_its_draws_add(nomina
         result = evaluate_gap(model, dataclasses.replace(hanging, measured=measured), FINE_COUNTS)
         excess.append(result.per_window.mean())
         raw.append(np.mean([(r[1:] ** 2).mean() for r in result.residuals]))
-    assert abs(np.mean(excess)) < 0.4 * np.mean(raw)
+    assert abs(np.mean(excess)) < 0.3 * np.mean(raw)
+
+
+def test_a_model_without_a_spread_keeps_the_sensor_only_gap(nominal_windows):  # noqa: F811
+    """No jitter, no variance beside the sensor's: the gap is exactly the mean squared residual less the encoder's
+    1/12 count^2."""
+    rig, _, windows = nominal_windows
+    model = apply_effects(Model.from_rig(rig), {"input_delay": Effect("fixed", (3e-3,))})
+    result = evaluate_gap(model, windows, rig.counts_per_rev)
+    per_window = np.concatenate([(r[1:] ** 2).mean(axis=(0, 1)) for r in result.residuals]) - 1.0 / 12.0
+    assert np.array_equal(result.per_window, per_window)
+    assert result.gap == math.sqrt(max(per_window.mean(), 0.0))
