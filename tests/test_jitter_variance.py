@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from test_form_starts import nominal_windows  # noqa: F401  (the fixture)
 
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
+from furuta_drake.diagnosis.gap import IMPULSES, evaluate_gap, make_windows
 from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import Model, _delayed_command, integrate_windows, predict_windows, window_torques
 from furuta_drake.effects.vocabulary import Effect, apply_effects
@@ -37,8 +37,9 @@ def test_the_command_variance_is_the_variance_over_the_uniform_delay_of_the_samp
     assert command_variance(command, PERIOD, model)[30:100] == pytest.approx(means.var(axis=0), rel=1e-3, abs=1e-9)
 
 
-def _response_variance(model: Model, x0, command, starts, horizon: int, substeps: int) -> np.ndarray:
-    """:func:`response_variance` [rad^2] of the windows ``predict_windows`` predicts from ``x0`` (4, W)."""
+def _response_variance(model: Model, x0, command, starts, horizon: int, substeps: int, stride: int = 1):
+    """:func:`response_variance` [rad^2] of the windows ``predict_windows`` predicts from ``x0`` (4, W), the
+    impulses simulated at every ``stride``-th sample."""
 
     def predict(part, copies, change):
         torque = window_torques(model, command, np.tile(starts[part], copies), horizon, PERIOD, substeps, change)
@@ -46,7 +47,7 @@ def _response_variance(model: Model, x0, command, starts, horizon: int, substeps
 
     v = command_variance(command, PERIOD, model)[starts[None, :] + np.arange(horizon - 1)[:, None]]
     size = float(np.sqrt(np.mean(v))) or 1e-3
-    return response_variance(impulse_energy(predict, horizon - 1, starts.size, size), v)
+    return response_variance(impulse_energy(predict, horizon - 1, starts.size, size, None, stride), v)
 
 
 def _double_integrator() -> Model:
@@ -139,3 +140,17 @@ def test_a_model_without_a_spread_keeps_the_sensor_only_gap(nominal_windows):  #
     per_window = np.concatenate([(r[1:] ** 2).mean(axis=(0, 1)) for r in result.residuals]) - 1.0 / 12.0
     assert np.array_equal(result.per_window, per_window)
     assert result.gap == math.sqrt(max(per_window.mean(), 0.0))
+
+
+def test_impulses_shifted_between_simulated_ones_give_the_variance_of_every_impulse_simulated():
+    """The nonlinear model swinging while hanging, its friction on: over a few samples the operating point moves
+    little, so an impulse's response shifted in time stands for its neighbours' (the gap simulates one in
+    ``IMPULSES`` per window)."""
+    model = _jitter(Model.from_rig(RIGS["lund"]()), 3e-3, 0.87e-3)
+    time = np.arange(700) * PERIOD
+    command = 0.04 * np.sin(2 * np.pi * 3.0 * time) + np.random.default_rng(4).normal(0.0, 0.01, time.size)
+    x0 = np.array([[math.pi - 0.3], [0.1], [1.0], [0.5]])
+    every = _response_variance(model, x0, command, np.array([400]), 150, 1)
+    shifted = _response_variance(model, x0, command, np.array([400]), 150, 1, stride=-(-149 // IMPULSES))
+    late = slice(75, 150)
+    assert shifted[late] == pytest.approx(every[late], rel=0.05)
