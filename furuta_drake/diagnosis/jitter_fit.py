@@ -17,7 +17,6 @@ variance. A uniform delay cannot reach below zero, so the spread is at most the 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +24,7 @@ import numpy as np
 from furuta_drake.diagnosis.gap import Windows, jitter_energy, jitter_variances, projected_residuals
 from furuta_drake.diagnosis.rule import LOWER_BOUND_QUANTILE
 from furuta_drake.effects.surrogate import Model, sensor_variance
+from furuta_drake.effects.vocabulary import causal_spread
 
 GRID = 41  # spreads and constant variances on which the likelihood is evaluated (log-spaced)
 
@@ -43,7 +43,7 @@ def spread_by_likelihood(
 ) -> SpreadEvidence:
     """The spread of ``model``'s jittering delay within ``bounds`` [s] that maximises the likelihood of its
     residuals on ``windows``, from ``resamples`` seeded bootstrap draws of the windows (module docstring)."""
-    low, high = bounds[0], min(bounds[1], model.delay / math.sqrt(3.0))
+    low, high = bounds[0], min(bounds[1], causal_spread(model.delay))
     if high <= low:
         return SpreadEvidence(low, np.full(resamples, low), False)
     r, states, jacobians = projected_residuals(model, windows, nominal_counts)
