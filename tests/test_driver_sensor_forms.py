@@ -143,11 +143,16 @@ def test_white_noise_reads_no_correlation_time():
     assert effect is None
 
 
-def test_a_rig_file_jitter_needs_a_positive_spread():
+@pytest.mark.parametrize(
+    "spread, message",
+    [(0.0, r"delay_spread must be positive"), (0.0018, r"delay_spread must be at most delay / sqrt\(3\)")],
+)
+def test_a_rig_file_jitter_needs_a_positive_spread_that_keeps_the_delay_above_zero(spread, message):
+    """A 3 ms delay uniform on 3 ms +- sqrt(3) 1.8 ms would reach -0.12 ms: a command not yet sent."""
     from furuta_drake.effects.vocabulary import rig_effects
 
     class Rig:
-        effects = {"input_delay": {"form": "jitter", "delay": 0.003, "delay_spread": 0.0}}
+        effects = {"input_delay": {"form": "jitter", "delay": 0.003, "delay_spread": spread}}
 
-    with pytest.raises(ConfigError, match=r"effects\.input_delay\.delay_spread must be positive"):
+    with pytest.raises(ConfigError, match=r"effects\.input_delay\." + message):
         rig_effects(Rig())

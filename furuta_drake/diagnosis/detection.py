@@ -23,7 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS
-from furuta_drake.diagnosis.gap import Windows, fixed_state_residuals, project_out_states, projected_residuals
+from furuta_drake.diagnosis.gap import (
+    Windows,
+    fixed_state_residuals,
+    model_jitter,
+    project_out_states,
+    projected_residuals,
+    window_excess,
+)
 from furuta_drake.diagnosis.result import DetectionLimit
 from furuta_drake.diagnosis.rule import Bootstrap, at_floor, decide
 from furuta_drake.effects.surrogate import Model, sensor_variance
@@ -159,13 +166,14 @@ class _Judge:
     def __post_init__(self):
         self.raw, self.states, self.jacobians = projected_residuals(self.model, self.windows, self.counts)
         self.variance = sensor_variance(self.model, self.counts)
-        self.truth = _excess(self.raw, self.variance)
+        self.jitter = model_jitter(self.model, self.windows, self.counts, (self.states, self.jacobians))
+        self.truth = window_excess(self.raw, self.variance, self.jitter)
 
     def detected(self, residuals: list[np.ndarray], variance_of_truth: float | None = None) -> bool:
         """Whether synthetic residuals of the model are detected against the truth (the model's own residuals,
         or with ``variance_of_truth`` the same residuals judged with that sensor variance)."""
-        synthetic = _excess(residuals, self.variance)
-        truth = self.truth if variance_of_truth is None else _excess(residuals, variance_of_truth)
+        synthetic = window_excess(residuals, self.variance, self.jitter)
+        truth = self.truth if variance_of_truth is None else window_excess(residuals, variance_of_truth, self.jitter)
         if at_floor(synthetic):
             return False
         evidence = self.bootstrap.evidence(synthetic, truth)
@@ -178,10 +186,6 @@ class _Judge:
             raw + project_out_states(np.nan_to_num(p - raw, nan=1e6 / count), J)
             for raw, p, J in zip(self.raw, predicted, self.jacobians)
         ]
-
-
-def _excess(residuals: list[np.ndarray], variance: float) -> np.ndarray:
-    return np.concatenate([(r[1:] ** 2).mean(axis=(0, 1)) for r in residuals]) - variance
 
 
 def detection_limits(

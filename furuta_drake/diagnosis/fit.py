@@ -36,13 +36,14 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
+from furuta_drake.diagnosis.jitter_fit import spread_by_likelihood
 from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.noise_correlation import correlated_noise_estimate
 from furuta_drake.diagnosis.rule import beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, causal_spread
 from furuta_drake.rig import encoder_resolution
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
@@ -224,7 +225,7 @@ def fit_task(task: FitTask) -> FitResult:
     if candidate.fit:
         forms = [task.start.form] if task.start is not None else [form.name for form in candidate.forms]
         fits = {form: _least_squares(task, {task.new: form}) for form in forms}
-        effects, at_bound, samples, _ = fits[_named_form(task, fits)]
+        effects, at_bound, samples, _ = _named_fit(task, fits)
     else:
         estimate, new_samples = _sensor_estimate(task)
         effects = {**task.fixed, task.new: estimate}
@@ -246,20 +247,42 @@ def fit_task(task: FitTask) -> FitResult:
     )
 
 
-def _named_form(task: FitTask, fits: dict) -> str:
-    """The form of lowest train cost; one that nests a simpler form (``Form.simpler``: its last parameter at the
-    lower bound) only when that parameter's 95 % interval stays off the bound and the extra parameter removes more
+def _named_fit(task: FitTask, fits: dict) -> tuple:
+    """The fit of the form of lowest train cost; one that nests a simpler form (``Form.simpler``: a jittering delay,
+    its spread at the lower bound) only when the data show its extra parameter, else the simpler form, fitted
+    beside it. The least squares show it when the spread's 95 % interval stays off the bound, the delay stays at
+    or above zero (:func:`~furuta_drake.effects.vocabulary.causal_spread`) and the spread removes more
     mean squared residual than the floor resolves (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below
-    it the extra parameter fits the encoder's rounding), else the simpler form, fitted beside it (a jitter whose
-    spread the data do not show is a fixed delay)."""
+    it the spread fits the encoder's rounding); otherwise the residuals' variance may show it, and the spread is
+    then the one of largest likelihood (:mod:`~furuta_drake.diagnosis.jitter_fit`), when that is credited."""
     best = min(fits, key=lambda form: fits[form][3])
     form = CANDIDATES[task.new].form(best)
     if form.simpler is None or form.simpler not in fits:
-        return best
+        return fits[best]
     low, high = (bound[-1] for bound in form.bounds(scales_of(task.logs, task.model)))
     extra = fits[best][2][task.new][:, -1]
     off_bound = np.percentile(extra, INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low)
-    return best if off_bound and beyond_resolution(fits[form.simpler][3] - fits[best][3]) else form.simpler
+    effects, at_bound, samples, cost = fits[best]
+    delay, spread = effects[task.new].values
+    causal = spread <= causal_spread(delay)
+    if off_bound and causal and beyond_resolution(fits[form.simpler][3] - fits[best][3]):
+        return fits[best]
+    settings = task.settings
+    effects = {**effects, task.new: Effect(form.name, (delay, min(spread, causal_spread(delay))))}
+    evidence = spread_by_likelihood(
+        apply_effects(task.model, effects),
+        task.train.subset(settings.fit_windows, settings.seed),
+        task.nominal_counts,
+        (low, high),
+        extra.size,
+        settings.seed,
+    )
+    if not evidence.credited:
+        return fits[form.simpler]
+    samples = {**samples, task.new: np.column_stack([samples[task.new][:, :-1], evidence.samples])}
+    effects = {**effects, task.new: Effect(form.name, (delay, evidence.spread))}
+    spread_label = f"{task.new}.{form.params[-1]} "
+    return effects, [label for label in at_bound if not label.startswith(spread_label)], samples, cost
 
 
 def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:

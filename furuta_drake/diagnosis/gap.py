@@ -10,11 +10,15 @@ Residuals
 are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that the
 upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
 
-    gap = sqrt(max(mean over windows, samples and both angles of r^2 - sigma_s^2, 0))   [counts]
+    gap = sqrt(max(mean over windows, samples and both angles of r^2 - sigma_s^2 - sigma_j^2, 0))   [counts]
 
 where sigma_s^2 is the variance the model's own sensor adds (1/12 count^2 for the rig's encoder; more for a
 coarser encoder or measurement noise), so sensor effects shrink the gap by explaining the residual's floor,
-and dynamic effects by shrinking the residual.
+and dynamic effects by shrinking the residual. A model whose input delay jitters predicts the response to the
+expected command; the command's random deviation from it, independent from sample to sample, adds to each sample n
+of a window the variance sigma_j^2(n) = sum_k g_nk^2 v_k (the window's impulse responses g_nk and the command's
+variance v_k over the delay, :mod:`~furuta_drake.effects.jitter`), which is subtracted from that sample's r^2 in
+the same way (zero for every other model).
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
+from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import (
     HISTORY,
     INPUT_CHAIN,
@@ -38,6 +43,7 @@ from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
 
 MAX_HORIZON_S = 0.25
+IMPULSES = 24  # command impulses simulated per window for a jittering delay's variance (the others shifted)
 SMOOTHING_S = 0.03  # Savitzky-Golay window for the initial states [s]
 
 
@@ -310,13 +316,18 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
 
 
 def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
-    """``change`` (h, 2, W) of a log's residuals minus its least-squares fit on the window's state sensitivities
-    (h, 2, W, 4): what a change of the model's parameters does to the residuals once the initial states are
-    re-projected (Kaufman's approximation of the variable-projection Jacobian)."""
+    """``change`` (h, 2, W) of a log's residuals, or (h, 2, K, W) K changes of each window, minus its least-squares
+    fit on the window's state sensitivities (h, 2, W, 4): what a change of the model's parameters does to the
+    residuals once the initial states are re-projected (Kaufman's approximation of the variable-projection
+    Jacobian)."""
     h, _, W, n = state_jacobian.shape
     Jw = state_jacobian.transpose(2, 0, 1, 3).reshape(W, -1, n)
-    cw = change.transpose(2, 0, 1).reshape(W, -1)
     normal = np.einsum("wki,wkj->wij", Jw, Jw) + 1e-9 * np.eye(n)
+    if change.ndim == 4:
+        cw = change.transpose(3, 0, 1, 2).reshape(W, -1, change.shape[2])
+        fitted = np.einsum("wki,wic->wkc", Jw, np.linalg.solve(normal, np.einsum("wki,wkc->wic", Jw, cw)))
+        return change - fitted.reshape(W, h, 2, -1).transpose(1, 2, 3, 0)
+    cw = change.transpose(2, 0, 1).reshape(W, -1)
     coef = np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, cw)[..., None])[..., 0]
     fitted = np.einsum("wki,wi->wk", Jw, coef)
     return change - fitted.reshape(W, h, 2).transpose(1, 2, 0)
@@ -367,10 +378,76 @@ class GapResult:
     initial_states: list[np.ndarray]  # per log (4, W), refined for this model (5, W: with the arm's bristle)
 
 
-def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: list[np.ndarray]) -> GapResult:
-    """The gap and its parts from per-log (horizon, 2, W) residuals [counts] and the sensor variance."""
+def jitter_energy(model: Model, windows: Windows, states, jacobians, nominal_counts: int):
+    """Per log (horizon, 2, horizon - 1, W) the squared impulse responses g_nk^2 [counts^2 per N m^2] of the
+    windows from their refined initial ``states`` (:func:`~furuta_drake.effects.jitter.impulse_energy`), with the
+    share the refit of each window's initial state absorbs projected out (:func:`project_out_states` on the
+    residuals' state sensitivities ``jacobians``: a window's own best start takes most of a smooth response)."""
+    count = encoder_resolution(nominal_counts)
+    out = [None] * len(windows.logs)
+    for batch in windows.batches():
+        x = np.concatenate([states[i] for i in batch.members], axis=1)
+        J = np.concatenate([jacobians[i] for i in batch.members], axis=2)
+        substeps, samples = substeps_for(batch.period), batch.horizon - 1
+        v = command_variance(batch.command, batch.period, model)[batch.starts[None, :] + np.arange(samples)[:, None]]
+        size = float(np.sqrt(np.mean(v))) or 1e-3 * float(np.std(batch.command)) or 1e-9  # the deviation's size
+
+        def predict(part, copies, change, x=x, batch=batch, substeps=substeps):
+            starts = np.tile(batch.starts[part], copies)
+            torque = window_torques(model, batch.command, starts, batch.horizon, batch.period, substeps, change)
+            return _angles(model, np.tile(x[:, part], copies), torque, batch, substeps) / count
+
+        def residual_of(responses, part, J=J):
+            return project_out_states(responses, J[:, :, part])
+
+        stride = max(1, -(-samples // IMPULSES))
+        energy = impulse_energy(predict, samples, x.shape[1], size, residual_of, stride)
+        for j, i in enumerate(batch.members):
+            out[i] = energy[..., batch.bounds[j] : batch.bounds[j + 1]]
+    return out
+
+
+def jitter_variances(model: Model, windows: Windows, energy) -> list[np.ndarray] | None:
+    """Per log (horizon, 2, W) the variance sigma_j^2 [counts^2] a jittering delay of ``model`` adds to each
+    residual (module docstring) from the windows' :func:`jitter_energy`; None without a spread."""
+    if model.delay_spread <= 0:
+        return None
+    out = []
+    for log, starts, e in zip(windows.logs, windows.starts, energy):
+        v = command_variance(log.torque_command, log.sample_period, model)  # the first command held before the log
+        out.append(response_variance(e, v[starts[None, :] + np.arange(e.shape[2])[:, None]]))
+    return out
+
+
+def model_jitter(model: Model, windows: Windows, nominal_counts: int, refined=None) -> list[np.ndarray] | None:
+    """Per log (horizon, 2, W) the variance [counts^2] ``model``'s jittering delay adds to each residual
+    (:func:`jitter_variances` of the :func:`jitter_energy` at the model's refined initial states: ``refined`` =
+    (states, sensitivities) of :func:`projected_residuals`, computed when None); None without a spread."""
+    if model.delay_spread <= 0:
+        return None
+    states, jacobians = refined if refined is not None else projected_residuals(model, windows, nominal_counts)[1:]
+    return jitter_variances(model, windows, jitter_energy(model, windows, states, jacobians, nominal_counts))
+
+
+def squared_excess(r: list[np.ndarray], jitter: list[np.ndarray] | None = None) -> list[np.ndarray]:
+    """Per log the squared residuals (horizon - 1, 2, W) [counts^2] past each window's start, less the jittering
+    delay's variance of each sample when the model has one."""
     squared = [x[1:] ** 2 for x in r]  # row 0 is the start
-    per_window = np.concatenate([x.mean(axis=(0, 1)) for x in squared]) - variance
+    return squared if jitter is None else [x - j[1:] for x, j in zip(squared, jitter)]
+
+
+def window_excess(r: list[np.ndarray], variance: float, jitter: list[np.ndarray] | None = None) -> np.ndarray:
+    """Each window's mean squared residual less the model's sensor and jitter variance [counts^2]."""
+    return np.concatenate([x.mean(axis=(0, 1)) for x in squared_excess(r, jitter)]) - variance
+
+
+def gap_from_residuals(
+    r: list[np.ndarray], variance: float, initial_states: list[np.ndarray], jitter: list[np.ndarray] | None = None
+) -> GapResult:
+    """The gap and its parts from per-log (horizon, 2, W) residuals [counts], the sensor variance and the jittering
+    delay's variance of each sample (:func:`jitter_variances`; None: none)."""
+    squared = squared_excess(r, jitter)
+    per_window = window_excess(r, variance, jitter)
     samples = sum(x.shape[0] * x.shape[2] for x in squared)
     per_signal = {
         name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - variance, 0.0)))
@@ -381,8 +458,9 @@ def gap_from_residuals(r: list[np.ndarray], variance: float, initial_states: lis
 
 def evaluate_gap(model: Model, windows: Windows, nominal_counts: int) -> GapResult:
     """The gap of ``model`` on ``windows`` (see the module docstring), from the surrogate."""
-    r, states, _ = projected_residuals(model, windows, nominal_counts, sensitivities=False)
-    return gap_from_residuals(r, sensor_variance(model, nominal_counts), states)
+    r, states, jacobians = projected_residuals(model, windows, nominal_counts, sensitivities=model.delay_spread > 0)
+    jitter = model_jitter(model, windows, nominal_counts, (states, jacobians))
+    return gap_from_residuals(r, sensor_variance(model, nominal_counts), states, jitter)
 
 
 def window_residuals(result: GapResult, windows: Windows, rig: RigParameters) -> list[WindowResiduals]:

@@ -245,12 +245,17 @@ def predict_windows(
     return integrate_windows([model], x0, torque, period, substeps, bristle0)
 
 
-def window_torques(model: Model, command, starts, horizon: int, period: float, substeps: int) -> np.ndarray:
+def window_torques(
+    model: Model, command, starts, horizon: int, period: float, substeps: int, change: np.ndarray | None = None
+) -> np.ndarray:
     """The arm torque [N m] of ``model``'s input chain (delay, lag, static map) at every substep of every window
-    (steps, W) (each window's column depends on its own start alone)."""
+    (steps, W) (each window's column depends on its own start alone); ``change`` (horizon - 1, W) [N m], or None,
+    is added to each sample's applied command before the lag and the static map (a command impulse)."""
     dt = period / substeps
     times = (np.arange((horizon - 1) * substeps) * dt)[:, None]
     held = expected_command(command, starts[None, :], times, dt, period, model)  # (steps, W)
+    if change is not None:
+        held = held + np.repeat(change, substeps, axis=0)
     if model.lag > 0:
         held = kernel.lag_filter(held, lag_states(model, command, starts, period, substeps), model.lag, dt)[0]
     return applied_torque(model, held)

@@ -25,6 +25,7 @@ from the sample period.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -272,6 +273,12 @@ def _fixed_delay() -> Form:
         lambda s: [[k * s.period] for k in DELAY_STARTS],
         lambda m, p: m.replace(delay=p[0], delay_spread=0.0),
     )
+
+
+def causal_spread(delay: float) -> float:
+    """The largest spread [s] of a jittering delay of mean ``delay`` [s]: uniform on delay +- sqrt(3) spread, it then
+    reaches down to zero (a larger one would read commands not yet sent)."""
+    return delay / math.sqrt(3.0)
 
 
 def _jittering_delay() -> Form:
@@ -551,6 +558,11 @@ def rig_effects(rig) -> dict[str, Effect]:
         missing = [key for key in expected if key not in params]
         if missing:
             raise ConfigError(f"{where}: missing parameter {', '.join(missing)} of {name}")
+        if form == "jitter" and params["delay_spread"] > causal_spread(params["delay"]):
+            raise ConfigError(
+                f"{where}.delay_spread must be at most delay / sqrt(3) [s] (the uniform delay would reach below "
+                f"zero), got {params['delay_spread']!r} beside a delay of {params['delay']!r}"
+            )
         out[name] = effect_from_params(name, params)
     return out
 
