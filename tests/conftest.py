@@ -1,4 +1,4 @@
-"""Shared test constants, and the session's guard against reading outside the repository.
+"""Shared test constants and fixtures, and the session's guard against reading outside the repository.
 
 The guard is an audit hook (``sys.addaudithook``) that records every ``open`` for reading of a path under the
 repository's parent directory but outside the repository itself (a sibling checkout, a data folder beside the
@@ -11,6 +11,8 @@ session.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import os
 import site
 import sys
@@ -131,3 +133,16 @@ def pytest_sessionfinish(session, exitstatus) -> None:
             file=sys.stderr,
         )
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+@pytest.fixture
+def fast_cli_diagnoses(monkeypatch):
+    """``furuta-drake diagnose`` (the CLI's own parsing, loading and writing) run with the FAST sizes: for the
+    tests that compare two diagnoses of the same data given in two ways, whose reports must agree whatever the
+    sizes. Every stage still runs and enters the report (the fits, the bootstrap, the Drake replay, the detection
+    limits), briefly."""
+    from furuta_drake.diagnosis import pipeline
+    from furuta_drake.diagnosis.settings import FAST
+
+    settings = dataclasses.replace(FAST, detection_limits=True)
+    monkeypatch.setattr(pipeline, "diagnose", functools.partial(pipeline.diagnose, settings=settings))

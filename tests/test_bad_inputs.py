@@ -1,9 +1,10 @@
 """The bad-input corpus (``tests/bad_inputs/manifest.yaml``) through the real command line.
 
-Each case runs ``python -m furuta_drake.cli`` in a subprocess on a copy of the corpus and must end with the
-manifest's exit code (2), exactly one stderr line starting with "furuta-drake" that contains every expected
-fragment, no traceback, and nothing written or overwritten anywhere in the run's directory tree. Property
-tests feed the CSV log loader random variations of a valid log: it returns a checked log or raises LogError.
+Each case runs ``python -m furuta_drake.cli`` in a subprocess on its own copy of the corpus (the cases run at
+once, a process per core) and must end with the manifest's exit code (2), exactly one stderr line starting with
+"furuta-drake" that contains every expected fragment, no traceback, and nothing written or overwritten anywhere
+in the run's directory tree. Property tests feed the CSV log loader random variations of a valid log: it
+returns a checked log or raises LogError.
 """
 
 from __future__ import annotations
@@ -13,7 +14,9 @@ import re
 import shutil
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -91,11 +94,50 @@ def test_manifest_is_well_formed_and_uses_every_corpus_file():
     assert inputs == used, f"corpus files no case uses: {sorted(inputs - used)}; missing: {sorted(used - inputs)}"
 
 
+class Run(NamedTuple):
+    """One case's command line, its finished process (or its timeout) and its directory tree before and after
+    the run."""
+
+    argv: list[str]
+    result: subprocess.CompletedProcess | subprocess.TimeoutExpired
+    before: dict[str, bytes | None]
+    after: dict[str, bytes | None]
+
+
+def run_case(case: dict, root: Path) -> Run:
+    """``case`` run in ``root``, on its own copy of the corpus and its output setup."""
+    argv, work = prepare(case, root)
+    before = snapshot(root)
+    try:
+        result = run_cli(argv, work)
+    except subprocess.TimeoutExpired as timeout:  # the case's own test fails on it, not the others
+        result = timeout
+    return Run(argv, result, before, snapshot(root))
+
+
+CASE_TEST = "test_bad_input_exits_2_with_one_clear_line_and_writes_nothing"
+
+
+@pytest.fixture(scope="module")
+def runs(request, tmp_path_factory) -> dict[str, Run]:
+    """The selected cases run at once, a process per core: each in a directory tree of its own, sharing
+    nothing with the others, so each gives what it gives run alone."""
+    selected = {
+        item.callspec.params["case"]["id"]
+        for item in request.session.items
+        if item.module is request.module and item.originalname == CASE_TEST
+    }
+    cases = [case for case in MANIFEST if case["id"] in selected]
+    roots = [tmp_path_factory.mktemp("case") for _ in cases]
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as threads:
+        return {case["id"]: run for case, run in zip(cases, threads.map(run_case, cases, roots))}
+
+
 @pytest.mark.parametrize("case", MANIFEST, ids=[case["id"] for case in MANIFEST])
-def test_bad_input_exits_2_with_one_clear_line_and_writes_nothing(case, tmp_path):
-    argv, work = prepare(case, tmp_path)
-    before = snapshot(tmp_path)
-    result = run_cli(argv, work)
+def test_bad_input_exits_2_with_one_clear_line_and_writes_nothing(case, runs):
+    argv, result, before, after = runs[case["id"]]
+    if isinstance(result, subprocess.TimeoutExpired):
+        raise result
     shown = f"\n$ furuta-drake {' '.join(argv)}\nexit {result.returncode}\nstderr:\n{result.stderr}"
     assert "Traceback" not in result.stderr + result.stdout, shown
     lines = [line for line in result.stderr.splitlines() if line.strip()]
@@ -103,7 +145,7 @@ def test_bad_input_exits_2_with_one_clear_line_and_writes_nothing(case, tmp_path
     for fragment in case["stderr"]:
         assert fragment in lines[0], f"missing {fragment!r}" + shown
     assert result.returncode == case["exit"], shown
-    assert snapshot(tmp_path) == before, "the run wrote or changed files" + shown
+    assert after == before, "the run wrote or changed files" + shown
 
 
 # --- The CSV log loader on random variations of a valid log (in-process, hypothesis) -----------------------

@@ -125,7 +125,9 @@ def test_held_out_data_are_whole_runs(tmp_path, rig, raw):
 
 
 @pytest.mark.slow
-def test_a_trial_table_gives_the_report_of_the_runs_in_separate_files(tmp_path, raw):
+def test_a_trial_table_gives_the_report_of_the_runs_in_separate_files(tmp_path, raw, fast_cli_diagnoses):
+    """Both diagnoses run with the same brief sizes: a run read into the wrong log, shifted or cut would change
+    every fitted and bootstrapped figure of the report, whatever the sizes."""
     from furuta_drake.cli import main
 
     (tmp_path / "apart").mkdir()

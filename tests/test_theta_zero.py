@@ -82,7 +82,11 @@ def test_a_bad_theta_zero_names_the_key_and_line(tmp_path, zero):
 
 
 @pytest.mark.slow
-def test_diagnose_exits_2_on_the_wrong_zero_and_agrees_with_the_upright_log_when_told(tmp_path, capsys):
+def test_diagnose_exits_2_on_the_wrong_zero_and_agrees_with_the_upright_log_when_told(
+    tmp_path, capsys, fast_cli_diagnoses
+):
+    """Both diagnoses run with the same brief sizes: a converted log that is not the upright one (a zero off by
+    more than rounding) changes the fits behind the verdict, effects and reduction compared, whatever the sizes."""
     from furuta_drake.cli import main
 
     log = SATBAL
