@@ -52,7 +52,7 @@ def gap_metric_definition(horizon_s: float) -> str:
         f"k-step output error: RMS of measured minus predicted theta and phi over {horizon_s * 1e3:.0f} ms "
         f"windows started from Savitzky-Golay-smoothed states refined per model and window by "
         f"Levenberg-Marquardt steps (the arm's bristle state too, for Dahl or LuGre friction), in encoder "
-        f"counts of the rig file, with the model's own sensor variance subtracted"
+        f"counts of the rig file, with the variance the model's own sensor and a jittering delay's draws add subtracted"
     )
 
 
