@@ -14,6 +14,7 @@ import ast
 import math
 import operator
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -104,7 +105,9 @@ def compile_torque(expression: str, where: str) -> Torque:
     if not isinstance(expression, str) or not expression.strip():
         raise ConfigError(f"{where}: expected a torque expression in {', '.join(TORQUE_VARIABLES)}, got {expression!r}")
     try:
-        tree = ast.parse(expression.strip(), mode="eval")
+        with warnings.catch_warnings():  # text Python parses with a warning ("1if") is refused as a SyntaxError
+            warnings.simplefilter("error", SyntaxWarning)
+            tree = ast.parse(expression.strip(), mode="eval")
     except SyntaxError as err:
         raise ConfigError(
             f"{where}: not a valid expression ({err.msg}, column {err.offset}): {_shown(expression)}"

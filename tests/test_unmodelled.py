@@ -3,10 +3,11 @@ system against the plant's mass matrix (the generalised force a torque gives, th
 
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
@@ -170,11 +171,18 @@ def test_a_constant_torque_accelerates_the_world_as_the_mass_matrix_says(rig):
         alphabet=st.sampled_from(list("thetaphi_dotsincoxgqr()[]{}.,:;'\"=<>!%&|^~@#$ +-*/0123456789e\n")), max_size=40
     )
 )
+@example("1if 1 else 2")  # parses with a SyntaxWarning on stderr
 def test_any_text_compiles_to_a_torque_or_is_refused_with_a_config_error(text):
-    try:
-        torque = compile_torque(text, "unmodelled_torque.arm")
-    except ConfigError as err:
-        assert str(err).startswith("unmodelled_torque.arm")
+    """A compiled torque, or one ConfigError line and nothing else on stderr (no warning either)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            torque = compile_torque(text, "unmodelled_torque.arm")
+        except ConfigError as err:
+            assert str(err).startswith("unmodelled_torque.arm")
+            torque = None
+    assert not caught, [str(w.message) for w in caught]
+    if torque is None:
         return
     value = torque(np.array([0.0, 0.3]), 1.5, -2.0, 0.0)  # never an exception: nan or inf where undefined
     assert value.shape == (2,) and value.dtype == float
