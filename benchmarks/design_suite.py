@@ -98,7 +98,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The command line's options."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
-    parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"])
+    parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"], choices=list(RIGS))
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")
     parser.add_argument(

@@ -34,6 +34,7 @@ import numpy as np
 from benchmarks.suite import CaseSpec, default_cases, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
+from furuta_drake.rig import RIGS
 from furuta_drake.sweep import dask_client, map_on_dask
 
 QUICK = (
@@ -174,7 +175,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="output directory (suite, reports, results)")
     parser.add_argument("--quick", action="store_true", help=f"{len(QUICK)} cases only")
-    parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"])
+    parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"], choices=list(RIGS))
     parser.add_argument("--seeds", nargs="+", type=int, default=[1])
     parser.add_argument("--levels", nargs="+", type=int, default=[1, 2])
     parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")

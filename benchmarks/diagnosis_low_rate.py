@@ -121,7 +121,7 @@ def cases(rigs: list[str], effects: list[str], levels: list[int]) -> list[CaseSp
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
-    parser.add_argument("--rigs", nargs="+", default=list(RIGS))
+    parser.add_argument("--rigs", nargs="+", default=list(RIGS), choices=list(RIGS))
     parser.add_argument("--effects", nargs="+", default=["none", *VOCABULARY])
     parser.add_argument("--levels", nargs="+", type=int, default=[1, 2])
     parser.add_argument("--rates", nargs="+", default=list(RATES), choices=list(RATES))

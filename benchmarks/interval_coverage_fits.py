@@ -164,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1])
     parser.add_argument("--duration", type=float, default=3.0)
-    parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"])
+    parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"], choices=list(RIGS))
     parser.add_argument("--simulator", choices=("drake", "independent", "both"), default="both")
     args = parser.parse_args(argv)
     sources = []

@@ -129,7 +129,7 @@ SETTINGS = DiagnosisSettings(interval_resamples=20)  # the fit as the diagnosis 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rigs", nargs="+", default=["qube_servo2", "lund"])
+    parser.add_argument("--rigs", nargs="+", default=["qube_servo2", "lund"], choices=list(RIGS))
     parser.add_argument("--rates", nargs="+", default=["125Hz", "1kHz"], choices=list(RATES))
     args = parser.parse_args(argv)
     print(
