@@ -32,14 +32,14 @@ def _copies(windows):
     return dataclasses.replace(windows, **{name: list(getattr(windows, name)) * COPIES for name in fields})
 
 
-def _measured(rig, windows, spread: float, noise: float, seed: int):
+def _measured(rig, windows, spread: float, noise: float, seed: int, delay: float = DELAY, counts: int = COUNTS):
     """``windows`` (:func:`_copies`) whose angles are the nominal rig's response to the logged command read at a
-    delay drawn anew every sample, uniform on DELAY +- sqrt(3) ``spread`` (0: fixed), plus white noise of ``noise``
-    counts, read by the rig's encoder."""
+    delay drawn anew every sample, uniform on ``delay`` +- sqrt(3) ``spread`` (0: fixed), plus white noise of
+    ``noise`` counts, read by an encoder of ``counts`` per revolution."""
     rng = np.random.default_rng(seed)
-    count = encoder_resolution(COUNTS)
+    count = encoder_resolution(counts)
     (batch,) = windows.batches()
-    drawn = DELAY + math.sqrt(3.0) * spread * rng.uniform(-1.0, 1.0, batch.command.size)
+    drawn = delay + math.sqrt(3.0) * spread * rng.uniform(-1.0, 1.0, batch.command.size)
     samples = np.arange(batch.command.size)[None, :]
     applied = _delayed_command(batch.command, samples, 0.0, PERIOD, PERIOD, drawn[None, :])[0]
     angles = predict_windows(Model.from_rig(rig), batch.initial_states, applied, batch.starts, batch.horizon, PERIOD, 1)

@@ -248,25 +248,21 @@ def fit_task(task: FitTask) -> FitResult:
 
 
 def _named_fit(task: FitTask, fits: dict) -> tuple:
-    """The fit of the form of lowest train cost; one that nests a simpler form (``Form.simpler``: a jittering delay,
-    its spread at the lower bound) only when the data show its extra parameter, else the simpler form, fitted
-    beside it. The least squares show it when the spread's 95 % interval stays off the bound, the delay stays at
-    or above zero (:func:`~furuta_drake.effects.vocabulary.causal_spread`) and the spread removes more
-    mean squared residual than the floor resolves (:func:`~furuta_drake.diagnosis.rule.beyond_resolution`: below
-    it the spread fits the encoder's rounding); otherwise the residuals' variance may show it, and the spread is
-    then the one of largest likelihood (:mod:`~furuta_drake.diagnosis.jitter_fit`), when that is credited."""
-    best = min(fits, key=lambda form: fits[form][3])
-    form = CANDIDATES[task.new].form(best)
-    if form.simpler is None or form.simpler not in fits:
-        return fits[best]
+    """The fit of the form of lowest train cost, or, of a form that nests a simpler one (``Form.simpler``: a
+    jittering delay), that form when the residuals' variance shows its extra parameter, else the simpler one. A
+    jitter's expected command is a moving average of the command, which a lag or a filter also gives: what tells a
+    jitter is the variance its draws add, so its spread is the one of largest likelihood below the causal limit
+    (:func:`~furuta_drake.effects.vocabulary.causal_spread`), and it is named when that spread is credited
+    (:mod:`~furuta_drake.diagnosis.jitter_fit`). Where the least squares show the spread too (its 95 % interval
+    off the bound, more removed than the floor resolves, :func:`~furuta_drake.diagnosis.rule.beyond_resolution`:
+    a fine encoder sees the expected command's smoothing), their spread is reported, the sharper reading."""
+    nesting = [name for name in fits if CANDIDATES[task.new].form(name).simpler in fits]
+    if not nesting:
+        return fits[min(fits, key=lambda form: fits[form][3])]
+    form = CANDIDATES[task.new].form(nesting[0])
     low, high = (bound[-1] for bound in form.bounds(scales_of(task.logs, task.model)))
-    extra = fits[best][2][task.new][:, -1]
-    off_bound = np.percentile(extra, INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low)
-    effects, at_bound, samples, cost = fits[best]
+    effects, at_bound, samples, cost = fits[form.name]
     delay, spread = effects[task.new].values
-    causal = spread <= causal_spread(delay)
-    if off_bound and causal and beyond_resolution(fits[form.simpler][3] - fits[best][3]):
-        return fits[best]
     settings = task.settings
     effects = {**effects, task.new: Effect(form.name, (delay, min(spread, causal_spread(delay))))}
     evidence = spread_by_likelihood(
@@ -274,11 +270,14 @@ def _named_fit(task: FitTask, fits: dict) -> tuple:
         task.train.subset(settings.fit_windows, settings.seed),
         task.nominal_counts,
         (low, high),
-        extra.size,
+        samples[task.new].shape[0],
         settings.seed,
     )
     if not evidence.credited:
         return fits[form.simpler]
+    off_bound = np.percentile(samples[task.new][:, -1], INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low)
+    if off_bound and spread <= causal_spread(delay) and beyond_resolution(fits[form.simpler][3] - cost):
+        return fits[form.name]  # the mean shows the spread too (a fine encoder): the least squares' is sharper
     samples = {**samples, task.new: np.column_stack([samples[task.new][:, :-1], evidence.samples])}
     effects = {**effects, task.new: Effect(form.name, (delay, evidence.spread))}
     spread_label = f"{task.new}.{form.params[-1]} "

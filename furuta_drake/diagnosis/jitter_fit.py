@@ -10,7 +10,9 @@ sensor's variance sigma_s^2, the spread s maximises the Gaussian log-likelihood 
 which penalises a predicted variance that is too large as well as one too small. Any extra variance raises l, so
 the jitter is *credited* only when it beats an unstructured one, sigma_s^2 + c with a constant c >= 0 fitted the
 same way, by more than chance: the 5 % lower bound of l(s) - l(c) over a bootstrap of windows must be positive,
-and the spread's 95 % interval must stay off its lower bound. The residuals must then hold extra variance *where*
+and the spread's 95 % interval must stay off the ends of its search range (one pressed against the range's top
+is variance claimed for a misfit of the mean: an actuator lag read as a jitter's moving average; the causal limit
+below it is physics and may be reached). The residuals must then hold extra variance *where*
 the jitter puts it (after each command change, through the window's impulse responses), not merely extra
 variance. A uniform delay cannot reach below zero, so the spread is at most the mean delay over sqrt(3).
 """
@@ -71,7 +73,8 @@ def spread_by_likelihood(
     chosen = best.argmax(axis=1)
     gain = best.max(axis=1) - alternative.max(axis=1)
     samples = spreads[chosen[1:]]
-    credited = bool(np.quantile(gain[1:], LOWER_BOUND_QUANTILE) > 0.0 and np.percentile(samples, 2.5) > low)
+    inside = np.percentile(samples, 2.5) > low and np.percentile(samples, 97.5) < bounds[1] * (1.0 - 1e-9)
+    credited = bool(np.quantile(gain[1:], LOWER_BOUND_QUANTILE) > 0.0 and inside)
     return SpreadEvidence(float(spreads[chosen[0]]), samples, credited)
 
 
