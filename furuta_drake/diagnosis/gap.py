@@ -438,7 +438,12 @@ def squared_excess(r: list[np.ndarray], jitter: list[np.ndarray] | None = None) 
 
 def window_excess(r: list[np.ndarray], variance: float, jitter: list[np.ndarray] | None = None) -> np.ndarray:
     """Each window's mean squared residual less the model's sensor and jitter variance [counts^2]."""
-    return np.concatenate([x.mean(axis=(0, 1)) for x in squared_excess(r, jitter)]) - variance
+    return _per_window(squared_excess(r, jitter), variance)
+
+
+def _per_window(squared: list[np.ndarray], variance: float) -> np.ndarray:
+    """Each window's mean of ``squared`` (per log, :func:`squared_excess`) less the sensor ``variance``."""
+    return np.concatenate([x.mean(axis=(0, 1)) for x in squared]) - variance
 
 
 def gap_from_residuals(
@@ -447,7 +452,7 @@ def gap_from_residuals(
     """The gap and its parts from per-log (horizon, 2, W) residuals [counts], the sensor variance and the jittering
     delay's variance of each sample (:func:`jitter_variances`; None: none)."""
     squared = squared_excess(r, jitter)
-    per_window = window_excess(r, variance, jitter)
+    per_window = _per_window(squared, variance)
     samples = sum(x.shape[0] * x.shape[2] for x in squared)
     per_signal = {
         name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - variance, 0.0)))

@@ -23,7 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.gap import Windows, jitter_energy, jitter_variances, projected_residuals
+from furuta_drake.diagnosis.gap import (
+    Windows,
+    jitter_energy,
+    jitter_variances,
+    projected_residuals,
+    squared_excess,
+)
 from furuta_drake.diagnosis.rule import LOWER_BOUND_QUANTILE
 from furuta_drake.effects.surrogate import Model, sensor_variance
 from furuta_drake.effects.vocabulary import causal_spread
@@ -50,7 +56,7 @@ def spread_by_likelihood(
         return SpreadEvidence(low, np.full(resamples, low), False)
     r, states, jacobians = projected_residuals(model, windows, nominal_counts)
     energy = jitter_energy(model, windows, states, jacobians, nominal_counts)
-    squares = [x[1:] ** 2 for x in r]
+    squares = squared_excess(r)
     sensor = sensor_variance(model, nominal_counts)
     spreads = np.geomspace(low, high, GRID)
     structured = np.stack(
