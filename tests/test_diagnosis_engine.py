@@ -10,12 +10,13 @@ from hypothesis import strategies as st
 
 from benchmarks.suite import run_configs, with_effect
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.fit import FitTask, fit_task, noise_estimate, quantization_estimate
+from furuta_drake.diagnosis.fit import FitTask, fit_task
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.record_text import confusable_why
 from furuta_drake.diagnosis.replay import replay_gap
 from furuta_drake.diagnosis.rule import FLOOR_COUNTS, MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
+from furuta_drake.diagnosis.sensor import read_sensors
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.corrected import model_rig
 from furuta_drake.effects.surrogate import Model, _accelerations
@@ -124,18 +125,28 @@ def test_a_hidden_lag_at_its_true_time_constant_sits_at_the_floor_in_the_surroga
 
 
 def test_sensor_effects_are_read_from_the_data(clean_logs):
+    """On logs of the Drake world: no noise and no coarser encoder on clean logs; the suite's level-1 coarser
+    encoder (a quarter of the counts) read from its grid; its level-2 noise of 3 counts (ahead of the rounding, as
+    the encoder system adds it) read within its interval."""
     rig = RIGS["lund"]()
-    assert quantization_estimate(clean_logs, rig.counts_per_rev) == rig.counts_per_rev
     nominal = Model.from_rig(rig)
-    assert noise_estimate(nominal, make_windows(clean_logs, rig), rig.counts_per_rev)[0].values == (0.0,)
-    coarse = [hanging_log(4, "encoder_quantization", level=1)]
-    assert quantization_estimate(coarse, rig.counts_per_rev) == rig.counts_per_rev / 4
-    noisy = make_windows([hanging_log(5, "measurement_noise", level=2)], rig)
+
+    def read(train, heldout):
+        train, heldout = make_windows(train, rig), make_windows(heldout, rig)
+        bootstrap = Bootstrap(heldout.count, 1000, 0)
+        return read_sensors(nominal, train, heldout, rig.counts_per_rev, DiagnosisSettings(), bootstrap)
+
+    grid, noise = read(clean_logs[:1], clean_logs[1:])
+    assert not grid.accepted and not noise.accepted
+    grid, _ = read(
+        [hanging_log(4, "encoder_quantization", level=1)], [hanging_log(14, "encoder_quantization", level=1)]
+    )
+    assert grid.accepted and grid.effect.values == (rig.counts_per_rev / 4,)
+    grid, noise = read([hanging_log(5, "measurement_noise", level=2)], [hanging_log(15, "measurement_noise", level=2)])
     sigma = 3.0 * encoder_resolution(rig.counts_per_rev)  # the suite's level-2 noise: 3 counts
-    effect, samples = noise_estimate(nominal, noisy, rig.counts_per_rev, resamples=200)
-    estimate = effect.values[0]
-    assert estimate == pytest.approx(sigma, rel=0.25)
-    assert np.percentile(samples, 2.5) < estimate < np.percentile(samples, 97.5)
+    assert noise.accepted and not grid.accepted
+    low, high = np.percentile(noise.samples[:, 0], [2.5, 97.5])
+    assert low < sigma < high
 
 
 def _evidence(previous, candidates, seed=0):

@@ -11,10 +11,18 @@ from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.gap import GapResult
 from furuta_drake.diagnosis.rule import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
 from furuta_drake.diagnosis.stepwise import Selection, _enter_pair, _exchange
-from furuta_drake.effects.vocabulary import Effect
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales
 
 WINDOWS = 200
 NOMINAL = np.full(WINDOWS, 1.0)  # excess squared residual per held-out window [counts^2]
+SCALES = Scales(torque=0.1, command=0.2, arm_inertia=3e-3, pendulum_inertia=4e-3, period=1e-3)
+
+
+def _sized(name: str) -> Effect:
+    """A fake fit of ``name`` in its first form, well away from zero size (each parameter at its range's middle)."""
+    form = CANDIDATES[name].forms[0]
+    low, high = form.bounds(SCALES)
+    return Effect(form.name, tuple(0.5 * (lo + hi) for lo, hi in zip(low, high)))
 
 
 def _gap(per_window: np.ndarray) -> GapResult:
@@ -22,7 +30,7 @@ def _gap(per_window: np.ndarray) -> GapResult:
 
 
 def _single(name: str, train_gap: float) -> FitResult:
-    return FitResult(name, {name: Effect("", (1.0,))}, train_gap, _gap(NOMINAL.copy()))
+    return FitResult(name, {name: _sized(name)}, train_gap, _gap(NOMINAL.copy()))
 
 
 def _run(pair_excess: dict[frozenset, float], singles: dict[str, FitResult]):
@@ -39,7 +47,7 @@ def _run(pair_excess: dict[frozenset, float], singles: dict[str, FitResult]):
     def fit(tasks):
         results = []
         for new, held in tasks:
-            effects = {**held.effects, new: Effect("", (1.0,))}
+            effects = {**held.effects, new: _sized(new)}
             level = pair_excess.get(frozenset(effects), 1.0)
             result = FitResult("+".join(effects), effects, 0.5, _gap(level * (1 + 0.05 * rng.standard_normal(WINDOWS))))
             selection.tried.append((2, result))
@@ -60,7 +68,7 @@ def test_a_pair_that_neither_member_explains_alone_enters_better_single_first():
     }
     # the pair halves the gap's square: a reduction of 1 - sqrt(0.25) = 50 %, far above the entry bound
     selection, task, fit, asked = _run({frozenset(["inertia_mismatch", "arm_spring"]): 0.25}, singles)
-    assert _enter_pair(singles, task, fit, selection) == ["inertia_mismatch", "arm_spring"]
+    assert _enter_pair(singles, task, fit, selection, SCALES) == ["inertia_mismatch", "arm_spring"]
     assert set(asked) == {
         frozenset(["inertia_mismatch", "arm_spring"]),
         frozenset(["inertia_mismatch", "arm_stribeck"]),
@@ -73,13 +81,13 @@ def test_no_pair_enters_when_none_reduces_the_gap_beyond_the_entry_bound():
     # a 2 % reduction of the gap (excess x 0.96) is below the entry bound's 5 %
     assert 1 - np.sqrt(0.96) < ENTRY
     selection, task, fit, _ = _run({frozenset(["inertia_mismatch", "arm_spring"]): 0.96}, singles)
-    assert _enter_pair(singles, task, fit, selection) is None
+    assert _enter_pair(singles, task, fit, selection, SCALES) is None
 
 
 def _model(effects: list[str], excess: float, seed: int) -> FitResult:
     """A fitted model of ``effects`` whose held-out windows have excess squared residuals about ``excess``."""
     noise = 1 + 0.05 * np.random.default_rng(seed).standard_normal(WINDOWS)
-    return FitResult("+".join(effects), {name: Effect("", (1.0,)) for name in effects}, 0.5, _gap(excess * noise))
+    return FitResult("+".join(effects), {name: _sized(name) for name in effects}, 0.5, _gap(excess * noise))
 
 
 def _exchange_case(joint_excess: dict[frozenset, float], final_excess: float = 0.3):
@@ -115,7 +123,7 @@ def test_a_runner_up_that_explains_the_data_clearly_better_beside_the_others_rep
     """Beside the friction the lag leaves a tenth of the delay's excess: it replaces the delay."""
     better = {frozenset(["arm_coulomb_friction", "actuator_lag"]): 0.03}
     selection, bootstrap, task, fit, asked = _exchange_case(better)
-    assert _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
+    assert _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result, SCALES)
     assert selection.accepted == ["arm_coulomb_friction", "actuator_lag"]
     assert selection.exchanges[0]["out"] == "input_delay" and selection.exchanges[0]["in"] == "actuator_lag"
     assert set(asked) == {
@@ -128,13 +136,13 @@ def test_a_runner_up_that_explains_the_data_clearly_better_beside_the_others_rep
 def test_no_exchange_when_the_runners_up_explain_the_data_no_better():
     """A lag leaving 97 % of the delay's excess (a 1.5 % smaller gap) is within the bootstrap's noise."""
     selection, bootstrap, task, fit, _ = _exchange_case({frozenset(["arm_coulomb_friction", "actuator_lag"]): 0.29})
-    assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
+    assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result, SCALES)
     assert selection.accepted == ["input_delay", "arm_coulomb_friction"] and not selection.exchanges
 
 
 def test_no_exchange_is_tried_when_the_final_model_is_at_the_floor():
     selection, bootstrap, task, fit, asked = _exchange_case({}, final_excess=0.1 * FLOOR_COUNTS**2)
-    assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result)
+    assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result, SCALES)
     assert not asked
 
 

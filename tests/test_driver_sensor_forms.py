@@ -1,6 +1,6 @@
-"""Forms real drivers and sensors have: a delay that jitters from sample to sample (the model applies its expected
-command) and measurement noise low-passed with a correlation time (read from the angles' second differences).
-Each true parameter is recovered from the default starts at two sizes."""
+"""Forms real drivers have: a delay that jitters from sample to sample (the model applies its expected command).
+Each true parameter is recovered from the default starts at two sizes. (Noise low-passed with a correlation time,
+the sensor's form, is in test_sensor.py.)"""
 
 from __future__ import annotations
 
@@ -13,13 +13,11 @@ from hypothesis import strategies as st
 from test_form_starts import _surrogate_measured, nominal_windows  # noqa: F401  (the fixture)
 
 from furuta_drake.diagnosis.fit import FitTask, fit_task
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.noise_correlation import coefficient, correlated_noise_estimate, lag_ratio
 from furuta_drake.diagnosis.settings import FAST
 from furuta_drake.effects.surrogate import Model, _delayed_command, expected_command, expected_command_points
 from furuta_drake.effects.vocabulary import Effect, apply_effects
 from furuta_drake.errors import ConfigError
-from furuta_drake.rig import RIGS, encoder_resolution
+from furuta_drake.rig import RIGS
 
 PERIOD = 1e-3  # [s]
 FINE_COUNTS = 2**24  # an encoder whose rounding is far below a jitter's effect
@@ -86,59 +84,6 @@ def test_a_fixed_delay_is_named_fixed(nominal_windows, counts):  # noqa: F811
     assert fit.effects["input_delay"].form == "fixed"
     low, high = np.percentile(fit.samples["input_delay"][:, 0], [2.5, 97.5])
     assert low <= 3e-3 <= high
-
-
-@given(a=st.floats(0.0, 0.99))
-def test_the_lag_ratio_gives_back_the_noise_coefficient(a):
-    assert coefficient(lag_ratio(a)) == pytest.approx(a, abs=1e-6)
-
-
-COUNT = encoder_resolution(2048)  # [rad] one count of the logs' encoder
-
-
-def _signals(logs) -> list[np.ndarray]:
-    """Both angles of every log in counts."""
-    return [np.asarray(angle) / COUNT for log in logs for angle in (log.theta, log.phi)]
-
-
-def _noisy_logs(std_counts: float, time: float | None, seed: int, counts: int = 2048, period: float = 2e-3):
-    """Two 8 s logs of a swing that crosses a count at most samples (its rounding independent from sample to
-    sample), read by an encoder of ``counts``, with first-order noise of ``std_counts`` counts and correlation time
-    ``time`` [s] (None: white) from its stationary law."""
-    rng = np.random.default_rng(seed)
-    count = encoder_resolution(counts)
-    t = np.arange(4000) * period
-    logs = []
-    for name in ("a", "b"):
-        a = 0.0 if time is None else math.exp(-period / time)
-        noise = np.empty((t.size, 2))
-        noise[0] = rng.normal(0.0, std_counts * count, 2)
-        for k in range(1, t.size):
-            noise[k] = a * noise[k - 1] + math.sqrt(1 - a * a) * rng.normal(0.0, std_counts * count, 2)
-        angles = np.column_stack([0.5 * np.sin(12.0 * t), 0.6 * np.sin(9.0 * t + 1.0)])
-        read = np.round(angles / count) * count + noise
-        logs.append(RunLog(f"{name}.csv", "", t, read[:, 0], read[:, 1], "torque", np.zeros(t.size), period))
-    return logs
-
-
-@pytest.mark.parametrize("std_counts, time", [(1.5, 0.005), (3.0, 0.003)])
-def test_correlated_noise_is_read_with_its_size_and_correlation_time(std_counts, time):
-    """The lag variances are read without bias, but sigma and tau are steep functions of their ratio: over seeds
-    of these 16 000 samples the estimates spread by about 15 % (sigma) and 30 % (tau) at 1.5 counts and 2.5
-    sample periods, hence the tolerances."""
-    effect, samples = correlated_noise_estimate(
-        _signals(_noisy_logs(std_counts, time, seed=4)), 2e-3, COUNT, 1.0, 0.5, 200, seed=0
-    )
-    assert effect.form == "correlated"
-    sigma, tau = effect.values
-    assert sigma / encoder_resolution(2048) == pytest.approx(std_counts, rel=0.25)
-    assert tau == pytest.approx(time, rel=0.5)
-    assert samples.shape == (200, 2) and np.all(samples[:, 1] > 0)
-
-
-def test_white_noise_reads_no_correlation_time():
-    effect, _ = correlated_noise_estimate(_signals(_noisy_logs(1.5, None, seed=5)), 2e-3, COUNT, 1.0, 0.5, 50, seed=0)
-    assert effect is None
 
 
 @pytest.mark.parametrize(

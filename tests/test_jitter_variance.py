@@ -11,6 +11,7 @@ import pytest
 from test_form_starts import nominal_windows  # noqa: F401  (the fixture)
 
 from furuta_drake.diagnosis.gap import IMPULSES, evaluate_gap, make_windows
+from furuta_drake.diagnosis.jitter_fit import jitter_claim
 from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import Model, _delayed_command, integrate_windows, predict_windows, window_torques
 from furuta_drake.effects.vocabulary import Effect, apply_effects
@@ -105,30 +106,31 @@ def test_the_variance_matches_the_spread_of_angles_under_delays_drawn_every_samp
     assert sampled[late] == pytest.approx(predicted[late, :, 0], rel=0.2)
 
 
-def test_the_gap_of_the_true_jittering_delay_subtracts_what_its_draws_add(nominal_windows):  # noqa: F811
+def test_the_true_jittering_delay_claims_what_its_draws_add_and_its_gap_keeps_it(nominal_windows):  # noqa: F811
     """The hanging run's windows, their angles the model's response to a command read at a delay drawn anew every
-    sample (a fine encoder): the true jittering delay's mean squared residual, once each window's start is
-    refitted, is what its predicted variance says to first order, so its gap's mean excess is a small part of the
-    residuals' mean square, which would all be excess without it (24 draws: their sampled mean square is within
-    about a tenth of its expectation; the prediction runs somewhat above it on these windows, hence the
-    tolerance)."""
+    sample (a fine encoder): the variance the true jittering delay claims for each window's residuals, once each
+    window's start is refitted, is their mean square to first order (24 draws: their sampled mean square is within
+    about a tenth of its expectation; the prediction runs somewhat above it on these windows, hence the tolerance);
+    the gap, which measures predictions, keeps that mean square: a claimed variance is never taken off it."""
     rig, logs, windows = nominal_windows
     hanging = make_windows([log for log in logs if log.name.startswith("hanging")], rig)
     model = _jitter(Model.from_rig(rig), 3e-3, 0.87e-3).replace(counts_per_rev=FINE_COUNTS)
     fixed, count = model.replace(delay=0.0, delay_spread=0.0), encoder_resolution(FINE_COUNTS)
     rng = np.random.default_rng(5)
-    excess, raw = [], []
+    claimed, raw, excess = [], [], []
     for _ in range(24):
         (batch,) = hanging.batches()
         drawn = 3e-3 + math.sqrt(3.0) * 0.87e-3 * rng.uniform(-1.0, 1.0, batch.command.size)
         samples = np.arange(batch.command.size)[None, :]
         applied = _delayed_command(batch.command, samples, 0.0, PERIOD, PERIOD, drawn[None, :])[0]
         predicted = predict_windows(fixed, batch.initial_states, applied, batch.starts, batch.horizon, PERIOD, 1)
-        measured = [np.round(predicted / count) * count]
-        result = evaluate_gap(model, dataclasses.replace(hanging, measured=measured), FINE_COUNTS)
-        excess.append(result.per_window.mean())
+        measured = dataclasses.replace(hanging, measured=[np.round(predicted / count) * count])
+        result = evaluate_gap(model, measured, FINE_COUNTS)
+        excess.append(result.per_window.mean() + hanging.floor)
         raw.append(np.mean([(r[1:] ** 2).mean() for r in result.residuals]))
-    assert abs(np.mean(excess)) < 0.3 * np.mean(raw)
+        claimed.append(jitter_claim(model, measured, FINE_COUNTS)[1].mean())
+    assert np.mean(claimed) == pytest.approx(np.mean(raw), rel=0.3)
+    assert np.mean(excess) == pytest.approx(np.mean(raw), rel=1e-9)
 
 
 def test_a_model_without_a_spread_keeps_the_sensor_only_gap(nominal_windows):  # noqa: F811

@@ -1,7 +1,7 @@
-"""The measurement-noise estimate at a low sample rate under a bang-bang command: the motion's own acceleration
-(a dt^2 per sample, several counts at 125 Hz) is not taken for noise, and real noise is still found; on a QUBE
-whose pendulum spins through full turns (its acceleration changing within a few samples) the noise candidate
-cannot close a gap that arm friction leaves."""
+"""The measurement noise at a low sample rate under a bang-bang command: the motion's own acceleration (a dt^2 per
+sample, several counts at 125 Hz), which no model predicts here, is not taken for noise, and real noise is still
+found; on a QUBE whose pendulum spins through full turns (its acceleration changing within a few samples) a gap
+that arm friction leaves reads no noise."""
 
 from __future__ import annotations
 
@@ -14,10 +14,11 @@ from hypothesis import strategies as st
 
 from benchmarks.diagnosis_low_rate import RATES, lab_rig, run_config
 from benchmarks.suite import CaseSpec
-from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS, FitTask, fit_task, second_difference_noise
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.settings import FAST
+from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.sensor import NOISE_FLOOR_COUNTS, read_noise, read_sensors, signature_of
+from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.simulate import simulate
 
@@ -44,8 +45,14 @@ def bang_bang_log(seed: int, accel: float, noise_counts: float, seconds: float =
 
 
 def _raw_noise(log: RunLog) -> float:
-    """The estimate on the angles themselves (a model that predicts no motion), a 1-count step."""
-    return second_difference_noise([(angle / COUNT, log.input) for angle in (log.theta, log.phi)], 1.0, COUNT)[0]
+    """The white noise read from the angles themselves, as the residuals of a model that predicts no motion
+    (their sensitivities to the initial state left out) [counts]."""
+    rig = lab_rig("qube_servo2", RATES["125Hz"]).replace(motor=None)
+    windows = make_windows([log], rig)
+    raw = [measured / COUNT for measured in windows.measured]
+    jacobians = [np.zeros((*r.shape, 4)) for r in raw]
+    sig = signature_of(Model.from_rig(rig), windows, raw, jacobians, COUNTS)
+    return float(read_noise(sig, 1.0, 0, 0).white[0])
 
 
 @settings(max_examples=10, deadline=None)
@@ -53,15 +60,23 @@ def _raw_noise(log: RunLog) -> float:
 def test_bang_bang_motion_alone_is_not_noise(seed, accel):
     # a dt^2 is 2-10 counts per sample here: taken as noise, it would be sigma ~ 1-4 counts.
     assert accel * PERIOD**2 / COUNT > 2.0
-    assert _raw_noise(bang_bang_log(seed, accel, 0.0)) == 0.0
+    assert _raw_noise(bang_bang_log(seed, accel, 0.0)) < NOISE_FLOOR_COUNTS
 
 
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000), sigma=st.floats(3.0, 6.0))
 def test_noise_under_bang_bang_motion_is_still_found(seed, sigma):
-    estimate = _raw_noise(bang_bang_log(seed, 300.0, sigma)) / COUNT
-    assert estimate > NOISE_FLOOR_COUNTS
-    assert abs(estimate - sigma) < 0.25 * sigma
+    assert abs(_raw_noise(bang_bang_log(seed, 300.0, sigma)) - sigma) < 0.1 * sigma
+
+
+def _noise(train: list[RunLog], heldout: list[RunLog]):
+    """The noise read beside the rig file's nominal model [counts], and its finding."""
+    rig = lab_rig("qube_servo2", RATES["125Hz"])
+    train_windows, heldout_windows = make_windows(train, rig), make_windows(heldout, rig)
+    bootstrap = Bootstrap(heldout_windows.count, 1000, 0)
+    settings = DiagnosisSettings(interval_resamples=100)
+    _, noise = read_sensors(Model.from_rig(rig), train_windows, heldout_windows, COUNTS, settings, bootstrap)
+    return noise.effect.values[0] / COUNT, noise
 
 
 TRIAL_SAMPLES = 500  # 4 s trials at 125 Hz, as a trial table holds them
@@ -80,26 +95,19 @@ def qube_trials(seed: int, effects: tuple[str, ...]) -> list[RunLog]:
     ]
 
 
-def _noise_fit(logs: list[RunLog]):
-    rig = lab_rig("qube_servo2", RATES["125Hz"])
-    nominal = Model.from_rig(rig)
-    train, heldout = make_windows(logs[:4], rig), make_windows(logs[4:], rig)
-    task = FitTask("measurement_noise", {}, nominal, train, heldout, tuple(logs[:4]), COUNTS, FAST)
-    return fit_task(task), evaluate_gap(nominal, heldout, COUNTS)
-
-
 @pytest.mark.parametrize("seed", [2, 7])
 def test_a_spinning_pendulum_with_arm_friction_reads_no_noise(seed):
-    # The truth: noiseless angles, arm Coulomb friction. The angles' own second differences carry the spinning
-    # pendulum's acceleration (tens of counts^2), which changes within the 5-sample stencil that would cancel a
-    # constant one; only the model's prediction removes it.
-    fit, nominal = _noise_fit(qube_trials(seed, ("arm_coulomb_friction",)))
-    assert fit.effects["measurement_noise"].values[0] == 0.0
-    assert fit.heldout.gap == pytest.approx(nominal.gap, abs=1e-9)  # the candidate closes nothing
-    assert nominal.gap > 0.3  # counts: the friction's gap is there to close
+    # The truth: noiseless angles, arm Coulomb friction, which the rig file's model leaves out: its residuals
+    # carry the friction's misfit, tens of counts at the arm's reversals.
+    logs = qube_trials(seed, ("arm_coulomb_friction",))
+    rig = lab_rig("qube_servo2", RATES["125Hz"])
+    estimate, noise = _noise(logs[:4], logs[4:])
+    assert not noise.accepted and estimate < NOISE_FLOOR_COUNTS
+    assert evaluate_gap(Model.from_rig(rig), make_windows(logs[4:], rig), COUNTS).gap > 0.3  # counts: a gap is there
 
 
 def test_noise_on_a_spinning_pendulum_is_still_found():
-    fit, _ = _noise_fit(qube_trials(7, ("arm_coulomb_friction", "measurement_noise")))
-    sigma = 3.0  # counts: the suite's level-2 noise
-    assert fit.effects["measurement_noise"].values[0] / COUNT == pytest.approx(sigma, rel=0.15)
+    logs = qube_trials(7, ("arm_coulomb_friction", "measurement_noise"))
+    estimate, noise = _noise(logs[:4], logs[4:])
+    assert noise.accepted
+    assert estimate == pytest.approx(3.0, rel=0.1)  # counts: the suite's level-2 noise

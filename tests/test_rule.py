@@ -70,7 +70,23 @@ def test_decide_is_the_keep_rule_and_a_first_effect_must_close_the_gap(reduction
 
 
 def test_verdict_names_the_first_effect_only_when_they_close_the_gap():
-    assert rule.verdict(["input_delay", "arm_spring"], 0.8, quiet=False) == "input_delay"
-    assert rule.verdict(["input_delay"], 0.3, quiet=False) == "unexplained"
-    assert rule.verdict([], None, quiet=True) == "none"
-    assert rule.verdict([], None, quiet=False) == "unexplained"
+    """Shares of the nominal mean squared excess: predictions removing 96 % leave a gap of 20 % (an 80 % reduction);
+    removing 51 % leaves 70 % of it (a 30 % reduction): not closed."""
+    assert rule.combined_reduction(0.96, 0.0) == pytest.approx(0.8)
+    assert rule.verdict(["input_delay", "arm_spring"], [], (0.96, 0.0), quiet=False) == "input_delay"
+    assert rule.verdict(["input_delay"], [], (0.51, 0.0), quiet=False) == "unexplained"
+    assert rule.verdict([], [], (0.0, 0.0), quiet=True) == "none"
+    assert rule.verdict([], [], (0.0, 0.0), quiet=False) == "unexplained"
+
+
+def test_a_sensor_effect_is_the_verdict_when_it_accounts_for_more_than_the_predictions_remove():
+    """The sensor's share counts towards closing the gap (it passed its own test) and names the verdict when it is
+    the larger part; it never makes the predictions' reduction itself larger."""
+    assert rule.verdict([], ["measurement_noise"], (0.0, 0.97), quiet=False) == "measurement_noise"
+    assert rule.verdict(["arm_viscous_friction"], ["measurement_noise"], (0.3, 0.6), quiet=False) == (
+        "measurement_noise"
+    )
+    assert rule.verdict(["arm_viscous_friction"], ["measurement_noise"], (0.6, 0.3), quiet=False) == (
+        "arm_viscous_friction"
+    )
+    assert rule.verdict([], ["measurement_noise"], (0.0, 0.5), quiet=False) == "unexplained"  # 29 %: not closed

@@ -11,8 +11,10 @@ on them and the lower bound of the reduction exceeds the margin (and, for a firs
 the level that closes a gap). The smallest detected size is found by bisection on a log scale. A real fit must
 also find the parameters, so a real detection needs somewhat more than this limit.
 
-Sensor effects are injected into the data: white noise (also to be read by the noise estimate, which ignores
-less than half a count), and a coarser encoder by re-quantising the measured angles.
+Sensor effects are injected into the data and judged by their own rule (:mod:`~furuta_drake.diagnosis.sensor`): white
+noise added to the residuals, judged by the log score of its third differences (and never below the size the
+noise reading names), and a coarser encoder by re-quantising the measured angles, judged by the grid the held-out
+increments lie on.
 """
 
 from __future__ import annotations
@@ -22,18 +24,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.fit import NOISE_FLOOR_COUNTS
 from furuta_drake.diagnosis.gap import (
     Windows,
     fixed_state_residuals,
-    model_jitter,
     project_out_states,
     projected_residuals,
     window_excess,
 )
 from furuta_drake.diagnosis.result import DetectionLimit
 from furuta_drake.diagnosis.rule import Bootstrap, at_floor, decide
-from furuta_drake.effects.surrogate import Model, sensor_variance
+from furuta_drake.diagnosis.sensor import (
+    GRID_MIN_STEPS,
+    MAX_GRID,
+    NOISE_FLOOR_COUNTS,
+    NOISE_PLAUSIBLE_COUNTS,
+    ON_GRID_SHARE,
+    Hypothesis,
+    signature_of,
+)
+from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, PRESLIDING_STARTS, UNITS, Effect, Scales, apply_effects
 from furuta_drake.rig import encoder_resolution
 
@@ -165,18 +174,14 @@ class _Judge:
 
     def __post_init__(self):
         self.raw, self.states, self.jacobians = projected_residuals(self.model, self.windows, self.counts)
-        self.variance = sensor_variance(self.model, self.counts)
-        self.jitter = model_jitter(self.model, self.windows, self.counts, (self.states, self.jacobians))
-        self.truth = window_excess(self.raw, self.variance, self.jitter)
+        self.truth = window_excess(self.raw, self.windows.floor)
 
-    def detected(self, residuals: list[np.ndarray], variance_of_truth: float | None = None) -> bool:
-        """Whether synthetic residuals of the model are detected against the truth (the model's own residuals,
-        or with ``variance_of_truth`` the same residuals judged with that sensor variance)."""
-        synthetic = window_excess(residuals, self.variance, self.jitter)
-        truth = self.truth if variance_of_truth is None else window_excess(residuals, variance_of_truth, self.jitter)
+    def detected(self, residuals: list[np.ndarray]) -> bool:
+        """Whether synthetic residuals of the model are detected against the truth (the model's own residuals)."""
+        synthetic = window_excess(residuals, self.windows.floor)
         if at_floor(synthetic):
             return False
-        evidence = self.bootstrap.evidence(synthetic, truth)
+        evidence = self.bootstrap.evidence(synthetic, self.truth)
         return decide(evidence, first=self.first)
 
     def injected(self, effect_model: Model) -> list[np.ndarray]:
@@ -267,35 +272,45 @@ def _injected_limit(name: str, judge: _Judge, scales: Scales) -> DetectionLimit:
 
 
 def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:
-    """White noise of std s [counts] added to the measured angles; the candidate explaining it has the model's
-    sensor variance plus s^2. The noise estimate reads nothing below ``NOISE_FLOOR_COUNTS``."""
+    """White noise of std s [counts] added to the model's residuals: detected when its third differences score
+    better under that noise than under the model's own sensor (the 5 % bootstrap bound of the gain above 0) and s is
+    at least ``NOISE_FLOOR_COUNTS``, the smallest size the noise reading names."""
     count = encoder_resolution(judge.counts)
     rng = np.random.default_rng(seed)
     unit_noise = [rng.standard_normal(r.shape) for r in judge.raw]
+    step = encoder_resolution(judge.model.counts_per_rev) / count
+    own = Hypothesis(step, judge.model.noise_std / count)
 
     def detected(size: float) -> bool:
         residuals = [r + size * n for r, n in zip(judge.raw, unit_noise)]
-        return judge.detected(residuals, judge.variance + size**2)
+        sig = signature_of(judge.model, judge.windows, residuals, judge.jacobians, judge.counts)
+        gain = sig.scores(Hypothesis(step, float(np.hypot(own.sigma, size)))) - sig.scores(own)
+        return float(np.quantile(judge.bootstrap.means(gain), 0.05)) > 0.0
 
-    size = _bisect(detected, NOISE_FLOOR_COUNTS, 20.0)
+    size = _bisect(detected, NOISE_FLOOR_COUNTS, NOISE_PLAUSIBLE_COUNTS)
     return DetectionLimit(
         "measurement_noise",
         "noise_std",
         None if size is None else size * count,
         "rad",
-        "white noise on both angles" if size is not None else "not detected up to 20 counts",
+        "white noise on both angles"
+        if size is not None
+        else f"not detected up to {NOISE_PLAUSIBLE_COUNTS:g} counts (a larger noise is a model error)",
     )
 
 
 def _quantization_limit(judge: _Judge) -> DetectionLimit:
-    """The measured angles re-quantised to a k times coarser encoder; the largest counts_per_rev detected."""
+    """The measured angles re-quantised to a k times coarser encoder; the largest counts_per_rev whose grid the
+    held-out increments would show (``ON_GRID_SHARE`` of at least ``GRID_MIN_STEPS`` non-zero increments)."""
     count = encoder_resolution(judge.counts)
-    for k in range(2, 65):
-        residuals = []
-        for log_windows, raw in zip(judge.windows.measured, judge.raw):
-            coarse = np.round(log_windows / (k * count)) * k * count
-            residuals.append(raw + (coarse - log_windows) / count)
-        if judge.detected(residuals, judge.variance + (k**2 - 1) / 12.0):
+    for k in range(2, MAX_GRID + 1):
+        steps = []
+        for measured in judge.windows.measured:
+            coarse = np.round(measured / (k * count)) * k
+            moved = np.abs(np.diff(coarse, axis=0))
+            steps.append(moved[moved != 0])
+        steps = np.concatenate(steps)
+        if steps.size >= GRID_MIN_STEPS and np.mean(steps % k == 0) >= ON_GRID_SHARE:
             return DetectionLimit(
                 "encoder_quantization",
                 "counts_per_rev",
@@ -304,5 +319,5 @@ def _quantization_limit(judge: _Judge) -> DetectionLimit:
                 f"an encoder {k} times coarser than the rig file's",
             )
     return DetectionLimit(
-        "encoder_quantization", "counts_per_rev", None, "counts/rev", "not detected up to 64 times coarser"
+        "encoder_quantization", "counts_per_rev", None, "counts/rev", f"not detected up to {MAX_GRID} times coarser"
     )

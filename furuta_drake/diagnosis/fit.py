@@ -11,14 +11,8 @@ windows (a window is a block: its residuals are correlated) takes one Gauss-Newt
 resampled windows' normal equations, and the 2.5-97.5 % range of the steps, taken relative to the step of all
 windows, is the 95 % interval.
 
-The sensor effects are estimated from the data directly, because no trajectory can fit white noise:
-``encoder_quantization`` from the grid the angle increments lie on (the largest k such that every increment is
-a multiple of k counts of the rig's encoder), ``measurement_noise`` from the robust spread of the second differences
-of what the model does not predict, the residuals of its windows (white noise sigma gives a second difference of
-std sqrt(6) sigma, quantisation of a smooth motion almost none, and a smooth model error little: noise is what
-varies from one sample to the next). The motion itself is left out because the model predicts it: at a low
-sample rate a swinging pendulum's own acceleration moves the angles by counts between samples, which the angles'
-raw second differences would read as noise larger than the whole residual.
+The sensor effects (a coarser encoder, measurement noise) change no prediction and are not fitted here: they are
+read from the data and judged by their own rule (:mod:`~furuta_drake.diagnosis.sensor`).
 """
 
 from __future__ import annotations
@@ -36,19 +30,15 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
-from furuta_drake.diagnosis.jitter_fit import spread_by_likelihood
+from furuta_drake.diagnosis.jitter_fit import heldout_jitter, spread_by_likelihood
 from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.noise_correlation import correlated_noise_estimate
-from furuta_drake.diagnosis.rule import beyond_resolution
+from furuta_drake.diagnosis.rule import Bootstrap, beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, causal_spread
-from furuta_drake.rig import encoder_resolution
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
-NOISE_FLOOR_COUNTS = 0.5  # a noise estimate below this many counts is no evidence of noise
-NOISE_WINDOWS = 400  # train windows (a seeded draw) whose residuals the noise estimate reads
 BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a bound is "at" it
 INTERVAL = (2.5, 97.5)  # percentiles of the 95 % parameter intervals
 
@@ -107,129 +97,16 @@ def scales_of(logs, model: Model) -> Scales:
     )
 
 
-def quantization_estimate(logs, nominal_counts: int) -> float:
-    """Counts per revolution the angle increments support: nominal / k for the largest k <= 64 dividing every
-    non-zero increment (in nominal counts), or the nominal counts when none does."""
-    count = encoder_resolution(nominal_counts)
-    steps = np.concatenate([np.round(np.diff(np.concatenate([log.theta, log.phi])) / count) for log in logs])
-    steps = np.abs(steps[(steps != 0)])
-    if steps.size < 20:
-        return float(nominal_counts)
-    for k in range(64, 1, -1):
-        if np.mean(steps % k == 0) > 0.99:
-            return float(nominal_counts / k)
-    return float(nominal_counts)
-
-
-def noise_estimate(
-    model: Model, windows: Windows, nominal_counts: int, resamples: int = 0, seed: int = 0
-) -> tuple[Effect, np.ndarray]:
-    """``measurement_noise`` read from the residuals of ``model`` on ``windows`` (:func:`residual_signals`) and
-    its ``resamples`` bootstrap values (resamples, params): white (sigma [rad] from the second differences,
-    :func:`second_difference_noise`), or in its correlated form where the white estimate finds noise and the
-    residuals' second differences show a correlation time (a model error's drift, which the white estimate
-    extrapolates away, would read as one where there is no noise)."""
-    count = encoder_resolution(nominal_counts)
-    step = nominal_counts / quantization_estimate(windows.logs, nominal_counts)
-    signals = residual_signals(model, windows, nominal_counts, seed)
-    sigma, samples = second_difference_noise(signals, step, count, resamples, seed)
-    if sigma > 0:
-        period = float(np.median([log.sample_period for log in windows.logs]))
-        values = [values for values, _ in signals]
-        correlated, draws = correlated_noise_estimate(values, period, count, step, NOISE_FLOOR_COUNTS, resamples, seed)
-        if correlated is not None:
-            return correlated, draws
-    return Effect("white", (sigma,)), samples[:, None]
-
-
-def residual_signals(model: Model, windows: Windows, nominal_counts: int, seed: int = 0) -> list[tuple]:
-    """Per window and angle of (at most ``NOISE_WINDOWS`` of) ``windows``, the measured minus predicted angle
-    [counts] from the window's own refined initial state (:func:`~furuta_drake.diagnosis.gap.projected_residuals`)
-    with the command over it: the model predicts the motion, so what is left is noise and model error."""
-    subset = windows.subset(NOISE_WINDOWS, seed)
-    raw = projected_residuals(model, subset, nominal_counts, sensitivities=False)[0]
-    return [
-        (r[:, angle, w], np.asarray(log.input)[start : start + r.shape[0]])
-        for log, starts, r in zip(subset.logs, subset.starts, raw)
-        for w, start in enumerate(starts)
-        for angle in (0, 1)
-        if np.all(np.isfinite(r[:, angle, w]))  # a diverged prediction reads no noise
-    ]
-
-
-def second_difference_noise(
-    signals: list[tuple[np.ndarray, np.ndarray]], step: float, count: float, resamples: int = 0, seed: int = 0
-) -> tuple[float, np.ndarray]:
-    """White noise sigma [rad] of ``signals`` ((values [counts], command) pairs) from the variance of their second
-    differences: white noise sigma gives 6 sigma^2, the rounding to an encoder step of ``step`` counts (independent
-    once the noise spans a step) 6 step^2 / 12 more, which is subtracted; outliers (jerks) beyond 6 robust sigmas
-    are left out. 0 when below ``NOISE_FLOOR_COUNTS`` counts. (A median absolute deviation of these integer counts
-    would be quantised itself.) Also ``resamples`` bootstrap values over blocks of 100 second differences.
-
-    A smooth drift a dt^2 per sample (a motion or model error the signal still carries) is extrapolated away with
-    the lag-2 differences when it carries more than half of them (:func:`_motion_free_squares`), on the samples
-    whose stencil the command holds constant over."""
-    squares = _motion_free_squares(signals)
-
-    def sigma(mean_square):
-        value = np.sqrt(np.maximum(mean_square / 6.0 - step**2 / 12.0, 0.0))
-        return np.where(value >= NOISE_FLOOR_COUNTS, value * count, 0.0)
-
-    blocks = squares[: squares.size // 100 * 100].reshape(-1, 100) if squares.size >= 200 else squares.reshape(1, -1)
-    block_sums = np.sum(blocks, axis=1)
-    rng = np.random.default_rng(seed)
-    draws = rng.integers(0, blocks.shape[0], (resamples, blocks.shape[0]))
-    samples = sigma(block_sums[draws].sum(axis=1) / (blocks.shape[0] * blocks.shape[1]))
-    return float(sigma(np.mean(squares))), samples
-
-
-def _within(values: np.ndarray) -> np.ndarray:
-    """Mask of ``values`` within 6 robust sigmas of their median, and the values less that median."""
-    centre = np.median(values)
-    spread = 1.4826 * np.median(np.abs(values - centre)) + 1.0
-    return np.abs(values - centre) <= 6.0 * spread, values - centre
-
-
-def _motion_free_squares(signals: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-    """Per-sample squares whose mean is 6 (sigma^2 + rounding^2) [counts^2], from (signal [counts], command) pairs:
-    the squared second differences d1^2 (outliers left out); or, when the motion's share M = (E d2^2 - E d1^2) / 15
-    of the lag-2 second differences d2 (white terms 6 (sigma^2 + rounding^2) in both, a smooth motion's a^2 dt^4
-    once in d1^2 and 16 times in d2^2) exceeds half of E d1^2, the extrapolation (16 d1^2 - d2^2) / 15, which
-    cancels the motion, taken where the command is constant over d2's stencil (a switching command makes the
-    acceleration jump, which no extrapolation cancels)."""
-    d1 = np.concatenate([np.diff(angle, 2) for angle, _ in signals])
-    kept, centred = _within(d1)
-    squares = centred[kept] ** 2
-    long = [(angle, command) for angle, command in signals if angle.size > 4]
-    if not long:
-        return squares
-    d1 = np.concatenate([angle[3:-1] - 2 * angle[2:-2] + angle[1:-3] for angle, _ in long])  # centred as d2
-    d2 = np.concatenate([angle[4:] - 2 * angle[2:-2] + angle[:-4] for angle, _ in long])
-    keep1, c1 = _within(d1)
-    keep2, c2 = _within(d2)
-    both = keep1 & keep2
-    motion = (np.mean(c2[both] ** 2) - np.mean(c1[both] ** 2)) / 15.0
-    if not motion > 0.5 * np.mean(squares):
-        return squares
-    held = np.concatenate([(c[:-4] == c[1:-3]) & (c[1:-3] == c[2:-2]) & (c[2:-2] == c[3:-1]) for _, c in long])
-    steady = both & held
-    return (16.0 * c1[steady] ** 2 - c2[steady] ** 2) / 15.0 if steady.sum() >= 200 else squares
-
-
 def fit_task(task: FitTask) -> FitResult:
     """Fit ``task.fixed`` with ``task.new`` added on the train windows (every form of the new effect, the best
-    kept), evaluate the result on the held-out windows, and bootstrap its parameters. A sensor effect changes
-    no prediction, so the fixed effects keep their fit beside it."""
+    kept), evaluate the result on the held-out windows, and bootstrap its parameters."""
     counts = task.nominal_counts
     candidate = CANDIDATES[task.new]
-    if candidate.fit:
-        forms = [task.start.form] if task.start is not None else [form.name for form in candidate.forms]
-        fits = {form: _least_squares(task, {task.new: form}) for form in forms}
-        effects, at_bound, samples, _ = _named_fit(task, fits)
-    else:
-        estimate, new_samples = _sensor_estimate(task)
-        effects = {**task.fixed, task.new: estimate}
-        at_bound, samples = [], {**task.fixed_samples, task.new: new_samples}
+    if not candidate.fit:
+        raise ValueError(f"{task.new} is a sensor effect: it is read from the data, not fitted")
+    forms = [task.start.form] if task.start is not None else [form.name for form in candidate.forms]
+    fits = {form: _least_squares(task, {task.new: form}) for form in forms}
+    effects, at_bound, samples, _ = _named_fit(task, fits)
     model = apply_effects(task.model, effects)
     train = evaluate_gap(model, task.train, counts)
     heldout = None if task.heldout is None else evaluate_gap(model, task.heldout, counts)
@@ -273,7 +150,7 @@ def _named_fit(task: FitTask, fits: dict) -> tuple:
         samples[task.new].shape[0],
         settings.seed,
     )
-    if not evidence.credited:
+    if not evidence.credited or not _credited_heldout(task, effects, evidence.spread):
         return fits[form.simpler]
     off_bound = np.percentile(samples[task.new][:, -1], INTERVAL[0]) > low + BOUND_TOLERANCE * (high - low)
     if off_bound and spread <= causal_spread(delay) and beyond_resolution(fits[form.simpler][3] - cost):
@@ -284,15 +161,16 @@ def _named_fit(task: FitTask, fits: dict) -> tuple:
     return effects, [label for label in at_bound if not label.startswith(spread_label)], samples, cost
 
 
-def _sensor_estimate(task: FitTask) -> tuple[Effect, np.ndarray]:
-    """The sensor effect ``task.new`` read from the data and its bootstrap samples (resamples, params): the
-    encoder's grid from the logs, the noise from the residuals of the model holding the fixed effects."""
-    settings, counts = task.settings, task.nominal_counts
-    if task.new == "encoder_quantization":
-        grid = quantization_estimate(task.logs, counts)
-        return Effect("", (grid,)), np.full((settings.interval_resamples, 1), grid)
-    model = apply_effects(task.model, task.fixed)
-    return noise_estimate(model, task.train, counts, settings.interval_resamples, settings.seed)
+def _credited_heldout(task: FitTask, effects: dict[str, Effect], spread: float) -> bool:
+    """Whether the jittering delay of ``effects`` with ``spread`` beats a constant variance on the held-out windows
+    (:func:`~furuta_drake.diagnosis.jitter_fit.heldout_jitter`); True when the task has none."""
+    if task.heldout is None:
+        return True
+    delay = effects[task.new].values[0]
+    model = apply_effects(task.model, {**effects, task.new: Effect("jitter", (delay, spread))})
+    settings = task.settings
+    bootstrap = Bootstrap(task.heldout.count, settings.bootstrap, settings.seed)
+    return heldout_jitter(model, task.train, task.heldout, task.nominal_counts, bootstrap, settings.seed).credited
 
 
 def _least_squares(task: FitTask, new_form: dict[str, str]):

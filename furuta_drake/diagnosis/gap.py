@@ -6,19 +6,18 @@ Dahl or LuGre arm's bristle state integrated along the smoothed arm path, then r
 Levenberg-Marquardt steps on the window's residuals (a step is kept only where the re-simulated residual
 falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
 or integrator. The model then predicts the angles over the window from the logged command (held over each sample).
-Residuals
-are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that the
-upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
+Residuals are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that
+the upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
 
-    gap = sqrt(max(mean over windows, samples and both angles of r^2 - sigma_s^2 - sigma_j^2, 0))   [counts]
+    gap = sqrt(max(mean over windows, samples and both angles of r^2 - sigma_0^2, 0))   [counts]
 
-where sigma_s^2 is the variance the model's own sensor adds (1/12 count^2 for the rig's encoder; more for a
-coarser encoder or measurement noise), so sensor effects shrink the gap by explaining the residual's floor,
-and dynamic effects by shrinking the residual. A model whose input delay jitters predicts the response to the
-expected command; the command's random deviation from it, independent from sample to sample, adds to each sample n
-of a window the variance sigma_j^2(n) = sum_k g_nk^2 v_k (the window's impulse responses g_nk and the command's
-variance v_k over the delay, :mod:`~furuta_drake.effects.jitter`), which is subtracted from that sample's r^2 in
-the same way (zero for every other model).
+where sigma_0^2 is the variance the rig file's own sensor adds (``Windows.floor``: 1/12 count^2 for its encoder's
+rounding, and a noise the rig file states). The gap measures what a model *predicts*: the same floor is taken off
+for every model, so a model lowers the gap only by predicting the angles better. Variance a model claims (a
+coarser encoder, measurement noise, a jittering delay's draws) is never taken off; it is judged on its own
+signature (:mod:`~furuta_drake.diagnosis.sensor`, :mod:`~furuta_drake.diagnosis.jitter_fit`). A jittering delay's
+variance of each sample, sigma_j^2(n) = sum_k g_nk^2 v_k (the window's impulse responses g_nk and the command's
+variance v_k over the delay, :mod:`~furuta_drake.effects.jitter`), is computed here for that judgement.
 """
 
 from __future__ import annotations
@@ -39,6 +38,7 @@ from furuta_drake.effects.surrogate import (
     sensor_variance,
     window_torques,
 )
+from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
 
@@ -52,7 +52,7 @@ def gap_metric_definition(horizon_s: float) -> str:
         f"k-step output error: RMS of measured minus predicted theta and phi over {horizon_s * 1e3:.0f} ms "
         f"windows started from Savitzky-Golay-smoothed states refined per model and window by "
         f"Levenberg-Marquardt steps (the arm's bristle state too, for Dahl or LuGre friction), in encoder "
-        f"counts of the rig file, with the variance the model's own sensor and a jittering delay's draws add subtracted"
+        f"counts of the rig file, less the variance the rig file's own sensor adds (the same for every model)"
     )
 
 
@@ -74,6 +74,7 @@ class Windows:
     initial_states: list[np.ndarray]  # per log: (4, W)
     measured: list[np.ndarray]  # per log: (horizon, 2, W) measured angles
     arm_paths: list[np.ndarray]  # per log: the smoothed arm angle [rad] at every sample
+    floor: float = 1.0 / 12.0  # the variance the rig file's own sensor adds to a measured angle [counts^2]
 
     @property
     def count(self) -> int:
@@ -95,6 +96,7 @@ class Windows:
             [x[:, k] for x, k in zip(self.initial_states, keep)],
             [m[:, :, k] for m, k in zip(self.measured, keep)],
             self.arm_paths,
+            self.floor,
         )
 
     def batches(self) -> list[Batch]:
@@ -150,7 +152,8 @@ def window_samples(period: float, rig: RigParameters) -> tuple[int, int]:
 
 
 def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
-    """Cut every log into consecutive windows of the rig's horizon, with smoothed initial states."""
+    """Cut every log into consecutive windows of the rig's horizon, with smoothed initial states; the floor is the
+    variance the rig file's own sensor adds (its encoder's rounding, and a noise or coarser encoder it states)."""
     horizon_s = horizon_seconds(rig)
     horizons, starts, states, measured, paths = [], [], [], [], []
     for log in logs:
@@ -172,7 +175,7 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
         starts.append(s)
         states.append(np.vstack([position[:, s], velocity[:, s]]))
         measured.append(np.stack([angles[:, s + k] for k in range(horizon)]))
-    return Windows(logs, horizons, starts, states, measured, paths)
+    return Windows(logs, horizons, starts, states, measured, paths, sensor_variance(rig_model(rig), rig.counts_per_rev))
 
 
 def initial_bristles(model: Model, windows: Windows) -> list[np.ndarray | None]:
@@ -372,8 +375,8 @@ def fixed_state_residuals_of(
 class GapResult:
     gap: float  # [counts]
     per_signal: dict[str, float]  # gap of theta and phi alone [counts]
-    per_window: np.ndarray  # each window's excess mean squared residual [counts^2]
-    sensor_variance: float  # [counts^2]
+    per_window: np.ndarray  # each window's excess mean squared residual over the floor [counts^2]
+    sensor_variance: float  # the floor taken off [counts^2]
     residuals: list[np.ndarray]
     initial_states: list[np.ndarray]  # per log (4, W), refined for this model (5, W: with the arm's bristle)
 
@@ -429,43 +432,33 @@ def model_jitter(model: Model, windows: Windows, nominal_counts: int, refined=No
     return jitter_variances(model, windows, jitter_energy(model, windows, states, jacobians, nominal_counts))
 
 
-def squared_excess(r: list[np.ndarray], jitter: list[np.ndarray] | None = None) -> list[np.ndarray]:
-    """Per log the squared residuals (horizon - 1, 2, W) [counts^2] past each window's start, less the jittering
-    delay's variance of each sample when the model has one."""
-    squared = [x[1:] ** 2 for x in r]  # row 0 is the start
-    return squared if jitter is None else [x - j[1:] for x, j in zip(squared, jitter)]
+def squared_excess(r: list[np.ndarray]) -> list[np.ndarray]:
+    """Per log the squared residuals (horizon - 1, 2, W) [counts^2] past each window's start."""
+    return [x[1:] ** 2 for x in r]  # row 0 is the start
 
 
-def window_excess(r: list[np.ndarray], variance: float, jitter: list[np.ndarray] | None = None) -> np.ndarray:
-    """Each window's mean squared residual less the model's sensor and jitter variance [counts^2]."""
-    return _per_window(squared_excess(r, jitter), variance)
+def window_excess(r: list[np.ndarray], variance: float) -> np.ndarray:
+    """Each window's mean squared residual less the floor ``variance`` [counts^2]."""
+    return np.concatenate([x.mean(axis=(0, 1)) for x in squared_excess(r)]) - variance
 
 
-def _per_window(squared: list[np.ndarray], variance: float) -> np.ndarray:
-    """Each window's mean of ``squared`` (per log, :func:`squared_excess`) less the sensor ``variance``."""
-    return np.concatenate([x.mean(axis=(0, 1)) for x in squared]) - variance
-
-
-def gap_from_residuals(
-    r: list[np.ndarray], variance: float, initial_states: list[np.ndarray], jitter: list[np.ndarray] | None = None
-) -> GapResult:
-    """The gap and its parts from per-log (horizon, 2, W) residuals [counts], the sensor variance and the jittering
-    delay's variance of each sample (:func:`jitter_variances`; None: none)."""
-    squared = squared_excess(r, jitter)
-    per_window = _per_window(squared, variance)
+def gap_from_residuals(r: list[np.ndarray], floor: float, initial_states: list[np.ndarray]) -> GapResult:
+    """The gap and its parts from per-log (horizon, 2, W) residuals [counts] and the rig file's sensor variance
+    ``floor`` [counts^2]."""
+    squared = squared_excess(r)
+    per_window = window_excess(r, floor)
     samples = sum(x.shape[0] * x.shape[2] for x in squared)
     per_signal = {
-        name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - variance, 0.0)))
+        name: float(np.sqrt(max(sum(x[:, i].sum() for x in squared) / samples - floor, 0.0)))
         for i, name in enumerate(("theta", "phi"))
     }
-    return GapResult(float(np.sqrt(max(per_window.mean(), 0.0))), per_signal, per_window, variance, r, initial_states)
+    return GapResult(float(np.sqrt(max(per_window.mean(), 0.0))), per_signal, per_window, floor, r, initial_states)
 
 
 def evaluate_gap(model: Model, windows: Windows, nominal_counts: int) -> GapResult:
-    """The gap of ``model`` on ``windows`` (see the module docstring), from the surrogate."""
-    r, states, jacobians = projected_residuals(model, windows, nominal_counts, sensitivities=model.delay_spread > 0)
-    jitter = model_jitter(model, windows, nominal_counts, (states, jacobians))
-    return gap_from_residuals(r, sensor_variance(model, nominal_counts), states, jitter)
+    """The gap of ``model``'s predictions on ``windows`` (see the module docstring), from the surrogate."""
+    r, states, _ = projected_residuals(model, windows, nominal_counts, sensitivities=False)
+    return gap_from_residuals(r, windows.floor, states)
 
 
 def window_residuals(result: GapResult, windows: Windows, rig: RigParameters) -> list[WindowResiduals]:

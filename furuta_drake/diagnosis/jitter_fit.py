@@ -15,6 +15,11 @@ is variance claimed for a misfit of the mean: an actuator lag read as a jitter's
 below it is physics and may be reached). The residuals must then hold extra variance *where*
 the jitter puts it (after each command change, through the window's impulse responses), not merely extra
 variance. A uniform delay cannot reach below zero, so the spread is at most the mean delay over sqrt(3).
+
+The same comparison is then made on the held-out windows (:func:`heldout_jitter`): the spread credited on the
+train windows is named only when the held-out residuals' log-likelihood under its variance of each sample beats
+that under the constant variance fitted on the train windows, with a 5 % bootstrap lower bound above 0. A
+likelihood is a proper score: a variance claimed too large costs as much as one too small.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from furuta_drake.effects.surrogate import Model, sensor_variance
 from furuta_drake.effects.vocabulary import causal_spread
 
 GRID = 41  # spreads and constant variances on which the likelihood is evaluated (log-spaced)
+JITTER_WINDOWS = 400  # train windows (a seeded draw) the held-out judgement's constant variance is fitted on
 
 
 @dataclass(frozen=True)
@@ -82,6 +88,47 @@ def spread_by_likelihood(
     inside = np.percentile(samples, 2.5) > low and np.percentile(samples, 97.5) < bounds[1] * (1.0 - 1e-9)
     credited = bool(np.quantile(gain[1:], LOWER_BOUND_QUANTILE) > 0.0 and inside)
     return SpreadEvidence(float(spreads[chosen[0]]), samples, credited)
+
+
+@dataclass(frozen=True)
+class HeldoutJitter:
+    """A jittering delay judged on held-out windows: each window's log-likelihood gain over the constant variance
+    [nats], the 5 % bootstrap lower bound of its mean, and the mean variance the draws add to each window's
+    residuals [counts^2]."""
+
+    gain: np.ndarray
+    lower_bound: float
+    claimed: np.ndarray
+
+    @property
+    def credited(self) -> bool:
+        return self.lower_bound > 0.0
+
+
+def jitter_claim(model: Model, windows: Windows, nominal_counts: int) -> tuple[list, np.ndarray]:
+    """``model``'s squared residuals on ``windows`` past each start and the variance its jittering delay adds to each
+    of them (per log (horizon - 1, 2, W) [counts^2]), and each window's mean of that variance."""
+    r, states, jacobians = projected_residuals(model, windows, nominal_counts)
+    energy = jitter_energy(model, windows, states, jacobians, nominal_counts)
+    variances = [v[1:] for v in jitter_variances(model, windows, energy)]
+    return list(zip(squared_excess(r), variances)), np.concatenate([v.mean(axis=(0, 1)) for v in variances])
+
+
+def heldout_jitter(
+    model: Model, train: Windows, heldout: Windows, nominal_counts: int, bootstrap, seed: int
+) -> HeldoutJitter:
+    """``model``'s jittering delay judged on ``heldout`` (module docstring): the constant variance is the one of
+    largest likelihood on (at most ``JITTER_WINDOWS`` of) the train windows; ``bootstrap`` resamples the held-out
+    windows."""
+    sensor = sensor_variance(model, nominal_counts)
+    r = projected_residuals(model, train.subset(JITTER_WINDOWS, seed), nominal_counts, sensitivities=False)[0]
+    constant = max(float(np.mean(np.concatenate([x.ravel() for x in squared_excess(r)]))) - sensor, 0.0)
+    pairs, claimed = jitter_claim(model, heldout, nominal_counts)
+    squares = [x for x, _ in pairs]
+    structured = _window_likelihoods(squares, [sensor + v for _, v in pairs])
+    unstructured = _window_likelihoods(squares, [np.full_like(x, sensor + constant) for x in squares])
+    gain = structured - unstructured
+    return HeldoutJitter(gain, float(np.quantile(bootstrap.means(gain), LOWER_BOUND_QUANTILE)), claimed)
 
 
 def _window_likelihoods(squares: list[np.ndarray], variances: list[np.ndarray]) -> np.ndarray:

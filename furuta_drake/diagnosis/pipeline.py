@@ -40,6 +40,7 @@ from furuta_drake.diagnosis.reselection import reselect_beside_torque
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
 from furuta_drake.diagnosis.rival import widen
 from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.sensor import SensorFinding
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.diagnosis.stepwise import Selection, select_effects
@@ -63,25 +64,47 @@ UNCERTAINTY = (
 )
 
 
-def _params(result: FitResult, nominal: Model) -> tuple[dict, dict]:
-    """The ranking's params and params_ci of a fitted model (prefixed 'effect.' when it holds several)."""
+def _params(result: FitResult, nominal: Model) -> tuple[dict, dict, dict]:
+    """The ranking's params, params_ci and at_bound of a fitted model (prefixed 'effect.' when it holds several):
+    a parameter fitted at an end of its search range has no interval (its bootstrap piles up on the bound)."""
     params, intervals = {}, {}
     several = len(result.effects) > 1
+    bounded = {label.rsplit(" ", 1)[0]: label.rsplit(" ", 1)[1].strip("()") for label in result.at_bounds}
+    at_bound = {}
     for name, effect in result.effects.items():
         prefix = f"{name}." if several else ""
         params.update({prefix + k: v for k, v in describe(name, effect, nominal).items()})
+        at_bound.update(
+            {prefix + label.split(".", 1)[1]: end for label, end in bounded.items() if label.startswith(f"{name}.")}
+        )
         samples = result.samples.get(name)
         if samples is None or samples.size == 0:
             continue
         described = [describe(name, Effect(effect.form, tuple(row)), nominal) for row in samples]
         for key in described[0]:
-            if key != "form":
+            if key != "form" and prefix + key not in at_bound:
                 intervals[prefix + key] = list(interval(np.array([d[key] for d in described])))
+    return params, intervals, at_bound
+
+
+def _sensor_params(finding: SensorFinding, nominal: Model) -> tuple[dict, dict]:
+    """The params and params_ci of a sensor effect read from the data."""
+    params = describe(finding.name, finding.effect, nominal)
+    intervals = {}
+    if finding.samples.size:
+        described = [
+            describe(finding.name, Effect(finding.effect.form, tuple(row)), nominal) for row in finding.samples
+        ]
+        intervals = {
+            key: list(interval(np.array([d[key] for d in described]))) for key in described[0] if key != "form"
+        }
     return params, intervals
 
 
 def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
-    """Every model tried, best first by its held-out reduction over the nominal model; failed ones last."""
+    """Every model tried, best first by its held-out reduction over the nominal model; failed ones last; then the
+    sensor effects read beside the final model (their predictions are the final model's: what they claim is their
+    ``sensor_share``, judged by their ``score_gain``)."""
     rows = []
     for step, result in selection.tried:
         if result.failure:
@@ -89,8 +112,9 @@ def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
                 RankedCandidate(result.name, {}, None, None, None, step=step, status="failed", reason=result.failure)
             )
             continue
-        params, intervals = _params(result, nominal)
-        over_nominal, over_previous = selection.over_nominal[result.name], selection.over_previous[result.name]
+        params, intervals, at_bound = _params(result, nominal)
+        over_nominal = selection.over_nominal[result.name]
+        over_previous = selection.over_previous.get(result.name, over_nominal)
         rows.append(
             RankedCandidate(
                 result.name,
@@ -104,6 +128,7 @@ def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
                 evidence_over_previous=over_previous.lower_bound,
                 train_gap=result.train_gap,
                 at_bounds=result.at_bounds,
+                at_bound=at_bound,
             )
         )
     ok = [row for row in rows if row.status == "ok"]
@@ -111,7 +136,37 @@ def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
         result.name: selection.over_nominal[result.name].excess for _, result in selection.tried if not result.failure
     }
     ok.sort(key=lambda row: (-row.heldout_reduction, excess[row.effect], row.step, row.effect))
-    return ok + [row for row in rows if row.status != "ok"]
+    return ok + [row for row in rows if row.status != "ok"] + _sensor_rows(selection, nominal)
+
+
+def _sensor_rows(selection: Selection, nominal: Model) -> list[RankedCandidate]:
+    """A ranking row per sensor effect read: beside the final model (whose predictions it keeps), its parameters,
+    the share of the nominal held-out mean squared excess it would account for and its held-out score."""
+    base = selection.final if selection.accepted else None
+    over = selection.over_nominal[base.name] if base else None
+    gap = over.heldout_gap if over else selection.nominal.gap
+    before = max(float(selection.nominal.per_window.mean()), 1e-12)
+    rows = []
+    for finding in selection.sensors:
+        params, intervals = _sensor_params(finding, nominal)
+        rows.append(
+            RankedCandidate(
+                finding.name,
+                params,
+                gap,
+                over.reduction if over else 0.0,
+                over.lower_bound if over else 0.0,
+                params_ci=intervals,
+                step=len(selection.accepted) + 1,
+                reduction_over_previous=0.0,
+                evidence_over_previous=0.0,
+                sensor_share=float(np.mean(finding.claimed)) / before,
+                score_gain=finding.score_gain,
+                score_evidence=finding.lower_bound,
+                note=finding.note,
+            )
+        )
+    return rows
 
 
 def diagnose(
@@ -329,7 +384,7 @@ def _heldout_gaps(inputs: _Inputs, selection: Selection, settings, bootstrap: Bo
     if settings.detection_limits:
         limits = detection_limits(
             accepted_model,
-            list(final.effects) if final else [],
+            (list(final.effects) if final else []) + [f.name for f in selection.sensor_effects if selection.closes],
             inputs.heldout_windows,
             scales_of(inputs.train_logs, inputs.nominal),
             inputs.rig.counts_per_rev,
@@ -391,7 +446,7 @@ def _diagnosis(
     return Diagnosis(
         verdict=selection.verdict,
         effects=selection.effects,
-        gap=_gap_figures(inputs, final, nominal_heldout, accepted_heldout, evaluated_by, before, after),
+        gap=_gap_figures(inputs, selection, nominal_heldout, accepted_heldout, evaluated_by, before, after),
         ranking=ranked,
         localization=localize(
             before,
@@ -416,10 +471,17 @@ def _diagnosis(
     )
 
 
-def _gap_figures(inputs: _Inputs, final, nominal_heldout, accepted_heldout, evaluated_by, before, after) -> GapFigures:
-    """The gap of the nominal and the accepted model on train and held-out windows and its reduction."""
+def _gap_figures(
+    inputs: _Inputs, selection: Selection, nominal_heldout, accepted_heldout, evaluated_by, before, after
+) -> GapFigures:
+    """The gap of the nominal and the accepted model on train and held-out windows, its reduction by the
+    predictions, and apart from it what the accepted sensor effects (and a credited jitter) account for."""
+    final = _final(selection)
     train_nominal = evaluate_gap(inputs.nominal, inputs.train_windows, inputs.rig.counts_per_rev).gap
     reduction = 1.0 - accepted_heldout.gap / nominal_heldout.gap if nominal_heldout.gap > 0 else 0.0
+    floor = inputs.heldout_windows.floor
+    claimed = float(selection.claimed().mean()) if selection.closes else 0.0
+    left = max(float(accepted_heldout.per_window.mean()), 0.0)
     return GapFigures(
         gap_metric_definition(horizon_seconds(inputs.rig)),
         {"train": train_nominal, "heldout": nominal_heldout.gap},
@@ -428,15 +490,18 @@ def _gap_figures(inputs: _Inputs, final, nominal_heldout, accepted_heldout, eval
         nominal_heldout.per_signal,
         evaluated_by,
         heldout_rms_per_log(before, after),
+        sensor_variance={"nominal": floor, "with_effects": floor + claimed},
+        sensor_share=min(claimed, left) / max(float(nominal_heldout.per_window.mean()), 1e-12),
     )
 
 
 def _steps(selection: Selection, nominal: Model) -> list[Step]:
-    """Each accepted step's effect, parameters and held-out reductions (over nominal, the step, the others)."""
+    """Each accepted step's effect, parameters and held-out reductions (over nominal, the step, the others), then
+    each accepted sensor effect with its share and score."""
     steps = []
     accepted = selection.step_models if _final(selection) else []
     for name, result, over_step in zip(selection.accepted, accepted, selection.over_step):
-        params, _ = _params(result, nominal)
+        params, _, at_bound = _params(result, nominal)
         over_nominal, over_others = selection.over_nominal[result.name], selection.over_others[name]
         steps.append(
             Step(
@@ -447,6 +512,22 @@ def _steps(selection: Selection, nominal: Model) -> list[Step]:
                 over_step.reduction,
                 over_others.reduction,
                 over_others.lower_bound,
+                at_bound=at_bound,
+            )
+        )
+    rows = {row.effect: row for row in _sensor_rows(selection, nominal)} if selection.closes else {}
+    for finding in selection.sensor_effects if selection.closes else []:
+        row = rows[finding.name]
+        steps.append(
+            Step(
+                finding.name,
+                row.params,
+                row.heldout_gap,
+                row.heldout_reduction,
+                0.0,
+                sensor_share=row.sensor_share,
+                score_gain=row.score_gain,
+                score_evidence=row.score_evidence,
             )
         )
     return steps
@@ -459,19 +540,21 @@ def _artifacts(inputs: _Inputs, selection, torque: dict, missing, before, after,
     nominal, rig_params = inputs.nominal, inputs.rig
     final = _final(selection)
     fitted = selection.final if torque else final
+    sensors = {f.name: f.effect for f in selection.sensor_effects} if selection.closes else {}
+    effects = {**(fitted.effects if fitted else {}), **sensors}
     # the rig file's torque and the one found beside it, written together
     parameters = torque_parameters_of(merged(nominal.unmodelled_terms + tuple(missing.terms))) if torque else None
     curves = [
         effect_curve(name, describe(name, effect, nominal), rig_params)
-        for name, effect in (final.effects.items() if final else [])
+        for name, effect in {**(final.effects if final else {}), **sensors}.items()
     ]
     return Artifacts(
         before,
         after,
         sensor_variance,
         curves,
-        fitted_config=model_config(rig_params, _accepted_model(nominal, fitted), parameters),
-        fitted_rig=fitted_rig(rig_params, fitted.effects if fitted else {}, nominal, parameters),
+        fitted_config=model_config(rig_params, apply_effects(nominal, effects), parameters),
+        fitted_rig=fitted_rig(rig_params, effects, nominal, parameters),
         record=record,
         torque_scatter=missing.scatter if missing else {},
     )

@@ -5,6 +5,8 @@ words (the reports' own sentences are :mod:`~furuta_drake.diagnosis.narrative`'s
 
 from __future__ import annotations
 
+import numpy as np
+
 from furuta_drake.diagnosis.rule import (
     CLOSES,
     CONFUSABLE_LEVEL,
@@ -73,8 +75,37 @@ def confusable_why(pair: dict) -> str:
 
 
 def choice_text(selection: Selection) -> str:
-    """Why the verdict, in one paragraph."""
+    """Why the verdict, in one paragraph: the effects that change the predictions, then the sensor's."""
+    return " ".join(part for part in (_prediction_text(selection), sensor_text(selection)) if part)
+
+
+def sensor_text(selection: Selection) -> str:
+    """What the sensor effects' signature showed on the held-out windows, one sentence each."""
+    parts = []
+    for finding in selection.sensors:
+        if finding.accepted:
+            parts.append(
+                f"{finding.name} is accepted on its signature: its held-out log score beats the rig file's sensor by "
+                f"{finding.score_gain:.3g} nats per window (5 % lower bound {finding.lower_bound:.3g})."
+            )
+        elif finding.note:
+            parts.append(f"{finding.name} is not accepted: {finding.note}.")
+    jitter = selection.jitter
+    if jitter is not None:
+        verb = "are" if jitter.credited else "are not"
+        parts.append(
+            f"The jittering delay's draws {verb} credited with the variance they add: on the held-out windows they "
+            f"score {float(np.mean(jitter.gain)):.3g} nats per window above a constant variance (5 % lower bound "
+            f"{jitter.lower_bound:.3g})."
+        )
+    return " ".join(parts)
+
+
+def _prediction_text(selection: Selection) -> str:
+    """Why the effects that change the predictions were kept (or none was)."""
     if not selection.accepted:
+        if selection.closes:
+            return "No effect that changes the predictions is needed."
         if selection.quiet:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
         if selection.negligible:
@@ -105,7 +136,7 @@ def choice_text(selection: Selection) -> str:
     if selection.negligible:
         text += " " + _negligible_text(selection)
     elif not selection.closes:
-        text += f" That is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
+        text += f" With the sensor's share that is less than the {CLOSES:.0%} that explains it: the gap is unexplained."
     for pair in selection.confusable:
         text += (
             f" {pair['effects'][1]} explains the held-out data as well as {pair['effects'][0]} "

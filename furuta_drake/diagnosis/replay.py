@@ -7,8 +7,7 @@ of that source, a jittering one its expectation (piecewise linear). Each window 
 surrogate refined for this model, with a fresh integrator (Drake's error-controlled RK5 at accuracy 1e-6: a gap
 near the sensor floor is a square root, so integration error that a looser accuracy leaves would show), which
 stops at every jump of the applied command so that no step straddles one; the residuals give the same gap as
-:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree); a jittering delay's variance of each
-sample is the surrogate's (:func:`~furuta_drake.diagnosis.gap.model_jitter`).
+:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
 """
 
 from __future__ import annotations
@@ -22,10 +21,10 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, model_jitter, substeps_for
+from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, substeps_for
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
-from furuta_drake.effects.surrogate import Model, expected_command_points, lag_states, sensor_variance
+from furuta_drake.effects.surrogate import Model, expected_command_points, lag_states
 from furuta_drake.effects.torque_library import torque_parameters_of
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.rig import RigParameters, encoder_resolution
@@ -186,14 +185,13 @@ def replay_gaps(
     residuals = run(_replay_log, tasks)
     n = len(windows.logs)
     out = []
-    for k, (model, x0) in enumerate(models):
+    for k, (_, x0) in enumerate(models):
         parts = residuals[k * n : (k + 1) * n]
         failed = any(isinstance(r, Failure) or not np.all(np.isfinite(r)) for r in parts)
         if failed:
             out.append(None)
             continue
-        jitter = model_jitter(model, windows, rig.counts_per_rev)
-        out.append(gap_from_residuals(parts, sensor_variance(model, rig.counts_per_rev), x0, jitter))
+        out.append(gap_from_residuals(parts, windows.floor, x0))
     return out
 
 

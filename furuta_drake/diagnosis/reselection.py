@@ -118,10 +118,16 @@ def rebased(
         quiet=first.quiet,
         runners_up=again.runners_up,
         exchanges=again.exchanges,
+        sensors=again.sensors,
+        jitter=again.jitter,
     )
     nominal_gap = first.nominal.per_window
-    for result in models.values():
+    for key, result in models.items():
         out.over_nominal[result.name] = bootstrap.evidence(nominal_gap, result.heldout.per_window)
+        built_on = models.get(frozenset(key - {result.name.split("+")[-1]}))
+        out.over_previous[result.name] = bootstrap.evidence(
+            built_on.heldout.per_window if built_on else nominal_gap, result.heldout.per_window
+        )
     chain = [nominal_gap] + [model.heldout.per_window for model in out.step_models]
     for result, before, after in zip(out.step_models, chain[:-1], chain[1:]):
         out.over_previous[result.name] = bootstrap.evidence(before, after)

@@ -33,6 +33,10 @@ class GapFigures:
     per_signal_nominal_heldout: dict[str, Number] = field(default_factory=dict)
     evaluated_by: str = ""
     heldout_rms_per_log: list[dict] = field(default_factory=list)  # {log, nominal, with_effects}: RMS [counts]
+    sensor_variance: dict[str, Number] = field(default_factory=dict)  # {nominal, with_effects}: what each model
+    # attributes to the sensor (and a credited jitter's draws) [counts^2]
+    sensor_share: Number = None  # the share of the nominal held-out mean squared excess the accepted sensor
+    # effects and a credited jitter account for (apart from heldout_reduction, what the predictions remove)
 
 
 @dataclass
@@ -55,9 +59,15 @@ class RankedCandidate:
     evidence_over_previous: Number = None
     train_gap: Number = None
     at_bounds: list[str] = field(default_factory=list)
+    at_bound: dict[str, str] = field(default_factory=dict)  # param -> "lower" | "upper": fitted at its search range's
+    # end (no interval is reported for it)
     evaluated_by: str = "surrogate"
     status: str = "ok"
     reason: str = ""
+    sensor_share: Number = None  # a sensor effect: the share of the nominal held-out mean squared excess it explains
+    score_gain: Number = None  # a sensor effect: its held-out log score over the rig file's sensor [nats per window]
+    score_evidence: Number = None  # its 5 % bootstrap lower bound
+    note: str = ""  # a sensor effect not accepted: why
 
 
 @dataclass
@@ -72,6 +82,10 @@ class Step:
     reduction_over_previous: Number = None  # over the model of the step before
     reduction_over_others: Number = None
     evidence_over_others: Number = None  # its 5 % bootstrap lower bound
+    at_bound: dict[str, str] = field(default_factory=dict)  # param -> "lower" | "upper" (see RankedCandidate)
+    sensor_share: Number = None  # a sensor effect: the share of the nominal held-out mean squared excess it explains
+    score_gain: Number = None  # a sensor effect: its held-out log score over the rig file's sensor [nats per window]
+    score_evidence: Number = None  # its 5 % bootstrap lower bound
 
 
 @dataclass

@@ -251,13 +251,22 @@ def decide(evidence: Comparison, *, first: bool = False) -> bool:
     return is_kept(evidence) and (not first or evidence.reduction >= CLOSES)
 
 
-def verdict(effects: list[str], reduction: float | None, quiet: bool) -> str:
-    """The verdict of a selection that kept ``effects`` (in the order they entered) with the final model's
-    ``reduction`` of the nominal held-out gap: the first effect when they close it (``CLOSES``), else ``none``
-    when the nominal model is within the noise or its gap is :func:`negligible` (``quiet``), else
-    ``unexplained``."""
-    if effects and reduction is not None and reduction >= CLOSES:
-        return effects[0]
+def combined_reduction(predicted: float, sensor: float) -> float:
+    """1 - gap / nominal gap when the predictions remove the share ``predicted`` of the nominal held-out mean
+    squared excess and the accepted sensor effects (and a credited jitter) account for the share ``sensor``: what
+    closing the gap reads, each part having passed its own test."""
+    return 1.0 - float(np.sqrt(max(1.0 - predicted - sensor, 0.0)))
+
+
+def verdict(dynamic: list[str], sensors: list[str], shares: tuple[float, float], quiet: bool) -> str:
+    """The verdict of a selection that kept the effects ``dynamic`` (those changing the predictions, in the order
+    they entered) and ``sensors`` (the sensor effects, the largest claim first), whose ``shares`` are (the share of
+    the nominal held-out mean squared excess the predictions remove, the share the sensor effects account for): when
+    together they close the gap (:func:`combined_reduction` of at least ``CLOSES``), the first effect of the part
+    that explains more; else ``none`` when the nominal model is within the noise or its gap is :func:`negligible`
+    (``quiet``), else ``unexplained``."""
+    if (dynamic or sensors) and combined_reduction(*shares) >= CLOSES:
+        return sensors[0] if sensors and (shares[1] > shares[0] or not dynamic) else dynamic[0]
     return "none" if quiet else "unexplained"
 
 

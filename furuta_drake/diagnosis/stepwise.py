@@ -2,7 +2,9 @@
 the earlier ones and entering on the held-out rule's lenient bound; then backward, each kept only while the model
 without it is worse by the rule's margin; then exchanges, each kept effect replaced by a runner-up of the step it
 entered at when that explains the held-out data significantly better (:mod:`furuta_drake.diagnosis.rule` holds
-the rule)."""
+the rule). These are the effects that change the predictions; the sensor effects are then read beside the final
+model and judged on their own signature (:mod:`furuta_drake.diagnosis.sensor`), and a named jittering delay's
+draws are credited with the variance they add (:mod:`furuta_drake.diagnosis.jitter_fit`)."""
 
 from __future__ import annotations
 
@@ -10,8 +12,11 @@ import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
 from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
+from furuta_drake.diagnosis.jitter_fit import HeldoutJitter, heldout_jitter
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.parallel import Failure
 from furuta_drake.diagnosis.rule import (
@@ -22,15 +27,17 @@ from furuta_drake.diagnosis.rule import (
     Comparison,
     at_floor,
     choose,
+    combined_reduction,
     confusable,
     decide,
     negligible,
     order,
     verdict,
 )
+from furuta_drake.diagnosis.sensor import SensorFinding, read_sensors
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, law_of
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, law_of
 
 JOINT_REFITS = 3  # at a later step, the candidates fitted again together with the earlier effects
 FRESH_STARTS_FROM = 3  # from this step, those refits also start from the new effect's own starts
@@ -58,6 +65,8 @@ class Selection:
     exchanges: list[dict] = field(default_factory=list)  # {"out", "in", "evidence"}: the exchanges made
     subset_fit: FitResult | None = None  # the final model as the selection fitted it, on its fit windows, when
     # ``final`` is its refit on every train window (:mod:`~furuta_drake.diagnosis.final_fit`)
+    sensors: list[SensorFinding] = field(default_factory=list)  # the sensor effects read beside the final model
+    jitter: HeldoutJitter | None = None  # the final model's jittering delay judged on the held-out windows
 
     def model(self, effects) -> FitResult | None:
         """The fitted model holding exactly ``effects`` (in any order), or None."""
@@ -73,8 +82,32 @@ class Selection:
         return self.model(self.accepted) if self.accepted else None
 
     @property
+    def sensor_effects(self) -> list[SensorFinding]:
+        """The accepted sensor effects."""
+        return [finding for finding in self.sensors if finding.accepted]
+
+    def claimed(self) -> np.ndarray:
+        """Per held-out window, the variance [counts^2] the accepted sensor effects and a credited jittering delay
+        add to the residuals beyond the rig file's own sensor."""
+        total = np.zeros(self.nominal.per_window.size)
+        for finding in self.sensor_effects:
+            total = total + finding.claimed
+        if self.jitter is not None and self.jitter.credited:
+            total = total + self.jitter.claimed
+        return total
+
+    @property
+    def shares(self) -> tuple[float, float]:
+        """(the share of the nominal held-out mean squared excess the final model's predictions remove, the share
+        the accepted sensor effects and a credited jitter account for of what is left)."""
+        before = max(float(self.nominal.per_window.mean()), 1e-12)
+        after = float(self.final.heldout.per_window.mean()) if self.accepted else before
+        claimed = min(float(self.claimed().mean()), max(after, 0.0))
+        return 1.0 - after / before, claimed / before
+
+    @property
     def closes(self) -> bool:
-        return bool(self.accepted) and self.over_nominal[self.final.name].reduction >= CLOSES
+        return bool(self.accepted or self.sensor_effects) and combined_reduction(*self.shares) >= CLOSES
 
     @property
     def negligible(self) -> bool:
@@ -84,8 +117,10 @@ class Selection:
 
     @property
     def verdict(self) -> str:
-        reduction = self.over_nominal[self.final.name].reduction if self.accepted else None
-        return verdict(self.effects, reduction, self.quiet or self.negligible)
+        names = self.effects
+        sensors = sorted(self.sensor_effects, key=lambda finding: -float(np.mean(finding.claimed)))
+        dynamic = names[: len(names) - len(sensors)]
+        return verdict(dynamic, [finding.name for finding in sensors], self.shares, self.quiet or self.negligible)
 
     def nearest(self) -> FitResult | None:
         """The single candidate that reduces the nominal held-out gap the most (None when none was fitted)."""
@@ -94,12 +129,14 @@ class Selection:
 
     @property
     def effects(self) -> list[str]:
-        """The accepted effects in the order accepted (empty for none and unexplained); a Stribeck fit without
-        static excess, or an asymmetry fit with equal levels, is named Coulomb friction (the vocabulary's Stribeck
-        is static friction *above* it, its asymmetry levels that differ)."""
+        """The accepted effects (those changing the predictions in the order accepted, then the sensor effects;
+        empty for none and unexplained); a Stribeck fit without static excess, or an asymmetry fit with equal
+        levels, is named Coulomb friction (the vocabulary's Stribeck is static friction *above* it, its asymmetry
+        levels that differ)."""
         if not self.closes:
             return []
-        return [_vocabulary_name(name, self.final.effects[name]) for name in self.accepted]
+        dynamic = [_vocabulary_name(name, self.final.effects[name]) for name in self.accepted]
+        return dynamic + [finding.name for finding in self.sensor_effects]
 
 
 def _vocabulary_name(name: str, effect: Effect) -> str:
@@ -140,19 +177,38 @@ class Stepwise:
         self.nominal, self.logs, self.train, self.heldout = nominal, tuple(logs), train, heldout
         self.counts, self.settings, self.run = counts, settings, run
         self.bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
+        self.scales = scales_of(self.logs, nominal)
         self.nominal_gap = evaluate_gap(nominal, heldout, counts)
         self.selection = Selection(self.nominal_gap, [], quiet=self.bootstrap.within_noise(self.nominal_gap.per_window))
 
     def select(self, names: list[str]) -> Selection:
-        """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges."""
-        while len(self.selection.accepted) < self.settings.max_effects and self.step(names):
+        """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges, among the
+        effects that change the predictions; then the sensor effects ``names`` holds, read beside the final model
+        (:meth:`read_sensors`)."""
+        dynamic = [name for name in names if CANDIDATES[name].fit]
+        while len(self.selection.accepted) < self.settings.max_effects and self.step(dynamic):
             pass
         _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit)
         for _ in range(MAX_EXCHANGES):
-            if not _exchange(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.best_form):
+            if not _exchange(
+                self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
+            ):
                 break
             _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit)
+        self.read_sensors([name for name in names if not CANDIDATES[name].fit])
         return self.selection
+
+    def read_sensors(self, names: list[str]) -> None:
+        """The sensor effects among ``names`` read beside the final model and judged on the held-out windows, and
+        the final model's jittering delay (when it has one) judged there too."""
+        selection = self.selection
+        model = apply_effects(self.nominal, selection.final.effects) if selection.final else self.nominal
+        findings = read_sensors(model, self.train, self.heldout, self.counts, self.settings, self.bootstrap)
+        selection.sensors = [finding for finding in findings if finding.name in names]
+        if model.delay_spread > 0:
+            selection.jitter = heldout_jitter(
+                model, self.train, self.heldout, self.counts, self.bootstrap, self.settings.seed
+            )
 
     def record(self, result: FitResult, previous) -> None:
         """``result``'s held-out evidence over the nominal model and over the model it was built on (``previous``,
@@ -213,12 +269,15 @@ class Stepwise:
             return False
         if step > 1:
             self.joint_refits(fitted, held, step, previous)
+        fitted = {name: result for name, result in fitted.items() if not _null(result, self.scales)}
         evidence = {name: selection.over_previous[name] for name in fitted}
         added = {name: name.split("+")[-1] for name in fitted}
         per_window = {name: result.heldout.per_window for name, result in fitted.items()}
         chosen = choose(evidence, added, ENTRY, previous, per_window, self.bootstrap)
         if chosen is None and step == 1 and not selection.quiet and self.settings.max_effects > 1:
-            pair = _enter_pair(fitted, self.task, lambda tasks, before=previous: self.fit(tasks, 2, before), selection)
+            pair = _enter_pair(
+                fitted, self.task, lambda tasks, before=previous: self.fit(tasks, 2, before), selection, self.scales
+            )
             if pair is not None:
                 for name in pair:
                     selection.runners_up[name] = _runners_up(name, evidence, added, fitted)
@@ -255,6 +314,13 @@ class Stepwise:
             self.record(kept, previous)
 
 
+def _null(result: FitResult, scales) -> bool:
+    """Whether the effect ``result`` adds (the last of its effects) is at zero size: a step that adds nothing is no
+    step (:meth:`~furuta_drake.effects.vocabulary.Candidate.is_null`)."""
+    name, effect = list(result.effects.items())[-1]
+    return CANDIDATES[name].is_null(effect, scales)
+
+
 def _runners_up(effect: str, evidence: dict, added: dict, fitted: dict) -> list[tuple[str, Effect]]:
     """The candidates of other laws than ``effect``'s at its entry step, best first, with their fits there."""
     return [
@@ -271,6 +337,7 @@ def _exchange(
     task: Callable,
     fit: Callable,
     best_form: Callable,
+    scales,
 ) -> bool:
     """Replace one kept effect by a runner-up of the step it entered at, when the model holding the other kept
     effects and that runner-up (fitted together) reduces the final model's held-out gap with a 5 % lower bound
@@ -298,7 +365,7 @@ def _exchange(
         fitted = fit(missing, len(selection.accepted), before) if missing else []
         fitted = [r if r.failure else best_form(r, t, before) for r, t in zip(fitted, missing)]
         for result in [model for model in known if model is not None] + fitted:
-            if result.failure:
+            if result.failure or _null(result, scales):
                 continue
             evidence = bootstrap.evidence(final.heldout.per_window, result.heldout.per_window)
             if evidence.lower_bound > ENTRY and (best is None or evidence.reduction > best[2].reduction):
@@ -320,6 +387,7 @@ def _enter_pair(
     task: Callable,
     fit: Callable,
     selection: Selection,
+    scales,
 ) -> list[str] | None:
     """Two effects that enter together when neither enters alone: each masks the other, so that alone neither
     fit reduces the held-out gap (an inertia error beside a spring, say). The ``PAIR_ENTRY`` candidates with the
@@ -334,7 +402,11 @@ def _enter_pair(
         if len(best) == PAIR_ENTRY:
             break
     pairs = [(first, second) for i, first in enumerate(best) for second in best[i + 1 :]]
-    joint = [r for r in fit([task(second, fitted[first]) for first, second in pairs]) if not r.failure]
+    joint = [
+        r
+        for r in fit([task(second, fitted[first]) for first, second in pairs])
+        if not r.failure and not any(CANDIDATES[name].is_null(effect, scales) for name, effect in r.effects.items())
+    ]
     if not joint:
         return None
     winner = max(joint, key=lambda r: selection.over_previous[r.name].reduction)

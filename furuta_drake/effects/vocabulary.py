@@ -66,16 +66,39 @@ class Form:
 class Candidate:
     """An effect of the vocabulary. ``main``: the parameter whose size the detection limit states, with the
     value the nominal model has (``neutral``); ``fit`` False: estimated from the data directly (sensor
-    effects)."""
+    effects). ``vanishes``: the parameters that set the effect's size, each with the value at which the effect
+    vanishes ("upper": the end of its search range); ``nested``: (parameter, "lower" | "upper", the simpler law)
+    for a search range's end at which the law is a simpler one of the vocabulary (presliding at zero is a sticking
+    Coulomb law), not a law stretched beyond its shape."""
 
     name: str
     forms: tuple[Form, ...]
     main: str
     neutral: float = 0.0
     fit: bool = True
+    vanishes: tuple[tuple[str, float | str], ...] = ()
+    nested: tuple[tuple[str, str, str], ...] = ()
 
     def form(self, name: str) -> Form:
         return next(f for f in self.forms if f.name == name)
+
+    def is_null(self, effect: Effect, scales: Scales) -> bool:
+        """Whether ``effect`` is at zero size: every parameter of ``vanishes`` its form has within
+        ``NULL_TOLERANCE`` of its search range from the value at which the effect vanishes."""
+        form = self.form(effect.form)
+        low, high = form.bounds(scales)
+        values = dict(zip(form.params, effect.values))
+        spans = {param: (lo, hi) for param, lo, hi in zip(form.params, low, high)}
+        checked = [(param, null) for param, null in self.vanishes if param in values]
+        return bool(checked) and all(
+            abs(values[param] - (spans[param][1] if null == "upper" else null))
+            <= NULL_TOLERANCE * (spans[param][1] - spans[param][0])
+            for param, null in checked
+        )
+
+    def nested_law(self, param: str, end: str) -> str | None:
+        """The simpler law this candidate is with ``param`` at the ``end`` ("lower" | "upper") of its range, or None."""
+        return next((law for name, side, law in self.nested if name == param and side == end), None)
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -94,6 +117,7 @@ class Effect:
         object.__setattr__(self, "values", tuple(float(v) for v in self.values))
 
 
+NULL_TOLERANCE = 1e-3  # a size parameter within this fraction of its range from its null value is zero
 PRESLIDING = (1e-5, 0.05)  # bounds of the presliding displacement Fc / sigma0 of the arm friction [rad]
 # Starts of the presliding displacement and the regularisation velocity: each sets the travel or the velocity at
 # which the friction torque turns, a bend the cost is non-convex in, so a log grid spans their bounds' middle.
@@ -259,6 +283,11 @@ def _saturation(form: str) -> Form:
     )
 
 
+# The presliding displacement and the regularisation velocity at the low end of their ranges: a Coulomb law that sticks
+_STICKING = (
+    ("presliding", "lower", "a Coulomb law that sticks (no presliding displacement)"),
+    ("regularization_velocity", "lower", "a Coulomb law that sticks (a sharp sign)"),
+)
 DELAY_STARTS = (0.5, 1.0, 2.0, 3.5, 6.0, 10.0)  # starts of the input delay [sample periods]
 SPREAD_BOUNDS = (0.25, 5.0)  # bounds of a jittering delay's spread [sample periods]: a smaller spread is the fixed
 # form (its effect on the applied command is second order in the spread)
@@ -311,6 +340,8 @@ CANDIDATES: dict[str, Candidate] = {
                 lambda m, p: _smooth_arm(m, p[0], p[0], p[1]),
             ),
             main="coulomb",
+            vanishes=(("coulomb", 0.0),),
+            nested=_STICKING,
         ),
         Candidate(
             "arm_viscous_friction",
@@ -323,6 +354,7 @@ CANDIDATES: dict[str, Candidate] = {
                 ),
             ),
             main="viscous",
+            vanishes=(("viscous", 0.0),),
         ),
         Candidate(
             "arm_stribeck",
@@ -338,6 +370,8 @@ CANDIDATES: dict[str, Candidate] = {
                 lambda m, p: _smooth_arm(m, p[0], p[0], p[3], static=max(p[1], p[0]), stribeck_velocity=p[2]),
             ),
             main="static",
+            vanishes=(("coulomb", 0.0), ("static", 0.0)),
+            nested=_STICKING + (("static", "lower", "Coulomb friction without a breakaway level"),),
         ),
         Candidate(
             "friction_asymmetry",
@@ -353,6 +387,8 @@ CANDIDATES: dict[str, Candidate] = {
                 lambda m, p: _smooth_arm(m, p[0], p[1], p[2]),
             ),
             main="coulomb_neg",
+            vanishes=(("coulomb_pos", 0.0), ("coulomb_neg", 0.0)),
+            nested=_STICKING,
         ),
         Candidate(
             "pendulum_friction",
@@ -370,6 +406,8 @@ CANDIDATES: dict[str, Candidate] = {
                 ),
             ),
             main="coulomb",
+            vanishes=(("coulomb", 0.0), ("viscous", 0.0)),
+            nested=(("coulomb", "lower", "viscous friction alone"), ("viscous", "lower", "Coulomb friction alone")),
         ),
         Candidate(
             "encoder_quantization",
@@ -403,7 +441,13 @@ CANDIDATES: dict[str, Candidate] = {
             main="noise_std",
             fit=False,
         ),
-        Candidate("input_delay", (_fixed_delay(), _jittering_delay()), main="delay"),
+        Candidate(
+            "input_delay",
+            (_fixed_delay(), _jittering_delay()),
+            main="delay",
+            vanishes=(("delay", 0.0),),
+            nested=(("delay_spread", "lower", "a fixed delay"),),
+        ),
         Candidate(
             "torque_gain_error",
             _single(
@@ -411,8 +455,14 @@ CANDIDATES: dict[str, Candidate] = {
             ),
             main="gain",
             neutral=1.0,
+            vanishes=(("gain", 1.0),),
         ),
-        Candidate("actuator_deadzone", (_deadzone("subtract"), _deadzone("threshold")), main="deadzone"),
+        Candidate(
+            "actuator_deadzone",
+            (_deadzone("subtract"), _deadzone("threshold")),
+            main="deadzone",
+            vanishes=(("deadzone", 0.0),),
+        ),
         Candidate(
             "actuator_lag",
             _single(
@@ -422,8 +472,14 @@ CANDIDATES: dict[str, Candidate] = {
                 lambda m, p: m.replace(lag=p[0]),
             ),
             main="time_constant",
+            vanishes=(("time_constant", 0.0),),
         ),
-        Candidate("actuator_saturation", (_saturation("hard"), _saturation("smooth")), main="limit"),
+        Candidate(
+            "actuator_saturation",
+            (_saturation("hard"), _saturation("smooth")),
+            main="limit",
+            vanishes=(("limit", "upper"),),
+        ),
         Candidate(
             "arm_spring",
             (
@@ -443,6 +499,8 @@ CANDIDATES: dict[str, Candidate] = {
                 ),
             ),
             main="stiffness",
+            vanishes=(("stiffness", 0.0), ("cubic_stiffness", 0.0)),
+            nested=(("cubic_stiffness", "lower", "a linear spring"),),
         ),
         Candidate(
             "inertia_mismatch",
@@ -456,6 +514,9 @@ CANDIDATES: dict[str, Candidate] = {
             ),
             main="arm_inertia_scale",
             neutral=1.0,
+            vanishes=tuple(
+                (f"{name}_scale", 1.0) for name in ("arm_inertia", "pendulum_inertia", "coupling", "gravity")
+            ),
         ),
     ]
 }
