@@ -218,3 +218,39 @@ def test_a_joint_refit_at_the_floor_keeps_the_fit_nearer_the_data():
     stepwise.joint_refits(fitted, FitResult("+".join(held), held, 0.1, _gap(NOMINAL)), 3, NOMINAL)
     assert fitted[name] is fresh
     assert [r for _, r in stepwise.selection.tried] == [fresh]
+
+
+def test_every_effect_vanishes_at_its_null_values_and_not_at_a_clear_size():
+    """A delay of 4e-14 s, a friction asymmetry of 5.6e-19 N m, a gain of 1 + 1e-6, unit inertia scales: zero size;
+    the middle of each size parameter's range is not."""
+    cases = {
+        "input_delay": Effect("fixed", (4e-14,)),
+        "friction_asymmetry": Effect("presliding", (5.6e-19, 2.7e-14, 1e-3)),
+        "torque_gain_error": Effect("", (1.0 + 1e-6,)),
+        "inertia_mismatch": Effect("", (1.0, 1.0, 1.0, 1.0)),
+        "actuator_saturation": Effect("hard", (SCALES.command,)),  # a limit at the largest command clips nothing
+    }
+    for name, effect in cases.items():
+        assert CANDIDATES[name].is_null(effect, SCALES), name
+    for name, candidate in CANDIDATES.items():
+        if candidate.fit:
+            assert not candidate.is_null(_sized(name), SCALES), name
+
+
+def test_no_exchange_brings_in_an_effect_at_zero_size():
+    """Beside the friction a 'lag' of zero time constant would leave a tenth of the delay's excess: it removes
+    nothing itself (dropping the delay does), so it is never exchanged in."""
+    better = {frozenset(["arm_coulomb_friction", "actuator_lag"]): 0.03}
+    selection, bootstrap, task, fit, _ = _exchange_case(better)
+
+    def null_lag(tasks, step, before):
+        results = fit(tasks, step, before)
+        for result in results:
+            if "actuator_lag" in result.effects:
+                result.effects["actuator_lag"] = Effect("", (0.0,))
+        return results
+
+    assert not _exchange(
+        selection, bootstrap, _gap(NOMINAL), task, null_lag, lambda result, task, before: result, SCALES
+    )
+    assert selection.accepted == ["input_delay", "arm_coulomb_friction"]

@@ -16,6 +16,8 @@ from benchmarks.suite import run_configs
 from furuta_drake.diagnosis.fit import FitTask, fit_task, interval, scales_of
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, substeps_for
 from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.sensor import read_sensors
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model, predict_windows
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects
@@ -149,20 +151,22 @@ def _read(logs, counts: int, coarse: int = 1, noise_counts: float = 0.0, seed: i
 
 
 def _sensor_fit(name: str, logs, rig, windows) -> float:
-    nominal = Model.from_rig(rig)
-    fit = fit_task(FitTask(name, {}, nominal, windows, None, logs, rig.counts_per_rev, SETTINGS))
-    return fit.effects[name].values[0]
+    """The sensor effect ``name`` read beside the nominal model (judged on the same windows), its main value."""
+    bootstrap = Bootstrap(windows.count, 200, 0)
+    findings = read_sensors(Model.from_rig(rig), windows, windows, rig.counts_per_rev, SETTINGS, bootstrap)
+    return next(finding for finding in findings if finding.name == name).effect.values[0]
 
 
 @pytest.mark.parametrize("coarse", [4, 16])
 def test_a_coarser_encoder_is_read_from_the_angle_increments(nominal_windows, coarse):
     rig, logs, windows = nominal_windows
-    read = _sensor_fit("encoder_quantization", _read(logs, rig.counts_per_rev, coarse), rig, windows)
+    coarse_logs = _read(logs, rig.counts_per_rev, coarse)
+    read = _sensor_fit("encoder_quantization", coarse_logs, rig, make_windows(coarse_logs, rig))
     assert read == rig.counts_per_rev / coarse
 
 
 @pytest.mark.parametrize("noise_counts", [1.5, 4.0])
-def test_white_noise_is_read_from_the_second_differences(nominal_windows, noise_counts):
+def test_white_noise_is_read_from_the_third_differences(nominal_windows, noise_counts):
     rig, logs, windows = nominal_windows
     noisy = _read(logs, rig.counts_per_rev, noise_counts=noise_counts, seed=3)
     sigma = _sensor_fit("measurement_noise", noisy, rig, make_windows(noisy, rig))  # read from their residuals

@@ -33,7 +33,7 @@ def test_the_docs_state_the_rules_constants():
         f"beyond the {pct(rule.CONFUSABLE_LEVEL)} interval of their difference",
         f"is at least {pct(rule.MARGIN)}, its {pct(rule.LOWER_BOUND_QUANTILE)} lower bound exceeds {pct(rule.ENTRY)}",
         f"the floor's square ({rule.FLOOR_COUNTS}^2 counts^2)",
-        f"reduce the nominal held-out gap by at least {pct(rule.CLOSES)}",
+        f"1 - sqrt(1 - P - S) is at least {pct(rule.CLOSES)}",
         f"{'twice' if rule.NOISE_STANDARD_ERRORS == 2 else rule.NOISE_STANDARD_ERRORS} its bootstrap standard error",
     ):
         assert phrase in docs, phrase

@@ -281,9 +281,10 @@ def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:
     step = encoder_resolution(judge.model.counts_per_rev) / count
     own = Hypothesis(step, judge.model.noise_std / count)
 
+    base = signature_of(judge.model, judge.windows, judge.raw, judge.jacobians, judge.counts, extra=unit_noise)
+
     def detected(size: float) -> bool:
-        residuals = [r + size * n for r, n in zip(judge.raw, unit_noise)]
-        sig = signature_of(judge.model, judge.windows, residuals, judge.jacobians, judge.counts)
+        sig = base.injected(size)
         gain = sig.scores(Hypothesis(step, float(np.hypot(own.sigma, size)))) - sig.scores(own)
         return float(np.quantile(judge.bootstrap.means(gain), 0.05)) > 0.0
 

@@ -33,6 +33,7 @@ def every_window_tasks(
     logs: tuple,
     counts: int,
     settings: DiagnosisSettings,
+    regressed: dict | None = None,
 ) -> list[FitTask]:
     """The refits of ``fitted`` (effects fitted beside ``model``) on every window of ``train``: every fitted effect
     from its value (a warm start; the last one as the task's new effect, in its form), and the same with the last
@@ -53,6 +54,7 @@ def every_window_tasks(
         nominal_counts=counts,
         settings=dataclasses.replace(settings, fit_windows=train.count),
         fixed_samples=fitted.samples,
+        regressed=regressed or {},
     )
     return [dataclasses.replace(task, start=fitted.effects[new]), task]
 
@@ -83,7 +85,9 @@ def refit_final(
     that model over the nominal one, the step before and each model without one of its effects evaluated again;
     ``selection`` itself when there is nothing to refit. Also the report's notes (a refit not reported)."""
     final = selection.final
-    tasks = every_window_tasks(final, model, train, heldout, logs, counts, settings) if final else []
+    tasks = (
+        every_window_tasks(final, model, train, heldout, logs, counts, settings, selection.regressed) if final else []
+    )
     if not tasks:
         return selection, []
     refitted = refit(final, tasks, run)

@@ -36,7 +36,7 @@ from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.rule import Bootstrap, beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, causal_spread
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, causal_spread, form_starts
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a bound is "at" it
@@ -75,6 +75,7 @@ class FitTask:
     fixed_samples: dict[str, np.ndarray] = field(default_factory=dict)  # the fixed effects' earlier bootstrap
     frozen: bool = False
     start: Effect | None = None
+    regressed: dict = field(default_factory=dict)  # the train logs' equation-error starts (Scales.regressed)
 
     @property
     def name(self) -> str:
@@ -85,7 +86,8 @@ COMMAND_QUANTILES = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97)  # of |c
 # whose cost jumps where their parameter crosses a logged command (Scales.command_levels)
 
 
-def scales_of(logs, model: Model) -> Scales:
+def scales_of(logs, model: Model, regressed: dict | None = None) -> Scales:
+    """The rig's and the logs' scales (with the equation-error starts ``regressed``, when given)."""
     magnitudes = np.abs(np.concatenate([log.torque_command for log in logs]))
     return Scales(
         torque=model.gravity_torque,
@@ -94,6 +96,7 @@ def scales_of(logs, model: Model) -> Scales:
         pendulum_inertia=model.pendulum_inertia_total,
         period=float(np.median([log.sample_period for log in logs])),
         command_levels=tuple(float(q) for q in np.quantile(magnitudes, COMMAND_QUANTILES)),
+        regressed=regressed or {},
     )
 
 
@@ -178,7 +181,7 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
     and the new effect in the form ``new_form`` (from the best of its starts); returns (effects, at_bounds,
     bootstrap samples per effect, the mean squared residual [counts^2])."""
     settings, counts = task.settings, task.nominal_counts
-    scales = scales_of(task.logs, task.model)
+    scales = scales_of(task.logs, task.model, task.regressed)
     forms, sensors = _forms(task, new_form, scales)
     names, sizes, low, high, starts = _stacked(forms, scales)
     span = high - low
@@ -238,7 +241,9 @@ def _forms(task: FitTask, new_form: dict[str, str], scales: Scales) -> tuple[dic
     for name, form_name in new_form.items():
         forms[name] = (
             form_name,
-            [list(task.start.values)] if task.start is not None else CANDIDATES[name].form(form_name).starts(scales),
+            [list(task.start.values)]
+            if task.start is not None
+            else form_starts(name, CANDIDATES[name].form(form_name), scales),
         )
     sensors = {name: effect for name, effect in task.fixed.items() if task.frozen or not CANDIDATES[name].fit}
     return forms, sensors

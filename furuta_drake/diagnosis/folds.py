@@ -53,7 +53,9 @@ def consistency(
         verdicts.append(selection.verdict)
         effects.append(selection.effects)
         if selection.effects:
-            for name, effect in selection.final.effects.items():
+            dynamic = selection.final.effects if selection.final else {}
+            sensors = {finding.name: finding.effect for finding in selection.sensor_effects}
+            for name, effect in {**dynamic, **sensors}.items():
                 for key, value in describe(name, effect, nominal).items():
                     if key != "form":
                         values.setdefault(f"{name}.{key}", []).append(value)

@@ -42,8 +42,8 @@ from furuta_drake.diagnosis.gap import (
 from furuta_drake.diagnosis.rule import IMPLAUSIBLE_SCALE, Bootstrap, Comparison, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.torque_library import JOINTS, TERMS, expression, term_values
-from furuta_drake.effects.vocabulary import apply_effects
+from furuta_drake.effects.torque_library import JOINTS, TERMS, closest_effect, expression, term_values
+from furuta_drake.effects.vocabulary import CANDIDATES, apply_effects
 
 TORQUE_WINDOWS = 200  # train windows the regression uses at the most (evenly drawn, seeded)
 FOLDS = 5  # cross-validation folds of whole windows
@@ -73,15 +73,49 @@ class MissingTorque:
         return expression([(term, c) for j, term, c in self.terms if j == joint])
 
 
+def bound_labels(result) -> list[tuple[str, str, str]]:
+    """(effect, parameter, "lower" | "upper") of every parameter of a fitted model (a
+    :class:`~furuta_drake.diagnosis.fit.FitResult`) fitted at an end of its search range."""
+    out = []
+    for label in result.at_bounds:
+        where, end = label.rsplit(" ", 1)
+        name, param = where.split(".", 1)
+        out.append((name, param, end.strip("()")))
+    return out
+
+
 def stand_ins(result) -> list[str]:
     """The effects of a fitted model (a :class:`~furuta_drake.diagnosis.fit.FitResult`) that may stand in for
-    something outside the vocabulary: a parameter fitted at its search bound, or an inertia scale beyond
-    ``IMPLAUSIBLE_SCALE`` either way."""
-    bounded = {label.split(".")[0] for label in result.at_bounds}
+    something outside the vocabulary: a parameter fitted at its search bound where the law is not a simpler one of
+    the vocabulary there (:meth:`~furuta_drake.effects.vocabulary.Candidate.nested_law`: presliding at zero is a
+    Coulomb law that sticks, no stand-in), or an inertia scale beyond ``IMPLAUSIBLE_SCALE`` either way."""
+    bounded = {name for name, param, end in bound_labels(result) if CANDIDATES[name].nested_law(param, end) is None}
     inertia = result.effects.get("inertia_mismatch")
     if inertia is not None and any(not 1 / IMPLAUSIBLE_SCALE < v < IMPLAUSIBLE_SCALE for v in inertia.values):
         bounded.add("inertia_mismatch")
     return [name for name in result.effects if name in bounded]
+
+
+def bound_notes(result) -> list[str]:
+    """One note per parameter of a fitted model at an end of its search range: the simpler law it is there, or
+    that the law is stretched to its limit."""
+    notes = []
+    for name, param, end in bound_labels(result):
+        law = CANDIDATES[name].nested_law(param, end)
+        notes.append(
+            f"{name}.{param} is at the {end} end of its search range: "
+            + (f"the law is {law} there" if law else "the law is stretched to its limit (it may stand in for another)")
+        )
+    return notes
+
+
+def copies(torque: MissingTorque, name: str) -> bool:
+    """Whether the torque on some joint takes the shape of the listed effect ``name`` along the train windows
+    (:func:`~furuta_drake.effects.torque_library.closest_effect`)."""
+    for joint, scatter in torque.scatter.items():
+        if closest_effect(joint, scatter["fitted"], term_values(*scatter["state"])) == name:
+            return True
+    return False
 
 
 def term_scales(windows: Windows) -> np.ndarray:
@@ -252,8 +286,9 @@ def beyond_vocabulary(selection, nominal: Model, train, heldout, counts, bootstr
     """The torque beyond the effects a selection (:class:`~furuta_drake.diagnosis.stepwise.Selection`) kept, or
     None when none passes the rule; and the notes for the report. An effect that may be a stand-in
     (:func:`stand_ins`) is first replaced by the torque beside the other kept effects when that model passes the
-    rule against them and explains the held-out data at least as well as the model holding the stand-in (the
-    selection then keeps the others)."""
+    rule against them, explains the held-out data at least as well as the model holding the stand-in and does not
+    take the stand-in's own shape (a torque never displaces a listed effect it copies). A torque that takes the
+    shape of a listed effect the rule did not accept is not reported: it holds nothing that effect could not."""
     final, notes = selection.final, []
     if final is None and selection.quiet:
         return None, notes
@@ -265,14 +300,13 @@ def beyond_vocabulary(selection, nominal: Model, train, heldout, counts, bootstr
             model, selection.nominal.per_window, reference, train, heldout, counts, bootstrap, settings
         )
 
-    if final is not None and final.at_bounds:
-        notes.append(f"fitted at the end of its search range: {', '.join(final.at_bounds)}")
+    notes += bound_notes(final) if final is not None else []
     for name in stand_ins(final) if final is not None else []:
         others = [other for other in selection.accepted if other != name]
         if any(selection.model(others[:k]) is None for k in range(1, len(others) + 1)):
             continue
         trial = beside(selection.model(others) if others else None)
-        if trial is not None and trial.kept and trial.heldout.gap <= final.heldout.gap:
+        if trial is not None and trial.kept and trial.heldout.gap <= final.heldout.gap and not copies(trial, name):
             selection.accepted = others
             notes.append(
                 f"{name} stood in for a torque outside the vocabulary (fitted at its range's end or at an implausible "
@@ -283,4 +317,13 @@ def beyond_vocabulary(selection, nominal: Model, train, heldout, counts, bootstr
             f"{name} may stand in for an effect outside the vocabulary (its range's end or an implausible size)"
         )
     missing = beside(final)
-    return (missing if missing is not None and missing.kept else None), notes
+    if missing is None or not missing.kept:
+        return None, notes
+    listed = [name for name in CANDIDATES if name not in selection.accepted and copies(missing, name)]
+    if listed:  # the torque holds only what no listed effect can
+        notes.append(
+            f"the torque left beside the accepted effects has the shape of {', '.join(listed)}, which the rule did "
+            f"not accept beside them: it is not reported as a torque beyond the vocabulary"
+        )
+        return None, notes
+    return missing, notes

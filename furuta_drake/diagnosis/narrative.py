@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from furuta_drake.diagnosis.formatting import ends, number, percent, quantity
 from furuta_drake.diagnosis.torque_report import torque_words
 from furuta_drake.effects.corrected import rig_entry
-from furuta_drake.effects.vocabulary import UNITS
+from furuta_drake.effects.vocabulary import CANDIDATES, UNITS
 
 NOUNS = {
     "arm_coulomb_friction": "Coulomb friction on the arm",
@@ -38,6 +38,7 @@ SCALES = {  # inertia_mismatch's scales: what each one scales in the rig file
     "coupling_scale": "the arm-pendulum coupling m l r",
     "gravity_scale": "the pendulum's gravity torque m g l",
 }
+SENSOR_EFFECTS = frozenset(name for name, candidate in CANDIDATES.items() if not candidate.fit)
 NOTABLE_SCALE = 0.05  # an inertia scale further than this from 1 is stated beside the main one
 NEVER_SEEN = "the fit never saw"
 DESIGN_COMMAND = "furuta-drake design --diagnosis . --out design"
@@ -54,8 +55,14 @@ class Accepted:
 
 
 def final_entry(report: dict) -> dict | None:
-    """The ranking entry of the model holding exactly the accepted effects (None when there is none)."""
-    return _entry_of(report, report.get("effects", []))
+    """The ranking entry of the model holding exactly the accepted effects that change the predictions (None when
+    there is none)."""
+    return _entry_of(report, dynamic_effects(report))
+
+
+def dynamic_effects(report: dict) -> list[str]:
+    """The accepted effects that change the predictions (the sensor effects left out)."""
+    return [name for name in report.get("effects", []) if name not in SENSOR_EFFECTS]
 
 
 def _entry_of(report: dict, names: list[str]) -> dict | None:
@@ -68,18 +75,25 @@ def _entry_of(report: dict, names: list[str]) -> dict | None:
 
 
 def accepted_effects(report: dict) -> list[Accepted]:
-    """The accepted effects in the report's order, their parameters from the final model's fit."""
+    """The accepted effects in the report's order, their parameters from the final model's fit (a sensor effect's
+    from its own ranking entry)."""
+    dynamic = dynamic_effects(report)
     entry = final_entry(report) or {}
     steps = {step["effect"]: step for step in report.get("steps", [])}
     out = []
-    for effect in _per_effect(report.get("effects", []), entry):
+    for effect in _per_effect(dynamic, entry):
         if not effect.params and effect.name in steps:  # a report without the final entry: the step's own fit
-            prefix = f"{effect.name}." if len(report["effects"]) > 1 else ""
+            prefix = f"{effect.name}." if len(dynamic) > 1 else ""
             effect.params = {
                 k.split(".")[-1]: v for k, v in steps[effect.name]["params"].items() if k.startswith(prefix)
             }
         effect.step = steps.get(effect.name)
         out.append(effect)
+    for name in report.get("effects", []):
+        if name in SENSOR_EFFECTS:
+            (effect,) = _per_effect([name], _entry_of(report, [name]) or steps.get(name, {}))
+            effect.step = steps.get(name)
+            out.append(effect)
     return out
 
 
@@ -211,19 +225,42 @@ def verdict_sentence(report: dict) -> str:
             f"The rig file's model misses these logs (held-out gap {nominal} counts) in a way no effect of the "
             f"vocabulary explains: {_best_attempt(report, effects)} of the gap on logs {NEVER_SEEN}."
         )
+    dynamic = [e for e in effects if e.name not in SENSOR_EFFECTS]
+    sensors = [e for e in effects if e.name in SENSOR_EFFECTS]
+    statements = _capital(_joined([effect_statement(e) for e in dynamic + sensors]))
+    return f"{statements}; {_explained(report, dynamic, sensors)}."
+
+
+def _explained(report: dict, dynamic: list[Accepted], sensors: list[Accepted]) -> str:
+    """How much of the held-out gap the accepted effects' predictions remove, and apart from it how much of what
+    is left the accepted sensor effects account for."""
+    gap = report["gap"]
     lower, reduction = (final_entry(report) or {}).get("evidence"), gap["heldout_reduction"]
-    strength = ""
-    if lower is not None:  # the bound is the selection's (surrogate) figure; the headline the Drake replay's
-        strength = (
-            f" (at least {percent(lower)} with 95 % confidence)"
-            if reduction is not None and lower <= reduction
-            else f" (bootstrap lower bound {percent(lower)})"
+    text = ""
+    if dynamic:
+        strength = ""
+        if lower is not None:  # the bound is the selection's (surrogate) figure; the headline the Drake replay's
+            strength = (
+                f" (at least {percent(lower)} with 95 % confidence)"
+                if reduction is not None and lower <= reduction
+                else f" (bootstrap lower bound {percent(lower)})"
+            )
+        owner = "this removes" if len(dynamic) == 1 else "together they remove"
+        if sensors:
+            owner = "the predictions of " + ("it" if len(dynamic) == 1 else "them") + " remove"
+        text = f"{owner} {percent(reduction)} of the gap on logs {NEVER_SEEN}{strength}"
+    if not sensors:
+        return text
+    left = (1.0 - (reduction or 0.0)) ** 2
+    share = (gap.get("sensor_share") or 0.0) / max(left, 1e-12)
+    noun = "the sensor" if len(sensors) == 1 else "the sensor effects"
+    if not dynamic:
+        return (
+            f"no effect changes the rig file's predictions (held-out gap {number(gap['nominal']['heldout'], 2)} "
+            f"counts), and {noun} account{'s' if len(sensors) == 1 else ''} for {percent(share)} of it, read from "
+            f"the residuals' fastest part on logs {NEVER_SEEN}"
         )
-    together = "together they remove" if len(effects) > 1 else "this removes"
-    return (
-        f"{_capital(_joined([effect_statement(e) for e in effects]))}; {together} "
-        f"{percent(reduction)} of the gap on logs {NEVER_SEEN}{strength}."
-    )
+    return f"{text}, and {noun} account{'s' if len(sensors) == 1 else ''} for {percent(share)} of what is left"
 
 
 def _beside_torque(report: dict) -> str:

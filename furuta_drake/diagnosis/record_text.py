@@ -110,7 +110,7 @@ def _prediction_text(selection: Selection) -> str:
             return "The nominal model explains the held-out data to within their noise: no effect is needed."
         if selection.negligible:
             return _negligible_text(selection)
-        return "No candidate, nor set of up to three, reduces the nominal model's held-out gap by the rule's margin."
+        return "No candidate, nor set of candidates, reduces the nominal model's held-out gap by the rule's margin."
     total = selection.over_nominal[selection.final.name]
     text = (
         f"The model holding {', '.join(selection.accepted)} reduces the nominal held-out gap by {total.reduction:.1%} "

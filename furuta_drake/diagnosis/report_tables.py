@@ -98,26 +98,33 @@ def _ranking_row(entry: dict) -> list[str]:
     """A candidate as the effect its step added, that effect's parameters with units, and its reductions."""
     added = entry["effect"].split("+")[-1]
     prefix = f"{added}." if "+" in entry["effect"] else ""
-    intervals = entry.get("params_ci", {})
+    intervals, bounds = entry.get("params_ci", {}), entry.get("at_bound", {})
     params = [
-        f"{key[len(prefix) :]} = " + (value if isinstance(value, str) else _param(key, value, intervals.get(key)))
+        f"{key[len(prefix) :]} = "
+        + (value if isinstance(value, str) else _param(key, value, intervals.get(key), bounds.get(key)))
         for key, value in entry["params"].items()
         if key.startswith(prefix)
     ]
     over_previous = entry.get("reduction_over_previous", entry["heldout_reduction"])
     bound = entry.get("evidence_over_previous", entry.get("evidence"))
+    last = f"{percent(over_previous, 1)} [{percent(bound, 1)}]"
+    if entry.get("score_gain") is not None:  # a sensor effect: it changes no prediction, its score tells
+        params.append(f"score {number(entry['score_gain'])} nats/window [5 % bound {number(entry['score_evidence'])}]")
+        last = f"none: the sensor, {percent(entry.get('sensor_share'), 1)} of the gap's square"
     return [
         str(entry.get("step", 1)),
         added,
         "; ".join(params),
         number(entry["heldout_gap"]),
         percent(entry["heldout_reduction"], 1),
-        f"{percent(over_previous, 1)} [{percent(bound, 1)}]",
+        last,
     ]
 
 
-def _param(key: str, value, interval) -> str:
+def _param(key: str, value, interval, at_bound: str | None = None) -> str:
     unit = UNITS.get(key.split(".")[-1], "")
+    if at_bound:
+        return quantity(value, unit, digits=3) + f" (at the {at_bound} end of its range)"
     return quantity(value, unit, digits=3) + (f" [{interval_text(interval, unit)}]" if interval else "")
 
 

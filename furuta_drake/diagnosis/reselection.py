@@ -23,7 +23,7 @@ from furuta_drake.diagnosis.missing_torque import MissingTorque, find_missing_to
 from furuta_drake.diagnosis.rule import Bootstrap, is_kept
 from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.torque_library import LISTED_SHAPES, TERMS
+from furuta_drake.effects.torque_library import JOINTS, LISTED_SHAPES, TERMS, copied_effect, term_values
 from furuta_drake.effects.vocabulary import apply_effects
 
 RESELECTIONS = 2  # selections run again beside a kept torque at the most
@@ -42,7 +42,7 @@ def reselect_beside_torque(
 ) -> tuple[Selection, MissingTorque | None, list[str]]:
     """The selection and the torque after running ``select`` (the stepwise selection on a given base model) again
     beside the kept torque (module docstring), and the report's notes. The base holds the torque's terms that no
-    listed effect's torque has the shape of (``LISTED_SHAPES``): a friction-shaped term corrects the listed
+    listed effect's torque has the shape of (:func:`_base_keys`): a friction-shaped term corrects the listed
     friction fitted beside the outside effect, and held fixed it would keep that fit. The passes stop when the kept
     effects and the torque's terms outside those shapes no longer change, when the torque found again is not kept,
     or when the torque kept before explains the held-out data better by the rule's margin."""
@@ -80,8 +80,16 @@ def reselect_beside_torque(
 
 
 def _base_keys(missing: MissingTorque) -> set[tuple[int, int]]:
-    """The (joint, term) of the torque's terms that no listed effect's torque has the shape of."""
-    return {(j, t) for j, t, _ in missing.terms if (j, TERMS[t]) not in LISTED_SHAPES}
+    """The (joint, term) of the torque's terms that no listed effect's torque has the shape of: neither one of the
+    listed shapes (``LISTED_SHAPES``) nor a term that takes a listed effect's shape along the train windows
+    (:func:`~furuta_drake.effects.torque_library.copied_effect`: ``tanh(phi_dot/0.02)*cos(phi)`` is Coulomb friction
+    on a balancing arm). Held fixed, such a term would keep the listed effect it copies out of the selection."""
+    keys = set()
+    for j, t, _ in missing.terms:
+        values = term_values(*missing.scatter[JOINTS[j]]["state"])
+        if (j, TERMS[t]) not in LISTED_SHAPES and copied_effect(j, t, values) is None:
+            keys.add((j, t))
+    return keys
 
 
 def rebased(

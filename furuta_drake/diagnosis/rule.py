@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.effects.vocabulary import CANDIDATES, law_of
+from furuta_drake.effects.vocabulary import CANDIDATES, NULL_TOLERANCE, law_of
 
 FLOOR_COUNTS = 0.03
 ENTRY = 0.05
@@ -93,6 +93,13 @@ THRESHOLDS = (
         "factor",
         "an inertia scale beyond this factor either way is a stand-in (rig files state masses and lengths to a few "
         "per cent): the torque beyond the vocabulary is tried in its place",
+    ),
+    Threshold(
+        "NULL_TOLERANCE",
+        NULL_TOLERANCE,
+        "",
+        "an effect whose size parameters all lie within this fraction of their search range from the values at which "
+        "it vanishes is at zero size: it removes nothing and is never entered, exchanged in or paired",
     ),
     Threshold(
         "INTERVAL_INFLATION",

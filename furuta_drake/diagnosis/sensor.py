@@ -49,7 +49,7 @@ apart from what the predictions remove.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import brentq
@@ -116,6 +116,8 @@ class Signature:
     kappa: dict[int, np.ndarray]
     sawtooth: dict[int, np.ndarray]
     bases: list[np.ndarray]  # per log (h, 2, W, n): an orthonormal basis of each window's state sensitivities
+    extra: dict[int, np.ndarray] = field(default_factory=dict)  # the same stencils' third differences of other
+    # residuals (an injected noise), when asked for
 
     def variances(self, lag: int, hypothesis: Hypothesis) -> np.ndarray:
         """The variance [counts^2] ``hypothesis`` predicts for every lag-``lag`` third difference."""
@@ -123,6 +125,10 @@ class Signature:
         saw, kappa = self.sawtooth[lag], self.kappa[lag]
         rounding = np.where(np.isnan(saw), kappa * 20.0 * hypothesis.step**2 / 12.0, saw)
         return np.maximum(kappa * noise + rounding, VARIANCE_FLOOR)
+
+    def injected(self, size: float) -> Signature:
+        """The signature with ``size`` times the ``extra`` residuals' third differences added (an injected noise)."""
+        return replace(self, values={lag: self.values[lag] + size * self.extra[lag] for lag in LAGS})
 
     def scores(self, hypothesis: Hypothesis) -> np.ndarray:
         """Each window's log score of its third differences under ``hypothesis`` (the Gaussian log densities summed)."""
@@ -170,13 +176,15 @@ def signature(model: Model, windows: Windows, nominal_counts: int) -> Signature:
     return signature_of(model, windows, raw, jacobians, nominal_counts)
 
 
-def signature_of(model: Model, windows: Windows, raw, jacobians, nominal_counts: int) -> Signature:
+def signature_of(model: Model, windows: Windows, raw, jacobians, nominal_counts: int, extra=None) -> Signature:
     """The third differences of residuals ``raw`` (per log (h, 2, W) [counts]) of ``model`` on ``windows``, whose
-    state sensitivities are ``jacobians`` (per log (h, 2, W, n))."""
+    state sensitivities are ``jacobians`` (per log (h, 2, W, n)); with ``extra`` (other residuals of the same
+    shapes) also theirs on the same stencils (``Signature.extra``)."""
     count = encoder_resolution(nominal_counts)
-    values, window, kappa, sawtooth = ({lag: [] for lag in LAGS} for _ in range(4))
+    values, window, kappa, sawtooth, others = ({lag: [] for lag in LAGS} for _ in range(5))
     offset, bases = 0, []
-    for log, starts, r, J, measured in zip(windows.logs, windows.starts, raw, jacobians, windows.measured):
+    extra = extra if extra is not None else [None] * len(raw)
+    for log, starts, r, J, measured, x in zip(windows.logs, windows.starts, raw, jacobians, windows.measured, extra):
         h, _, W, n = J.shape
         basis = np.linalg.qr(np.nan_to_num(J).transpose(2, 0, 1, 3).reshape(W, 2 * h, n))[0]
         basis = basis.reshape(W, h, 2, n).transpose(1, 2, 0, 3)  # (h, 2, W, n)
@@ -198,15 +206,20 @@ def signature_of(model: Model, windows: Windows, raw, jacobians, nominal_counts:
                 e = sum(tap * rounding[i * lag : i * lag + rows] for i, tap in enumerate(THIRD))
                 saw = np.broadcast_to(np.mean(e**2, axis=(0, 1), keepdims=True), t.shape)
             index = np.broadcast_to(offset + np.arange(W), t.shape)
+            if x is not None:
+                others[lag].append(sum(tap * x[i * lag : i * lag + rows] for i, tap in enumerate(THIRD))[keep])
             values[lag].append(t[keep])
             window[lag].append(index[keep])
             kappa[lag].append(np.clip(k, 0.05, 1.0)[keep])
             sawtooth[lag].append(saw[keep])
         offset += W
-    joined = ({lag: np.concatenate(x[lag]) if x[lag] else np.empty(0) for lag in LAGS} for x in (values, window, kappa))
-    out = Signature(
-        offset, *joined, {lag: np.concatenate(sawtooth[lag]) if sawtooth[lag] else np.empty(0) for lag in LAGS}, bases
-    )
+
+    def joined(parts):
+        return {lag: np.concatenate(parts[lag]) if parts[lag] else np.empty(0) for lag in LAGS}
+
+    out = Signature(offset, joined(values), joined(window), joined(kappa), joined(sawtooth), bases)
+    if extra[0] is not None:
+        out.extra = joined(others)
     _trim(out)
     return out
 
@@ -220,8 +233,9 @@ def _trim(sig: Signature) -> None:
             continue
         centre = np.median(t)
         keep = np.abs(t - centre) <= TRIM_SIGMAS * (1.4826 * np.median(np.abs(t - centre)) + 1.0)
-        for part in (sig.values, sig.window, sig.kappa, sig.sawtooth):
-            part[lag] = part[lag][keep]
+        for part in (sig.values, sig.window, sig.kappa, sig.sawtooth, sig.extra):
+            if lag in part:
+                part[lag] = part[lag][keep]
 
 
 def refit_share(sig: Signature, a: float = 0.0) -> np.ndarray:

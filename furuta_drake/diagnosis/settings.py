@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 from furuta_drake.errors import ConfigError
 
+MAX_EFFECTS = 5  # the most effects one selection accepts (the vocabulary's largest independent set a rig needs)
+
 
 @dataclass(frozen=True)
 class DiagnosisSettings:
@@ -19,7 +21,8 @@ class DiagnosisSettings:
     max_nfev : cost evaluations of one least-squares fit (Jacobians not counted).
     bootstrap : paired resamples of the held-out windows behind every reduction's bounds.
     interval_resamples : resamples of the fit windows behind every parameter interval.
-    max_effects : effects accepted one after another at the most.
+    max_effects : effects that change the predictions accepted one after another at the most (a rig far from its
+        rig file may need four or five at once; each further step must still bring held-out evidence).
     detection_limits : whether to find the detection limit of every effect not accepted.
     replay : whether the headline held-out figures are replayed in Drake (else: the surrogate's).
     seed : seed of every random draw (windows, resamples).
@@ -30,7 +33,7 @@ class DiagnosisSettings:
     max_nfev: int = 20
     bootstrap: int = 1000
     interval_resamples: int = 400
-    max_effects: int = 3
+    max_effects: int = MAX_EFFECTS
     detection_limits: bool = True
     replay: bool = True
     seed: int = 0
@@ -40,8 +43,8 @@ class DiagnosisSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ConfigError(f"diagnosis setting {name} must be a positive integer, got {value!r}")
-        if self.max_effects > 3:
-            raise ConfigError(f"diagnosis setting max_effects is at most 3, got {self.max_effects}")
+        if self.max_effects > MAX_EFFECTS:
+            raise ConfigError(f"diagnosis setting max_effects is at most {MAX_EFFECTS}, got {self.max_effects}")
 
 
 FAST = DiagnosisSettings(

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from furuta_drake.diagnosis.equation_error import equation_error_starts
 from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
 from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
 from furuta_drake.diagnosis.jitter_fit import HeldoutJitter, heldout_jitter
@@ -65,6 +66,7 @@ class Selection:
     exchanges: list[dict] = field(default_factory=list)  # {"out", "in", "evidence"}: the exchanges made
     subset_fit: FitResult | None = None  # the final model as the selection fitted it, on its fit windows, when
     # ``final`` is its refit on every train window (:mod:`~furuta_drake.diagnosis.final_fit`)
+    regressed: dict = field(default_factory=dict)  # the train logs' equation-error starts (every fit's)
     sensors: list[SensorFinding] = field(default_factory=list)  # the sensor effects read beside the final model
     jitter: HeldoutJitter | None = None  # the final model's jittering delay judged on the held-out windows
 
@@ -99,11 +101,13 @@ class Selection:
     @property
     def shares(self) -> tuple[float, float]:
         """(the share of the nominal held-out mean squared excess the final model's predictions remove, the share
-        the accepted sensor effects and a credited jitter account for of what is left)."""
+        of it the accepted sensor effects and a credited jitter account for, at most what the predictions leave)."""
+        reduction = self.over_nominal[self.final.name].reduction if self.accepted else 0.0
+        predicted = 1.0 - (1.0 - reduction) ** 2
+        if not self.sensor_effects and (self.jitter is None or not self.jitter.credited):
+            return predicted, 0.0
         before = max(float(self.nominal.per_window.mean()), 1e-12)
-        after = float(self.final.heldout.per_window.mean()) if self.accepted else before
-        claimed = min(float(self.claimed().mean()), max(after, 0.0))
-        return 1.0 - after / before, claimed / before
+        return predicted, min(float(self.claimed().mean()) / before, 1.0 - predicted)
 
     @property
     def closes(self) -> bool:
@@ -179,7 +183,12 @@ class Stepwise:
         self.bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
         self.scales = scales_of(self.logs, nominal)
         self.nominal_gap = evaluate_gap(nominal, heldout, counts)
-        self.selection = Selection(self.nominal_gap, [], quiet=self.bootstrap.within_noise(self.nominal_gap.per_window))
+        self.selection = Selection(
+            self.nominal_gap,
+            [],
+            quiet=self.bootstrap.within_noise(self.nominal_gap.per_window),
+            regressed=equation_error_starts(self.logs, nominal),
+        )
 
     def select(self, names: list[str]) -> Selection:
         """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges, among the
@@ -248,6 +257,7 @@ class Stepwise:
             nominal_counts=self.counts,
             settings=self.settings,
             fixed_samples=held.samples if held else {},
+            regressed=self.selection.regressed,
             **options,
         )
 

@@ -192,3 +192,38 @@ def term_value(index, theta, phi, theta_dot, phi_dot):
     if index < _FIRST_PRODUCT:
         return value
     return value * (math.sin(phi) if (index - _FIRST_PRODUCT) % 2 == 0 else math.cos(phi))
+
+
+CLOSE = 0.8  # R^2 of a torque on an effect's torque shapes above which that effect is named the closest
+# The torque shapes of the vocabulary's state-dependent effects on each joint, as library terms (a spring's
+# -k (phi - phi_0) spans phi and a constant; phi is sin(phi) on the arm's range).
+EFFECT_SHAPES = {
+    "arm": {
+        "arm_coulomb_friction": ("tanh(phi_dot/0.02)",),
+        "arm_viscous_friction": ("phi_dot",),
+        "arm_spring": ("sin(1*phi)", "1"),
+    },
+    "pendulum": {"pendulum_friction": ("tanh(theta_dot/0.02)", "theta_dot")},
+}
+
+
+def closest_effect(joint: str, torque: np.ndarray, values: np.ndarray) -> str | None:
+    """The vocabulary effect whose torque shapes (``EFFECT_SHAPES``) fit the torque along the data best, when their
+    least squares explains more than ``CLOSE`` of its mean square; else None. ``values``: the library's terms at
+    the data's states (:func:`~.torque_library.term_values`)."""
+    best, best_share = None, CLOSE
+    total = float(np.sum(torque**2))
+    for effect, shapes in EFFECT_SHAPES[joint].items():
+        basis = np.stack([values[TERMS.index(shape)] for shape in shapes], axis=1)
+        fitted = basis @ np.linalg.lstsq(basis, torque, rcond=None)[0]
+        share = 1.0 - float(np.sum((torque - fitted) ** 2)) / max(total, 1e-300)
+        if share > best_share:
+            best, best_share = effect, share
+    return best
+
+
+def copied_effect(joint: int, term: int, values: np.ndarray) -> str | None:
+    """The listed effect whose torque shapes (``EFFECT_SHAPES``) a single term of ``joint`` (0 arm, 1 pendulum)
+    takes along the data (:func:`closest_effect` of the term alone, ``values`` the terms at the data's states), or
+    None: a term such as ``tanh(phi_dot/0.02)*cos(phi)`` is Coulomb friction over a balancing arm's range."""
+    return closest_effect(JOINTS[joint], values[term], values)

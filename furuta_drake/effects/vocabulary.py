@@ -46,6 +46,8 @@ class Scales:
     pendulum_inertia: float  # b [kg m^2]
     period: float  # [s]
     command_levels: tuple[float, ...] = ()  # quantiles COMMAND_QUANTILES of |command| in the train logs [N m]
+    regressed: dict = field(default_factory=dict)  # effect -> {param: value}: the train logs' equation-error
+    # estimates, a start of each form that has those parameters (:func:`form_starts`)
 
 
 @dataclass(frozen=True)
@@ -221,6 +223,22 @@ def _smooth_arm(
             viscous=model.arm_friction.viscous,
         )
     )
+
+
+def form_starts(name: str, form: Form, scales: Scales) -> list[list[float]]:
+    """The starts of ``form`` of the effect ``name`` and, where ``scales`` carries an equation-error estimate of the
+    effect (``Scales.regressed``), each start with the estimated parameters put in (once each): a fit can then start
+    where a large error lies."""
+    starts = form.starts(scales)
+    regressed = scales.regressed.get(name)
+    if not regressed:
+        return starts
+    extra = []
+    for start in starts:
+        moved = [float(regressed.get(param, value)) for param, value in zip(form.params, start)]
+        if moved not in extra and moved not in starts:
+            extra.append(moved)
+    return starts + extra
 
 
 def _arm(m: Model, **changes) -> Model:
