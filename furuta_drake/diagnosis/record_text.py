@@ -76,7 +76,18 @@ def confusable_why(pair: dict) -> str:
 
 def choice_text(selection: Selection) -> str:
     """Why the verdict, in one paragraph: the effects that change the predictions, then the sensor's."""
-    return " ".join(part for part in (_prediction_text(selection), sensor_text(selection)) if part)
+    parts = (_gain_only_text(selection), _prediction_text(selection), sensor_text(selection))
+    return " ".join(part for part in parts if part)
+
+
+def _gain_only_text(selection: Selection) -> str:
+    """Why the command maps were not tried, when they were not."""
+    if not selection.gain_only:
+        return ""
+    return (
+        f"The logged commands take one magnitude (a bang-bang): on them {' and '.join(selection.gain_only)} act as a "
+        f"gain of the drive, so torque_gain_error was tried in their place."
+    )
 
 
 def sensor_text(selection: Selection) -> str:

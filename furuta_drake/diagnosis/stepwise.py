@@ -40,6 +40,8 @@ from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, law_of
 
+COMMAND_MAPS = ("actuator_deadzone", "actuator_saturation")  # static maps of the command beside the gain
+ONE_MAGNITUDE = 0.99  # logged |commands| whose 10 % quantile is within this of their 97 % take one magnitude
 JOINT_REFITS = 3  # at a later step, the candidates fitted again together with the earlier effects
 FRESH_STARTS_FROM = 3  # from this step, those refits also start from the new effect's own starts
 PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together
@@ -67,6 +69,8 @@ class Selection:
     subset_fit: FitResult | None = None  # the final model as the selection fitted it, on its fit windows, when
     # ``final`` is its refit on every train window (:mod:`~furuta_drake.diagnosis.final_fit`)
     regressed: dict = field(default_factory=dict)  # the train logs' equation-error starts (every fit's)
+    gain_only: list[str] = field(default_factory=list)  # command maps not tried: on commands of one magnitude
+    # (bang-bang) a dead zone or a saturation of the drive acts as a gain
     sensors: list[SensorFinding] = field(default_factory=list)  # the sensor effects read beside the final model
     jitter: HeldoutJitter | None = None  # the final model's jittering delay judged on the held-out windows
 
@@ -192,18 +196,23 @@ class Stepwise:
 
     def select(self, names: list[str]) -> Selection:
         """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges, among the
-        effects that change the predictions; then the sensor effects ``names`` holds, read beside the final model
-        (:meth:`read_sensors`)."""
+        effects that change the predictions (on logged commands of one magnitude, a bang-bang, the gain in place of
+        a dead zone or a saturation of the drive, which act on them as a gain); then the sensor effects ``names``
+        holds, read beside the final model (:meth:`read_sensors`)."""
         dynamic = [name for name in names if CANDIDATES[name].fit]
+        levels = self.scales.command_levels
+        if levels and levels[0] >= ONE_MAGNITUDE * levels[-1] and "torque_gain_error" in dynamic:
+            self.selection.gain_only = [name for name in dynamic if name in COMMAND_MAPS]
+            dynamic = [name for name in dynamic if name not in COMMAND_MAPS]
         while len(self.selection.accepted) < self.settings.max_effects and self.step(dynamic):
             pass
-        _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit)
+        _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.scales)
         for _ in range(MAX_EXCHANGES):
             if not _exchange(
                 self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
             ):
                 break
-            _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit)
+            _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.scales)
         self.read_sensors([name for name in names if not CANDIDATES[name].fit])
         return self.selection
 
@@ -426,36 +435,32 @@ def _enter_pair(
 
 
 def _backward(
-    selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task: Callable, fit: Callable
+    selection: Selection,
+    bootstrap: Bootstrap,
+    nominal_gap: GapResult,
+    task: Callable,
+    fit: Callable,
+    scales=None,
 ) -> None:
     """Drop, one at a time, the kept effect whose removal costs the least while that cost's lower bound is not
     enough (:func:`~furuta_drake.diagnosis.rule.decide`): every effect finally kept reduces the held-out gap of
     the model holding all the others by the rule's margin (an effect that entered beside a stronger one it
-    masked must earn its place)."""
+    masked must earn its place). An effect that later refits shrank to zero size (a lag that stood in for effects
+    entered after it) is dropped first: it removes nothing. The model without an effect is the others refitted
+    together, from the final model's values, when the selection did not fit it on the way."""
     while selection.accepted:
         final = selection.final
+        null = [name for name in selection.accepted if scales and CANDIDATES[name].is_null(final.effects[name], scales)]
         without = {}
         for name in selection.accepted:
             others = [other for other in selection.accepted if other != name]
             model = selection.model(others) if others else None
             if others and model is None:
-                held = selection.model(others[:-1]) if len(others) > 1 else None
-                model = next(
-                    (
-                        r
-                        for r in fit(
-                            [task(others[-1], held)],
-                            len(others),
-                            held.heldout.per_window if held else nominal_gap.per_window,
-                        )
-                        if not r.failure
-                    ),
-                    None,
-                )
+                model = _refit_without(final, others, task, fit, nominal_gap)
             # (a model without it that failed to fit leaves the effect judged against the nominal model)
             reference = model.heldout.per_window if model else nominal_gap.per_window
             without[name] = bootstrap.evidence(reference, final.heldout.per_window)
-        failing = [name for name in selection.accepted if not decide(without[name])]
+        failing = null or [name for name in selection.accepted if not decide(without[name])]
         if not failing:
             break
         selection.accepted.remove(min(failing, key=lambda name: without[name].lower_bound))
@@ -465,6 +470,21 @@ def _backward(
         bootstrap.evidence(before.per_window, after.per_window) for before, after in zip(models[:-1], models[1:])
     ]
     selection.confusable = [pair for pair in selection.confusable if pair["effects"][0] in selection.accepted]
+
+
+def _refit_without(final: FitResult, others: list[str], task: Callable, fit: Callable, nominal_gap) -> FitResult | None:
+    """The model holding ``others`` (the final model's effects but one) fitted together, every one started from its
+    value in ``final``; None when the fit failed."""
+    earlier = others[:-1]
+    held = FitResult(
+        "+".join(earlier),
+        {name: final.effects[name] for name in earlier},
+        float("nan"),
+        None,
+        samples={name: final.samples[name] for name in earlier if name in final.samples},
+    )
+    tasks = [task(others[-1], held if earlier else None, start=final.effects[others[-1]])]
+    return next((r for r in fit(tasks, len(others), nominal_gap.per_window) if not r.failure), None)
 
 
 def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
