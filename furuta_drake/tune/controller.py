@@ -6,14 +6,14 @@ friction observer's model and the initial K_sigma of the compensation, and the t
 
 - The **nominal** controller is what a lab designs on its rig file today: the package's LQ weights on the rig file's
   rigid body, the HG observer at its default gains (paper diagram (i)), no friction compensation.
-- A **tuned** controller's observer follows its LQ loop (:func:`observer_for`): with arm friction in the model, the
-  VFE observer (Eq. 11-13) with its six eigenvalues spread as the package's defaults (x1 to x1.75) from the loop's
-  fastest pole (the estimate must not slow the regulation) and the Dahl observer (Eq. 8-9) with the fitted Coulomb
-  levels and a bristle stiffness from the fitted presliding displacement, sigma0 = max(Fc+, Fc-) / z_ss (one encoder
-  count for a smooth law, which has none); the compensation's K_sigma adapts by Eq. 18 at the paper's rate
-  gamma Fc^2 (``ADAPTATION_RATE``). Without arm friction, the HG observer with its error poles ``HG_SPEED``
-  times faster than the loop's fastest pole (the high-gain separation of Eq. 4-6), at most a fifth of the sample
-  rate.
+- A **tuned** controller's observer follows the corrected model's time scale, the upright's unstable pole p
+  (:func:`observer_for`): the observer's slowest pole at w = max(2 p, ``SLOWEST_OBSERVER``), which gives the
+  package's defaults on the Lund rig. With arm friction in the model, the VFE observer (Eq. 11-13) with its six
+  eigenvalues spread as the package's defaults (w x 1 to x 1.75) and the Dahl observer (Eq. 8-9) with the fitted
+  Coulomb levels and a bristle stiffness from the fitted presliding displacement, sigma0 = max(Fc+, Fc-) / z_ss
+  (one encoder count for a smooth law, which has none); the compensation's K_sigma adapts by Eq. 18 at the
+  paper's rate gamma Fc^2 (``ADAPTATION_RATE``). Without arm friction, the HG observer with its error poles
+  ``HG_SPEED`` times faster (the high-gain separation of Eq. 4-6), eps at least ``HG_PERIODS`` sample periods.
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ from furuta_drake.observers.vfe import VfeParameters
 
 VFE_SPREAD = (1.0, 1.15, 1.3, 1.45, 1.6, 1.75)  # the package's default VFE eigenvalues over their slowest
 SLOWEST_OBSERVER = 20.0  # [rad/s] the VFE's slowest eigenvalue at the least (the package's default)
-HG_SPEED = 10.0  # HG error poles over the loop's fastest pole
+HG_SPEED = 10.0  # HG error poles over the observer's time scale
+HG_PERIODS = 2.5  # the HG's eps is at least this many sample periods (the package's default at 500 Hz)
 ADAPTATION_RATE = 5000.0 * 0.015**2  # [1/s] gamma Fc^2 of the paper's K_sigma law (Sec. V-D)
 DISTURBANCE = 0.05  # [rad] the largest initial pendulum angle of a predicted balancing run
 
@@ -74,10 +75,10 @@ class Controller:
         return out
 
 
-def loop_speed(A: np.ndarray, B: np.ndarray, K) -> float:
-    """The fastest pole [rad/s] of the continuous LQ loop A - B K on x (the first four states of (A, B))."""
-    K = np.asarray(K, dtype=float).reshape(1, 4)
-    return float(np.max(np.abs(np.linalg.eigvals(A[:4, :4] - B[:4] @ K))))
+def upright_rate(A: np.ndarray) -> float:
+    """The upright's unstable pole [1/s]: the largest real part of the eigenvalues of the rigid body's A (the
+    first four states)."""
+    return float(np.max(np.linalg.eigvals(A[:4, :4]).real))
 
 
 def arm_friction_observer(friction: JointFrictionParameters, count: float) -> DahlObserverParameters | None:
@@ -102,14 +103,14 @@ def arm_friction_observer(friction: JointFrictionParameters, count: float) -> Da
 
 
 def observer_for(
-    speed: float, period: float, dahl: DahlObserverParameters | None
+    rate: float, period: float, dahl: DahlObserverParameters | None
 ) -> tuple[str, HighGainParameters, VfeParameters]:
-    """(velocity source, HG gains, VFE gains) of a tuned controller whose LQ loop's fastest pole is ``speed``
-    [rad/s] (module docstring)."""
+    """(velocity source, HG gains, VFE gains) of a tuned controller on a model whose upright pole is ``rate``
+    [1/s] (module docstring)."""
+    slowest = max(2.0 * rate, SLOWEST_OBSERVER)
     if dahl is not None:
-        slowest = max(speed, SLOWEST_OBSERVER)
         return "vfe", HighGainParameters(), VfeParameters(eigenvalues=[-slowest * k for k in VFE_SPREAD])
-    eps = max(1.0 / (HG_SPEED * speed), 5.0 * period)
+    eps = max(1.0 / (HG_SPEED * slowest), HG_PERIODS * period)
     return "hg", HighGainParameters(eps_theta=eps, eps_phi=eps), VfeParameters()
 
 

@@ -37,8 +37,8 @@ from furuta_drake.plant import make_furuta_plant
 from furuta_drake.tune.controller import (
     Controller,
     arm_friction_observer,
-    loop_speed,
     observer_for,
+    upright_rate,
     with_compensation,
 )
 from furuta_drake.tune.design import DesignModel, design_model, output_lqr, upright_model
@@ -182,7 +182,7 @@ def tune(
             failures.append(f"R x {scale:g}: {failure}")
             candidates.append({"input_weight_scale": scale, "lqr_gain": list(gain), "rejected": failure})
             continue
-        source, hg, vfe = observer_for(loop_speed(A, B, K), period, dahl)
+        source, hg, vfe = observer_for(upright_rate(A), period, dahl)
         base = Controller(gain, source, nominal.torque_limit, lqr, hg, vfe, dahl)
         gains = settings.compensation_gains if dahl is not None else (0.0,)
         trials = [with_compensation(base, g) for g in dict.fromkeys(gains)]
