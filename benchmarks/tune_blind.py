@@ -10,9 +10,10 @@ delay, a cable spring, an inertia error, alone and together, on a Lund-like rig 
    :func:`benchmarks.diagnosis_independent.write_case`), and diagnose them with the command's default settings;
 2. ``tune`` on that diagnosis;
 3. run both designs on the simulator in closed loop, balancing from a small seeded disturbance
-   (:func:`benchmarks.independent_sim.balance`): the nominal design (the LQR of the rig file) and the tuned one (its
-   gain and its friction compensation). The simulator's controller has its own velocity estimate (a dirty
-   derivative), so the comparison is of the gains and the compensation, not of the package's observers.
+   (:func:`benchmarks.independent_sim.regulate`): the nominal design (the LQR of the rig file on the HG observer)
+   and the tuned one (its gain, its observer and its friction compensation), each as ``tune`` writes it
+   (``nominal.yaml``, ``controller.yaml``) and run as a lab's controller (:class:`ObserverFeedback`): the
+   package's observer, the simulator's own Dahl model for the compensation.
    Each design runs from ``SEEDS`` seeds; the figures are theta's RMS and the limit cycle's amplitude over the
    steady part of each run (:mod:`furuta_drake.tune.limit_cycle`), their mean and run-to-run spread (the standard
    deviation over the seeds).
@@ -23,28 +24,44 @@ spread* when the tuned mean exceeds the nominal one by more than the two spreads
 ``diagnosis``, ``tune``) and reused when the script is run again with the same ``--out``.
 
 Run from the repository root: ``PYTHONPATH=. python benchmarks/tune_blind.py --out runs/tune_blind``
-(``--only WORD ...``: the cases whose name holds a word; ``--seeds N``: runs per design).
+(``--only WORD ...``: the cases whose name holds a word; ``--workers N``: processes of each diagnosis and tune).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from benchmarks import diagnosis_independent as indep
 from benchmarks.design_suite import diagnosed
+from furuta_drake.config import SimulationConfig, load_config
+from furuta_drake.errors import FurutaError
+from furuta_drake.observers.hg import HighGainObserver
+from furuta_drake.observers.vfe import VfeObserver
 from furuta_drake.outputs import versions
+from furuta_drake.tune.controller import initial_angle
+from furuta_drake.tune.limit_cycle import limit_cycle, rms, steady_part
+from furuta_drake.tune.output import write_tune
+from furuta_drake.tune.pipeline import TuneSettings, tune
 
 sim = indep.sim
 LOG_SECONDS = 8.0  # [s] each of a case's four logs
+RUN_SECONDS = 10.0  # [s] each closed-loop run on the simulator (its second half is the steady part)
+SEEDS = (1, 2, 3, 4)  # the closed-loop runs of each design (seeded start and sensor noise)
+DESIGNS = ("nominal", "tuned")
+FILES = {"nominal": "nominal.yaml", "tuned": "controller.yaml"}  # each design's simulate config in tune's output
 
 
 def cases() -> list[indep.Case]:
     """The ten cases: friction, delay, spring and inertia alone and together, on both rigs."""
-    make, karnopp, tanh = indep.make_case, (indep.arm_friction, "karnopp", 0.06, {"breakaway": 1.25}), None
+    make, karnopp = indep.make_case, (indep.arm_friction, "karnopp", 0.06, {"breakaway": 1.25})
     tanh = (indep.arm_friction, "tanh", 0.08, {"smoothing": 0.02})
     return [
         make("lund", karnopp, seed=31),
@@ -76,32 +93,203 @@ def case_folder(case: indep.Case, out: Path) -> tuple[Path, dict]:
     return folder, json.loads(answer.read_text())
 
 
+def tuned(directory: Path, diagnosis: Path, workers: int | None) -> dict:
+    """tune.json of ``tune`` on the diagnosis (written once), or ``{"refused": reason}``."""
+    refused = directory / "refused.txt"
+    if refused.is_file():
+        return {"refused": refused.read_text()}
+    if not (directory / "tune.json").is_file():
+        try:
+            write_tune(directory, tune(diagnosis, TuneSettings(workers=workers)), force=True)
+        except FurutaError as err:
+            directory.mkdir(parents=True, exist_ok=True)
+            refused.write_text(str(err))
+            return {"refused": str(err)}
+    return json.loads((directory / "tune.json").read_text())
+
+
+@dataclass
+class ObserverFeedback:
+    """A design as ``tune`` delivers it (its simulate config), run as a lab's controller on the simulator: the
+    package's observer (HG or VFE) discrete at the sample period, x_hat_k+1 = F x_hat_k + G [y_k; u_k (; F_hat_k)],
+    feeding u_k = -K x_hat_k, and with friction compensation the simulator's Dahl model
+    (:class:`benchmarks.independent_sim.Compensation`, at the design's initial K_sigma, not adapting) on the
+    observer's arm velocity, whose estimate also feeds the VFE. Commands in the rig's units."""
+
+    gain: np.ndarray  # [N m per state unit]
+    observer: object  # the discrete LinearSystem
+    period: float  # [s]
+    torque_limit: float  # [N m]
+    torque_per_command: float
+    compensation: sim.Compensation | None
+    vfe: bool
+    state: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, config: SimulationConfig, torque_per_command: float) -> ObserverFeedback:
+        period, control = config.control_period, config.controller
+        if control.velocity_source == "vfe":
+            observer = VfeObserver(config.rig, config.observers.vfe, period=period).discrete
+        else:
+            observer = HighGainObserver(config.rig, config.observers.hg, period=period).discrete
+        compensation = None
+        if control.friction_compensation:
+            dahl = config.observers.dahl
+            gain = dahl.adaptation.k_sigma.initial if dahl.adaptation is not None else 1.0
+            compensation = sim.Compensation(dahl.coulomb_pos, dahl.coulomb_neg, dahl.sigma0, gain)
+        return cls(
+            np.asarray(control.gain, dtype=float),
+            observer,
+            period,
+            control.lqr.torque_limit,
+            torque_per_command,
+            compensation,
+            control.velocity_source == "vfe",
+        )
+
+    def __call__(self, measured: np.ndarray) -> float:
+        if self.state is None:  # started at the first sample, at rest
+            self.state = np.zeros(self.observer.A().shape[0])
+            self.state[:2] = measured
+        estimate = self.state[:4]
+        u = -float(self.gain @ estimate)
+        friction = 0.0
+        if self.compensation is not None:
+            compensating = self.compensation.torque(estimate[3], self.period)
+            u, friction = u + compensating, -compensating
+        u = min(max(u, -self.torque_limit), self.torque_limit)
+        inputs = np.concatenate([measured, [u, friction] if self.vfe else [u]])
+        self.state = self.observer.A() @ self.state + self.observer.B() @ inputs
+        return u / self.torque_per_command
+
+
+def closed_loop(case: indep.Case, config: SimulationConfig, seed: int) -> dict:
+    """One balancing run of a design (its simulate config) on the case's true rig: theta's RMS and the limit
+    cycle's amplitude over the steady part of the encoder's theta [rad], and whether it fell."""
+    rig = case.world.rig
+    controller = ObserverFeedback.of(config, rig.torque_per_command)
+    log = sim.regulate(case.world, controller, RUN_SECONDS, seed, initial_angle(seed))
+    theta = log.measured[:, 0]
+    amplitude, frequency = limit_cycle(theta, rig.sample_period)
+    return {
+        "seed": seed,
+        "theta_rms": rms(steady_part(theta)),
+        "limit_cycle_amplitude": amplitude,
+        "limit_cycle_frequency": frequency,
+        "effort_rms": rms(steady_part(log.command)),
+        "fell": log.fell,
+    }
+
+
+def closed_loops(case: indep.Case, directory: Path, path: Path) -> dict:
+    """Every design's runs on the case's true rig (written once to ``path``); ``directory``: tune's output."""
+    if not path.is_file():
+        runs = {
+            name: [closed_loop(case, load_config(directory / FILES[name]), seed) for seed in SEEDS] for name in DESIGNS
+        }
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(runs, indent=2) + "\n")
+    return json.loads(path.read_text())
+
+
+def summary(runs: list[dict]) -> dict:
+    """Mean and run-to-run spread (standard deviation over the seeds) of each figure; a run that fell counts as
+    the pendulum's fall, inf."""
+    out = {"fell": sum(run["fell"] for run in runs)}
+    for figure in ("theta_rms", "limit_cycle_amplitude"):
+        values = np.array([math.inf if run["fell"] else run[figure] for run in runs])
+        out[figure] = {"mean": float(np.mean(values)), "spread": float(np.std(values))}
+    return out
+
+
+def judged(row: dict) -> dict:
+    """``better``: the tuned mean theta RMS below the nominal one; ``worse``: the tuned mean above the nominal one by
+    more than the two spreads added (for theta's RMS or the limit cycle)."""
+    nominal, tuned_ = row["nominal"], row["tuned"]
+    better = tuned_["theta_rms"]["mean"] < nominal["theta_rms"]["mean"]
+    worse = any(
+        tuned_[f]["mean"] - nominal[f]["mean"] > nominal[f]["spread"] + tuned_[f]["spread"]
+        for f in ("theta_rms", "limit_cycle_amplitude")
+    )
+    return {"better": bool(better), "worse_beyond_spread": bool(worse)}
+
+
 def run_case(case: indep.Case, out: Path, args) -> dict:
-    """Logs, diagnosis (and, in later stages, tune and the closed-loop runs) of one case."""
+    """Logs, diagnosis, tune and both designs' closed-loop runs of one case."""
     folder, answer = case_folder(case, out)
     train, heldout = sorted(folder.glob("train_*.csv")), sorted(folder.glob("heldout_*.csv"))
     report = diagnosed(out / "diagnosis" / case.name, folder / "rig.yaml", train, heldout, args.workers)
-    return {
+    row = {
         "case": case.name,
         "expected": answer["expected"],
         "verdict": report["verdict"],
         "effects": report["effects"],
     }
+    document = tuned(out / "tune" / case.name, out / "diagnosis" / case.name, args.workers)
+    if "refused" in document:
+        return {**row, "refused": document["refused"]}
+    runs = closed_loops(case, out / "tune" / case.name, out / "closed_loop" / f"{case.name}.json")
+    row.update({name: summary(runs[name]) for name in DESIGNS})
+    row["predicted"] = {name: document["designs"][name]["predicted"] for name in DESIGNS}
+    row["tuned_design"] = {
+        "lqr_gain": document["designs"]["tuned"]["lqr_gain"],
+        "compensation": document["designs"]["tuned"]["friction_compensation"]["gain"],
+        "observer": document["designs"]["tuned"]["observer"]["kind"],
+    }
+    return {**row, **judged(row)}
+
+
+def _figure(entry: dict, figure: str) -> str:
+    value = entry[figure]
+    if not math.isfinite(value["mean"]):
+        return "fell"
+    return f"{1e3 * value['mean']:.3g} +- {1e3 * value['spread']:.2g}"
+
+
+def table(rows: list[dict]) -> str:
+    """The Markdown table of the runs: per case, both designs' theta RMS and limit-cycle amplitude [mrad] (mean +-
+    run-to-run spread over the seeds) and the verdict."""
+    lines = [
+        "| case | diagnosis | tuned design | theta RMS nominal [mrad] | theta RMS tuned | limit cycle nominal [mrad] "
+        "| limit cycle tuned | tuned better | worse beyond the spread |",
+        "|---|---|---|---:|---:|---:|---:|---|---|",
+    ]
+    for row in rows:
+        effects = "+".join(row["effects"]) or row["verdict"]
+        if "refused" in row:
+            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | |")
+            continue
+        design = row["tuned_design"]
+        lines.append(
+            f"| {row['case']} | {effects} | {design['observer']}, K_sigma {design['compensation']:g} | "
+            f"{_figure(row['nominal'], 'theta_rms')} | {_figure(row['tuned'], 'theta_rms')} | "
+            f"{_figure(row['nominal'], 'limit_cycle_amplitude')} | {_figure(row['tuned'], 'limit_cycle_amplitude')} | "
+            f"{'yes' if row['better'] else 'no'} | {'YES' if row['worse_beyond_spread'] else 'no'} |"
+        )
+    judged_rows = [row for row in rows if "refused" not in row]
+    better = sum(row["better"] for row in judged_rows)
+    worse = sum(row["worse_beyond_spread"] for row in judged_rows)
+    lines += ["", f"Tuned better in {better} of {len(rows)} cases; worse beyond the spread in {worse}."]
+    return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--only", nargs="+", help="the cases whose name contains one of these words")
-    parser.add_argument("--workers", type=int, default=1, help="processes of each diagnosis (default 1)")
+    parser.add_argument("--workers", type=int, default=1, help="processes of each diagnosis and tune (default 1)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     start, rows = time.perf_counter(), []
     for case in indep.select(cases(), False, args.only):
         rows.append(run_case(case, args.out, args))
         print(f"{case.name}: {rows[-1]['verdict']} {rows[-1]['effects']}", flush=True)
-    (args.out / "results.json").write_text(json.dumps(rows, indent=2) + "\n")
+        (args.out / "results.json").write_text(json.dumps(rows, indent=2) + "\n")
+    text = table(rows)
+    (args.out / "table.md").write_text(text)
+    print(text)
     config = {"argv": sys.argv[1:] if argv is None else argv, "cases": [row["case"] for row in rows]}
+    config.update(seeds=list(SEEDS), run_seconds=RUN_SECONDS, log_seconds=LOG_SECONDS)
     config["wall_time_s"] = time.perf_counter() - start
     (args.out / "config.json").write_text(json.dumps({**config, **versions()}, indent=2) + "\n")
     return 0
