@@ -264,9 +264,13 @@ def answer(document: dict) -> str:
 
 def report_blocks(document: dict) -> list[tuple]:
     """The report as blocks: ('h1'|'h2'|'p', text), ('table', header, rows), ('img', file, caption)."""
-    designs = document["designs"]
-    nominal, tuned = designs["nominal"], designs["tuned"]
     blocks = [("h1", "Controller tuned from the diagnosis"), ("p", answer(document))]
+    blocks += _prediction_blocks(document) + _controller_blocks(document) + _evidence_blocks(document)
+    return blocks + [("p", f"Note: {note}") for note in document["notes"]]
+
+
+def _prediction_blocks(document: dict) -> list[tuple]:
+    nominal, tuned = document["designs"]["nominal"], document["designs"]["tuned"]
     rows = []
     for figure in FIGURES:
         a, b = nominal["predicted"].get(figure), tuned["predicted"].get(figure)
@@ -280,97 +284,87 @@ def report_blocks(document: dict) -> list[tuple]:
                 f"{_number(span[0])} to {_number(span[1])}",
             ]
         )
-    blocks += [
+    header = ["design", "gain margin [dB]", "delay margin [ms]", "worst corner", "its gain margin [dB]"]
+    margins = [
+        [
+            name,
+            _number(d["margins"]["gain_db"], 3),
+            _ms(d["margins"]["delay_s"]),
+            d["worst_corner"]["corner"] or "the fit",
+            _number(d["worst_corner"]["gain_db"], 3),
+            _ms(d["worst_corner"]["delay_s"]),
+        ]
+        for name, d in document["designs"].items()
+    ]
+    return [
         ("h2", "Predicted balancing on the corrected model"),
         ("table", ["figure", "nominal", "tuned", "change", "tuned over the intervals"], rows),
         ("img", "balancing.png", "The predicted balancing of both designs from the same seeded disturbance"),
         ("h2", "Margins of the sampled loop (state feedback, loop broken at the plant input)"),
-        (
-            "table",
-            [
-                "design",
-                "gain margin [dB]",
-                "delay margin [ms]",
-                "worst corner",
-                "its gain margin [dB]",
-                "its delay margin [ms]",
-            ],
-            [
-                [
-                    name,
-                    _number(d["margins"]["gain_db"], 3),
-                    _ms(d["margins"]["delay_s"]),
-                    d["worst_corner"]["corner"] or "the fit",
-                    _number(d["worst_corner"]["gain_db"], 3),
-                    _ms(d["worst_corner"]["delay_s"]),
-                ]
-                for name, d in designs.items()
-            ],
-        ),
-        ("h2", "The controllers"),
-        (
-            "table",
-            ["design", "K [N m per rad, rad/s]", "observer", "compensation K_sigma", "robust over the intervals"],
-            [
-                [
-                    name,
-                    ", ".join(f"{k:.4g}" for k in d["lqr_gain"]),
-                    _observer_text(d["observer"]),
-                    _number(d["friction_compensation"]["gain"]),
-                    "yes" if d["robust"] else f"no: {d['why_not_robust']}",
-                ]
-                for name, d in designs.items()
-            ],
-        ),
+        ("table", [*header, "its delay margin [ms]"], margins),
     ]
-    if "lqr_gain_volts" in tuned:
+
+
+def _controller_blocks(document: dict) -> list[tuple]:
+    designs = document["designs"]
+    rows = [
+        [
+            name,
+            ", ".join(f"{k:.4g}" for k in d["lqr_gain"]),
+            _observer_text(d["observer"]),
+            _number(d["friction_compensation"]["gain"]),
+            "yes" if d["robust"] else f"no: {d['why_not_robust']}",
+        ]
+        for name, d in designs.items()
+    ]
+    blocks = [
+        ("h2", "The controllers"),
+        ("table", ["design", "K [N m per rad, rad/s]", "observer", "compensation K_sigma", "robust"], rows),
+    ]
+    if "lqr_gain_volts" in designs["tuned"]:
+        volts = {name: ", ".join(f"{k:.4g}" for k in d["lqr_gain_volts"]) for name, d in designs.items()}
         blocks.append(
             (
                 "p",
                 "In volts (V = -K_V x, the torque gain over kt / R; the motor's back-EMF adds kt ke / R on phi_dot to "
-                f"the net arm torque): tuned K_V = [{', '.join(f'{k:.4g}' for k in tuned['lqr_gain_volts'])}], "
-                f"nominal K_V = [{', '.join(f'{k:.4g}' for k in nominal['lqr_gain_volts'])}].",
+                f"the net arm torque): tuned K_V = [{volts['tuned']}], nominal K_V = [{volts['nominal']}].",
             )
         )
-    blocks += [
+    return blocks
+
+
+def _evidence_blocks(document: dict) -> list[tuple]:
+    extremes = [
+        [label, name, *([run["fell"]] + [""] * 4 if "fell" in run else [_number(run[f]) for f in FIGURES])]
+        for name, d in document["designs"].items()
+        for label, run in d["extremes"].items()
+    ]
+    candidates = [
+        [
+            _number(c["input_weight_scale"]),
+            _number(c.get("compensation_gain")),
+            _number((c.get("predicted") or {}).get("limit_cycle_amplitude")),
+            _number((c.get("predicted") or {}).get("theta_rms")),
+            "chosen" if c.get("chosen") else c.get("rejected") or c.get("fell") or "not chosen",
+        ]
+        for c in document["candidates"]
+    ]
+    model = document["design_model"]
+    return [
         ("h2", "At the accepted effects' extremes"),
-        (
-            "table",
-            ["extreme", "design", *FIGURES],
-            [
-                [label, name, *([run["fell"]] + [""] * 4 if "fell" in run else [_number(run[f]) for f in FIGURES])]
-                for name, d in designs.items()
-                for label, run in d["extremes"].items()
-            ],
-        ),
+        ("table", ["extreme", "design", *FIGURES], extremes),
         ("h2", "Candidates tried"),
-        (
-            "table",
-            ["R scale", "compensation", "limit cycle [rad]", "theta RMS [rad]", "outcome"],
-            [
-                [
-                    _number(c["input_weight_scale"]),
-                    _number(c.get("compensation_gain")),
-                    _number((c.get("predicted") or {}).get("limit_cycle_amplitude")),
-                    _number((c.get("predicted") or {}).get("theta_rms")),
-                    "chosen" if c.get("chosen") else c.get("rejected") or c.get("fell") or "not chosen",
-                ]
-                for c in document["candidates"]
-            ],
-        ),
+        ("table", ["R scale", "compensation", "limit cycle [rad]", "theta RMS [rad]", "outcome"], candidates),
         ("h2", "What it rests on"),
         (
             "p",
             f"The diagnosis in {document['diagnosis']['directory']} (verdict {document['diagnosis']['verdict']}); the "
-            f"design model has {document['design_model']['states']} states (input delay "
-            f"{_ms(document['design_model']['delay_s'])} ms, actuator lag {_ms(document['design_model']['lag_s'])} ms) "
-            f"at a {1e3 * document['sample_period']:g} ms period; every figure is a Drake run of "
-            f"{document['duration_s']:g} s on the corrected model from the same seeded disturbance (seed "
+            f"design model has {model['states']} states (input delay {_ms(model['delay_s'])} ms, actuator lag "
+            f"{_ms(model['lag_s'])} ms) at a {1e3 * document['sample_period']:g} ms period; every figure is a Drake "
+            f"run of {document['duration_s']:g} s on the corrected model from the same seeded disturbance (seed "
             f"{document['seed']}), read on its last half with the rig's encoders.",
         ),
     ]
-    blocks += [("p", f"Note: {note}") for note in document["notes"]]
-    return blocks
 
 
 def markdown(blocks: list[tuple]) -> str:

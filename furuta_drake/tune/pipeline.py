@@ -146,6 +146,40 @@ def delay_free_gain(A: np.ndarray, B: np.ndarray, lqr: LqrParameters, period: fl
     return K
 
 
+@dataclass
+class _Problem:
+    """What every candidate is judged on: the corrected model (``world``, its design model and linearization), the
+    linear corners' design models, the effect extremes' models, the fitted friction's Dahl observer, the
+    nominal controller, the settings."""
+
+    inputs: TuneInputs
+    world: SimulationConfig
+    model: DesignModel
+    A: np.ndarray
+    B: np.ndarray
+    corners: list[tuple[str, DesignModel]]
+    extremes: list[tuple[str, SimulationConfig]]
+    dahl: object
+    nominal: Controller
+    settings: TuneSettings
+
+    @property
+    def period(self) -> float:
+        return self.world.control_period
+
+    def margins_of(self, K) -> tuple[Margins, dict[str, Margins]]:
+        """K's margins at the fit and at every linear corner."""
+        return margins(self.model, K), {label: margins(model, K) for label, model in self.corners}
+
+    def at_extremes(self, controller: Controller) -> dict[str, Prediction]:
+        return dict(
+            zip(
+                [label for label, _ in self.extremes],
+                run_predictions([(world, controller) for _, world in self.extremes], self.settings),
+            )
+        )
+
+
 def tune(
     directory: str | Path, settings: TuneSettings = TuneSettings(), progress: Callable[[str], None] | None = None
 ) -> Tuning:
@@ -155,90 +189,103 @@ def tune(
     say = progress or (lambda line: None)
     inputs = read_diagnosis(directory)
     world = world_config(inputs.rig)
-    period = world.control_period
-    model = design_model(world)
     A, B = upright_model(world)
-    nominal = nominal_controller(inputs)
-    corners = [
-        (label, design_model(world_config(corner_rig(inputs, corner)))) for label, corner in linear_corners(inputs)
-    ]
-    extremes = [(label, world_config(corner_rig(inputs, corner))) for label, corner in effect_extremes(inputs)]
-    say(f"design model: {model.size} states; {len(corners)} linear corners, {len(extremes)} effect extremes")
-    dahl = arm_friction_observer(world.friction.arm, world.encoder.encoder_resolution)
-    candidates, failures, tuned = [], [], None
-    starts = [np.asarray(nominal.gain), delay_free_gain(A, B, nominal.lqr, period)]
-    for scale in settings.input_weight_scales:
-        lqr = dataclasses.replace(nominal.lqr, input_weight=nominal.lqr.input_weight * scale)
-        try:
-            K = output_lqr(model, lqr.state_weights, lqr.input_weight, starts)
-        except ConfigError as err:
-            failures.append(f"R x {scale:g}: {err}")
-            continue
-        fit_margins = margins(model, K)
-        corner_margins = {label: margins(corner_model, K) for label, corner_model in corners}
-        failure = shortfall({"the fit": fit_margins, **corner_margins}, {}, period)
-        gain = tuple(float(k) for k in K.ravel())
-        if failure:
-            failures.append(f"R x {scale:g}: {failure}")
-            candidates.append({"input_weight_scale": scale, "lqr_gain": list(gain), "rejected": failure})
-            continue
-        source, hg, vfe = observer_for(upright_rate(A), period, dahl)
-        base = Controller(gain, source, nominal.torque_limit, lqr, hg, vfe, dahl)
-        gains = settings.compensation_gains if dahl is not None else (0.0,)
-        trials = [with_compensation(base, g) for g in dict.fromkeys(gains)]
-        say(f"R x {scale:g}: {len(trials)} candidate(s) on the corrected model")
-        runs = run_predictions([(world, trial) for trial in trials], settings)
-        for trial, run in zip(trials, runs):
-            candidates.append(
-                {
-                    "input_weight_scale": scale,
-                    "lqr_gain": list(gain),
-                    "compensation_gain": trial.compensation,
-                    "predicted": run.figures,
-                    "fell": run.fell,
-                }
-            )
-        for index in ranked(runs, world.encoder.encoder_resolution):
-            trial, row = trials[index], candidates[len(candidates) - len(trials) + index]
-            say(f"R x {scale:g}, compensation {trial.compensation:g}: runs at the effect extremes")
-            outcomes = run_predictions([(extreme, trial) for _, extreme in extremes], settings)
-            fell = [f"{label}: {run.fell}" for (label, _), run in zip(extremes, outcomes) if not run.balanced]
-            if fell:
-                row["rejected"] = "fell at " + "; ".join(fell)
-                failures.append(f"R x {scale:g}, compensation {trial.compensation:g}: {row['rejected']}")
-                continue
-            row["chosen"] = True
-            tuned = DesignOutcome(
-                trial,
-                fit_margins,
-                corner_margins,
-                runs[index],
-                {label: run for (label, _), run in zip(extremes, outcomes)},
-            )
-            break
-        if tuned is not None:
-            break
+    problem = _Problem(
+        inputs,
+        world,
+        design_model(world),
+        A,
+        B,
+        [(label, design_model(world_config(corner_rig(inputs, c)))) for label, c in linear_corners(inputs)],
+        [(label, world_config(corner_rig(inputs, c))) for label, c in effect_extremes(inputs)],
+        arm_friction_observer(world.friction.arm, world.encoder.encoder_resolution),
+        nominal_controller(inputs),
+        settings,
+    )
+    say(
+        f"design model: {problem.model.size} states; {len(problem.corners)} linear corners, "
+        f"{len(problem.extremes)} effect extremes"
+    )
+    candidates, failures = [], []
+    tuned = next(
+        (
+            outcome
+            for scale in settings.input_weight_scales
+            if (outcome := _tuned_at(problem, scale, candidates, failures, say)) is not None
+        ),
+        None,
+    )
     if tuned is None:
         raise NotRobust(
             "no tuned design is robust over the parameters' 95 % intervals: " + " | ".join(failures or ["no candidate"])
         )
     say("the nominal design on the corrected model")
-    runs = run_predictions([(world, nominal)] + [(extreme, nominal) for _, extreme in extremes], settings)
-    nominal_K = np.asarray(nominal.gain)
-    nominal_corners = {label: margins(corner_model, nominal_K) for label, corner_model in corners}
-    nominal_outcome = DesignOutcome(
-        nominal,
-        margins(model, nominal_K),
-        nominal_corners,
-        runs[0],
-        {label: run for (label, _), run in zip(extremes, runs[1:])},
+    nominal = _nominal_outcome(problem)
+    return Tuning(inputs, world, problem.model, settings, nominal, tuned, candidates, list(inputs.notes))
+
+
+def _tuned_at(problem: _Problem, scale: float, candidates: list, failures: list, say) -> DesignOutcome | None:
+    """The tuned design with the input weight times ``scale``, or None (the reasons appended to ``failures``, every
+    candidate to ``candidates``)."""
+    nominal = problem.nominal
+    lqr = dataclasses.replace(nominal.lqr, input_weight=nominal.lqr.input_weight * scale)
+    starts = [np.asarray(nominal.gain), delay_free_gain(problem.A, problem.B, nominal.lqr, problem.period)]
+    try:
+        K = output_lqr(problem.model, lqr.state_weights, lqr.input_weight, starts)
+    except ConfigError as err:
+        failures.append(f"R x {scale:g}: {err}")
+        return None
+    fit_margins, corner_margins = problem.margins_of(K)
+    failure = shortfall({"the fit": fit_margins, **corner_margins}, {}, problem.period)
+    gain = tuple(float(k) for k in K.ravel())
+    if failure:
+        failures.append(f"R x {scale:g}: {failure}")
+        candidates.append({"input_weight_scale": scale, "lqr_gain": list(gain), "rejected": failure})
+        return None
+    source, hg, vfe = observer_for(upright_rate(problem.A), problem.period, problem.dahl)
+    base = Controller(gain, source, nominal.torque_limit, lqr, hg, vfe, problem.dahl)
+    gains = problem.settings.compensation_gains if problem.dahl is not None else (0.0,)
+    trials = [with_compensation(base, g) for g in dict.fromkeys(gains)]
+    say(f"R x {scale:g}: {len(trials)} candidate(s) on the corrected model")
+    runs = run_predictions([(problem.world, trial) for trial in trials], problem.settings)
+    rows = [
+        {
+            "input_weight_scale": scale,
+            "lqr_gain": list(gain),
+            "compensation_gain": trial.compensation,
+            "predicted": run.figures,
+            "fell": run.fell,
+        }
+        for trial, run in zip(trials, runs)
+    ]
+    candidates += rows
+    for index in ranked(runs, problem.world.encoder.encoder_resolution):
+        trial, row = trials[index], rows[index]
+        say(f"R x {scale:g}, compensation {trial.compensation:g}: runs at the effect extremes")
+        extremes = problem.at_extremes(trial)
+        fell = [f"{label}: {run.fell}" for label, run in extremes.items() if not run.balanced]
+        if fell:
+            row["rejected"] = "fell at " + "; ".join(fell)
+            failures.append(f"R x {scale:g}, compensation {trial.compensation:g}: {row['rejected']}")
+            continue
+        row["chosen"] = True
+        return DesignOutcome(trial, fit_margins, corner_margins, runs[index], extremes)
+    return None
+
+
+def _nominal_outcome(problem: _Problem) -> DesignOutcome:
+    """The nominal design on the corrected model: its margins at the fit and corners, its runs at the fit and the
+    effect extremes, and the first requirement it misses."""
+    nominal = problem.nominal
+    fit_margins, corner_margins = problem.margins_of(np.asarray(nominal.gain))
+    worlds = [("the fit", problem.world), *problem.extremes]
+    runs = run_predictions([(world, nominal) for _, world in worlds], problem.settings)
+    fit, extremes = runs[0], {label: run for (label, _), run in zip(problem.extremes, runs[1:])}
+    outcome = DesignOutcome(nominal, fit_margins, corner_margins, fit, extremes)
+    outcome.failure = shortfall(
+        {"the fit": fit_margins, **corner_margins}, {"the fit": fit, **outcome.extremes}, problem.period
     )
-    nominal_outcome.failure = shortfall(
-        {"the fit": nominal_outcome.margins, **nominal_corners},
-        {"the fit": runs[0], **nominal_outcome.extremes},
-        period,
-    )
-    return Tuning(inputs, world, model, settings, nominal_outcome, tuned, candidates, list(inputs.notes))
+    return outcome
 
 
 def shortfall(corner_margins: dict[str, Margins], runs: dict[str, Prediction], period: float) -> str:
