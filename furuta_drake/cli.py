@@ -103,12 +103,18 @@ def _diagnose_parser(sub) -> None:
     diag.set_defaults(run=_run_diagnose)
 
 
+def _from_diagnosis(sub, name: str, summary: str):
+    """A command that reads a diagnosis: its parser with ``--diagnosis``, ``--out`` and ``--force``."""
+    parser = sub.add_parser(name, help=summary)
+    parser.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
+    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    return parser
+
+
 def _design_parser(sub) -> None:
     """The ``design`` command's options."""
-    des = sub.add_parser("design", help="design the experiment that settles what a diagnosis could not decide")
-    des.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
-    des.add_argument("--out", type=Path, required=True, help="output directory")
-    des.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    des = _from_diagnosis(sub, "design", "design the experiment that settles what a diagnosis could not decide")
     des.add_argument(
         "--duration",
         type=float,
@@ -152,10 +158,7 @@ def _design_parser(sub) -> None:
 
 def _tune_parser(sub) -> None:
     """The ``tune`` command's options."""
-    tune = sub.add_parser("tune", help="design the rig's balancing controller on the model a diagnosis corrected")
-    tune.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
-    tune.add_argument("--out", type=Path, required=True, help="output directory")
-    tune.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    tune = _from_diagnosis(sub, "tune", "design the rig's balancing controller on the model a diagnosis corrected")
     tune.add_argument(
         "--duration", type=float, default=10.0, help="length of each predicted balancing run [s] (default 10)"
     )

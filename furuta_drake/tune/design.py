@@ -31,9 +31,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.systems.framework import DiagramBuilder, OutputPortSelection
-from pydrake.systems.primitives import Linearize
-from scipy.linalg import expm, solve_discrete_lyapunov
+from scipy.linalg import solve_discrete_lyapunov
 from scipy.optimize import minimize
 
 from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
@@ -41,7 +39,7 @@ from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import zero_order_hold
 from furuta_drake.errors import ConfigError
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
-from furuta_drake.world import add_furuta_world
+from furuta_drake.world import linearized_world
 
 PLANT_STATES = 4  # x = [theta, phi, theta_dot, phi_dot]
 UNSTABLE = 1.0 - 1e-9  # a spectral radius at or above this is not a stabilising gain
@@ -98,36 +96,13 @@ def upright_model(config: SimulationConfig) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of the corrected world at the upright from Drake's ``Linearize`` (module docstring): states
     [theta, phi, theta_dot, phi_dot, (lagged torque)], input the commanded arm torque [N m]."""
     linear = linear_world(config)
-    builder = DiagramBuilder()
-    world = add_furuta_world(
-        builder,
+    return linearized_world(
         rig=linear.rig,
         friction=linear.friction,
         actuator=linear.actuator,
         disturbance=linear.disturbance,
         control_period=linear.control_period,
     )
-    builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
-    diagram = builder.Build()
-    context = diagram.CreateDefaultContext()
-    diagram.get_input_port().FixValue(context, [0.0])
-    system = Linearize(diagram, context, output_port_index=OutputPortSelection.kNoOutput)
-    # The continuous state is the plant's, then the lag filter's (the order the systems were added).
-    nx = world.plant.num_multibody_states()
-    n = system.A().shape[0]
-    T = np.zeros((n, n))
-    T[:PLANT_STATES, :nx] = world.to_paper
-    T[PLANT_STATES:, nx:] = np.eye(n - nx)
-    return T @ system.A() @ T.T, T @ system.B()
-
-
-def held_input_response(A: np.ndarray, B: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-    """(e^(A t), int_0^t e^(A s) ds B): the state map and the response to an input held for ``t`` [s]."""
-    n, m = B.shape
-    block = np.zeros((n + m, n + m))
-    block[:n, :n], block[:n, n:] = A, B
-    exponential = expm(block * t)
-    return exponential[:n, :n], exponential[:n, n:]
 
 
 def delayed_model(A: np.ndarray, B: np.ndarray, period: float, delay: float, lag: float = 0.0) -> DesignModel:
@@ -139,14 +114,11 @@ def delayed_model(A: np.ndarray, B: np.ndarray, period: float, delay: float, lag
     fraction = max(delay - whole * period, 0.0)
     if fraction < 1e-9 * period:
         fraction = 0.0
-    if fraction == 0.0:
-        Phi, Gamma0 = zero_order_hold(A, B, period)
-        Gamma1 = np.zeros_like(Gamma0)
-    else:
-        Phi, _ = held_input_response(A, B, period)
-        late, Gamma0 = held_input_response(A, B, period - fraction)
-        _, early = held_input_response(A, B, fraction)
-        Gamma1 = late @ early
+    Phi, Gamma0 = zero_order_hold(A, B, period)  # e^(A h) and the response to an input held over h
+    Gamma1 = np.zeros_like(Gamma0)
+    if fraction > 0.0:
+        late, Gamma0 = zero_order_hold(A, B, period - fraction)
+        Gamma1 = late @ zero_order_hold(A, B, fraction)[1]
     extra = whole + (fraction > 0)
     n = A.shape[0]
     size = n + extra
