@@ -61,6 +61,16 @@ def test_one_sample_delay_loop_has_the_poles_of_its_characteristic_polynomial():
     assert np.max(np.abs(poles)) < 1.0
 
 
+def test_the_corrected_model_holds_the_commands_in_flight_and_the_lag():
+    # 3.5 ms at 1 ms: three whole samples and a fraction, four commands in flight; the lag is one more state.
+    config = SimulationConfig.from_rig("lund")
+    config.actuator.delay, config.actuator.lag_time_constant = 0.0035, 0.004
+    model = design_model(config)
+    assert model.size == 4 + 1 + 4
+    # The lag's state follows the command at 1 / T: its row of A has -1 / T, so one period multiplies it by e^(-h / T).
+    assert model.Phi[4, 4] == pytest.approx(math.exp(-0.001 / 0.004), rel=1e-9)
+
+
 def test_a_fractional_delay_splits_each_held_command_over_two_samples():
     # An integrator of the arm-torque input, delayed by 1.5 samples: over [k h, (k + 1) h) the input is u_k-2 for
     # the first half and u_k-1 for the second, so p_k+1 = p_k + h/2 (u_k-2 + u_k-1).
@@ -215,16 +225,12 @@ def test_tune_writes_a_controller_that_simulate_runs(tmp_path, monkeypatch, caps
     from furuta_drake.tune import pipeline
 
     monkeypatch.setattr(pipeline, "TuneSettings", lambda: pipeline.FAST)
-    effects = {**FRICTION, "input_delay": {"delay": 0.0035, "form": "fixed"}}
-    ci = {f"arm_coulomb_friction.{k}": v for k, v in FRICTION_CI.items()}
-    ci["input_delay.delay"] = [0.003, 0.004]
-    directory = diagnosis_folder(tmp_path / "diagnosis", effects, ci, ["arm_coulomb_friction", "input_delay"])
+    directory = diagnosis_folder(tmp_path / "diagnosis", FRICTION, FRICTION_CI, ["arm_coulomb_friction"])
     out = tmp_path / "tuned"
-    assert main(["tune", "--diagnosis", str(directory), "--out", str(out), "--duration", "2", "--workers", "1"]) == 0
+    assert main(["tune", "--diagnosis", str(directory), "--out", str(out), "--duration", "1.5", "--workers", "1"]) == 0
     document = json.loads((out / "tune.json").read_text())
     assert document["sample_period"] == 0.001
-    # 3.5 ms at 1 ms: three whole samples and a fraction, four commands in flight.
-    assert document["design_model"]["states"] == 4 + 4
+    assert document["design_model"]["states"] == 4  # no delay, no lag
     assert document["robust_over_intervals"] is True
     for name in ("nominal", "tuned"):
         design = document["designs"][name]
@@ -247,7 +253,7 @@ def test_tune_writes_a_controller_that_simulate_runs(tmp_path, monkeypatch, caps
     assert "data:image/png;base64," in (out / "tune.html").read_text()
     config = load_config(out / "controller.yaml")
     assert config.controller.gain == pytest.approx(tuned["lqr_gain"])
-    assert config.actuator.delay == pytest.approx(0.0035)
+    assert config.friction.arm.coulomb_pos == pytest.approx(0.012)
     capsys.readouterr()
     run = tmp_path / "run"
     assert main(["simulate", "--config", str(out / "controller.yaml"), "--duration", "0.5", "--out", str(run)]) == 0
