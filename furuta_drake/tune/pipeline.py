@@ -6,7 +6,7 @@
    linearization, the delay and lag as states). It must meet the margins at every linear corner of the intervals
    (:mod:`.robustness`); if it does not, the input weight R is raised (``TuneSettings.input_weight_scales``: a
    gentler loop) until one does.
-4. Its observer follows the loop, its Dahl observer the fitted friction; the friction compensation's gain (the
+4. Its observer follows the corrected model's time scale, its Dahl observer the fitted friction; the friction compensation's gain (the
    initial K_sigma) is chosen among ``TuneSettings.compensation_gains`` by simulating each candidate on the corrected
    model: the smallest balancing limit cycle wins (amplitudes within one encoder count of the smallest are a tie,
    decided by theta's RMS); no compensation when no arm friction was found.
