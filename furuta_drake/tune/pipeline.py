@@ -6,10 +6,10 @@
    linearization, the delay and lag as states). It must meet the margins at every linear corner of the intervals
    (:mod:`.robustness`); if it does not, the input weight R is raised (``TuneSettings.input_weight_scales``: a
    gentler loop) until one does.
-4. Its observer follows the corrected model's time scale, its Dahl observer the fitted friction; the friction compensation's gain (the
-   initial K_sigma) is chosen among ``TuneSettings.compensation_gains`` by simulating each candidate on the corrected
-   model: the smallest balancing limit cycle wins (amplitudes within one encoder count of the smallest are a tie,
-   decided by theta's RMS); no compensation when no arm friction was found.
+4. Its observer follows the corrected model's time scale, its Dahl observer the fitted friction; the friction
+   compensation's gain (the initial K_sigma) is chosen among ``TuneSettings.compensation_gains`` by simulating each
+   candidate on the corrected model: the smallest balancing limit cycle wins (amplitudes within one encoder count
+   of the smallest are a tie, decided by theta's RMS); no compensation when no arm friction was found.
 5. The chosen candidate is run at each accepted effect's extremes (:func:`.robustness.effect_extremes`); one that
    falls there is passed over for the next. No candidate left: :class:`~.robustness.NotRobust`.
 6. The nominal controller is run on the same model and extremes, for the side-by-side figures.
