@@ -112,39 +112,39 @@ def tuned(directory: Path, diagnosis: Path, workers: int | None) -> dict:
 class ObserverFeedback:
     """A design as ``tune`` delivers it (its simulate config), run as a lab's controller on the simulator: the
     package's observer (HG or VFE) discrete at the sample period, x_hat_k+1 = F x_hat_k + G [y_k; u_k (; F_hat_k)],
-    feeding u_k = -K x_hat_k, and with friction compensation the simulator's Dahl model
-    (:class:`benchmarks.independent_sim.Compensation`, at the design's initial K_sigma, not adapting) on the
-    observer's arm velocity, whose estimate also feeds the VFE. Commands in the rig's units."""
+    feeding u_k = -K x_hat_k. Beside the VFE runs its Dahl friction observer, here the simulator's own Dahl model
+    (:class:`benchmarks.independent_sim.Compensation` on the VFE's arm velocity, at the design's initial K_sigma,
+    neither adapting nor injecting), whose estimate F_hat feeds the VFE and, with friction compensation, the
+    command. Commands in the rig's units."""
 
     gain: np.ndarray  # [N m per state unit]
     observer: object  # the discrete LinearSystem
     period: float  # [s]
     torque_limit: float  # [N m]
     torque_per_command: float
-    compensation: sim.Compensation | None
-    vfe: bool
+    dahl: sim.Compensation | None  # the VFE's friction observer (None on the HG)
+    compensate: bool
     state: np.ndarray | None = None
 
     @classmethod
     def of(cls, config: SimulationConfig, torque_per_command: float) -> ObserverFeedback:
         period, control = config.control_period, config.controller
+        dahl = None
         if control.velocity_source == "vfe":
             observer = VfeObserver(config.rig, config.observers.vfe, period=period).discrete
+            p = config.observers.dahl
+            k_sigma = p.adaptation.k_sigma.initial if p.adaptation is not None else 1.0
+            dahl = sim.Compensation(p.coulomb_pos, p.coulomb_neg, p.sigma0, k_sigma)
         else:
             observer = HighGainObserver(config.rig, config.observers.hg, period=period).discrete
-        compensation = None
-        if control.friction_compensation:
-            dahl = config.observers.dahl
-            gain = dahl.adaptation.k_sigma.initial if dahl.adaptation is not None else 1.0
-            compensation = sim.Compensation(dahl.coulomb_pos, dahl.coulomb_neg, dahl.sigma0, gain)
         return cls(
             np.asarray(control.gain, dtype=float),
             observer,
             period,
             control.lqr.torque_limit,
             torque_per_command,
-            compensation,
-            control.velocity_source == "vfe",
+            dahl,
+            control.friction_compensation,
         )
 
     def __call__(self, measured: np.ndarray) -> float:
@@ -154,11 +154,12 @@ class ObserverFeedback:
         estimate = self.state[:4]
         u = -float(self.gain @ estimate)
         friction = 0.0
-        if self.compensation is not None:
-            compensating = self.compensation.torque(estimate[3], self.period)
-            u, friction = u + compensating, -compensating
+        if self.dahl is not None:
+            opposing = self.dahl.torque(estimate[3], self.period)  # -F_hat, K_sigma sigma0 z
+            friction = -opposing
+            u += opposing if self.compensate else 0.0
         u = min(max(u, -self.torque_limit), self.torque_limit)
-        inputs = np.concatenate([measured, [u, friction] if self.vfe else [u]])
+        inputs = np.concatenate([measured, [u, friction] if self.dahl is not None else [u]])
         self.state = self.observer.A() @ self.state + self.observer.B() @ inputs
         return u / self.torque_per_command
 
