@@ -18,7 +18,7 @@ delay, a cable spring, an inertia error, alone and together, on a Lund-like rig 
    steady part of each run (:mod:`furuta_drake.tune.limit_cycle`), their mean and run-to-run spread (the standard
    deviation over the seeds).
 
-A case counts as *better* when the tuned mean is below the nominal one for theta's RMS, and as *worse beyond the
+Per figure, a case counts as *better* when the tuned mean is below the nominal one, and as *worse beyond the
 spread* when the tuned mean exceeds the nominal one by more than the two spreads added. Writes
 ``OUT/results.json``, ``OUT/table.md`` and ``OUT/config.json``; every stage is kept under ``OUT`` (``suite``,
 ``diagnosis``, ``tune``) and reused when the script is run again with the same ``--out``.
@@ -56,6 +56,7 @@ LOG_SECONDS = 8.0  # [s] each of a case's four logs
 RUN_SECONDS = 10.0  # [s] each closed-loop run on the simulator (its second half is the steady part)
 SEEDS = (1, 2, 3, 4)  # the closed-loop runs of each design (seeded start and sensor noise)
 DESIGNS = ("nominal", "tuned")
+FIGURES_JUDGED = ("theta_rms", "limit_cycle_amplitude")
 FILES = {"nominal": "nominal.yaml", "tuned": "controller.yaml"}  # each design's simulate config in tune's output
 
 
@@ -197,22 +198,22 @@ def summary(runs: list[dict]) -> dict:
     """Mean and run-to-run spread (standard deviation over the seeds) of each figure; a run that fell counts as
     the pendulum's fall, inf."""
     out = {"fell": sum(run["fell"] for run in runs)}
-    for figure in ("theta_rms", "limit_cycle_amplitude"):
+    for figure in FIGURES_JUDGED:
         values = np.array([math.inf if run["fell"] else run[figure] for run in runs])
         out[figure] = {"mean": float(np.mean(values)), "spread": float(np.std(values))}
     return out
 
 
 def judged(row: dict) -> dict:
-    """``better``: the tuned mean theta RMS below the nominal one; ``worse``: the tuned mean above the nominal one by
-    more than the two spreads added (for theta's RMS or the limit cycle)."""
+    """Per figure (theta's RMS, the limit cycle's amplitude): ``better`` when the tuned mean is below the nominal
+    one, ``worse`` when it is above it by more than the two spreads added."""
     nominal, tuned_ = row["nominal"], row["tuned"]
-    better = tuned_["theta_rms"]["mean"] < nominal["theta_rms"]["mean"]
-    worse = any(
-        tuned_[f]["mean"] - nominal[f]["mean"] > nominal[f]["spread"] + tuned_[f]["spread"]
-        for f in ("theta_rms", "limit_cycle_amplitude")
-    )
-    return {"better": bool(better), "worse_beyond_spread": bool(worse)}
+    out = {}
+    for figure in FIGURES_JUDGED:
+        difference = tuned_[figure]["mean"] - nominal[figure]["mean"]
+        out[f"better_{figure}"] = bool(difference < 0)
+        out[f"worse_{figure}"] = bool(difference > nominal[figure]["spread"] + tuned_[figure]["spread"])
+    return out
 
 
 def run_case(case: indep.Case, out: Path, args) -> dict:
@@ -247,12 +248,16 @@ def _figure(entry: dict, figure: str) -> str:
     return f"{1e3 * value['mean']:.3g} +- {1e3 * value['spread']:.2g}"
 
 
+def _verdict(row: dict, prefix: str) -> str:
+    return ", ".join("yes" if row[f"{prefix}{figure}"] else "no" for figure in FIGURES_JUDGED)
+
+
 def table(rows: list[dict]) -> str:
     """The Markdown table of the runs: per case, both designs' theta RMS and limit-cycle amplitude [mrad] (mean +-
     run-to-run spread over the seeds) and the verdict."""
     lines = [
         "| case | diagnosis | tuned design | theta RMS nominal [mrad] | theta RMS tuned | limit cycle nominal [mrad] "
-        "| limit cycle tuned | tuned better | worse beyond the spread |",
+        "| limit cycle tuned | tuned better (theta, limit cycle) | worse beyond the spread |",
         "|---|---|---|---:|---:|---:|---:|---|---|",
     ]
     for row in rows:
@@ -265,12 +270,13 @@ def table(rows: list[dict]) -> str:
             f"| {row['case']} | {effects} | {design['observer']}, K_sigma {design['compensation']:g} | "
             f"{_figure(row['nominal'], 'theta_rms')} | {_figure(row['tuned'], 'theta_rms')} | "
             f"{_figure(row['nominal'], 'limit_cycle_amplitude')} | {_figure(row['tuned'], 'limit_cycle_amplitude')} | "
-            f"{'yes' if row['better'] else 'no'} | {'YES' if row['worse_beyond_spread'] else 'no'} |"
+            f"{_verdict(row, 'better_')} | {_verdict(row, 'worse_')} |"
         )
     judged_rows = [row for row in rows if "refused" not in row]
-    better = sum(row["better"] for row in judged_rows)
-    worse = sum(row["worse_beyond_spread"] for row in judged_rows)
-    lines += ["", f"Tuned better in {better} of {len(rows)} cases; worse beyond the spread in {worse}."]
+    for figure in FIGURES_JUDGED:
+        better = sum(row[f"better_{figure}"] for row in judged_rows)
+        worse = sum(row[f"worse_{figure}"] for row in judged_rows)
+        lines.append(f"\n{figure}: tuned better in {better} of {len(rows)} cases, worse beyond the spread in {worse}.")
     return "\n".join(lines) + "\n"
 
 
