@@ -716,6 +716,7 @@ class RunSpec:
     reference_amplitude: float = 0.25  # [rad]
     reference_period: float = 2.5  # [s]
     fade_in: float = 0.0  # [s]
+    start: float | None = None  # [rad] the pendulum's initial angle (None: the kind's)
 
 
 def balance_run(duration: float, seed: int) -> RunSpec:
@@ -750,11 +751,67 @@ def play(world: World, command: np.ndarray, seed: int, gain: np.ndarray | None =
     return simulate(world, run, np.asarray(command, dtype=float), gain)
 
 
+@dataclass
+class Compensation:
+    """Friction compensation of a balancing controller: a Dahl model of the arm friction driven by the controller's
+    arm velocity estimate v, z' = v - sigma0 |v| z / Fc(v) (Fc = ``coulomb_pos`` for v > 0, ``coulomb_neg`` else),
+    stepped exactly for each sample's v; the friction torque it estimates is -sigma0 z [N m], and the command adds
+    ``gain`` sigma0 z (torque-equivalent) to cancel that share of it."""
+
+    coulomb_pos: float  # [N m]
+    coulomb_neg: float  # [N m]
+    sigma0: float  # [N m/rad]
+    gain: float  # [-]
+    z: float = 0.0  # [rad]
+
+    def torque(self, v: float, period: float) -> float:
+        """The compensating torque [N m] over the coming sample, after stepping z over it at velocity ``v``."""
+        level = self.coulomb_pos if v > 0 else self.coulomb_neg
+        steady = math.copysign(level / self.sigma0, v) if v != 0 else self.z
+        self.z = steady + (self.z - steady) * math.exp(-self.sigma0 * abs(v) * period / level)
+        return self.gain * self.sigma0 * self.z
+
+
+@dataclass
+class StateFeedback:
+    """A lab's balancing controller: u = -``gain`` [theta, phi, theta_dot, phi_dot] (command units per state unit)
+    on the encoder's angles and their dirty derivative, plus the ``compensation``'s torque (over
+    ``torque_per_command``)."""
+
+    gain: np.ndarray
+    period: float  # [s]
+    torque_per_command: float = 1.0
+    compensation: Compensation | None = None
+    velocity: VelocityFilter | None = None
+
+    def __call__(self, measured: np.ndarray) -> float:
+        if self.velocity is None:
+            self.velocity = VelocityFilter(self.period, cutoff=VELOCITY_CUTOFF)
+        rates = self.velocity.update(measured)
+        u = -float((np.reshape(self.gain, (1, 4)) @ np.concatenate([measured, rates]))[0])
+        if self.compensation is not None:
+            u += self.compensation.torque(rates[1], self.period) / self.torque_per_command
+        return u
+
+
+def regulate(world: World, controller, duration: float, seed: int, start: float) -> RunLog:
+    """Balance the true rig ``world`` from rest at the pendulum angle ``start`` [rad] for ``duration`` [s] under
+    ``controller`` (a callable: the measured [theta, phi] [rad] of a sample -> the command of that sample, command
+    units; e.g. :class:`StateFeedback`), with nothing else acting."""
+    run = RunSpec("played_balance", duration, seed, start=start)
+    return simulate(world, run, np.zeros(round(duration / world.rig.sample_period)), controller=controller)
+
+
 def simulate(
-    world: World, run: RunSpec, command: np.ndarray | None = None, played_gain: np.ndarray | None = None
+    world: World,
+    run: RunSpec,
+    command: np.ndarray | None = None,
+    played_gain: np.ndarray | None = None,
+    controller=None,
 ) -> RunLog:
     """Record ``run`` on the true rig ``world``; the controller knows only the nominal rig. ``command``: the
-    excitation of a played run, ``played_gain`` the state feedback of a ``played_balance`` one."""
+    excitation of a played run, ``played_gain`` the state feedback of a ``played_balance`` one, or ``controller``
+    its controller (:func:`regulate`)."""
     rig = world.rig
     h = rig.sample_period
     rng = np.random.default_rng([run.seed, 7])
@@ -773,7 +830,8 @@ def simulate(
     )
     integrator = Integrator(plant)
     balance = run.kind in ("balance", "played_balance")
-    x = plant.initial({"balance": 0.03, "hanging": math.pi + 0.1, "played": math.pi, "played_balance": 0.0}[run.kind])
+    starts = {"balance": 0.03, "hanging": math.pi + 0.1, "played": math.pi, "played_balance": 0.0}
+    x = plant.initial(starts[run.kind] if run.start is None else run.start)
     gain = discrete_lqr(rig) if run.kind == "balance" else played_gain
     reference = square_reference(times, run.reference_amplitude, run.reference_period)
     if run.kind == "played_balance":
@@ -790,7 +848,9 @@ def simulate(
         )
         rates = velocity.update(y)
         u = excitation[k]
-        if balance:
+        if controller is not None:
+            u += controller(y)
+        elif balance:
             error = np.array([y[0], y[1] - reference[k], rates[0], rates[1]])
             u -= float((gain @ error)[0])
         u = min(max(u, -rig.command_limit), rig.command_limit)

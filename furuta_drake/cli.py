@@ -1,4 +1,4 @@
-"""The ``furuta-drake`` command line: ``simulate``, ``diagnose``, ``design``, ``reproduce``, ``sweep``.
+"""The ``furuta-drake`` command line: ``simulate``, ``diagnose``, ``design``, ``tune``, ``reproduce``, ``sweep``.
 
 Bad input ends with exit code 2 and one line naming the file, line or key; a run the monitor stopped ends with
 exit code 3 and the time and cause; no traceback for either.
@@ -103,12 +103,18 @@ def _diagnose_parser(sub) -> None:
     diag.set_defaults(run=_run_diagnose)
 
 
+def _from_diagnosis(sub, name: str, summary: str):
+    """A command that reads a diagnosis: its parser with ``--diagnosis``, ``--out`` and ``--force``."""
+    parser = sub.add_parser(name, help=summary)
+    parser.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
+    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    return parser
+
+
 def _design_parser(sub) -> None:
     """The ``design`` command's options."""
-    des = sub.add_parser("design", help="design the experiment that settles what a diagnosis could not decide")
-    des.add_argument("--diagnosis", type=Path, required=True, help="the --out directory of furuta-drake diagnose")
-    des.add_argument("--out", type=Path, required=True, help="output directory")
-    des.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    des = _from_diagnosis(sub, "design", "design the experiment that settles what a diagnosis could not decide")
     des.add_argument(
         "--duration",
         type=float,
@@ -148,6 +154,19 @@ def _design_parser(sub) -> None:
     )
     des.add_argument("--seed", type=int, default=0, help="seed of the search and of the predicted noise (default 0)")
     des.set_defaults(run=_run_design, balancing=None)
+
+
+def _tune_parser(sub) -> None:
+    """The ``tune`` command's options."""
+    tune = _from_diagnosis(sub, "tune", "design the rig's balancing controller on the model a diagnosis corrected")
+    tune.add_argument(
+        "--duration", type=float, default=10.0, help="length of each predicted balancing run [s] (default 10)"
+    )
+    tune.add_argument(
+        "--seed", type=int, default=0, help="seed of the predicted runs' disturbance and encoder noise (default 0)"
+    )
+    tune.add_argument("--workers", type=int, help="processes for the predicted runs (default: all cores)")
+    tune.set_defaults(run=_run_tune)
 
 
 def _rig_parser(sub) -> None:
@@ -218,7 +237,15 @@ def _sweep_parser(sub) -> None:
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="furuta-drake", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    for add in (_simulate_parser, _diagnose_parser, _design_parser, _rig_parser, _reproduce_parser, _sweep_parser):
+    for add in (
+        _simulate_parser,
+        _diagnose_parser,
+        _design_parser,
+        _tune_parser,
+        _rig_parser,
+        _reproduce_parser,
+        _sweep_parser,
+    ):
         add(sub)
     return parser
 
@@ -445,6 +472,35 @@ def _run_design(args) -> int:
     print(
         f"designed a {design.duration:g} s experiment separating {len(design.pairs)} pair(s) of hypotheses "
         f"(weakest predicted detection probability {weakest:.0%}); play {args.out / 'experiment.csv'}"
+    )
+    return 0
+
+
+def _run_tune(args) -> int:
+    from furuta_drake.outputs import prepare_output_dir
+    from furuta_drake.tune.output import write_tune
+    from furuta_drake.tune.pipeline import TuneSettings, tune
+
+    settings = dataclasses.replace(TuneSettings(), duration=args.duration, seed=args.seed, workers=args.workers)
+    settings.validate()
+    prepare_output_dir(args.out, force=args.force, protect=[args.diagnosis])
+    tuning = tune(
+        args.diagnosis,
+        settings,
+        progress=lambda line: print(line, file=sys.stderr) if sys.stderr.isatty() else None,
+    )
+    write_tune(args.out, tuning, force=args.force)
+    before, after = tuning.nominal.prediction.figures, tuning.tuned.prediction.figures
+    label, worst = tuning.tuned.worst_corner()
+    change = (
+        f"theta RMS {1e3 * before['theta_rms']:.3g} -> {1e3 * after['theta_rms']:.3g} mrad, limit cycle "
+        f"{1e3 * before['limit_cycle_amplitude']:.3g} -> {1e3 * after['limit_cycle_amplitude']:.3g} mrad"
+        if before is not None
+        else f"the nominal design falls on the corrected model; tuned theta RMS {1e3 * after['theta_rms']:.3g} mrad"
+    )
+    print(
+        f"tuned: {change}; worst margins over the intervals {worst.gain_db:.3g} dB, {1e3 * worst.delay_s:.3g} ms; "
+        f"wrote {args.out} (simulate --config {args.out / 'controller.yaml'})"
     )
     return 0
 

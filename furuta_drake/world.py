@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
-from pydrake.systems.primitives import Adder, ConstantVectorSource, MatrixGain
+from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort, OutputPortSelection
+from pydrake.systems.primitives import Adder, ConstantVectorSource, Linearize, MatrixGain
 
 from furuta_drake.actuator import (
     ActuatorParameters,
@@ -126,4 +126,39 @@ def add_furuta_world(
     return FurutaWorld(plant, scene_graph, joint_friction, true_state, actuator_input, friction_torque, P)
 
 
-__all__ = ["FurutaWorld", "add_furuta_world"]
+def linearized_world(
+    *,
+    rig: RigParameters,
+    control_period: float,
+    friction: FrictionParameters | None = None,
+    actuator: ActuatorParameters | None = None,
+    disturbance: DisturbanceParameters | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Drake's ``Linearize`` of the world of :func:`add_furuta_world` (these sections, the rig's back-EMF) at
+    the upright at rest under a zero command: d/dt s = A s + B u with s = [theta, phi, theta_dot, phi_dot (paper
+    order), the further continuous states in the order their systems were added (friction's bristles, then the
+    actuator's lag)] and u the arm torque command [N m]. Every section must have a linearization there (continuous
+    states only: no delay)."""
+    builder = DiagramBuilder()
+    world = add_furuta_world(
+        builder,
+        rig=rig,
+        friction=friction,
+        actuator=actuator,
+        disturbance=disturbance,
+        control_period=control_period,
+    )
+    builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    diagram.get_input_port().FixValue(context, [0.0])
+    linear = Linearize(diagram, context, output_port_index=OutputPortSelection.kNoOutput)
+    nx = world.plant.num_multibody_states()
+    n = linear.A().shape[0]
+    T = np.zeros((n, n))
+    T[:4, :nx] = world.to_paper
+    T[4:, nx:] = np.eye(n - nx)
+    return T @ linear.A() @ T.T, T @ linear.B()
+
+
+__all__ = ["FurutaWorld", "add_furuta_world", "linearized_world"]

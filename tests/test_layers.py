@@ -17,6 +17,7 @@ LAYERS = [
     ["rig_file"],
     ["diagnosis"],
     ["design"],
+    ["tune"],
     ["paper"],
     ["real_rig"],
     ["cli"],

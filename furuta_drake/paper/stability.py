@@ -44,8 +44,6 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.solvers import ClarabelSolver, MathematicalProgram
 from pydrake.systems.analysis import DiscreteTimeApproximation
-from pydrake.systems.framework import DiagramBuilder, OutputPortSelection
-from pydrake.systems.primitives import Linearize
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import upright_linearization, zero_order_hold
@@ -56,7 +54,7 @@ from furuta_drake.observers.hg import continuous_high_gain_observer
 from furuta_drake.observers.vfe import continuous_vfe_observer
 from furuta_drake.plant import make_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
-from furuta_drake.world import add_furuta_world
+from furuta_drake.world import linearized_world
 
 OBSERVERS = ("vfe", "hg")
 
@@ -81,22 +79,8 @@ def presliding_plant(config: SimulationConfig) -> PreslidingPlant:
         joint: p if p.has_bristles else JointFrictionParameters()
         for joint, p in (("arm", config.friction.arm), ("pendulum", config.friction.pendulum))
     }
-    builder = DiagramBuilder()
-    world = add_furuta_world(
-        builder, rig=config.rig, friction=FrictionParameters(**keep), control_period=config.control_period
-    )
-    builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
-    diagram = builder.Build()
-    context = diagram.CreateDefaultContext()
-    diagram.get_input_port().FixValue(context, [0.0])
-    linear = Linearize(diagram, context, output_port_index=OutputPortSelection.kNoOutput)
-    # The diagram's continuous state is the plant's then the friction's (the order the systems were added).
-    nx = world.plant.num_multibody_states()
-    nb = 0 if world.friction is None else world.friction.num_continuous_states()
-    T = np.zeros((nx + nb, nx + nb))
-    T[:4, :nx] = world.to_paper
-    T[4:, nx:] = np.eye(nb)
-    A, B = T @ linear.A() @ T.T, T @ linear.B()
+    A, B = linearized_world(rig=config.rig, friction=FrictionParameters(**keep), control_period=config.control_period)
+    nb = A.shape[0] - 4
     bristle_joints = [index for index, p in ((0, keep["pendulum"]), (1, keep["arm"])) if p.has_bristles]
     W = np.zeros((nb, 4 + nb))
     for k, angle in enumerate(bristle_joints):

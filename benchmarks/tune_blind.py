@@ -1,0 +1,306 @@
+"""Blind check of ``furuta-drake tune``: does the controller tuned from a diagnosis balance the "real" rig better
+than the one a lab designs on its rig file?
+
+The "real" rig is the independent simulator (benchmarks/independent_sim.py: its own equations of motion, effects
+in forms the package does not model). Ten cases carry effects the nominal rig file lacks: arm friction, an input
+delay, a cable spring, an inertia error, alone and together, on a Lund-like rig (torque, 1 kHz) and a QUBE-like rig
+(voltage, 500 Hz). For each case, as a lab would:
+
+1. record the four 8 s logs of the diagnosis suite (balancing and hanging, train and held-out;
+   :func:`benchmarks.diagnosis_independent.write_case`), and diagnose them with the command's default settings;
+2. ``tune`` on that diagnosis;
+3. run both designs on the simulator in closed loop, balancing from a small seeded disturbance
+   (:func:`benchmarks.independent_sim.regulate`): the nominal design (the LQR of the rig file on the HG observer)
+   and the tuned one (its gain, its observer and its friction compensation), each as ``tune`` writes it
+   (``nominal.yaml``, ``controller.yaml``) and run as a lab's controller (:class:`ObserverFeedback`): the
+   package's observer, the simulator's own Dahl model for the compensation.
+   Each design runs from ``SEEDS`` seeds; the figures are theta's RMS and the limit cycle's amplitude over the
+   steady part of each run (:mod:`furuta_drake.tune.limit_cycle`), their mean and run-to-run spread (the standard
+   deviation over the seeds).
+
+Per figure, a case counts as *better* when the tuned mean is below the nominal one, and as *worse beyond the
+spread* when the tuned mean exceeds the nominal one by more than the two spreads added. Writes
+``OUT/results.json``, ``OUT/table.md`` and ``OUT/config.json``; every stage is kept under ``OUT`` (``suite``,
+``diagnosis``, ``tune``) and reused when the script is run again with the same ``--out``.
+
+Run from the repository root: ``PYTHONPATH=. python benchmarks/tune_blind.py --out runs/tune_blind``
+(``--only WORD ...``: the cases whose name holds a word; ``--workers N``: processes of each diagnosis and tune).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import diagnosis_independent as indep
+from benchmarks.design_suite import diagnosed
+from furuta_drake.config import SimulationConfig, load_config
+from furuta_drake.errors import FurutaError
+from furuta_drake.observers.hg import HighGainObserver
+from furuta_drake.observers.vfe import VfeObserver
+from furuta_drake.outputs import versions
+from furuta_drake.tune.controller import initial_angle
+from furuta_drake.tune.limit_cycle import limit_cycle, rms, steady_part
+from furuta_drake.tune.output import write_tune
+from furuta_drake.tune.pipeline import TuneSettings, tune
+
+sim = indep.sim
+LOG_SECONDS = 8.0  # [s] each of a case's four logs
+RUN_SECONDS = 10.0  # [s] each closed-loop run on the simulator (its second half is the steady part)
+SEEDS = (1, 2, 3, 4)  # the closed-loop runs of each design (seeded start and sensor noise)
+DESIGNS = ("nominal", "tuned")
+FIGURES_JUDGED = ("theta_rms", "limit_cycle_amplitude")
+FILES = {"nominal": "nominal.yaml", "tuned": "controller.yaml"}  # each design's simulate config in tune's output
+
+
+def cases() -> list[indep.Case]:
+    """The ten cases: friction, delay, spring and inertia alone and together, on both rigs."""
+    make, karnopp = indep.make_case, (indep.arm_friction, "karnopp", 0.06, {"breakaway": 1.25})
+    tanh = (indep.arm_friction, "tanh", 0.08, {"smoothing": 0.02})
+    return [
+        make("lund", karnopp, seed=31),
+        make("qube", tanh, seed=32),
+        make("lund", (indep.delay, 3), seed=33),
+        make("qube", (indep.delay, 2), seed=34),
+        make("lund", (indep.spring, 0.25, {"offset": 0.05}), seed=35),
+        make("qube", (indep.inertia, {"pendulum_mass": 1.1, "arm_inertia": 1.2}), seed=36),
+        make("lund", (indep.inertia, {"pendulum_mass": 1.15, "pendulum_com": 1.05, "arm_inertia": 0.85}), seed=37),
+        make("lund", karnopp, (indep.delay, 3), seed=38),
+        make("qube", tanh, (indep.delay, 2), (indep.inertia, {"pendulum_mass": 1.1, "arm_inertia": 1.2}), seed=39),
+        make(
+            "lund",
+            (indep.arm_friction, "tanh", 0.05, {"smoothing": 0.02}),
+            (indep.spring, 0.25, {"offset": 0.05}),
+            (indep.delay, 2),
+            seed=40,
+        ),
+    ]
+
+
+def case_folder(case: indep.Case, out: Path) -> tuple[Path, dict]:
+    """The case's nominal rig file and four logs (written once) and its answer."""
+    folder = out / "suite" / case.name
+    answer = folder / "answer.json"
+    if not answer.is_file():
+        folder.mkdir(parents=True, exist_ok=True)
+        answer.write_text(json.dumps(indep.write_case(case, folder, LOG_SECONDS), indent=2) + "\n")
+    return folder, json.loads(answer.read_text())
+
+
+def tuned(directory: Path, diagnosis: Path, workers: int | None) -> dict:
+    """tune.json of ``tune`` on the diagnosis (written once), or ``{"refused": reason}``."""
+    refused = directory / "refused.txt"
+    if refused.is_file():
+        return {"refused": refused.read_text()}
+    if not (directory / "tune.json").is_file():
+        try:
+            write_tune(directory, tune(diagnosis, TuneSettings(workers=workers)), force=True)
+        except FurutaError as err:
+            directory.mkdir(parents=True, exist_ok=True)
+            refused.write_text(str(err))
+            return {"refused": str(err)}
+    return json.loads((directory / "tune.json").read_text())
+
+
+@dataclass
+class ObserverFeedback:
+    """A design as ``tune`` delivers it (its simulate config), run as a lab's controller on the simulator: the
+    package's observer (HG or VFE) discrete at the sample period, x_hat_k+1 = F x_hat_k + G [y_k; u_k (; F_hat_k)],
+    feeding u_k = -K x_hat_k. Beside the VFE runs its Dahl friction observer, here the simulator's own Dahl model
+    (:class:`benchmarks.independent_sim.Compensation` on the VFE's arm velocity, at the design's initial K_sigma,
+    neither adapting nor injecting), whose estimate F_hat feeds the VFE and, with friction compensation, the
+    command. Commands in the rig's units."""
+
+    gain: np.ndarray  # [N m per state unit]
+    observer: object  # the discrete LinearSystem
+    period: float  # [s]
+    torque_limit: float  # [N m]
+    torque_per_command: float
+    dahl: sim.Compensation | None  # the VFE's friction observer (None on the HG)
+    compensate: bool
+    state: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, config: SimulationConfig, torque_per_command: float) -> ObserverFeedback:
+        period, control = config.control_period, config.controller
+        dahl = None
+        if control.velocity_source == "vfe":
+            observer = VfeObserver(config.rig, config.observers.vfe, period=period).discrete
+            p = config.observers.dahl
+            k_sigma = p.adaptation.k_sigma.initial if p.adaptation is not None else 1.0
+            dahl = sim.Compensation(p.coulomb_pos, p.coulomb_neg, p.sigma0, k_sigma)
+        else:
+            observer = HighGainObserver(config.rig, config.observers.hg, period=period).discrete
+        return cls(
+            np.asarray(control.gain, dtype=float),
+            observer,
+            period,
+            control.lqr.torque_limit,
+            torque_per_command,
+            dahl,
+            control.friction_compensation,
+        )
+
+    def __call__(self, measured: np.ndarray) -> float:
+        if self.state is None:  # started at the first sample, at rest
+            self.state = np.zeros(self.observer.A().shape[0])
+            self.state[:2] = measured
+        estimate = self.state[:4]
+        u = -float(self.gain @ estimate)
+        friction = 0.0
+        if self.dahl is not None:
+            opposing = self.dahl.torque(estimate[3], self.period)  # -F_hat, K_sigma sigma0 z
+            friction = -opposing
+            u += opposing if self.compensate else 0.0
+        u = min(max(u, -self.torque_limit), self.torque_limit)
+        inputs = np.concatenate([measured, [u, friction] if self.dahl is not None else [u]])
+        self.state = self.observer.A() @ self.state + self.observer.B() @ inputs
+        return u / self.torque_per_command
+
+
+def closed_loop(case: indep.Case, config: SimulationConfig, seed: int) -> dict:
+    """One balancing run of a design (its simulate config) on the case's true rig: theta's RMS and the limit
+    cycle's amplitude over the steady part of the encoder's theta [rad], and whether it fell."""
+    rig = case.world.rig
+    controller = ObserverFeedback.of(config, rig.torque_per_command)
+    log = sim.regulate(case.world, controller, RUN_SECONDS, seed, initial_angle(seed))
+    theta = log.measured[:, 0]
+    amplitude, frequency = limit_cycle(theta, rig.sample_period)
+    return {
+        "seed": seed,
+        "theta_rms": rms(steady_part(theta)),
+        "limit_cycle_amplitude": amplitude,
+        "limit_cycle_frequency": frequency,
+        "effort_rms": rms(steady_part(log.command)),
+        "fell": log.fell,
+    }
+
+
+def closed_loops(case: indep.Case, directory: Path, path: Path) -> dict:
+    """Every design's runs on the case's true rig (written once to ``path``); ``directory``: tune's output."""
+    if not path.is_file():
+        runs = {
+            name: [closed_loop(case, load_config(directory / FILES[name]), seed) for seed in SEEDS] for name in DESIGNS
+        }
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(runs, indent=2) + "\n")
+    return json.loads(path.read_text())
+
+
+def summary(runs: list[dict]) -> dict:
+    """Mean and run-to-run spread (standard deviation over the seeds) of each figure; a run that fell counts as
+    the pendulum's fall, inf."""
+    out = {"fell": sum(run["fell"] for run in runs)}
+    for figure in FIGURES_JUDGED:
+        values = np.array([math.inf if run["fell"] else run[figure] for run in runs])
+        out[figure] = {"mean": float(np.mean(values)), "spread": float(np.std(values))}
+    return out
+
+
+def judged(row: dict) -> dict:
+    """Per figure (theta's RMS, the limit cycle's amplitude): ``better`` when the tuned mean is below the nominal
+    one, ``worse`` when it is above it by more than the two spreads added."""
+    nominal, tuned_ = row["nominal"], row["tuned"]
+    out = {}
+    for figure in FIGURES_JUDGED:
+        difference = tuned_[figure]["mean"] - nominal[figure]["mean"]
+        out[f"better_{figure}"] = bool(difference < 0)
+        out[f"worse_{figure}"] = bool(difference > nominal[figure]["spread"] + tuned_[figure]["spread"])
+    return out
+
+
+def run_case(case: indep.Case, out: Path, args) -> dict:
+    """Logs, diagnosis, tune and both designs' closed-loop runs of one case."""
+    folder, answer = case_folder(case, out)
+    train, heldout = sorted(folder.glob("train_*.csv")), sorted(folder.glob("heldout_*.csv"))
+    report = diagnosed(out / "diagnosis" / case.name, folder / "rig.yaml", train, heldout, args.workers)
+    row = {
+        "case": case.name,
+        "expected": answer["expected"],
+        "verdict": report["verdict"],
+        "effects": report["effects"],
+    }
+    document = tuned(out / "tune" / case.name, out / "diagnosis" / case.name, args.workers)
+    if "refused" in document:
+        return {**row, "refused": document["refused"]}
+    runs = closed_loops(case, out / "tune" / case.name, out / "closed_loop" / f"{case.name}.json")
+    row.update({name: summary(runs[name]) for name in DESIGNS})
+    row["predicted"] = {name: document["designs"][name]["predicted"] for name in DESIGNS}
+    row["tuned_design"] = {
+        "lqr_gain": document["designs"]["tuned"]["lqr_gain"],
+        "compensation": document["designs"]["tuned"]["friction_compensation"]["gain"],
+        "observer": document["designs"]["tuned"]["observer"]["kind"],
+    }
+    return {**row, **judged(row)}
+
+
+def _figure(entry: dict, figure: str) -> str:
+    value = entry[figure]
+    if not math.isfinite(value["mean"]):
+        return "fell"
+    return f"{1e3 * value['mean']:.3g} +- {1e3 * value['spread']:.2g}"
+
+
+def _verdict(row: dict, prefix: str) -> str:
+    return ", ".join("yes" if row[f"{prefix}{figure}"] else "no" for figure in FIGURES_JUDGED)
+
+
+def table(rows: list[dict]) -> str:
+    """The Markdown table of the runs: per case, both designs' theta RMS and limit-cycle amplitude [mrad] (mean +-
+    run-to-run spread over the seeds) and the verdict."""
+    lines = [
+        "| case | diagnosis | tuned design | theta RMS nominal [mrad] | theta RMS tuned | limit cycle nominal [mrad] "
+        "| limit cycle tuned | tuned better (theta, limit cycle) | worse beyond the spread |",
+        "|---|---|---|---:|---:|---:|---:|---|---|",
+    ]
+    for row in rows:
+        effects = "+".join(row["effects"]) or row["verdict"]
+        if "refused" in row:
+            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | |")
+            continue
+        design = row["tuned_design"]
+        lines.append(
+            f"| {row['case']} | {effects} | {design['observer']}, K_sigma {design['compensation']:g} | "
+            f"{_figure(row['nominal'], 'theta_rms')} | {_figure(row['tuned'], 'theta_rms')} | "
+            f"{_figure(row['nominal'], 'limit_cycle_amplitude')} | {_figure(row['tuned'], 'limit_cycle_amplitude')} | "
+            f"{_verdict(row, 'better_')} | {_verdict(row, 'worse_')} |"
+        )
+    judged_rows = [row for row in rows if "refused" not in row]
+    for figure in FIGURES_JUDGED:
+        better = sum(row[f"better_{figure}"] for row in judged_rows)
+        worse = sum(row[f"worse_{figure}"] for row in judged_rows)
+        lines.append(f"\n{figure}: tuned better in {better} of {len(rows)} cases, worse beyond the spread in {worse}.")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--only", nargs="+", help="the cases whose name contains one of these words")
+    parser.add_argument("--workers", type=int, default=1, help="processes of each diagnosis and tune (default 1)")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    start, rows = time.perf_counter(), []
+    for case in indep.select(cases(), False, args.only):
+        rows.append(run_case(case, args.out, args))
+        print(f"{case.name}: {rows[-1]['verdict']} {rows[-1]['effects']}", flush=True)
+        (args.out / "results.json").write_text(json.dumps(rows, indent=2) + "\n")
+    text = table(rows)
+    (args.out / "table.md").write_text(text)
+    print(text)
+    config = {"argv": sys.argv[1:] if argv is None else argv, "cases": [row["case"] for row in rows]}
+    config.update(seeds=list(SEEDS), run_seconds=RUN_SECONDS, log_seconds=LOG_SECONDS)
+    config["wall_time_s"] = time.perf_counter() - start
+    (args.out / "config.json").write_text(json.dumps({**config, **versions()}, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

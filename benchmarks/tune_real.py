@@ -1,0 +1,143 @@
+"""``tune`` on the real QUBE-Servo 2 (data/qube-servo2-real): what the tuned design predicts for the balancing limit
+cycle, beside the one measured on the rig.
+
+The real runs balance under Quanser's PD law (:mod:`furuta_drake.controllers.quanser_swingup`), not under the LQR,
+so the rig cannot check the tuned design itself; what can be set side by side:
+
+1. **measured**: the limit cycle of each real swing-up's balancing part (from 1 s after its catch to its end,
+   :func:`furuta_drake.real_rig.runs.balancing_samples`), read as ``tune`` reads its predictions
+   (:func:`furuta_drake.tune.limit_cycle.balancing_figures`, on the last half of that part);
+2. **Quanser's PD on the corrected model**: each real run's experiment simulated on the model the diagnosis
+   corrected (:func:`furuta_drake.real_rig.closed_loop_study.closed_loop_rows`), read the same way: how well the
+   corrected model predicts the rig's limit cycle under the controller that ran on it;
+3. **nominal and tuned LQR on the corrected model**: ``tune.json``'s predictions.
+
+The diagnosis is the one the real-rig study runs (the train swing-up and the hanging chirp as train logs, the two
+swing-ups of other days held out; the command's default settings), written to ``OUT/diagnosis`` once; ``tune`` is
+run on it with its defaults into ``OUT/tune``. Writes ``OUT/results.json`` and prints the table.
+
+Run from the repository root: ``PYTHONPATH=. python benchmarks/tune_real.py --out runs/tune_real``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters
+from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
+from furuta_drake.diagnosis.pipeline import diagnose
+from furuta_drake.diagnosis.report import write_report
+from furuta_drake.effects.corrected import model_config
+from furuta_drake.effects.vocabulary import rig_model
+from furuta_drake.errors import FurutaError
+from furuta_drake.outputs import versions
+from furuta_drake.real_rig.closed_loop_study import closed_loop_rows, fit_velocity_corner
+from furuta_drake.real_rig.runs import (
+    CHIRP,
+    HELDOUT_SWINGUPS,
+    SWINGUPS,
+    TRAIN_SWINGUP,
+    balancing_samples,
+    load_real_runs,
+    log_result,
+)
+from furuta_drake.rig_file import load_rig
+from furuta_drake.tune.limit_cycle import balancing_figures
+from furuta_drake.tune.output import write_tune
+from furuta_drake.tune.pipeline import TuneSettings, tune
+
+FIGURES = ("theta_rms", "limit_cycle_amplitude", "limit_cycle_frequency")
+
+
+def balancing(result, period: float) -> dict:
+    """The balancing figures of a swing-up tape (real or simulated) over its balancing part."""
+    window = balancing_samples(result)
+    if window is None:
+        return dict.fromkeys(FIGURES)
+    return balancing_figures(result.measured[window, 0], result.measured[window, 1], result.torque[window], period)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--workers", type=int, default=1, help="processes of the diagnosis and of tune")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    diagnosis = args.out / "diagnosis"
+    if not (diagnosis / "report.json").is_file():
+        train = [QUBE_REAL_DIR / TRAIN_SWINGUP, QUBE_REAL_DIR / CHIRP]
+        heldout = [QUBE_REAL_DIR / name for name in HELDOUT_SWINGUPS]
+        result = diagnose(rig=QUBE_REAL_RIG, train=train, heldout=heldout, workers=args.workers)
+        write_report(diagnosis, result, force=True)
+    tuned = args.out / "tune"
+    if not (tuned / "tune.json").is_file():
+        try:
+            write_tune(tuned, tune(diagnosis, TuneSettings(workers=args.workers)), force=True)
+        except FurutaError as err:
+            print(f"tune refused: {err}")
+            return 1
+    document = json.loads((tuned / "tune.json").read_text())
+    runs = load_real_runs(SWINGUPS)
+    params = QuanserSwingUpParameters()
+    corner = fit_velocity_corner(runs.logs[TRAIN_SWINGUP], params)
+    fitted_rig = load_rig(diagnosis / "fitted_rig.yaml")
+    corrected = model_config(fitted_rig, rig_model(fitted_rig))
+    _, taped, _ = closed_loop_rows(
+        runs, {"corrected": corrected}, params, corner, list(SWINGUPS), spread=False, with_real=False
+    )
+    rows = []
+    for name in SWINGUPS:
+        log = runs.logs[name]
+        rows.append(
+            {
+                "log": name,
+                "part": runs.part(name),
+                "measured": balancing(log_result(log, params), log.sample_period),
+                "quanser_pd_corrected": balancing(taped[("sim_corrected", name)][0], log.sample_period),
+            }
+        )
+    out = {
+        "rows": rows,
+        "predicted": {name: document["designs"][name]["predicted"] for name in ("nominal", "tuned")},
+        "diagnosis": document["diagnosis"],
+        "tuned_design": {key: document["designs"]["tuned"][key] for key in ("lqr_gain", "observer")},
+        "versions": versions(),
+    }
+    (args.out / "results.json").write_text(json.dumps(out, indent=2) + "\n")
+    print(table(out))
+    return 0
+
+
+def _mrad(value) -> str:
+    return "-" if value is None else f"{1e3 * value:.3g}"
+
+
+def table(out: dict) -> str:
+    lines = [
+        "| run | part | measured amplitude [mrad] | frequency [Hz] | Quanser's PD on the corrected model [mrad] "
+        "| [Hz] |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for row in out["rows"]:
+        m, q = row["measured"], row["quanser_pd_corrected"]
+        lines.append(
+            f"| {row['log']} | {row['part']} | {_mrad(m['limit_cycle_amplitude'])} | "
+            f"{m['limit_cycle_frequency'] or float('nan'):.3g} | {_mrad(q['limit_cycle_amplitude'])} | "
+            f"{q['limit_cycle_frequency'] or float('nan'):.3g} |"
+        )
+    for name, predicted in out["predicted"].items():
+        if "fell" in predicted:
+            lines.append(f"\n{name} LQR on the corrected model: falls ({predicted['fell']})")
+            continue
+        lines.append(
+            f"\n{name} LQR on the corrected model: limit cycle {_mrad(predicted['limit_cycle_amplitude'])} mrad at "
+            f"{predicted['limit_cycle_frequency']:.3g} Hz, theta RMS {_mrad(predicted['theta_rms'])} mrad"
+        )
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
