@@ -1,0 +1,397 @@
+"""The tangent-linear model of the surrogate's RK4 (:mod:`~furuta_drake.effects.surrogate_kernel`), compiled.
+
+One pass per window integrates the state exactly as :func:`~.surrogate_kernel.integrate` does (the same compiled
+stages, so the same angles to the last bit) and carries K tangent directions beside it: the derivative of the
+discrete scheme itself, stage by stage (the RK4 stages, the bristle's exact step at each stage and at each
+substep's end, the friction laws, the mass matrix' solve, the spring, the back-EMF damping and the unmodelled
+torque's terms), so the result is what a finite difference of the kernel gives, without its truncation error.
+
+A direction is a change of the initial state (theta, phi, theta', phi', and the arm's bristle z), of the
+packed parameters (:func:`flat`: the ``rigid`` row, the arm's and the pendulum's friction rows, the unmodelled
+terms' coefficients) and of the arm torque at every substep. Every stage's accelerations solve M(q) q'' = r,
+so a change moves them by M^-1 (dr - dM q''): each stage's partial derivatives are formed once and every
+direction is a few multiply-adds.
+
+Where the scheme is not differentiable the slope is that of the mean of the two sides (what a central difference
+gives): a bristle step over a displacement of exactly zero (the first stage of every substep moves the
+bristle by nothing; a joint at rest moves it by nothing at the second stage too), and |v| or a friction level's
+direction at a velocity of exactly zero (symmetric levels assumed there).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from furuta_drake.effects.surrogate_kernel import (
+    DAHL,
+    F_FC_NEG,
+    F_FC_POS,
+    F_FS_NEG,
+    F_FS_POS,
+    F_KIND,
+    F_SIGMA0,
+    F_SIGMA1,
+    F_STRIBECK,
+    F_VISCOUS,
+    F_VREG,
+    F_VS,
+    LUGRE,
+    STATIC,
+    _compiled_unchecked,
+    _stage,
+    _values,
+    bristle_step,
+    divisor_is_zero,
+    pack,
+    stribeck_level,
+)
+from furuta_drake.effects.torque_library import term_slopes, term_value
+
+RIGID, ROW = 8, 11  # entries of the rigid row and of a friction row
+ARM, PENDULUM, TERMS = RIGID, RIGID + ROW, RIGID + 2 * ROW  # offsets of the rows in the flat parameters
+STATE = 5  # theta, phi, theta', phi', the arm's bristle z
+
+
+def flat(model) -> np.ndarray:
+    """The packed parameters of a surrogate :class:`~.surrogate.Model` as one vector (the tangent directions'
+    layout): ``rigid`` (8), the arm's friction row (11), the pendulum's (11), each unmodelled term's coefficient."""
+    rigid, arm, pendulum, terms = pack(model)
+    return np.concatenate([rigid, arm, pendulum, terms[:, 2]])
+
+
+@njit(cache=True, inline="always")
+def _level_slopes(v, f):
+    """The Stribeck level g(v) of :func:`~.surrogate_kernel.stribeck_level`, dg/dv and its slopes in the row:
+    (g, dg/dv, the Coulomb entry, dg/dFc, the static entry, dg/dFs, dg/dvs)."""
+    coulomb = F_FC_POS if v > 0 else F_FC_NEG
+    if f[F_STRIBECK] == 0.0:
+        return f[coulomb], 0.0, coulomb, 1.0, F_FS_POS, 0.0, 0.0
+    static = F_FS_POS if v > 0 else F_FS_NEG
+    vs = f[F_VS]
+    decay = math.exp(-((v / vs) ** 2))
+    rise = (f[static] - f[coulomb]) * decay
+    in_v, in_vs = -2.0 * v / (vs * vs) * rise, 2.0 * v * v / vs**3 * rise
+    return f[coulomb] + rise, in_v, coulomb, 1.0 - decay, static, decay, in_vs
+
+
+@njit(cache=True, inline="always")
+def _add_level(row, weight, coulomb, g_c, static, g_s, g_vs):
+    """Adds ``weight`` times g's row slopes (:func:`_level_slopes`) to ``row``."""
+    row[coulomb] += weight * g_c
+    row[static] += weight * g_s
+    row[F_VS] += weight * g_vs
+
+
+@njit(cache=True, inline="always")
+def _static_slopes(v, f, row):
+    """d/dv of :func:`~.surrogate_kernel.static_torque`; its slopes in the row's entries added to ``row``."""
+    g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
+    vreg = f[F_VREG]
+    t = math.tanh(v / vreg)
+    bend = (1.0 - t * t) / vreg
+    _add_level(row, -t, coulomb, g_c, static, g_s, g_vs)
+    row[F_VREG] += g * bend * v / vreg
+    row[F_VISCOUS] -= v
+    return -(g_v * t + g * bend + f[F_VISCOUS])
+
+
+@njit(cache=True, inline="always")
+def _step_slopes(z, displacement, velocity, f, row):
+    """The slopes (in z, in the displacement, in the velocity) of :func:`~.surrogate_kernel.bristle_step`; its
+    slopes in the row's entries added to ``row``. Over a displacement of zero the step leaves z as it is whatever
+    the parameters, and its slope in the displacement is the mean of the two sides'."""
+    sigma0 = f[F_SIGMA0]
+    if displacement == 0.0:
+        if f[F_KIND] == DAHL:
+            up, down = max(f[F_FC_POS], 1e-12), max(f[F_FC_NEG], 1e-12)
+        else:
+            up = down = max(stribeck_level(velocity, f), 1e-12)
+        return 1.0, 1.0 - 0.5 * z * sigma0 * (1.0 / up - 1.0 / down), 0.0
+    sign = 1.0 if displacement > 0 else -1.0
+    if f[F_KIND] == DAHL:
+        coulomb = F_FC_POS if sign > 0 else F_FC_NEG
+        g, g_v, g_c, static, g_s, g_vs = f[coulomb], 0.0, 1.0, F_FS_POS, 0.0, 0.0
+    else:
+        g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(velocity, f)
+    level = max(g, 1e-12)
+    distance = abs(displacement)
+    steady = sign * level / sigma0
+    decay = math.exp(-sigma0 * distance / level)
+    gap = z - steady
+    in_level = 0.0 if g < 1e-12 else sign / sigma0 * (1.0 - decay) + gap * decay * sigma0 * distance / (level * level)
+    _add_level(row, in_level, coulomb, g_c, static, g_s, g_vs)
+    row[F_SIGMA0] += -steady / sigma0 * (1.0 - decay) - gap * decay * distance / level
+    return decay, decay * (1.0 - sign * z * sigma0 / level), in_level * g_v
+
+
+@njit(cache=True, inline="always")
+def _bristle_torque_slopes(z, v, f, row):
+    """The slopes (in z, in v) of :func:`~.surrogate_kernel.bristle_torque`; its slopes in the row's entries
+    added to ``row``."""
+    sigma0 = f[F_SIGMA0]
+    row[F_SIGMA0] -= z
+    row[F_VISCOUS] -= v
+    if not (f[F_KIND] == LUGRE and f[F_SIGMA1] != 0.0):
+        return -sigma0, -f[F_VISCOUS]
+    sigma1 = f[F_SIGMA1]
+    g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
+    speed = abs(v)
+    sign = 1.0 if v > 0 else (-1.0 if v < 0 else 0.0)
+    pull = sigma0 * speed * z / g  # the damping's bristle share
+    row[F_SIGMA0] += sigma1 * speed * z / g
+    row[F_SIGMA1] -= v - pull
+    _add_level(row, -sigma1 * pull / g, coulomb, g_c, static, g_s, g_vs)
+    in_v = -(f[F_VISCOUS] + sigma1 * (1.0 - sigma0 * z * sign / g + pull * g_v / g))
+    return -sigma0 * (1.0 - sigma1 * speed / g), in_v
+
+
+@njit(cache=True, inline="always")
+def _arm_slopes(x1, x3, phi_start, z, bristles, f, row, step_row):
+    """The slopes of the arm friction's torque at a stage (in phi, phi', the substep's start phi, z); its slopes
+    in the arm row's entries written to ``row`` (``step_row``: scratch)."""
+    row[:] = 0.0
+    if bristles:
+        step_row[:] = 0.0
+        displacement = x1 - phi_start
+        s_z, s_d, s_v = _step_slopes(z, displacement, x3, f, step_row)
+        t_z, t_v = _bristle_torque_slopes(bristle_step(z, displacement, x3, f), x3, f, row)
+        for j in range(ROW):
+            row[j] += t_z * step_row[j]
+        return t_z * s_d, t_z * s_v + t_v, -t_z * s_d, t_z * s_z
+    if f[F_KIND] == STATIC:
+        return 0.0, _static_slopes(x3, f, row), 0.0, 0.0
+    return 0.0, 0.0, 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def _stage_slopes(x0, x1, x2, x3, phi_start, z, q1, q2, bristles, rigid, arm, pendulum, terms, work):
+    """The partial derivatives of a stage (:func:`~.surrogate_kernel._stage` at (theta, phi, theta', phi'),
+    whose accelerations are q1, q2) as e = dr - dM q'' per input: ``work``'s ``e_state`` (2, 6) in (the stage's
+    state, the substep's start phi, z; the applied torque's is (0, 1)) and, with parameter directions,
+    ``e_flat`` (2, P) in the flat parameters (:func:`flat`). Returns the mass matrix' (m12, m22, det); m11 = b."""
+    e_state, e_flat, scratch, active = work[0], work[1], work[2], work[3]
+    a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
+    s, co = math.sin(x0), math.cos(x0)
+    sc, double = s * co, co * co - s * s
+    m12, m22 = c * co, a + b * s * s
+    fa_phi, fa_rate, fa_start, fa_z = _arm_slopes(x1, x3, phi_start, z, bristles, arm, scratch[0], scratch[2])
+    scratch[1, :] = 0.0
+    fp_rate = _static_slopes(x2, pendulum, scratch[1]) if pendulum[F_KIND] == STATIC else 0.0
+    stretch = x1 - rigid[7]
+    spring = -(rigid[5] + 3.0 * rigid[6] * stretch * stretch)
+    e_state[0, 0] = d * co + b * double * x3 * x3 + c * s * q2
+    e_state[1, 0] = c * co * x2 * x2 - 2.0 * b * double * x2 * x3 + c * s * q1 - 2.0 * b * sc * q2
+    e_state[0, 1], e_state[1, 1] = 0.0, spring + fa_phi
+    e_state[0, 2], e_state[1, 2] = fp_rate, 2.0 * c * s * x2 - 2.0 * b * sc * x3
+    e_state[0, 3], e_state[1, 3] = 2.0 * b * sc * x3, -2.0 * b * sc * x2 + fa_rate - rigid[4]
+    e_state[0, 4], e_state[1, 4] = 0.0, fa_start
+    e_state[0, 5], e_state[1, 5] = 0.0, fa_z
+    full = active.size > 0
+    for j in range(terms.shape[0]):
+        joint, index, coefficient = 0 if terms[j, 0] != 0.0 else 1, int(terms[j, 1]), terms[j, 2]
+        slopes = term_slopes(index, x0, x1, x2, x3)
+        for i in range(4):
+            e_state[joint, i] += coefficient * slopes[i]
+        if full:
+            e_flat[joint, TERMS + j] = term_value(index, x0, x1, x2, x3)
+            e_flat[1 - joint, TERMS + j] = 0.0
+    if full:
+        _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat)
+        for j in range(ROW):
+            e_flat[0, ARM + j], e_flat[1, ARM + j] = 0.0, scratch[0, j]
+            e_flat[0, PENDULUM + j], e_flat[1, PENDULUM + j] = scratch[1, j], 0.0
+    return m12, m22, b * m22 - m12 * m12
+
+
+@njit(cache=True, inline="always")
+def _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat):
+    """e = dr - dM q'' of a stage per entry of the ``rigid`` row (a, b, c, d, back-EMF damping, spring k, k3,
+    phi_0), written to ``e_flat[:, :8]``."""
+    sc = s * co
+    e_flat[0, 0], e_flat[1, 0] = 0.0, -q2
+    e_flat[0, 1], e_flat[1, 1] = sc * x3 * x3 - q1, -2.0 * sc * x2 * x3 - s * s * q2
+    e_flat[0, 2], e_flat[1, 2] = -co * q2, s * x2 * x2 - co * q1
+    e_flat[0, 3], e_flat[1, 3] = s, 0.0
+    e_flat[0, 4], e_flat[1, 4] = 0.0, -x3
+    e_flat[0, 5], e_flat[1, 5] = 0.0, -stretch
+    e_flat[0, 6], e_flat[1, 6] = 0.0, -(stretch**3)
+    e_flat[0, 7], e_flat[1, 7] = 0.0, -spring
+
+
+@njit(cache=True, inline="always")
+def _stage_tangents(tangent, previous, weight, torque, work, mass, b, out):
+    """Every direction's stage slopes ``out`` (K, 4) from its state tangent (K, 5) plus ``weight`` times the
+    previous stage's (K, 4), its applied torque's change ``torque`` (K,) and its parameter change ``work``'s
+    ``rows`` (K, A) in the flat entries ``active`` (A,), by the stage's partial derivatives (:func:`_stage_slopes`,
+    ``mass`` its (m12, m22, det))."""
+    e_state, e_flat, active, rows = work[0], work[1], work[3], work[4]
+    m12, m22, det = mass
+    for k in range(tangent.shape[0]):
+        dx0 = tangent[k, 0] + weight * previous[k, 0]
+        dx1 = tangent[k, 1] + weight * previous[k, 1]
+        dx2 = tangent[k, 2] + weight * previous[k, 2]
+        dx3 = tangent[k, 3] + weight * previous[k, 3]
+        e1 = e_state[0, 0] * dx0 + e_state[0, 1] * dx1 + e_state[0, 2] * dx2 + e_state[0, 3] * dx3
+        e2 = e_state[1, 0] * dx0 + e_state[1, 1] * dx1 + e_state[1, 2] * dx2 + e_state[1, 3] * dx3
+        e2 += e_state[1, 4] * tangent[k, 1] + e_state[1, 5] * tangent[k, 4] + torque[k]
+        for j in range(active.size):
+            e1 += e_flat[0, active[j]] * rows[k, j]
+            e2 += e_flat[1, active[j]] * rows[k, j]
+        out[k, 0], out[k, 1] = dx2, dx3
+        out[k, 2], out[k, 3] = (m22 * e1 - m12 * e2) / det, (b * e2 - m12 * e1) / det
+
+
+@njit(cache=True, inline="always")
+def _tangent_stage(x0, x1, x2, x3, phi_start, z, tau, model, tangent, previous, weight, torque, work, out):
+    """:func:`~.surrogate_kernel._stage` (its value returned) with every direction's slopes written to ``out``
+    (:func:`_stage_tangents`); ``model`` = (bristles, rigid, arm, pendulum, terms)."""
+    bristles, rigid, arm, pendulum, terms = model
+    k = _stage(x0, x1, x2, x3, phi_start, z, tau, bristles, rigid, arm, pendulum, terms)
+    mass = _stage_slopes(x0, x1, x2, x3, phi_start, z, k[2], k[3], bristles, rigid, arm, pendulum, terms, work)
+    _stage_tangents(tangent, previous, weight, torque, work, mass, rigid[1], out)
+    return k
+
+
+@njit(cache=True, inline="always")
+def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, work):
+    """Every direction's state tangent (K, 5) over the substep from its stages' slopes (4, K, 4): RK4's sum, and
+    the bristle's exact step over the arm's move ``moved`` [rad] from ``z`` (a Dahl or LuGre arm)."""
+    step_row, active, rows = work[2][2], work[3], work[4]
+    s_z, s_move = 0.0, 0.0
+    if bristles:
+        step_row[:] = 0.0
+        s_z, s_d, s_v = _step_slopes(z, moved, moved / dt, arm, step_row)
+        s_move = s_d + s_v / dt
+    for k in range(tangent.shape[0]):
+        for i in range(4):
+            increment = sixth * (stages[0, k, i] + 2.0 * stages[1, k, i] + 2.0 * stages[2, k, i] + stages[3, k, i])
+            tangent[k, i] += increment
+        if bristles:
+            dz = s_z * tangent[k, 4] + s_move * sixth * (
+                stages[0, k, 1] + 2.0 * stages[1, k, 1] + 2.0 * stages[2, k, 1] + stages[3, k, 1]
+            )
+            for j in range(active.size):
+                if ARM <= active[j] < PENDULUM:
+                    dz += step_row[active[j] - ARM] * rows[k, j]
+            tangent[k, 4] = dz
+
+
+@njit(cache=True, inline="always")
+def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, angles, slopes, w, model, work):
+    """:func:`~.surrogate_kernel._rk4_window` of window ``w`` with every direction's tangent carried along from
+    ``work``'s ``tangent`` (K, 5) (the seeds); the torque's change ``changes[torque_of[k]]`` (steps,) for the
+    directions with one (``torque_of[k]`` >= 0). Angles to ``angles[:, :, w]``, their slopes to
+    ``slopes[:, :, w, :]``. The four stages run in a loop (one compiled copy of the stage), their values kept in
+    ``k`` (4, 4) and summed as the kernel sums them."""
+    bristles, arm = model[0], model[2]
+    tangent, stages, torque, zero, k = work[5], work[6], work[7], work[8], work[9]
+    h = 0.5 * dt
+    row, substep = 0, 0
+    _record(angles, slopes, 0, w, t, p, tangent)
+    for i in range(column.size):
+        tau = column[i]
+        for j in range(torque.size):
+            torque[j] = 0.0 if torque_of[j] < 0 else changes[torque_of[j], i]
+        x0, x1, x2, x3 = t, p, td, pd
+        for n in range(4):
+            previous = zero if n == 0 else stages[n - 1]
+            weight = 0.0 if n == 0 else (dt if n == 3 else h)
+            value = _tangent_stage(x0, x1, x2, x3, p, z, tau, model, tangent, previous, weight, torque, work, stages[n])
+            k[n, 0], k[n, 1], k[n, 2], k[n, 3] = value
+            step = dt if n == 2 else h
+            x0, x1, x2, x3 = t + step * value[0], p + step * value[1], td + step * value[2], pd + step * value[3]
+        sixth = dt / 6.0
+        p_next = p + sixth * (k[0, 1] + 2.0 * k[1, 1] + 2.0 * k[2, 1] + k[3, 1])
+        t += sixth * (k[0, 0] + 2.0 * k[1, 0] + 2.0 * k[2, 0] + k[3, 0])
+        td += sixth * (k[0, 2] + 2.0 * k[1, 2] + 2.0 * k[2, 2] + k[3, 2])
+        pd += sixth * (k[0, 3] + 2.0 * k[1, 3] + 2.0 * k[2, 3] + k[3, 3])
+        moved = p_next - p
+        _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, work)
+        if bristles:
+            z = bristle_step(z, moved, moved / dt, arm)
+        p = p_next
+        substep += 1
+        if substep == substeps:
+            row, substep = row + 1, 0
+            _record(angles, slopes, row, w, t, p, tangent)
+
+
+@njit(cache=True, inline="always")
+def _record(angles, slopes, row, w, t, p, tangent):
+    angles[row, 0, w], angles[row, 1, w] = t, p
+    for k in range(tangent.shape[0]):
+        slopes[row, 0, w, k], slopes[row, 1, w, k] = tangent[k, 0], tangent[k, 1]
+
+
+def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms, seeds, rows, active, torque_of):
+    """:func:`tangents` of one model's packed rows (``rigid`` (8,), ``arm`` and ``pendulum`` (11,), ``terms``
+    (T, 3)); ``rows`` (K, A) the directions' changes of the flat entries ``active``; ``changes`` (C, W, steps) the
+    torque changes, direction k's the ``torque_of[k]``-th (-1: none)."""
+    steps, width = torque.shape
+    directions = seeds.shape[0]
+    angles = np.empty((steps // substeps + 1, 2, width))
+    slopes = np.empty((steps // substeps + 1, 2, width, directions))
+    columns = np.ascontiguousarray(torque.T)
+    rigid_v, arm_v, pendulum_v = _values(rigid, 8), _values(arm, 11), _values(pendulum, 11)
+    bristles = arm_v[F_KIND] == DAHL or arm_v[F_KIND] == LUGRE
+    model = (bristles, rigid_v, arm_v, pendulum_v, terms)
+    work = (
+        np.zeros((2, 6)),  # e_state
+        np.zeros((2, TERMS + terms.shape[0])),  # e_flat
+        np.zeros((3, ROW)),  # the arm's, the pendulum's and the bristle step's row slopes
+        active,
+        rows,
+        np.empty((directions, STATE)),  # tangent
+        np.empty((4, directions, 4)),  # the stages' slopes
+        np.empty(directions),  # the applied torque's change
+        np.zeros((directions, 4)),  # the first stage's previous
+        np.empty((4, 4)),  # the stages' values
+    )
+    for w in range(width):
+        work[5][:, :] = seeds
+        _tangent_window(
+            x0[0, w], x0[1, w], x0[2, w], x0[3, w], z0[w], columns[w], changes[:, w], torque_of, dt, substeps,
+            angles, slopes, w, model, work,
+        )  # fmt: skip
+    return angles, slopes
+
+
+_checked = njit(cache=True)(_tangents)
+_unchecked = _compiled_unchecked(_tangents)
+
+
+def tangents(x0, z0, torque, dt, substeps, packed, seeds, rows=None, torques=None):
+    """RK4 of every window (:func:`~.surrogate_kernel.integrate` of one model, ``packed`` = its
+    :func:`~.surrogate_kernel.pack`) from ``x0`` (4, W) and the arm's bristle ``z0`` (W,) under ``torque``
+    (steps, W) [N m], with K directions carried along: ``seeds`` (K, 5) each one's change of the initial
+    (theta, phi, theta', phi', z), the same for every window; ``rows`` (K, P) its change of the flat parameters
+    (:func:`flat`; None: none); ``torques`` K arrays (steps, W) or None: its change of the torque [N m].
+    Returns (the angles (steps / substeps + 1, 2, W), row 0 the start; their derivatives along each direction
+    (steps / substeps + 1, 2, W, K)). Run without division checks, and checked where a window's numbers are not
+    finite, as :func:`~.surrogate_kernel.integrate`."""
+    rigid, arm, pendulum, terms = (np.ascontiguousarray(part, dtype=float) for part in packed)
+    directions = len(seeds)
+    rows = np.zeros((directions, TERMS + len(terms))) if rows is None else np.asarray(rows, dtype=float)
+    active = np.flatnonzero(np.any(rows != 0.0, axis=0))
+    given = [change is not None for change in ([None] * directions if torques is None else torques)]
+    torque_of = np.where(given, np.cumsum(given) - 1, -1)
+    changes = np.stack([np.transpose(c) for c, g in zip(torques or [], given) if g] or [np.zeros(torque.shape[::-1])])
+    windowed = (x0, z0, torque, changes)
+    fixed = (dt, substeps, rigid, arm, pendulum, terms, np.ascontiguousarray(seeds, dtype=float))
+    fixed += (np.ascontiguousarray(rows[:, active]), active, torque_of)
+
+    def run(compiled, w):
+        x, z, u, c = (np.ascontiguousarray(a[..., w] if a.ndim < 3 else a[:, w], dtype=float) for a in windowed)
+        return compiled(x, z, u, c, *fixed)
+
+    everything = slice(None)
+    if divisor_is_zero(dt, substeps, arm[None], pendulum[None]):
+        return run(_checked, everything)
+    angles, slopes = run(_unchecked, everything)
+    again = np.flatnonzero(~(np.isfinite(angles).all(axis=(0, 1)) & np.isfinite(slopes).all(axis=(0, 1, 3))))
+    if again.size:
+        angles[:, :, again], slopes[:, :, again] = run(_checked, again)
+    return angles, slopes
