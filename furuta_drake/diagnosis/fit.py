@@ -33,6 +33,7 @@ from furuta_drake.diagnosis.gap import (
     Windows,
     evaluate_gap,
     fixed_state_residuals_of,
+    parameter_slopes_of,
     project_out_states,
     projected_residuals,
 )
@@ -42,7 +43,7 @@ from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.noise_correlation import correlated_noise_estimate
 from furuta_drake.diagnosis.rule import beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.surrogate import Model, same_branches
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, causal_spread
 from furuta_drake.rig import encoder_resolution
 
@@ -457,8 +458,13 @@ def _jump_samples(samples: np.ndarray, profiles: dict, last: dict, settings: Dia
 
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:
     """Per parameter, the per-log residual change (horizon, 2, W) per unit of the parameter, at the initial
-    states of ``last``, with what the states could absorb projected out (Kaufman); every column's model in one
-    surrogate call."""
+    states of ``last``, with what the states could absorb projected out (Kaufman). A column is exact where the
+    surrogate is differentiable along the parameter's step (:func:`~furuta_drake.diagnosis.gap.parameter_slopes_of`:
+    the packed parameters' and the arm torque's changes over the step carried through the integration's forward
+    sensitivities, every such column in one surrogate pass), else a finite difference of the residuals (every such
+    column's model in one surrogate call): a threshold dead zone's width, whose cost jumps where it crosses a
+    command, and a step that changes the kernel's branches (:func:`~furuta_drake.effects.surrogate.same_branches`:
+    a friction kind, a Stribeck curve, LuGre's bristle damping)."""
     steps, models = [], []
     for i in range(x.size):
         step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)
@@ -468,11 +474,20 @@ def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high)
         shifted[i] += step
         steps.append(step)
         models.append(model_at(shifted))
-    shifted_r = fixed_state_residuals_of(models, windows, last["states"], counts)
-    return [
-        [project_out_states(new - old, J) / step for new, old, J in zip(r, last["raw"], last["state_jacobians"])]
-        for r, step in zip(shifted_r, steps)
-    ]
+    model, changes = model_at(x), [None] * x.size
+    exact = [i for i in range(x.size) if same_branches(model, models[i])]
+    differenced = [i for i in range(x.size) if i not in exact]
+    if exact:
+        slopes = parameter_slopes_of(
+            model, [models[i] for i in exact], [steps[i] for i in exact], windows, last["states"], counts
+        )
+        for i, change in zip(exact, slopes):
+            changes[i] = change
+    if differenced:
+        shifted_r = fixed_state_residuals_of([models[i] for i in differenced], windows, last["states"], counts)
+        for i, r in zip(differenced, shifted_r):
+            changes[i] = [(new - old) / steps[i] for new, old in zip(r, last["raw"])]
+    return [[project_out_states(c, J) for c, J in zip(change, last["state_jacobians"])] for change in changes]
 
 
 def bootstrap_samples(
