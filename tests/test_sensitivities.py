@@ -137,12 +137,13 @@ def _compare(exact: np.ndarray, difference: tuple[np.ndarray, float], rtol: floa
     return error / max(scale, 1e-300)
 
 
-def _state_columns(model, x0, z0, torque, substeps):
-    """Every initial-state column (exact, its finite difference)."""
+def _state_columns(model, x0, z0, torque, substeps, relative: float = 1e-5):
+    """Every initial-state column (exact, its finite difference of steps ``relative`` [rad, rad/s, share of the
+    bristle's bound])."""
     n = 5 if model.arm_friction.has_bristles else 4
     slopes = tangent.tangents(x0, z0, torque, DT, substeps, kernel.pack(model), np.eye(n, 5))[1]
     values, terms = tangent.flat(model), model.unmodelled_terms
-    size = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5 * model.arm_friction.bristle_bound if n == 5 else 0.0]
+    size = [relative] * 4 + [relative * model.arm_friction.bristle_bound if n == 5 else 0.0]
     for i in range(n):
         unit = np.eye(5)[:, [i]]
 
@@ -185,14 +186,18 @@ def test_every_column_is_the_kernels_central_difference(arm, spring, substeps):
 
 
 joint_kinds = st.sampled_from(["none", "static", "dahl", "lugre"])
+# Initial rates [rad/s]: zero, or off it by more than a difference's step (a bristle's step turns at zero
+# displacement: exactly there its slope is the mean of its sides', as a central difference sees it)
+rates = st.floats(-3, 3).map(lambda v: 0.0 if abs(v) < 1e-3 else v)
 
 
 @st.composite
 def arms(draw):
-    """An arm friction row of any kind, asymmetric where the kind allows."""
+    """An arm friction row of any kind; Dahl's asymmetric. (An asymmetric static law's slope jumps at zero velocity,
+    where an arm creeping at a stick stays: there a central difference straddles the jump.)"""
     kind = draw(joint_kinds)
     coulomb_pos, coulomb_neg = draw(st.floats(2e-4, 5e-3)), draw(st.floats(2e-4, 5e-3))
-    if kind == "lugre":
+    if kind != "dahl":
         coulomb_neg = coulomb_pos
     stribeck = kind in ("static", "lugre") and draw(st.booleans())
     return JointFrictionParameters(
@@ -209,19 +214,20 @@ def arms(draw):
     )
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=25, deadline=None, derandomize=True)
 @given(
     arm=arms(),
-    state=st.tuples(st.floats(-3.1, 3.1), st.floats(-1, 1), st.floats(-3, 3), st.floats(-3, 3), st.floats(-1, 1)),
+    state=st.tuples(st.floats(-3.1, 3.1), st.floats(-1, 1), rates, rates, st.floats(-1, 1)),
     substeps=st.integers(1, 3),
     seed=st.integers(0, 2**16),
 )
 def test_state_and_torque_columns_are_central_differences_for_any_state_and_friction(arm, state, substeps, seed):
     """Drawn friction rows, initial states and torques: every initial-state column and a torque column against
-    the kernel's finite differences."""
+    the kernel's finite differences (of small steps: a regularisation velocity of a few mrad/s bends the static
+    law sharply where an arm creeps at a stick)."""
     model = _model("none").replace(arm_friction=arm)
     x0, z0, torque = _problem(model, {"drawn": state}, seed)
-    for exact, differenced in _state_columns(model, x0, z0, torque, substeps):
+    for exact, differenced in _state_columns(model, x0, z0, torque, substeps, relative=1e-6):
         _compare(exact, differenced, rtol=1e-5)
     change = np.random.default_rng(seed).standard_normal(torque.shape)
     slopes = tangent.tangents(x0, z0, torque, DT, substeps, kernel.pack(model), np.zeros((1, 5)), None, [change])[1]
@@ -230,7 +236,7 @@ def test_state_and_torque_columns_are_central_differences_for_any_state_and_fric
     def angles_at(offset):
         return _integrate(x0, z0, torque + offset * change, substeps, values, terms)
 
-    _compare(slopes[..., 0], _difference(angles_at, 1e-5), rtol=1e-5)
+    _compare(slopes[..., 0], _difference(angles_at, 1e-7), rtol=1e-5)
 
 
 def _log(model: Model, seed: int, period: float = 2e-3, duration: float = 2.0) -> RunLog:

@@ -12,10 +12,10 @@ terms' coefficients) and of the arm torque at every substep. Every stage's accel
 so a change moves them by M^-1 (dr - dM q''): each stage's partial derivatives are formed once and every
 direction is a few multiply-adds.
 
-Where the scheme is not differentiable the slope is that of the mean of the two sides (what a central difference
-gives): a bristle step over a displacement of exactly zero (the first stage of every substep moves the
-bristle by nothing; a joint at rest moves it by nothing at the second stage too), and |v| or a friction level's
-direction at a velocity of exactly zero (symmetric levels assumed there).
+Where the scheme is not differentiable the slope is the mean of its two sides' (what a central difference gives):
+a bristle step over a displacement of exactly zero (the first stage of every substep moves the bristle by nothing;
+a joint at rest moves it by nothing at the second stage too), and the friction laws at a velocity of exactly zero
+(where |v| turns and the level of each direction meets the other's).
 """
 
 from __future__ import annotations
@@ -41,9 +41,10 @@ from furuta_drake.effects.surrogate_kernel import (
     LUGRE,
     STATIC,
     _compiled_unchecked,
-    _stage,
     _values,
     bristle_step,
+    bristle_torque,
+    derivative,
     divisor_is_zero,
     pack,
     stribeck_level,
@@ -86,30 +87,44 @@ def _add_level(row, weight, coulomb, g_c, static, g_s, g_vs):
 
 
 @njit(cache=True, inline="always")
-def _static_slopes(v, f, row):
-    """d/dv of :func:`~.surrogate_kernel.static_torque`; its slopes in the row's entries added to ``row``."""
+def _resting_levels(f):
+    """The Stribeck level g at zero velocity approached from above and from below [N m]."""
+    if f[F_STRIBECK] == 0.0:
+        return f[F_FC_POS], f[F_FC_NEG]
+    return f[F_FS_POS], f[F_FS_NEG]
+
+
+@njit(cache=True, inline="always")
+def _static_slopes(v, f, row, full):
+    """d/dv of :func:`~.surrogate_kernel.static_torque` (at v = 0, the mean of its two sides'); with ``full``, its
+    slopes in the row's entries added to ``row``."""
     g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
+    if v == 0.0:
+        up, down = _resting_levels(f)
+        g = 0.5 * (up + down)
     vreg = f[F_VREG]
     t = math.tanh(v / vreg)
     bend = (1.0 - t * t) / vreg
-    _add_level(row, -t, coulomb, g_c, static, g_s, g_vs)
-    row[F_VREG] += g * bend * v / vreg
-    row[F_VISCOUS] -= v
+    if full:
+        _add_level(row, -t, coulomb, g_c, static, g_s, g_vs)
+        row[F_VREG] += g * bend * v / vreg
+        row[F_VISCOUS] -= v
     return -(g_v * t + g * bend + f[F_VISCOUS])
 
 
 @njit(cache=True, inline="always")
-def _step_slopes(z, displacement, velocity, f, row):
-    """The slopes (in z, in the displacement, in the velocity) of :func:`~.surrogate_kernel.bristle_step`; its
-    slopes in the row's entries added to ``row``. Over a displacement of zero the step leaves z as it is whatever
-    the parameters, and its slope in the displacement is the mean of the two sides'."""
+def _step_slopes(z, displacement, velocity, f, row, full):
+    """:func:`~.surrogate_kernel.bristle_step` (the same arithmetic) and its slopes: (the bristle, in z, in the
+    displacement, in the velocity); with ``full``, its slopes in the row's entries added to ``row``. Over a
+    displacement of zero the step leaves z as it is whatever the parameters, and its slope in the displacement is
+    the mean of the two sides'."""
     sigma0 = f[F_SIGMA0]
     if displacement == 0.0:
         if f[F_KIND] == DAHL:
             up, down = max(f[F_FC_POS], 1e-12), max(f[F_FC_NEG], 1e-12)
         else:
             up = down = max(stribeck_level(velocity, f), 1e-12)
-        return 1.0, 1.0 - 0.5 * z * sigma0 * (1.0 / up - 1.0 / down), 0.0
+        return z, 1.0, 1.0 - 0.5 * z * sigma0 * (1.0 / up - 1.0 / down), 0.0
     sign = 1.0 if displacement > 0 else -1.0
     if f[F_KIND] == DAHL:
         coulomb = F_FC_POS if sign > 0 else F_FC_NEG
@@ -118,92 +133,104 @@ def _step_slopes(z, displacement, velocity, f, row):
         g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(velocity, f)
     level = max(g, 1e-12)
     distance = abs(displacement)
-    steady = sign * level / sigma0
+    steady = math.copysign(level / sigma0, displacement)
     decay = math.exp(-sigma0 * distance / level)
     gap = z - steady
     in_level = 0.0 if g < 1e-12 else sign / sigma0 * (1.0 - decay) + gap * decay * sigma0 * distance / (level * level)
-    _add_level(row, in_level, coulomb, g_c, static, g_s, g_vs)
-    row[F_SIGMA0] += -steady / sigma0 * (1.0 - decay) - gap * decay * distance / level
-    return decay, decay * (1.0 - sign * z * sigma0 / level), in_level * g_v
+    if full:
+        _add_level(row, in_level, coulomb, g_c, static, g_s, g_vs)
+        row[F_SIGMA0] += -steady / sigma0 * (1.0 - decay) - gap * decay * distance / level
+    return steady + gap * decay, decay, decay * (1.0 - sign * z * sigma0 / level), in_level * g_v
 
 
 @njit(cache=True, inline="always")
-def _bristle_torque_slopes(z, v, f, row):
-    """The slopes (in z, in v) of :func:`~.surrogate_kernel.bristle_torque`; its slopes in the row's entries
-    added to ``row``."""
+def _bristle_torque_slopes(z, v, f, row, full):
+    """The slopes (in z, in v; at v = 0, the mean of its two sides') of :func:`~.surrogate_kernel.bristle_torque`;
+    with ``full``, its slopes in the row's entries added to ``row``."""
     sigma0 = f[F_SIGMA0]
-    row[F_SIGMA0] -= z
-    row[F_VISCOUS] -= v
+    if full:
+        row[F_SIGMA0] -= z
+        row[F_VISCOUS] -= v
     if not (f[F_KIND] == LUGRE and f[F_SIGMA1] != 0.0):
         return -sigma0, -f[F_VISCOUS]
     sigma1 = f[F_SIGMA1]
     g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
     speed = abs(v)
-    sign = 1.0 if v > 0 else (-1.0 if v < 0 else 0.0)
     pull = sigma0 * speed * z / g  # the damping's bristle share
-    row[F_SIGMA0] += sigma1 * speed * z / g
-    row[F_SIGMA1] -= v - pull
-    _add_level(row, -sigma1 * pull / g, coulomb, g_c, static, g_s, g_vs)
-    in_v = -(f[F_VISCOUS] + sigma1 * (1.0 - sigma0 * z * sign / g + pull * g_v / g))
-    return -sigma0 * (1.0 - sigma1 * speed / g), in_v
+    if full:
+        row[F_SIGMA0] += sigma1 * speed * z / g
+        row[F_SIGMA1] -= v - pull
+        _add_level(row, -sigma1 * pull / g, coulomb, g_c, static, g_s, g_vs)
+    if v == 0.0:
+        up, down = _resting_levels(f)
+        turn = 0.5 * (1.0 / up - 1.0 / down)  # d(|v| / g)/dv, the mean of its sides
+    else:
+        turn = ((1.0 if v > 0 else -1.0) - speed * g_v / g) / g
+    return -sigma0 * (1.0 - sigma1 * speed / g), -(f[F_VISCOUS] + sigma1 * (1.0 - sigma0 * z * turn))
 
 
 @njit(cache=True, inline="always")
-def _arm_slopes(x1, x3, phi_start, z, bristles, f, row, step_row):
-    """The slopes of the arm friction's torque at a stage (in phi, phi', the substep's start phi, z); its slopes
-    in the arm row's entries written to ``row`` (``step_row``: scratch)."""
-    row[:] = 0.0
+def _arm_slopes(x1, x3, phi_start, z, bristles, f, rows, full):
+    """The bristle's torque at a stage (0 without bristles: a static law acts inside the derivative) and the arm
+    friction torque's slopes (in phi, phi', the substep's start phi, z); with ``full``, its slopes in the arm row's
+    entries written to ``rows[0]`` (``rows[2]``: scratch)."""
+    row = rows[0]
+    if full:
+        row[:] = 0.0
     if bristles:
-        step_row[:] = 0.0
+        step_row = rows[2]
+        if full:
+            step_row[:] = 0.0
         displacement = x1 - phi_start
-        s_z, s_d, s_v = _step_slopes(z, displacement, x3, f, step_row)
-        t_z, t_v = _bristle_torque_slopes(bristle_step(z, displacement, x3, f), x3, f, row)
-        for j in range(ROW):
-            row[j] += t_z * step_row[j]
-        return t_z * s_d, t_z * s_v + t_v, -t_z * s_d, t_z * s_z
+        zs, s_z, s_d, s_v = _step_slopes(z, displacement, x3, f, step_row, full)
+        t_z, t_v = _bristle_torque_slopes(zs, x3, f, row, full)
+        if full:
+            for j in range(ROW):
+                row[j] += t_z * step_row[j]
+        return bristle_torque(zs, x3, f), t_z * s_d, t_z * s_v + t_v, -t_z * s_d, t_z * s_z
     if f[F_KIND] == STATIC:
-        return 0.0, _static_slopes(x3, f, row), 0.0, 0.0
-    return 0.0, 0.0, 0.0, 0.0
+        return 0.0, 0.0, _static_slopes(x3, f, row, full), 0.0, 0.0
+    return 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @njit(cache=True, inline="always")
-def _stage_slopes(x0, x1, x2, x3, phi_start, z, q1, q2, bristles, rigid, arm, pendulum, terms, work):
-    """The partial derivatives of a stage (:func:`~.surrogate_kernel._stage` at (theta, phi, theta', phi'),
-    whose accelerations are q1, q2) as e = dr - dM q'' per input: ``work``'s ``e_state`` (2, 6) in (the stage's
-    state, the substep's start phi, z; the applied torque's is (0, 1)) and, with parameter directions,
-    ``e_flat`` (2, P) in the flat parameters (:func:`flat`). Returns the mass matrix' (m12, m22, det); m11 = b."""
-    e_state, e_flat, scratch, active = work[0], work[1], work[2], work[3]
+def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms, work, full):
+    """The partial derivatives of a stage (:func:`~.surrogate_kernel.derivative` at (theta, phi, theta', phi'),
+    whose accelerations are q1, q2, the arm friction's slopes ``arm_slopes`` of :func:`_arm_slopes`) as
+    e = dr - dM q'': (e of the pendulum's row in the stage's state (4); e of the arm's row in the stage's state,
+    the substep's start phi and z (6); the applied torque's is (0, 1)); with ``full``, ``work``'s ``e_flat``
+    (2, P) in the flat parameters (:func:`flat`). Also the mass matrix' (m12, m22, det); m11 = b."""
+    e_flat, rows = work[0], work[1]
     a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
     s, co = math.sin(x0), math.cos(x0)
     sc, double = s * co, co * co - s * s
     m12, m22 = c * co, a + b * s * s
-    fa_phi, fa_rate, fa_start, fa_z = _arm_slopes(x1, x3, phi_start, z, bristles, arm, scratch[0], scratch[2])
-    scratch[1, :] = 0.0
-    fp_rate = _static_slopes(x2, pendulum, scratch[1]) if pendulum[F_KIND] == STATIC else 0.0
+    fa_phi, fa_rate, fa_start, fa_z = arm_slopes[1], arm_slopes[2], arm_slopes[3], arm_slopes[4]
+    if full:
+        rows[1, :] = 0.0
+    fp_rate = _static_slopes(x2, pendulum, rows[1], full) if pendulum[F_KIND] == STATIC else 0.0
     stretch = x1 - rigid[7]
     spring = -(rigid[5] + 3.0 * rigid[6] * stretch * stretch)
-    e_state[0, 0] = d * co + b * double * x3 * x3 + c * s * q2
-    e_state[1, 0] = c * co * x2 * x2 - 2.0 * b * double * x2 * x3 + c * s * q1 - 2.0 * b * sc * q2
-    e_state[0, 1], e_state[1, 1] = 0.0, spring + fa_phi
-    e_state[0, 2], e_state[1, 2] = fp_rate, 2.0 * c * s * x2 - 2.0 * b * sc * x3
-    e_state[0, 3], e_state[1, 3] = 2.0 * b * sc * x3, -2.0 * b * sc * x2 + fa_rate - rigid[4]
-    e_state[0, 4], e_state[1, 4] = 0.0, fa_start
-    e_state[0, 5], e_state[1, 5] = 0.0, fa_z
-    full = active.size > 0
+    p0, p1, p2, p3 = d * co + b * double * x3 * x3 + c * s * q2, 0.0, fp_rate, 2.0 * b * sc * x3
+    r0 = c * co * x2 * x2 - 2.0 * b * double * x2 * x3 + c * s * q1 - 2.0 * b * sc * q2
+    r1, r2, r3 = spring + fa_phi, 2.0 * c * s * x2 - 2.0 * b * sc * x3, -2.0 * b * sc * x2 + fa_rate - rigid[4]
     for j in range(terms.shape[0]):
-        joint, index, coefficient = 0 if terms[j, 0] != 0.0 else 1, int(terms[j, 1]), terms[j, 2]
-        slopes = term_slopes(index, x0, x1, x2, x3)
-        for i in range(4):
-            e_state[joint, i] += coefficient * slopes[i]
+        index, coefficient = int(terms[j, 1]), terms[j, 2]
+        t0, t1, t2, t3 = term_slopes(index, x0, x1, x2, x3)
+        pendulum_term = terms[j, 0] != 0.0
+        if pendulum_term:
+            p0, p1, p2, p3 = p0 + coefficient * t0, p1 + coefficient * t1, p2 + coefficient * t2, p3 + coefficient * t3
+        else:
+            r0, r1, r2, r3 = r0 + coefficient * t0, r1 + coefficient * t1, r2 + coefficient * t2, r3 + coefficient * t3
         if full:
-            e_flat[joint, TERMS + j] = term_value(index, x0, x1, x2, x3)
-            e_flat[1 - joint, TERMS + j] = 0.0
+            value = term_value(index, x0, x1, x2, x3)
+            e_flat[0, TERMS + j], e_flat[1, TERMS + j] = (value, 0.0) if pendulum_term else (0.0, value)
     if full:
         _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat)
         for j in range(ROW):
-            e_flat[0, ARM + j], e_flat[1, ARM + j] = 0.0, scratch[0, j]
-            e_flat[0, PENDULUM + j], e_flat[1, PENDULUM + j] = scratch[1, j], 0.0
-    return m12, m22, b * m22 - m12 * m12
+            e_flat[0, ARM + j], e_flat[1, ARM + j] = 0.0, rows[0, j]
+            e_flat[0, PENDULUM + j], e_flat[1, PENDULUM + j] = rows[1, j], 0.0
+    return (p0, p1, p2, p3), (r0, r1, r2, r3, fa_start, fa_z), (m12, m22, b * m22 - m12 * m12)
 
 
 @njit(cache=True, inline="always")
@@ -222,21 +249,20 @@ def _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat):
 
 
 @njit(cache=True, inline="always")
-def _stage_tangents(tangent, previous, weight, torque, work, mass, b, out):
+def _stage_tangents(tangent, previous, weight, torque, slopes, b, work, out):
     """Every direction's stage slopes ``out`` (K, 4) from its state tangent (K, 5) plus ``weight`` times the
     previous stage's (K, 4), its applied torque's change ``torque`` (K,) and its parameter change ``work``'s
-    ``rows`` (K, A) in the flat entries ``active`` (A,), by the stage's partial derivatives (:func:`_stage_slopes`,
-    ``mass`` its (m12, m22, det))."""
-    e_state, e_flat, active, rows = work[0], work[1], work[3], work[4]
-    m12, m22, det = mass
+    ``rows`` (K, A) in the flat entries ``active`` (A,), by the stage's partial derivatives ``slopes`` of
+    :func:`_stage_slopes`."""
+    e_flat, active, rows = work[0], work[2], work[3]
+    (p0, p1, p2, p3), (r0, r1, r2, r3, r4, r5), (m12, m22, det) = slopes
     for k in range(tangent.shape[0]):
         dx0 = tangent[k, 0] + weight * previous[k, 0]
         dx1 = tangent[k, 1] + weight * previous[k, 1]
         dx2 = tangent[k, 2] + weight * previous[k, 2]
         dx3 = tangent[k, 3] + weight * previous[k, 3]
-        e1 = e_state[0, 0] * dx0 + e_state[0, 1] * dx1 + e_state[0, 2] * dx2 + e_state[0, 3] * dx3
-        e2 = e_state[1, 0] * dx0 + e_state[1, 1] * dx1 + e_state[1, 2] * dx2 + e_state[1, 3] * dx3
-        e2 += e_state[1, 4] * tangent[k, 1] + e_state[1, 5] * tangent[k, 4] + torque[k]
+        e1 = p0 * dx0 + p1 * dx1 + p2 * dx2 + p3 * dx3
+        e2 = r0 * dx0 + r1 * dx1 + r2 * dx2 + r3 * dx3 + r4 * tangent[k, 1] + r5 * tangent[k, 4] + torque[k]
         for j in range(active.size):
             e1 += e_flat[0, active[j]] * rows[k, j]
             e2 += e_flat[1, active[j]] * rows[k, j]
@@ -246,12 +272,16 @@ def _stage_tangents(tangent, previous, weight, torque, work, mass, b, out):
 
 @njit(cache=True, inline="always")
 def _tangent_stage(x0, x1, x2, x3, phi_start, z, tau, model, tangent, previous, weight, torque, work, out):
-    """:func:`~.surrogate_kernel._stage` (its value returned) with every direction's slopes written to ``out``
-    (:func:`_stage_tangents`); ``model`` = (bristles, rigid, arm, pendulum, terms)."""
+    """:func:`~.surrogate_kernel._stage` (its value returned, the same arithmetic) with every direction's slopes
+    written to ``out`` (:func:`_stage_tangents`); ``model`` = (bristles, rigid, arm, pendulum, terms)."""
     bristles, rigid, arm, pendulum, terms = model
-    k = _stage(x0, x1, x2, x3, phi_start, z, tau, bristles, rigid, arm, pendulum, terms)
-    mass = _stage_slopes(x0, x1, x2, x3, phi_start, z, k[2], k[3], bristles, rigid, arm, pendulum, terms, work)
-    _stage_tangents(tangent, previous, weight, torque, work, mass, rigid[1], out)
+    full = work[2].size > 0
+    arm_slopes = _arm_slopes(x1, x3, phi_start, z, bristles, arm, work[1], full)
+    if bristles:
+        tau = tau + arm_slopes[0]
+    k = derivative(x0, x1, x2, x3, tau, rigid, arm, pendulum, terms)
+    slopes = _stage_slopes(x0, x1, x2, x3, k[2], k[3], arm_slopes, rigid, pendulum, terms, work, full)
+    _stage_tangents(tangent, previous, weight, torque, slopes, rigid[1], work, out)
     return k
 
 
@@ -259,11 +289,11 @@ def _tangent_stage(x0, x1, x2, x3, phi_start, z, tau, model, tangent, previous, 
 def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, work):
     """Every direction's state tangent (K, 5) over the substep from its stages' slopes (4, K, 4): RK4's sum, and
     the bristle's exact step over the arm's move ``moved`` [rad] from ``z`` (a Dahl or LuGre arm)."""
-    step_row, active, rows = work[2][2], work[3], work[4]
+    step_row, active, rows = work[1][2], work[2], work[3]
     s_z, s_move = 0.0, 0.0
     if bristles:
         step_row[:] = 0.0
-        s_z, s_d, s_v = _step_slopes(z, moved, moved / dt, arm, step_row)
+        _, s_z, s_d, s_v = _step_slopes(z, moved, moved / dt, arm, step_row, active.size > 0)
         s_move = s_d + s_v / dt
     for k in range(tangent.shape[0]):
         for i in range(4):
@@ -287,7 +317,7 @@ def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, a
     ``slopes[:, :, w, :]``. The four stages run in a loop (one compiled copy of the stage), their values kept in
     ``k`` (4, 4) and summed as the kernel sums them."""
     bristles, arm = model[0], model[2]
-    tangent, stages, torque, zero, k = work[5], work[6], work[7], work[8], work[9]
+    tangent, stages, torque, zero, k = work[4], work[5], work[6], work[7], work[8]
     h = 0.5 * dt
     row, substep = 0, 0
     _record(angles, slopes, 0, w, t, p, tangent)
@@ -339,7 +369,6 @@ def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms
     bristles = arm_v[F_KIND] == DAHL or arm_v[F_KIND] == LUGRE
     model = (bristles, rigid_v, arm_v, pendulum_v, terms)
     work = (
-        np.zeros((2, 6)),  # e_state
         np.zeros((2, TERMS + terms.shape[0])),  # e_flat
         np.zeros((3, ROW)),  # the arm's, the pendulum's and the bristle step's row slopes
         active,
@@ -351,7 +380,7 @@ def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms
         np.empty((4, 4)),  # the stages' values
     )
     for w in range(width):
-        work[5][:, :] = seeds
+        work[4][:, :] = seeds
         _tangent_window(
             x0[0, w], x0[1, w], x0[2, w], x0[3, w], z0[w], columns[w], changes[:, w], torque_of, dt, substeps,
             angles, slopes, w, model, work,
