@@ -83,9 +83,7 @@ def _relative(a: np.ndarray, b: np.ndarray, axis) -> float:
 
 
 def _row(label: str, exact: float, differenced: float, difference: float) -> None:
-    print(
-        f"| {label} | {exact * 1e3:.1f} | {differenced * 1e3:.1f} | {differenced / exact:.1f}x | {difference:.1e} |"
-    )
+    print(f"| {label} | {exact * 1e3:.1f} | {differenced * 1e3:.1f} | {differenced / exact:.1f}x | {difference:.1e} |")
 
 
 def main() -> None:
