@@ -79,11 +79,11 @@ def _level_slopes(v, f):
 
 
 @njit(cache=True, inline="always")
-def _add_level(row, weight, coulomb, g_c, static, g_s, g_vs):
-    """Adds ``weight`` times g's row slopes (:func:`_level_slopes`) to ``row``."""
-    row[coulomb] += weight * g_c
-    row[static] += weight * g_s
-    row[F_VS] += weight * g_vs
+def _add_level(slopes, r, weight, coulomb, g_c, static, g_s, g_vs):
+    """Adds ``weight`` times g's row slopes (:func:`_level_slopes`) to ``slopes[r]``."""
+    slopes[r, coulomb] += weight * g_c
+    slopes[r, static] += weight * g_s
+    slopes[r, F_VS] += weight * g_vs
 
 
 @njit(cache=True, inline="always")
@@ -95,9 +95,15 @@ def _resting_levels(f):
 
 
 @njit(cache=True, inline="always")
-def _static_slopes(v, f, row, full):
+def _clear(slopes, r):
+    for j in range(ROW):
+        slopes[r, j] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _static_slopes(v, f, slopes, r, full):
     """d/dv of :func:`~.surrogate_kernel.static_torque` (at v = 0, the mean of its two sides'); with ``full``, its
-    slopes in the row's entries added to ``row``."""
+    slopes in the row's entries added to ``slopes[r]``."""
     g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
     if v == 0.0:
         up, down = _resting_levels(f)
@@ -106,16 +112,16 @@ def _static_slopes(v, f, row, full):
     t = math.tanh(v / vreg)
     bend = (1.0 - t * t) / vreg
     if full:
-        _add_level(row, -t, coulomb, g_c, static, g_s, g_vs)
-        row[F_VREG] += g * bend * v / vreg
-        row[F_VISCOUS] -= v
+        _add_level(slopes, r, -t, coulomb, g_c, static, g_s, g_vs)
+        slopes[r, F_VREG] += g * bend * v / vreg
+        slopes[r, F_VISCOUS] -= v
     return -(g_v * t + g * bend + f[F_VISCOUS])
 
 
 @njit(cache=True, inline="always")
-def _step_slopes(z, displacement, velocity, f, row, full):
+def _step_slopes(z, displacement, velocity, f, slopes, r, full):
     """:func:`~.surrogate_kernel.bristle_step` (the same arithmetic) and its slopes: (the bristle, in z, in the
-    displacement, in the velocity); with ``full``, its slopes in the row's entries added to ``row``. Over a
+    displacement, in the velocity); with ``full``, its slopes in the row's entries added to ``slopes[r]``. Over a
     displacement of zero the step leaves z as it is whatever the parameters, and its slope in the displacement is
     the mean of the two sides'."""
     sigma0 = f[F_SIGMA0]
@@ -138,19 +144,19 @@ def _step_slopes(z, displacement, velocity, f, row, full):
     gap = z - steady
     in_level = 0.0 if g < 1e-12 else sign / sigma0 * (1.0 - decay) + gap * decay * sigma0 * distance / (level * level)
     if full:
-        _add_level(row, in_level, coulomb, g_c, static, g_s, g_vs)
-        row[F_SIGMA0] += -steady / sigma0 * (1.0 - decay) - gap * decay * distance / level
+        _add_level(slopes, r, in_level, coulomb, g_c, static, g_s, g_vs)
+        slopes[r, F_SIGMA0] += -steady / sigma0 * (1.0 - decay) - gap * decay * distance / level
     return steady + gap * decay, decay, decay * (1.0 - sign * z * sigma0 / level), in_level * g_v
 
 
 @njit(cache=True, inline="always")
-def _bristle_torque_slopes(z, v, f, row, full):
+def _bristle_torque_slopes(z, v, f, slopes, r, full):
     """The slopes (in z, in v; at v = 0, the mean of its two sides') of :func:`~.surrogate_kernel.bristle_torque`;
-    with ``full``, its slopes in the row's entries added to ``row``."""
+    with ``full``, its slopes in the row's entries added to ``slopes[r]``."""
     sigma0 = f[F_SIGMA0]
     if full:
-        row[F_SIGMA0] -= z
-        row[F_VISCOUS] -= v
+        slopes[r, F_SIGMA0] -= z
+        slopes[r, F_VISCOUS] -= v
     if not (f[F_KIND] == LUGRE and f[F_SIGMA1] != 0.0):
         return -sigma0, -f[F_VISCOUS]
     sigma1 = f[F_SIGMA1]
@@ -158,9 +164,9 @@ def _bristle_torque_slopes(z, v, f, row, full):
     speed = abs(v)
     pull = sigma0 * speed * z / g  # the damping's bristle share
     if full:
-        row[F_SIGMA0] += sigma1 * speed * z / g
-        row[F_SIGMA1] -= v - pull
-        _add_level(row, -sigma1 * pull / g, coulomb, g_c, static, g_s, g_vs)
+        slopes[r, F_SIGMA0] += sigma1 * speed * z / g
+        slopes[r, F_SIGMA1] -= v - pull
+        _add_level(slopes, r, -sigma1 * pull / g, coulomb, g_c, static, g_s, g_vs)
     if v == 0.0:
         up, down = _resting_levels(f)
         turn = 0.5 * (1.0 / up - 1.0 / down)  # d(|v| / g)/dv, the mean of its sides
@@ -169,46 +175,46 @@ def _bristle_torque_slopes(z, v, f, row, full):
     return -sigma0 * (1.0 - sigma1 * speed / g), -(f[F_VISCOUS] + sigma1 * (1.0 - sigma0 * z * turn))
 
 
+ARM_ROW, PENDULUM_ROW, STEP_ROW = 0, 1, 2  # rows of the friction-row slopes: the arm's, the pendulum's, a step's
+
+
 @njit(cache=True, inline="always")
-def _arm_slopes(x1, x3, phi_start, z, bristles, f, rows, full):
+def _arm_slopes(x1, x3, phi_start, z, bristles, f, slopes, full):
     """The bristle's torque at a stage (0 without bristles: a static law acts inside the derivative) and the arm
     friction torque's slopes (in phi, phi', the substep's start phi, z); with ``full``, its slopes in the arm row's
-    entries written to ``rows[0]`` (``rows[2]``: scratch)."""
-    row = rows[0]
+    entries written to ``slopes[ARM_ROW]``."""
     if full:
-        row[:] = 0.0
+        _clear(slopes, ARM_ROW)
     if bristles:
-        step_row = rows[2]
         if full:
-            step_row[:] = 0.0
+            _clear(slopes, STEP_ROW)
         displacement = x1 - phi_start
-        zs, s_z, s_d, s_v = _step_slopes(z, displacement, x3, f, step_row, full)
-        t_z, t_v = _bristle_torque_slopes(zs, x3, f, row, full)
+        zs, s_z, s_d, s_v = _step_slopes(z, displacement, x3, f, slopes, STEP_ROW, full)
+        t_z, t_v = _bristle_torque_slopes(zs, x3, f, slopes, ARM_ROW, full)
         if full:
             for j in range(ROW):
-                row[j] += t_z * step_row[j]
+                slopes[ARM_ROW, j] += t_z * slopes[STEP_ROW, j]
         return bristle_torque(zs, x3, f), t_z * s_d, t_z * s_v + t_v, -t_z * s_d, t_z * s_z
     if f[F_KIND] == STATIC:
-        return 0.0, 0.0, _static_slopes(x3, f, row, full), 0.0, 0.0
+        return 0.0, 0.0, _static_slopes(x3, f, slopes, ARM_ROW, full), 0.0, 0.0
     return 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @njit(cache=True, inline="always")
-def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms, work, full):
+def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms, e_flat, slopes, full):
     """The partial derivatives of a stage (:func:`~.surrogate_kernel.derivative` at (theta, phi, theta', phi'),
     whose accelerations are q1, q2, the arm friction's slopes ``arm_slopes`` of :func:`_arm_slopes`) as
     e = dr - dM q'': (e of the pendulum's row in the stage's state (4); e of the arm's row in the stage's state,
-    the substep's start phi and z (6); the applied torque's is (0, 1)); with ``full``, ``work``'s ``e_flat``
-    (2, P) in the flat parameters (:func:`flat`). Also the mass matrix' (m12, m22, det); m11 = b."""
-    e_flat, rows = work[0], work[1]
+    the substep's start phi and z (6); the applied torque's is (0, 1)); with ``full``, ``e_flat`` (2, P) in the
+    flat parameters (:func:`flat`). Also the mass matrix' (m12, m22, 1 / det); m11 = b."""
     a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
     s, co = math.sin(x0), math.cos(x0)
     sc, double = s * co, co * co - s * s
     m12, m22 = c * co, a + b * s * s
     fa_phi, fa_rate, fa_start, fa_z = arm_slopes[1], arm_slopes[2], arm_slopes[3], arm_slopes[4]
     if full:
-        rows[1, :] = 0.0
-    fp_rate = _static_slopes(x2, pendulum, rows[1], full) if pendulum[F_KIND] == STATIC else 0.0
+        _clear(slopes, PENDULUM_ROW)
+    fp_rate = _static_slopes(x2, pendulum, slopes, PENDULUM_ROW, full) if pendulum[F_KIND] == STATIC else 0.0
     stretch = x1 - rigid[7]
     spring = -(rigid[5] + 3.0 * rigid[6] * stretch * stretch)
     p0, p1, p2, p3 = d * co + b * double * x3 * x3 + c * s * q2, 0.0, fp_rate, 2.0 * b * sc * x3
@@ -228,9 +234,9 @@ def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms, wo
     if full:
         _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat)
         for j in range(ROW):
-            e_flat[0, ARM + j], e_flat[1, ARM + j] = 0.0, rows[0, j]
-            e_flat[0, PENDULUM + j], e_flat[1, PENDULUM + j] = rows[1, j], 0.0
-    return (p0, p1, p2, p3), (r0, r1, r2, r3, fa_start, fa_z), (m12, m22, b * m22 - m12 * m12)
+            e_flat[0, ARM + j], e_flat[1, ARM + j] = 0.0, slopes[ARM_ROW, j]
+            e_flat[0, PENDULUM + j], e_flat[1, PENDULUM + j] = slopes[PENDULUM_ROW, j], 0.0
+    return (p0, p1, p2, p3), (r0, r1, r2, r3, fa_start, fa_z), (m12, m22, 1.0 / (b * m22 - m12 * m12))
 
 
 @njit(cache=True, inline="always")
@@ -249,51 +255,37 @@ def _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat):
 
 
 @njit(cache=True, inline="always")
-def _stage_tangents(tangent, previous, weight, torque, slopes, b, work, out):
-    """Every direction's stage slopes ``out`` (K, 4) from its state tangent (K, 5) plus ``weight`` times the
-    previous stage's (K, 4), its applied torque's change ``torque`` (K,) and its parameter change ``work``'s
-    ``rows`` (K, A) in the flat entries ``active`` (A,), by the stage's partial derivatives ``slopes`` of
+def _stage_tangents(tangent, stages, n, weight, torque, slopes, b, e_flat, active, directions):
+    """Every direction's slopes of stage ``n``, ``stages[n]`` (K, 4), from its state tangent (K, 5) plus ``weight``
+    times the previous stage's (none for the first), its applied torque's change ``torque`` (K,) and its change
+    ``directions`` (K, A) of the flat entries ``active`` (A,), by the stage's partial derivatives ``slopes`` of
     :func:`_stage_slopes`."""
-    e_flat, active, rows = work[0], work[2], work[3]
-    (p0, p1, p2, p3), (r0, r1, r2, r3, r4, r5), (m12, m22, det) = slopes
+    (p0, p1, p2, p3), (r0, r1, r2, r3, r4, r5), (m12, m22, inverse) = slopes
     for k in range(tangent.shape[0]):
-        dx0 = tangent[k, 0] + weight * previous[k, 0]
-        dx1 = tangent[k, 1] + weight * previous[k, 1]
-        dx2 = tangent[k, 2] + weight * previous[k, 2]
-        dx3 = tangent[k, 3] + weight * previous[k, 3]
+        dx0, dx1, dx2, dx3 = tangent[k, 0], tangent[k, 1], tangent[k, 2], tangent[k, 3]
+        if n > 0:
+            dx0 += weight * stages[n - 1, k, 0]
+            dx1 += weight * stages[n - 1, k, 1]
+            dx2 += weight * stages[n - 1, k, 2]
+            dx3 += weight * stages[n - 1, k, 3]
         e1 = p0 * dx0 + p1 * dx1 + p2 * dx2 + p3 * dx3
         e2 = r0 * dx0 + r1 * dx1 + r2 * dx2 + r3 * dx3 + r4 * tangent[k, 1] + r5 * tangent[k, 4] + torque[k]
         for j in range(active.size):
-            e1 += e_flat[0, active[j]] * rows[k, j]
-            e2 += e_flat[1, active[j]] * rows[k, j]
-        out[k, 0], out[k, 1] = dx2, dx3
-        out[k, 2], out[k, 3] = (m22 * e1 - m12 * e2) / det, (b * e2 - m12 * e1) / det
+            e1 += e_flat[0, active[j]] * directions[k, j]
+            e2 += e_flat[1, active[j]] * directions[k, j]
+        stages[n, k, 0], stages[n, k, 1] = dx2, dx3
+        stages[n, k, 2], stages[n, k, 3] = (m22 * e1 - m12 * e2) * inverse, (b * e2 - m12 * e1) * inverse
 
 
 @njit(cache=True, inline="always")
-def _tangent_stage(x0, x1, x2, x3, phi_start, z, tau, model, tangent, previous, weight, torque, work, out):
-    """:func:`~.surrogate_kernel._stage` (its value returned, the same arithmetic) with every direction's slopes
-    written to ``out`` (:func:`_stage_tangents`); ``model`` = (bristles, rigid, arm, pendulum, terms)."""
-    bristles, rigid, arm, pendulum, terms = model
-    full = work[2].size > 0
-    arm_slopes = _arm_slopes(x1, x3, phi_start, z, bristles, arm, work[1], full)
-    if bristles:
-        tau = tau + arm_slopes[0]
-    k = derivative(x0, x1, x2, x3, tau, rigid, arm, pendulum, terms)
-    slopes = _stage_slopes(x0, x1, x2, x3, k[2], k[3], arm_slopes, rigid, pendulum, terms, work, full)
-    _stage_tangents(tangent, previous, weight, torque, slopes, rigid[1], work, out)
-    return k
-
-
-@njit(cache=True, inline="always")
-def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, work):
+def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, slopes, active, directions):
     """Every direction's state tangent (K, 5) over the substep from its stages' slopes (4, K, 4): RK4's sum, and
     the bristle's exact step over the arm's move ``moved`` [rad] from ``z`` (a Dahl or LuGre arm)."""
-    step_row, active, rows = work[1][2], work[2], work[3]
-    s_z, s_move = 0.0, 0.0
+    s_z, s_move, full = 0.0, 0.0, active.size > 0
     if bristles:
-        step_row[:] = 0.0
-        _, s_z, s_d, s_v = _step_slopes(z, moved, moved / dt, arm, step_row, active.size > 0)
+        if full:
+            _clear(slopes, STEP_ROW)
+        _, s_z, s_d, s_v = _step_slopes(z, moved, moved / dt, arm, slopes, STEP_ROW, full)
         s_move = s_d + s_v / dt
     for k in range(tangent.shape[0]):
         for i in range(4):
@@ -305,19 +297,20 @@ def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, work):
             )
             for j in range(active.size):
                 if ARM <= active[j] < PENDULUM:
-                    dz += step_row[active[j] - ARM] * rows[k, j]
+                    dz += slopes[STEP_ROW, active[j] - ARM] * directions[k, j]
             tangent[k, 4] = dz
 
 
 @njit(cache=True, inline="always")
-def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, angles, slopes, w, model, work):
+def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, angles, slopes, w, model, terms, work):
     """:func:`~.surrogate_kernel._rk4_window` of window ``w`` with every direction's tangent carried along from
     ``work``'s ``tangent`` (K, 5) (the seeds); the torque's change ``changes[torque_of[k]]`` (steps,) for the
     directions with one (``torque_of[k]`` >= 0). Angles to ``angles[:, :, w]``, their slopes to
     ``slopes[:, :, w, :]``. The four stages run in a loop (one compiled copy of the stage), their values kept in
-    ``k`` (4, 4) and summed as the kernel sums them."""
-    bristles, arm = model[0], model[2]
-    tangent, stages, torque, zero, k = work[4], work[5], work[6], work[7], work[8]
+    ``values`` (4, 4) and summed as the kernel sums them."""
+    bristles, rigid, arm, pendulum = model
+    e_flat, row_slopes, active, directions, tangent, stages, torque, values = work
+    full = active.size > 0
     h = 0.5 * dt
     row, substep = 0, 0
     _record(angles, slopes, 0, w, t, p, tangent)
@@ -327,19 +320,24 @@ def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, a
             torque[j] = 0.0 if torque_of[j] < 0 else changes[torque_of[j], i]
         x0, x1, x2, x3 = t, p, td, pd
         for n in range(4):
-            previous = zero if n == 0 else stages[n - 1]
-            weight = 0.0 if n == 0 else (dt if n == 3 else h)
-            value = _tangent_stage(x0, x1, x2, x3, p, z, tau, model, tangent, previous, weight, torque, work, stages[n])
-            k[n, 0], k[n, 1], k[n, 2], k[n, 3] = value
+            arm_slopes = _arm_slopes(x1, x3, p, z, bristles, arm, row_slopes, full)
+            k = derivative(x0, x1, x2, x3, tau + arm_slopes[0] if bristles else tau, rigid, arm, pendulum, terms)
+            stage = _stage_slopes(
+                x0, x1, x2, x3, k[2], k[3], arm_slopes, rigid, pendulum, terms, e_flat, row_slopes, full
+            )
+            _stage_tangents(
+                tangent, stages, n, dt if n == 3 else h, torque, stage, rigid[1], e_flat, active, directions
+            )
+            values[n, 0], values[n, 1], values[n, 2], values[n, 3] = k
             step = dt if n == 2 else h
-            x0, x1, x2, x3 = t + step * value[0], p + step * value[1], td + step * value[2], pd + step * value[3]
+            x0, x1, x2, x3 = t + step * k[0], p + step * k[1], td + step * k[2], pd + step * k[3]
         sixth = dt / 6.0
-        p_next = p + sixth * (k[0, 1] + 2.0 * k[1, 1] + 2.0 * k[2, 1] + k[3, 1])
-        t += sixth * (k[0, 0] + 2.0 * k[1, 0] + 2.0 * k[2, 0] + k[3, 0])
-        td += sixth * (k[0, 2] + 2.0 * k[1, 2] + 2.0 * k[2, 2] + k[3, 2])
-        pd += sixth * (k[0, 3] + 2.0 * k[1, 3] + 2.0 * k[2, 3] + k[3, 3])
+        p_next = p + sixth * (values[0, 1] + 2.0 * values[1, 1] + 2.0 * values[2, 1] + values[3, 1])
+        t += sixth * (values[0, 0] + 2.0 * values[1, 0] + 2.0 * values[2, 0] + values[3, 0])
+        td += sixth * (values[0, 2] + 2.0 * values[1, 2] + 2.0 * values[2, 2] + values[3, 2])
+        pd += sixth * (values[0, 3] + 2.0 * values[1, 3] + 2.0 * values[2, 3] + values[3, 3])
         moved = p_next - p
-        _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, work)
+        _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, row_slopes, active, directions)
         if bristles:
             z = bristle_step(z, moved, moved / dt, arm)
         p = p_next
@@ -356,34 +354,33 @@ def _record(angles, slopes, row, w, t, p, tangent):
         slopes[row, 0, w, k], slopes[row, 1, w, k] = tangent[k, 0], tangent[k, 1]
 
 
-def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms, seeds, rows, active, torque_of):
+def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms, seeds, directions, active, torque_of):
     """:func:`tangents` of one model's packed rows (``rigid`` (8,), ``arm`` and ``pendulum`` (11,), ``terms``
-    (T, 3)); ``rows`` (K, A) the directions' changes of the flat entries ``active``; ``changes`` (C, W, steps) the
-    torque changes, direction k's the ``torque_of[k]``-th (-1: none)."""
+    (T, 3)); ``directions`` (K, A) the directions' changes of the flat entries ``active``; ``changes`` (C, W, steps)
+    the torque changes, direction k's the ``torque_of[k]``-th (-1: none)."""
     steps, width = torque.shape
-    directions = seeds.shape[0]
+    count = seeds.shape[0]
     angles = np.empty((steps // substeps + 1, 2, width))
-    slopes = np.empty((steps // substeps + 1, 2, width, directions))
+    slopes = np.empty((steps // substeps + 1, 2, width, count))
     columns = np.ascontiguousarray(torque.T)
     rigid_v, arm_v, pendulum_v = _values(rigid, 8), _values(arm, 11), _values(pendulum, 11)
     bristles = arm_v[F_KIND] == DAHL or arm_v[F_KIND] == LUGRE
-    model = (bristles, rigid_v, arm_v, pendulum_v, terms)
+    model = (bristles, rigid_v, arm_v, pendulum_v)
     work = (
-        np.zeros((2, TERMS + terms.shape[0])),  # e_flat
-        np.zeros((3, ROW)),  # the arm's, the pendulum's and the bristle step's row slopes
+        np.zeros((2, TERMS + terms.shape[0])),  # the stage's slopes in the flat parameters
+        np.zeros((3, ROW)),  # the friction-row slopes (ARM_ROW, PENDULUM_ROW, STEP_ROW)
         active,
-        rows,
-        np.empty((directions, STATE)),  # tangent
-        np.empty((4, directions, 4)),  # the stages' slopes
-        np.empty(directions),  # the applied torque's change
-        np.zeros((directions, 4)),  # the first stage's previous
+        directions,
+        np.empty((count, STATE)),  # the directions' state tangents
+        np.empty((4, count, 4)),  # the stages' slopes
+        np.empty(count),  # the applied torque's change
         np.empty((4, 4)),  # the stages' values
     )
     for w in range(width):
         work[4][:, :] = seeds
         _tangent_window(
             x0[0, w], x0[1, w], x0[2, w], x0[3, w], z0[w], columns[w], changes[:, w], torque_of, dt, substeps,
-            angles, slopes, w, model, work,
+            angles, slopes, w, model, terms, work,
         )  # fmt: skip
     return angles, slopes
 
@@ -406,7 +403,7 @@ def tangents(x0, z0, torque, dt, substeps, packed, seeds, rows=None, torques=Non
     rows = np.zeros((directions, TERMS + len(terms))) if rows is None else np.asarray(rows, dtype=float)
     active = np.flatnonzero(np.any(rows != 0.0, axis=0))
     given = [change is not None for change in ([None] * directions if torques is None else torques)]
-    torque_of = np.where(given, np.cumsum(given) - 1, -1)
+    torque_of = np.where(given, np.cumsum(given) - 1, -1).astype(np.int64)
     changes = np.stack([np.transpose(c) for c, g in zip(torques or [], given) if g] or [np.zeros(torque.shape[::-1])])
     windowed = (x0, z0, torque, changes)
     fixed = (dt, substeps, rigid, arm, pendulum, terms, np.ascontiguousarray(seeds, dtype=float))
