@@ -297,6 +297,7 @@ def parameter_sensitivities(
 
 
 def _tangents(model, x0, torque, period, substeps, bristle0, seeds, rows=None, torques=None):
+    """:func:`~.surrogate_tangent.tangents` of ``model`` from ``x0`` and ``bristle0`` (None: zero)."""
     z = np.zeros(np.shape(x0)[1]) if bristle0 is None else bristle0
     packed = kernel.pack(model)
     return tangent.tangents(x0, z, torque, period / substeps, substeps, packed, seeds, rows, torques)
@@ -323,9 +324,8 @@ def same_branches(model: Model, other: Model) -> bool:
 
 def load_kernel() -> None:
     """Compile the kernel's functions for the argument types of :func:`predict_windows` and
-    :func:`state_sensitivities` in this process (or load
-    them from numba's cache), e.g. before worker processes are forked, which then inherit them instead of each
-    compiling or loading its own."""
+    :func:`state_sensitivities` in this process (or load them from numba's cache), e.g. before worker processes
+    are forked, which then inherit them instead of each compiling or loading its own."""
     model = Model(
         1e-3, 1e-4, 5e-5, 1e-2, JointFrictionParameters.dahl(1e-3, 1e-3, sigma0=1.0), JointFrictionParameters()
     )
