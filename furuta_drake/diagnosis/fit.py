@@ -4,7 +4,7 @@ A fit is bounded least squares of the k-step residuals (``scipy.optimize.least_s
 several starts where the cost is multimodal, once per form of the new effect; the form with the lower train cost
 is kept. The cost re-projects the windows' initial states for every parameter vector (variable projection); its
 Jacobian is Kaufman's approximation (the residuals' change at the projected states, with the part the states
-could absorb projected out), so a column costs one batch prediction.
+could absorb projected out), its columns from the integration's exact forward sensitivities (:func:`_columns`).
 
 Parameter intervals come from a block bootstrap over the train windows, linearised at the fit: each resample of
 windows (a window is a block: its residuals are correlated) takes one Gauss-Newton step from the fit with the
