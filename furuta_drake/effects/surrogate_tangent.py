@@ -78,12 +78,54 @@ def _level_slopes(v, f):
     return f[coulomb] + rise, in_v, coulomb, 1.0 - decay, static, decay, in_vs
 
 
+# A friction row's slopes, sparse: (its Coulomb entry, its static entry, the slopes in those two, in vs, in v_reg,
+# in the viscous coefficient, in sigma0, in sigma1). The slope functions return them as tuples (no array in the
+# stages: an array passed to an inline function is a reference count taken and dropped every stage).
+NO_SLOPES = (F_FC_POS, F_FS_POS, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
 @njit(cache=True, inline="always")
-def _add_level(slopes, r, weight, coulomb, g_c, static, g_s, g_vs):
-    """Adds ``weight`` times g's row slopes (:func:`_level_slopes`) to ``slopes[r]``."""
-    slopes[r, coulomb] += weight * g_c
-    slopes[r, static] += weight * g_s
-    slopes[r, F_VS] += weight * g_vs
+def _level_row(weight, level, vreg=0.0, viscous=0.0, sigma0=0.0, sigma1=0.0):
+    """The row slopes of ``weight`` times g (``level``: the tail of :func:`_level_slopes`) and of the other
+    entries' slopes given."""
+    coulomb, g_c, static, g_s, g_vs = level
+    return (coulomb, static, weight * g_c, weight * g_s, weight * g_vs, vreg, viscous, sigma0, sigma1)
+
+
+@njit(cache=True, inline="always")
+def _combined(a, weight, b):
+    """``weight`` times the row slopes ``a`` plus ``b``, at b's level entries where b has level slopes (a stage's
+    bristle step and torque read the same velocity's direction, and a step by nothing has none)."""
+    leveled = b[2] != 0.0 or b[3] != 0.0 or b[4] != 0.0
+    return (
+        b[0] if leveled else a[0],
+        b[1] if leveled else a[1],
+        weight * a[2] + b[2],
+        weight * a[3] + b[3],
+        weight * a[4] + b[4],
+        weight * a[5] + b[5],
+        weight * a[6] + b[6],
+        weight * a[7] + b[7],
+        weight * a[8] + b[8],
+    )
+
+
+@njit(cache=True, inline="always")
+def _row_slope(row, j):
+    """The slope of the row slopes ``row`` in a friction row's entry ``j``."""
+    value = row[2] if j == row[0] else 0.0
+    value += row[3] if j == row[1] else 0.0
+    if j == F_VS:
+        value += row[4]
+    elif j == F_VREG:
+        value += row[5]
+    elif j == F_VISCOUS:
+        value += row[6]
+    elif j == F_SIGMA0:
+        value += row[7]
+    elif j == F_SIGMA1:
+        value += row[8]
+    return value
 
 
 @njit(cache=True, inline="always")
@@ -95,15 +137,8 @@ def _resting_levels(f):
 
 
 @njit(cache=True, inline="always")
-def _clear(slopes, r):
-    for j in range(ROW):
-        slopes[r, j] = 0.0
-
-
-@njit(cache=True, inline="always")
-def _static_slopes(v, f, slopes, r, full):
-    """d/dv of :func:`~.surrogate_kernel.static_torque` (at v = 0, the mean of its two sides'); with ``full``, its
-    slopes in the row's entries added to ``slopes[r]``."""
+def _static_slopes(v, f):
+    """(d/dv of :func:`~.surrogate_kernel.static_torque`, at v = 0 the mean of its two sides'; its row slopes)."""
     g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
     if v == 0.0:
         up, down = _resting_levels(f)
@@ -111,26 +146,22 @@ def _static_slopes(v, f, slopes, r, full):
     vreg = f[F_VREG]
     t = math.tanh(v / vreg)
     bend = (1.0 - t * t) / vreg
-    if full:
-        _add_level(slopes, r, -t, coulomb, g_c, static, g_s, g_vs)
-        slopes[r, F_VREG] += g * bend * v / vreg
-        slopes[r, F_VISCOUS] -= v
-    return -(g_v * t + g * bend + f[F_VISCOUS])
+    row = _level_row(-t, (coulomb, g_c, static, g_s, g_vs), g * bend * v / vreg, -v)
+    return -(g_v * t + g * bend + f[F_VISCOUS]), row
 
 
 @njit(cache=True, inline="always")
-def _step_slopes(z, displacement, velocity, f, slopes, r, full):
+def _step_slopes(z, displacement, velocity, f):
     """:func:`~.surrogate_kernel.bristle_step` (the same arithmetic) and its slopes: (the bristle, in z, in the
-    displacement, in the velocity); with ``full``, its slopes in the row's entries added to ``slopes[r]``. Over a
-    displacement of zero the step leaves z as it is whatever the parameters, and its slope in the displacement is
-    the mean of the two sides'."""
+    displacement, in the velocity, its row slopes). Over a displacement of zero the step leaves z as it is
+    whatever the parameters, and its slope in the displacement is the mean of the two sides'."""
     sigma0 = f[F_SIGMA0]
     if displacement == 0.0:
         if f[F_KIND] == DAHL:
             up, down = max(f[F_FC_POS], 1e-12), max(f[F_FC_NEG], 1e-12)
         else:
             up = down = max(stribeck_level(velocity, f), 1e-12)
-        return z, 1.0, 1.0 - 0.5 * z * sigma0 * (1.0 / up - 1.0 / down), 0.0
+        return z, 1.0, 1.0 - 0.5 * z * sigma0 * (1.0 / up - 1.0 / down), 0.0, NO_SLOPES
     sign = 1.0 if displacement > 0 else -1.0
     if f[F_KIND] == DAHL:
         coulomb = F_FC_POS if sign > 0 else F_FC_NEG
@@ -143,107 +174,84 @@ def _step_slopes(z, displacement, velocity, f, slopes, r, full):
     decay = math.exp(-sigma0 * distance / level)
     gap = z - steady
     in_level = 0.0 if g < 1e-12 else sign / sigma0 * (1.0 - decay) + gap * decay * sigma0 * distance / (level * level)
-    if full:
-        _add_level(slopes, r, in_level, coulomb, g_c, static, g_s, g_vs)
-        slopes[r, F_SIGMA0] += -steady / sigma0 * (1.0 - decay) - gap * decay * distance / level
-    return steady + gap * decay, decay, decay * (1.0 - sign * z * sigma0 / level), in_level * g_v
+    in_sigma0 = -steady / sigma0 * (1.0 - decay) - gap * decay * distance / level
+    row = _level_row(in_level, (coulomb, g_c, static, g_s, g_vs), sigma0=in_sigma0)
+    return steady + gap * decay, decay, decay * (1.0 - sign * z * sigma0 / level), in_level * g_v, row
 
 
 @njit(cache=True, inline="always")
-def _bristle_torque_slopes(z, v, f, slopes, r, full):
-    """The slopes (in z, in v; at v = 0, the mean of its two sides') of :func:`~.surrogate_kernel.bristle_torque`;
-    with ``full``, its slopes in the row's entries added to ``slopes[r]``."""
+def _bristle_torque_slopes(z, v, f):
+    """(the slopes in z and in v of :func:`~.surrogate_kernel.bristle_torque`, at v = 0 the mean of its two
+    sides'; its row slopes)."""
     sigma0 = f[F_SIGMA0]
-    if full:
-        slopes[r, F_SIGMA0] -= z
-        slopes[r, F_VISCOUS] -= v
     if not (f[F_KIND] == LUGRE and f[F_SIGMA1] != 0.0):
-        return -sigma0, -f[F_VISCOUS]
+        return -sigma0, -f[F_VISCOUS], _level_row(0.0, (F_FC_POS, 0.0, F_FS_POS, 0.0, 0.0), 0.0, -v, -z)
     sigma1 = f[F_SIGMA1]
     g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
     speed = abs(v)
     pull = sigma0 * speed * z / g  # the damping's bristle share
-    if full:
-        slopes[r, F_SIGMA0] += sigma1 * speed * z / g
-        slopes[r, F_SIGMA1] -= v - pull
-        _add_level(slopes, r, -sigma1 * pull / g, coulomb, g_c, static, g_s, g_vs)
     if v == 0.0:
         up, down = _resting_levels(f)
         turn = 0.5 * (1.0 / up - 1.0 / down)  # d(|v| / g)/dv, the mean of its sides
     else:
         turn = ((1.0 if v > 0 else -1.0) - speed * g_v / g) / g
-    return -sigma0 * (1.0 - sigma1 * speed / g), -(f[F_VISCOUS] + sigma1 * (1.0 - sigma0 * z * turn))
-
-
-ARM_ROW, PENDULUM_ROW, STEP_ROW = 0, 1, 2  # rows of the friction-row slopes: the arm's, the pendulum's, a step's
+    level = (coulomb, g_c, static, g_s, g_vs)
+    row = _level_row(-sigma1 * pull / g, level, 0.0, -v, -z + sigma1 * speed * z / g, -(v - pull))
+    return -sigma0 * (1.0 - sigma1 * speed / g), -(f[F_VISCOUS] + sigma1 * (1.0 - sigma0 * z * turn)), row
 
 
 @njit(cache=True, inline="always")
-def _arm_slopes(x1, x3, phi_start, z, bristles, f, slopes, full):
-    """The bristle's torque at a stage (0 without bristles: a static law acts inside the derivative) and the arm
-    friction torque's slopes (in phi, phi', the substep's start phi, z); with ``full``, its slopes in the arm row's
-    entries written to ``slopes[ARM_ROW]``."""
-    if full:
-        _clear(slopes, ARM_ROW)
+def _arm_slopes(x1, x3, phi_start, z, bristles, f):
+    """The bristle's torque at a stage (0 without bristles: a static law acts inside the derivative), the arm
+    friction torque's slopes (in phi, phi', the substep's start phi, z) and its row slopes."""
     if bristles:
-        if full:
-            _clear(slopes, STEP_ROW)
         displacement = x1 - phi_start
-        zs, s_z, s_d, s_v = _step_slopes(z, displacement, x3, f, slopes, STEP_ROW, full)
-        t_z, t_v = _bristle_torque_slopes(zs, x3, f, slopes, ARM_ROW, full)
-        if full:
-            for j in range(ROW):
-                slopes[ARM_ROW, j] += t_z * slopes[STEP_ROW, j]
-        return bristle_torque(zs, x3, f), t_z * s_d, t_z * s_v + t_v, -t_z * s_d, t_z * s_z
+        zs, s_z, s_d, s_v, step_row = _step_slopes(z, displacement, x3, f)
+        t_z, t_v, torque_row = _bristle_torque_slopes(zs, x3, f)
+        row = _combined(step_row, t_z, torque_row)
+        return bristle_torque(zs, x3, f), t_z * s_d, t_z * s_v + t_v, -t_z * s_d, t_z * s_z, row
     if f[F_KIND] == STATIC:
-        return 0.0, 0.0, _static_slopes(x3, f, slopes, ARM_ROW, full), 0.0, 0.0
-    return 0.0, 0.0, 0.0, 0.0, 0.0
+        rate, row = _static_slopes(x3, f)
+        return 0.0, 0.0, rate, 0.0, 0.0, row
+    return 0.0, 0.0, 0.0, 0.0, 0.0, NO_SLOPES
 
 
 @njit(cache=True, inline="always")
-def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms, e_flat, slopes, full):
+def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms):
     """The partial derivatives of a stage (:func:`~.surrogate_kernel.derivative` at (theta, phi, theta', phi'),
     whose accelerations are q1, q2, the arm friction's slopes ``arm_slopes`` of :func:`_arm_slopes`) as
     e = dr - dM q'': (e of the pendulum's row in the stage's state (4); e of the arm's row in the stage's state,
-    the substep's start phi and z (6); the applied torque's is (0, 1)); with ``full``, ``e_flat`` (2, P) in the
-    flat parameters (:func:`flat`). Also the mass matrix' (m12, m22, 1 / det); m11 = b."""
+    the substep's start phi and z (6), the applied torque's is (0, 1); the mass matrix' (m12, m22, 1 / det), m11 =
+    b; the pendulum friction's row slopes)."""
     a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
     s, co = math.sin(x0), math.cos(x0)
     sc, double = s * co, co * co - s * s
     m12, m22 = c * co, a + b * s * s
-    fa_phi, fa_rate, fa_start, fa_z = arm_slopes[1], arm_slopes[2], arm_slopes[3], arm_slopes[4]
-    if full:
-        _clear(slopes, PENDULUM_ROW)
-    fp_rate = _static_slopes(x2, pendulum, slopes, PENDULUM_ROW, full) if pendulum[F_KIND] == STATIC else 0.0
+    fp_rate, pendulum_row = _static_slopes(x2, pendulum) if pendulum[F_KIND] == STATIC else (0.0, NO_SLOPES)
     stretch = x1 - rigid[7]
     spring = -(rigid[5] + 3.0 * rigid[6] * stretch * stretch)
     p0, p1, p2, p3 = d * co + b * double * x3 * x3 + c * s * q2, 0.0, fp_rate, 2.0 * b * sc * x3
     r0 = c * co * x2 * x2 - 2.0 * b * double * x2 * x3 + c * s * q1 - 2.0 * b * sc * q2
-    r1, r2, r3 = spring + fa_phi, 2.0 * c * s * x2 - 2.0 * b * sc * x3, -2.0 * b * sc * x2 + fa_rate - rigid[4]
+    r1 = spring + arm_slopes[1]
+    r2, r3 = 2.0 * c * s * x2 - 2.0 * b * sc * x3, -2.0 * b * sc * x2 + arm_slopes[2] - rigid[4]
     for j in range(terms.shape[0]):
-        index, coefficient = int(terms[j, 1]), terms[j, 2]
-        t0, t1, t2, t3 = term_slopes(index, x0, x1, x2, x3)
-        pendulum_term = terms[j, 0] != 0.0
-        if pendulum_term:
+        coefficient = terms[j, 2]
+        t0, t1, t2, t3 = term_slopes(int(terms[j, 1]), x0, x1, x2, x3)
+        if terms[j, 0] != 0.0:
             p0, p1, p2, p3 = p0 + coefficient * t0, p1 + coefficient * t1, p2 + coefficient * t2, p3 + coefficient * t3
         else:
             r0, r1, r2, r3 = r0 + coefficient * t0, r1 + coefficient * t1, r2 + coefficient * t2, r3 + coefficient * t3
-        if full:
-            value = term_value(index, x0, x1, x2, x3)
-            e_flat[0, TERMS + j], e_flat[1, TERMS + j] = (value, 0.0) if pendulum_term else (0.0, value)
-    if full:
-        _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat)
-        for j in range(ROW):
-            e_flat[0, ARM + j], e_flat[1, ARM + j] = 0.0, slopes[ARM_ROW, j]
-            e_flat[0, PENDULUM + j], e_flat[1, PENDULUM + j] = slopes[PENDULUM_ROW, j], 0.0
-    return (p0, p1, p2, p3), (r0, r1, r2, r3, fa_start, fa_z), (m12, m22, 1.0 / (b * m22 - m12 * m12))
+    arm_e = (r0, r1, r2, r3, arm_slopes[3], arm_slopes[4])
+    return (p0, p1, p2, p3), arm_e, (m12, m22, 1.0 / (b * m22 - m12 * m12)), pendulum_row
 
 
 @njit(cache=True, inline="always")
-def _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat):
-    """e = dr - dM q'' of a stage per entry of the ``rigid`` row (a, b, c, d, back-EMF damping, spring k, k3,
-    phi_0), written to ``e_flat[:, :8]``."""
-    sc = s * co
+def _flat_slopes(e_flat, x0, x1, x2, x3, q1, q2, rigid, terms, arm_row, pendulum_row):
+    """e = dr - dM q'' of a stage per flat parameter (:func:`flat`), written to ``e_flat`` (2, P): the ``rigid``
+    row's (a, b, c, d, back-EMF damping, spring k, k3, phi_0), the friction rows' (``arm_row``, ``pendulum_row``
+    of the stage's slopes), the unmodelled terms' coefficients'."""
+    s, co = math.sin(x0), math.cos(x0)
+    sc, stretch = s * co, x1 - rigid[7]
     e_flat[0, 0], e_flat[1, 0] = 0.0, -q2
     e_flat[0, 1], e_flat[1, 1] = sc * x3 * x3 - q1, -2.0 * sc * x2 * x3 - s * s * q2
     e_flat[0, 2], e_flat[1, 2] = -co * q2, s * x2 * x2 - co * q1
@@ -251,41 +259,22 @@ def _rigid_slopes(x2, x3, s, co, q1, q2, stretch, spring, e_flat):
     e_flat[0, 4], e_flat[1, 4] = 0.0, -x3
     e_flat[0, 5], e_flat[1, 5] = 0.0, -stretch
     e_flat[0, 6], e_flat[1, 6] = 0.0, -(stretch**3)
-    e_flat[0, 7], e_flat[1, 7] = 0.0, -spring
+    e_flat[0, 7], e_flat[1, 7] = 0.0, rigid[5] + 3.0 * rigid[6] * stretch * stretch
+    for j in range(ROW):
+        e_flat[0, ARM + j], e_flat[1, ARM + j] = 0.0, _row_slope(arm_row, j)
+        e_flat[0, PENDULUM + j], e_flat[1, PENDULUM + j] = _row_slope(pendulum_row, j), 0.0
+    for j in range(terms.shape[0]):
+        value = term_value(int(terms[j, 1]), x0, x1, x2, x3)
+        e_flat[0, TERMS + j], e_flat[1, TERMS + j] = (value, 0.0) if terms[j, 0] != 0.0 else (0.0, value)
 
 
 @njit(cache=True, inline="always")
-def _stage_tangents(tangent, stages, n, weight, torque, slopes, b, e_flat, active, directions):
-    """Every direction's slopes of stage ``n``, ``stages[n]`` (K, 4), from its state tangent (K, 5) plus ``weight``
-    times the previous stage's (none for the first), its applied torque's change ``torque`` (K,) and its change
-    ``directions`` (K, A) of the flat entries ``active`` (A,), by the stage's partial derivatives ``slopes`` of
-    :func:`_stage_slopes`."""
-    (p0, p1, p2, p3), (r0, r1, r2, r3, r4, r5), (m12, m22, inverse) = slopes
-    for k in range(tangent.shape[0]):
-        dx0, dx1, dx2, dx3 = tangent[k, 0], tangent[k, 1], tangent[k, 2], tangent[k, 3]
-        if n > 0:
-            dx0 += weight * stages[n - 1, k, 0]
-            dx1 += weight * stages[n - 1, k, 1]
-            dx2 += weight * stages[n - 1, k, 2]
-            dx3 += weight * stages[n - 1, k, 3]
-        e1 = p0 * dx0 + p1 * dx1 + p2 * dx2 + p3 * dx3
-        e2 = r0 * dx0 + r1 * dx1 + r2 * dx2 + r3 * dx3 + r4 * tangent[k, 1] + r5 * tangent[k, 4] + torque[k]
-        for j in range(active.size):
-            e1 += e_flat[0, active[j]] * directions[k, j]
-            e2 += e_flat[1, active[j]] * directions[k, j]
-        stages[n, k, 0], stages[n, k, 1] = dx2, dx3
-        stages[n, k, 2], stages[n, k, 3] = (m22 * e1 - m12 * e2) * inverse, (b * e2 - m12 * e1) * inverse
-
-
-@njit(cache=True, inline="always")
-def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, slopes, active, directions):
+def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, active, directions):
     """Every direction's state tangent (K, 5) over the substep from its stages' slopes (4, K, 4): RK4's sum, and
     the bristle's exact step over the arm's move ``moved`` [rad] from ``z`` (a Dahl or LuGre arm)."""
-    s_z, s_move, full = 0.0, 0.0, active.size > 0
+    s_z, s_move, row = 0.0, 0.0, NO_SLOPES
     if bristles:
-        if full:
-            _clear(slopes, STEP_ROW)
-        _, s_z, s_d, s_v = _step_slopes(z, moved, moved / dt, arm, slopes, STEP_ROW, full)
+        _, s_z, s_d, s_v, row = _step_slopes(z, moved, moved / dt, arm)
         s_move = s_d + s_v / dt
     for k in range(tangent.shape[0]):
         for i in range(4):
@@ -297,7 +286,7 @@ def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, slopes, active
             )
             for j in range(active.size):
                 if ARM <= active[j] < PENDULUM:
-                    dz += slopes[STEP_ROW, active[j] - ARM] * directions[k, j]
+                    dz += _row_slope(row, active[j] - ARM) * directions[k, j]
             tangent[k, 4] = dz
 
 
@@ -307,11 +296,12 @@ def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, a
     ``work``'s ``tangent`` (K, 5) (the seeds); the torque's change ``changes[torque_of[k]]`` (steps,) for the
     directions with one (``torque_of[k]`` >= 0). Angles to ``angles[:, :, w]``, their slopes to
     ``slopes[:, :, w, :]``. The four stages run in a loop (one compiled copy of the stage), their values kept in
-    ``values`` (4, 4) and summed as the kernel sums them."""
+    ``values`` (4, 4) and summed as the kernel sums them; each stage's directions are a few multiply-adds on its
+    partial derivatives (:func:`_stage_slopes`), the applied torque's change and the flat parameters' (``e_flat``
+    at the entries ``active``)."""
     bristles, rigid, arm, pendulum = model
-    e_flat, row_slopes, active, directions, tangent, stages, torque, values = work
-    full = active.size > 0
-    h = 0.5 * dt
+    e_flat, active, directions, tangent, stages, torque, values = work
+    full, b, h = active.size > 0, rigid[1], 0.5 * dt
     row, substep = 0, 0
     _record(angles, slopes, 0, w, t, p, tangent)
     for i in range(column.size):
@@ -320,24 +310,39 @@ def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, a
             torque[j] = 0.0 if torque_of[j] < 0 else changes[torque_of[j], i]
         x0, x1, x2, x3 = t, p, td, pd
         for n in range(4):
-            arm_slopes = _arm_slopes(x1, x3, p, z, bristles, arm, row_slopes, full)
-            k = derivative(x0, x1, x2, x3, tau + arm_slopes[0] if bristles else tau, rigid, arm, pendulum, terms)
-            stage = _stage_slopes(
-                x0, x1, x2, x3, k[2], k[3], arm_slopes, rigid, pendulum, terms, e_flat, row_slopes, full
+            arm_slopes = _arm_slopes(x1, x3, p, z, bristles, arm)
+            q = derivative(x0, x1, x2, x3, tau + arm_slopes[0] if bristles else tau, rigid, arm, pendulum, terms)
+            e, f, (m12, m22, inverse), pendulum_row = _stage_slopes(
+                x0, x1, x2, x3, q[2], q[3], arm_slopes, rigid, pendulum, terms
             )
-            _stage_tangents(
-                tangent, stages, n, dt if n == 3 else h, torque, stage, rigid[1], e_flat, active, directions
-            )
-            values[n, 0], values[n, 1], values[n, 2], values[n, 3] = k
+            if full:
+                _flat_slopes(e_flat, x0, x1, x2, x3, q[2], q[3], rigid, terms, arm_slopes[5], pendulum_row)
+            weight = dt if n == 3 else h  # of the previous stage's slopes in this one's state
+            for k in range(tangent.shape[0]):
+                dx0, dx1, dx2, dx3 = tangent[k, 0], tangent[k, 1], tangent[k, 2], tangent[k, 3]
+                if n > 0:
+                    dx0 += weight * stages[n - 1, k, 0]
+                    dx1 += weight * stages[n - 1, k, 1]
+                    dx2 += weight * stages[n - 1, k, 2]
+                    dx3 += weight * stages[n - 1, k, 3]
+                e1 = e[0] * dx0 + e[1] * dx1 + e[2] * dx2 + e[3] * dx3
+                e2 = f[0] * dx0 + f[1] * dx1 + f[2] * dx2 + f[3] * dx3 + f[4] * tangent[k, 1] + f[5] * tangent[k, 4]
+                e2 += torque[k]
+                for j in range(active.size):
+                    e1 += e_flat[0, active[j]] * directions[k, j]
+                    e2 += e_flat[1, active[j]] * directions[k, j]
+                stages[n, k, 0], stages[n, k, 1] = dx2, dx3
+                stages[n, k, 2], stages[n, k, 3] = (m22 * e1 - m12 * e2) * inverse, (b * e2 - m12 * e1) * inverse
+            values[n, 0], values[n, 1], values[n, 2], values[n, 3] = q
             step = dt if n == 2 else h
-            x0, x1, x2, x3 = t + step * k[0], p + step * k[1], td + step * k[2], pd + step * k[3]
+            x0, x1, x2, x3 = t + step * q[0], p + step * q[1], td + step * q[2], pd + step * q[3]
         sixth = dt / 6.0
         p_next = p + sixth * (values[0, 1] + 2.0 * values[1, 1] + 2.0 * values[2, 1] + values[3, 1])
         t += sixth * (values[0, 0] + 2.0 * values[1, 0] + 2.0 * values[2, 0] + values[3, 0])
         td += sixth * (values[0, 2] + 2.0 * values[1, 2] + 2.0 * values[2, 2] + values[3, 2])
         pd += sixth * (values[0, 3] + 2.0 * values[1, 3] + 2.0 * values[2, 3] + values[3, 3])
         moved = p_next - p
-        _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, row_slopes, active, directions)
+        _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, active, directions)
         if bristles:
             z = bristle_step(z, moved, moved / dt, arm)
         p = p_next
@@ -368,7 +373,6 @@ def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms
     model = (bristles, rigid_v, arm_v, pendulum_v)
     work = (
         np.zeros((2, TERMS + terms.shape[0])),  # the stage's slopes in the flat parameters
-        np.zeros((3, ROW)),  # the friction-row slopes (ARM_ROW, PENDULUM_ROW, STEP_ROW)
         active,
         directions,
         np.empty((count, STATE)),  # the directions' state tangents
@@ -377,7 +381,7 @@ def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms
         np.empty((4, 4)),  # the stages' values
     )
     for w in range(width):
-        work[4][:, :] = seeds
+        work[3][:, :] = seeds
         _tangent_window(
             x0[0, w], x0[1, w], x0[2, w], x0[3, w], z0[w], columns[w], changes[:, w], torque_of, dt, substeps,
             angles, slopes, w, model, terms, work,
