@@ -360,3 +360,21 @@ def test_a_fit_with_exact_columns_finds_the_finite_difference_fits_parameters(mo
     for name, effect in truth.items():
         np.testing.assert_allclose(exact[name].values, differenced[name].values, rtol=1e-3, atol=1e-5)
         np.testing.assert_allclose(exact[name].values, effect.values, rtol=0.05, atol=5e-3)
+
+
+def test_the_tangents_raise_at_a_division_by_zero_as_the_kernel_and_diverge_alone():
+    """Run without division checks, the tangents are those of the checked compilation: a singular mass matrix (a
+    b = c^2, upright) raises ZeroDivisionError as the kernel does, and a window driven to overflow leaves the
+    others' numbers as they are alone."""
+    model = _model("dahl")
+    x0, z0, torque = _problem(model)
+    seeds = np.eye(5)
+    rigid, arm, pendulum, terms = kernel.pack(model)
+    singular = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ZeroDivisionError):
+        tangent.tangents(np.zeros((4, 1)), np.zeros(1), torque[:, :1], DT, 1, (singular, arm, pendulum, terms), seeds)
+    torque[:, 0] = 1e6
+    angles, slopes = tangent.tangents(x0, z0, torque, DT, 1, kernel.pack(model), seeds)
+    alone = tangent.tangents(x0[:, 1:], z0[1:], torque[:, 1:], DT, 1, kernel.pack(model), seeds)
+    assert not np.isfinite(slopes[..., 0, :]).all()
+    assert np.array_equal(angles[..., 1:], alone[0]) and np.array_equal(slopes[:, :, 1:], alone[1])
