@@ -464,7 +464,8 @@ def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high)
     sensitivities, every such column in one surrogate pass), else a finite difference of the residuals (every such
     column's model in one surrogate call): a threshold dead zone's width, whose cost jumps where it crosses a
     command, and a step that changes the kernel's branches (:func:`~furuta_drake.effects.surrogate.same_branches`:
-    a friction kind, a Stribeck curve, LuGre's bristle damping)."""
+    a friction kind, a Stribeck curve, LuGre's bristle damping). Every column is projected in one solve per
+    window."""
     steps, models = [], []
     for i in range(x.size):
         step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)
@@ -487,7 +488,10 @@ def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high)
         shifted_r = fixed_state_residuals_of([models[i] for i in differenced], windows, last["states"], counts)
         for i, r in zip(differenced, shifted_r):
             changes[i] = [(new - old) / steps[i] for new, old in zip(r, last["raw"])]
-    return [[project_out_states(c, J) for c, J in zip(change, last["state_jacobians"])] for change in changes]
+    logs = range(len(last["raw"]))
+    stacked = [np.stack([change[log] for change in changes], axis=2) for log in logs]  # (h, 2, K, W) per log
+    projected = [project_out_states(c, J) for c, J in zip(stacked, last["state_jacobians"])]
+    return [[projected[log][:, :, i] for log in logs] for i in range(x.size)]
 
 
 def bootstrap_samples(

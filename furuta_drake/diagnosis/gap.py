@@ -309,10 +309,12 @@ def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.nda
     """``change`` (h, 2, W) of a log's residuals, or (h, 2, K, W) K changes of each window, minus its least-squares
     fit on the window's state sensitivities (h, 2, W, 4): what a change of the model's parameters does to the
     residuals once the initial states are re-projected (Kaufman's approximation of the variable-projection
-    Jacobian)."""
+    Jacobian). The normal matrix takes a ridge of 1e-9 of its mean diagonal: exact sensitivities can be exactly
+    degenerate (a stuck arm's velocities and bristle can move the angles along one direction only)."""
     h, _, W, n = state_jacobian.shape
     Jw = state_jacobian.transpose(2, 0, 1, 3).reshape(W, -1, n)
-    normal = np.einsum("wki,wkj->wij", Jw, Jw) + 1e-9 * np.eye(n)
+    gram = np.einsum("wki,wkj->wij", Jw, Jw)
+    normal = gram + 1e-9 * (np.einsum("wii->w", gram) / n + 1.0)[:, None, None] * np.eye(n)
     if change.ndim == 4:
         cw = change.transpose(3, 0, 1, 2).reshape(W, -1, change.shape[2])
         fitted = np.einsum("wki,wic->wkc", Jw, np.linalg.solve(normal, np.einsum("wki,wkc->wic", Jw, cw)))
