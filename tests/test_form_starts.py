@@ -26,7 +26,7 @@ from furuta_drake.simulate import simulate
 SETTINGS = DiagnosisSettings(interval_resamples=100, detection_limits=False)
 RELATIVE = 0.05  # a recovered parameter is within this fraction of the truth, or inside its 95 % interval
 # The friction law's shape (where its torque turns, and the Stribeck curve's breakaway level, which trades off
-# against its velocity: a presliding fit 16 % above the true level costs less than the truth) moves the prediction
+# against its velocity: a presliding fit well above the true level can cost less than the truth) moves the prediction
 # by less than the encoder's rounding over most of these runs: within this fraction of the truth, or inside its
 # 95 % interval.
 SHAPE = {"presliding": 0.3, "regularization_velocity": 0.3, "stribeck_velocity": 0.3, "static": 0.3}
