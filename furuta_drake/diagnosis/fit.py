@@ -4,7 +4,7 @@ A fit is bounded least squares of the k-step residuals (``scipy.optimize.least_s
 several starts where the cost is multimodal, once per form of the new effect; the form with the lower train cost
 is kept. The cost re-projects the windows' initial states for every parameter vector (variable projection); its
 Jacobian is Kaufman's approximation (the residuals' change at the projected states, with the part the states
-could absorb projected out), so a column costs one batch prediction.
+could absorb projected out), its columns from the integration's exact forward sensitivities (:func:`_columns`).
 
 Parameter intervals come from a block bootstrap over the train windows, linearised at the fit: each resample of
 windows (a window is a block: its residuals are correlated) takes one Gauss-Newton step from the fit with the
@@ -27,6 +27,7 @@ from furuta_drake.diagnosis.gap import (
     Windows,
     evaluate_gap,
     fixed_state_residuals_of,
+    parameter_slopes_of,
     project_out_states,
     projected_residuals,
 )
@@ -35,7 +36,7 @@ from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.rule import Bootstrap, beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.effects.surrogate import Model
+from furuta_drake.effects.surrogate import Model, same_branches
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, causal_spread, form_starts
 
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
@@ -340,8 +341,14 @@ def _jump_samples(samples: np.ndarray, profiles: dict, last: dict, settings: Dia
 
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:
     """Per parameter, the per-log residual change (horizon, 2, W) per unit of the parameter, at the initial
-    states of ``last``, with what the states could absorb projected out (Kaufman); every column's model in one
-    surrogate call."""
+    states of ``last``, with what the states could absorb projected out (Kaufman). A column is exact where the
+    surrogate is differentiable along the parameter's step (:func:`~furuta_drake.diagnosis.gap.parameter_slopes_of`:
+    the packed parameters' and the arm torque's changes over the step carried through the integration's forward
+    sensitivities, every such column in one surrogate pass), else a finite difference of the residuals (every such
+    column's model in one surrogate call): a threshold dead zone's width, whose cost jumps where it crosses a
+    command, and a step that changes the kernel's branches (:func:`~furuta_drake.effects.surrogate.same_branches`:
+    a friction kind, a Stribeck curve, LuGre's bristle damping). Every column is projected in one solve per
+    window."""
     steps, models = [], []
     for i in range(x.size):
         step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)
@@ -351,11 +358,23 @@ def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high)
         shifted[i] += step
         steps.append(step)
         models.append(model_at(shifted))
-    shifted_r = fixed_state_residuals_of(models, windows, last["states"], counts)
-    return [
-        [project_out_states(new - old, J) / step for new, old, J in zip(r, last["raw"], last["state_jacobians"])]
-        for r, step in zip(shifted_r, steps)
-    ]
+    model, changes = model_at(x), [None] * x.size
+    exact = [i for i in range(x.size) if same_branches(model, models[i])]
+    differenced = [i for i in range(x.size) if i not in exact]
+    if exact:
+        slopes = parameter_slopes_of(
+            model, [models[i] for i in exact], [steps[i] for i in exact], windows, last["states"], counts
+        )
+        for i, change in zip(exact, slopes):
+            changes[i] = change
+    if differenced:
+        shifted_r = fixed_state_residuals_of([models[i] for i in differenced], windows, last["states"], counts)
+        for i, r in zip(differenced, shifted_r):
+            changes[i] = [(new - old) / steps[i] for new, old in zip(r, last["raw"])]
+    logs = range(len(last["raw"]))
+    stacked = [np.stack([change[log] for change in changes], axis=2) for log in logs]  # (h, 2, K, W) per log
+    projected = [project_out_states(c, J) for c, J in zip(stacked, last["state_jacobians"])]
+    return [[projected[log][:, :, i] for log in logs] for i in range(x.size)]
 
 
 def bootstrap_samples(

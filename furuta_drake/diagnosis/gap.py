@@ -35,9 +35,12 @@ from furuta_drake.effects.surrogate import (
     Model,
     bristle_path,
     integrate_windows,
+    parameter_sensitivities,
     sensor_variance,
+    state_sensitivities,
     window_torques,
 )
+from furuta_drake.effects.surrogate_tangent import flat
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
@@ -202,23 +205,14 @@ def substeps_for(period: float) -> int:
 
 GAUSS_NEWTON_STEPS = 3
 LM_DAMPING = 1e-3  # initial Levenberg-Marquardt damping, relative to the normal matrix' diagonal
-# Finite-difference steps of the initial-state sensitivities [rad, rad, rad/s, rad/s].
-_PERTURBATION = np.array([1e-4, 1e-4, 1e-3, 1e-3])
 
 
 def residuals(model: Model, windows: Windows, nominal_counts: int) -> list[np.ndarray]:
     """Per log: (horizon, 2, W) measured minus predicted angles [counts of the nominal encoder], after
     ``GAUSS_NEWTON_STEPS`` Levenberg-Marquardt steps on each window's initial state (variable projection: every
-    model is judged with its own best initial states; the sensitivities are batch finite differences, and the
-    residual is re-simulated from the refined states)."""
+    model is judged with its own best initial states; the sensitivities are the integration's exact forward
+    sensitivities, and the residual is re-simulated from the refined states)."""
     return projected_residuals(model, windows, nominal_counts, sensitivities=False)[0]
-
-
-def _perturbation(model: Model, n: int) -> np.ndarray:
-    """Finite-difference steps of the n initial-state entries (a bristle's: 5 % of its range)."""
-    if n == 4:
-        return _PERTURBATION
-    return np.append(_PERTURBATION, 0.05 * model.arm_friction.bristle_bound)
 
 
 def _predict(models: list[Model], x: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
@@ -242,13 +236,12 @@ def _angles(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, subst
     return integrate_windows([model], x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
 
 
-def _state_jacobian(model, x, angles, torque, batch: Batch, substeps: int, delta: np.ndarray, count: float):
-    """The residuals' sensitivities (h, 2, k, n) [counts per unit of state] to the initial states x (n, k) whose
-    predicted angles are ``angles``, by forward differences of step ``delta``: one surrogate call of width n k."""
-    n, k = x.shape
-    points = np.concatenate([x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
-    predicted = _angles(model, points, np.tile(torque, (1, n)), batch, substeps)
-    return np.stack([(predicted[:, :, i * k : (i + 1) * k] - angles) / delta[i] / count for i in range(n)], axis=-1)
+def _state_jacobian(model, x, torque, batch: Batch, substeps: int, count: float):
+    """(the predicted angles (h, 2, k) of :func:`_angles`; the residuals' sensitivities (h, 2, k, n) [counts per
+    unit of state] to the initial states x (n, k)): the integration's exact forward sensitivities, one surrogate
+    pass."""
+    angles, slopes = state_sensitivities(model, x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
+    return angles, slopes / count
 
 
 def projected_residuals(model: Model, windows: Windows, nominal_counts: int, sensitivities: bool = True):
@@ -283,14 +276,13 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
     """:func:`projected_residuals` of one batch from the initial states x (n, W): the refined states, their
     residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
     n, W = x.shape
-    delta = _perturbation(model, n)
     prior = np.zeros(n)
     if n > 4:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
         bound = model.arm_friction.bristle_bound  # over its whole range weighs one count^2)
         prior[4] = 1.0 / bound**2
     torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
-    angles = _angles(model, x, torque, batch, substeps)
-    r, J = (batch.measured - angles) / count, _state_jacobian(model, x, angles, torque, batch, substeps, delta, count)
+    angles, J = _state_jacobian(model, x, torque, batch, substeps, count)
+    r = (batch.measured - angles) / count
     cost = np.nansum(r**2, axis=(0, 1))
     damping = np.full(W, LM_DAMPING)
     for step in range(GAUSS_NEWTON_STEPS):
@@ -309,9 +301,7 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         kept = np.flatnonzero(better)
         if kept.size and (sensitivities or step < GAUSS_NEWTON_STEPS - 1):
             J = J.copy()
-            J[:, :, kept] = _state_jacobian(
-                model, trial[:, kept], angles[:, :, kept], torque[:, kept], batch, substeps, delta, count
-            )
+            J[:, :, kept] = _state_jacobian(model, trial[:, kept], torque[:, kept], batch, substeps, count)[1]
         x, r = np.where(better, trial, x), np.where(better, r_trial, r)
         cost = np.where(better, cost_trial, cost)
         damping = np.where(better, damping / 3.0, np.maximum(damping * 10.0, 1.0))
@@ -322,10 +312,12 @@ def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.nda
     """``change`` (h, 2, W) of a log's residuals, or (h, 2, K, W) K changes of each window, minus its least-squares
     fit on the window's state sensitivities (h, 2, W, 4): what a change of the model's parameters does to the
     residuals once the initial states are re-projected (Kaufman's approximation of the variable-projection
-    Jacobian)."""
+    Jacobian). The normal matrix takes a ridge of 1e-9 of its mean diagonal: exact sensitivities can be exactly
+    degenerate (a stuck arm's velocities and bristle can move the angles along one direction only)."""
     h, _, W, n = state_jacobian.shape
     Jw = state_jacobian.transpose(2, 0, 1, 3).reshape(W, -1, n)
-    normal = np.einsum("wki,wkj->wij", Jw, Jw) + 1e-9 * np.eye(n)
+    gram = np.einsum("wki,wkj->wij", Jw, Jw)
+    normal = gram + 1e-9 * (np.einsum("wii->w", gram) / n + 1.0)[:, None, None] * np.eye(n)
     if change.ndim == 4:
         cw = change.transpose(3, 0, 1, 2).reshape(W, -1, change.shape[2])
         fitted = np.einsum("wki,wic->wkc", Jw, np.linalg.solve(normal, np.einsum("wki,wkc->wic", Jw, cw)))
@@ -334,6 +326,39 @@ def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.nda
     coef = np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, cw)[..., None])[..., 0]
     fitted = np.einsum("wki,wi->wk", Jw, coef)
     return change - fitted.reshape(W, h, 2).transpose(1, 2, 0)
+
+
+def parameter_slopes_of(
+    model: Model, shifted: list[Model], steps: list[float], windows: Windows, states: list[np.ndarray], counts: int
+) -> list[list[np.ndarray]]:
+    """Per model of ``shifted`` (``model`` with one parameter moved by its entry of ``steps``), per log the change
+    (horizon, 2, W) of :func:`fixed_state_residuals` [counts] per unit of that parameter, to first order: the
+    change of the packed parameters and of the input chain's arm torque by differences of those cheap mappings
+    (no integration), carried through the integration by its exact forward sensitivities, every parameter in one
+    surrogate pass per batch. Each shifted model takes the kernel's branches of ``model``
+    (:func:`~furuta_drake.effects.surrogate.same_branches`)."""
+    count = encoder_resolution(counts)
+    rows = np.stack([(flat(other) - flat(model)) / step for other, step in zip(shifted, steps)])
+    chain = tuple(getattr(model, name) for name in INPUT_CHAIN)
+    out = [[None] * len(windows.logs) for _ in shifted]
+    for batch in windows.batches():
+        x = np.concatenate([states[i] for i in batch.members], axis=1)
+        substeps = substeps_for(batch.period)
+
+        def torque_of(m, batch=batch, substeps=substeps):
+            return window_torques(m, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+
+        torque = torque_of(model)
+        torques = [
+            None if tuple(getattr(other, name) for name in INPUT_CHAIN) == chain else (torque_of(other) - torque) / step
+            for other, step in zip(shifted, steps)
+        ]
+        bristle0 = x[4] if x.shape[0] > 4 else None
+        slopes = parameter_sensitivities(model, x[:4], torque, batch.period, substeps, bristle0, rows, torques)[1]
+        for k in range(len(shifted)):
+            for j, i in enumerate(batch.members):
+                out[k][i] = -slopes[:, :, batch.bounds[j] : batch.bounds[j + 1], k] / count
+    return out
 
 
 def fixed_state_residuals(

@@ -80,8 +80,13 @@ class Selection:
 
     @property
     def step_models(self) -> list[FitResult]:
-        """The model after each accepted step: holding the first 1, 2, ... kept effects."""
-        return [self.model(self.accepted[:k]) for k in range(1, len(self.accepted) + 1)]
+        """The model after each accepted step: holding the first 1, 2, ... kept effects (where such a set's fit
+        failed, the step before's, or the final model for the first)."""
+        out = []
+        for k in range(1, len(self.accepted) + 1):
+            model = self.model(self.accepted[:k])
+            out.append(model if model is not None else (out[-1] if out else self.final))
+        return out
 
     @property
     def final(self) -> FitResult | None:
@@ -456,15 +461,26 @@ def _backward(
             others = [other for other in selection.accepted if other != name]
             model = selection.model(others) if others else None
             if others and model is None:
-                model = _refit_without(final, others, task, fit, nominal_gap)
+                model = _refit_subset(final, others, task, fit, nominal_gap)
             # (a model without it that failed to fit leaves the effect judged against the nominal model)
             reference = model.heldout.per_window if model else nominal_gap.per_window
             without[name] = bootstrap.evidence(reference, final.heldout.per_window)
         failing = null or [name for name in selection.accepted if not decide(without[name])]
         if not failing:
             break
-        selection.accepted.remove(min(failing, key=lambda name: without[name].lower_bound))
+        dropped = min(failing, key=lambda name: without[name].lower_bound)
+        selection.accepted.remove(dropped)
+        if (
+            selection.accepted
+            and selection.final is None
+            and not _refit_subset(final, selection.accepted, task, fit, nominal_gap)
+        ):
+            selection.accepted = [name for name in final.effects if name in selection.accepted or name == dropped]
+            break  # (the model without it failed to fit: it stays)
     selection.over_others = {name: without[name] for name in selection.accepted}
+    for k in range(1, len(selection.accepted)):  # the report's steps: every earlier set of the kept effects
+        if selection.model(selection.accepted[:k]) is None:
+            _refit_subset(selection.final, selection.accepted[:k], task, fit, nominal_gap)
     models = [nominal_gap] + [model.heldout for model in selection.step_models]
     selection.over_step = [
         bootstrap.evidence(before.per_window, after.per_window) for before, after in zip(models[:-1], models[1:])
@@ -472,10 +488,10 @@ def _backward(
     selection.confusable = [pair for pair in selection.confusable if pair["effects"][0] in selection.accepted]
 
 
-def _refit_without(final: FitResult, others: list[str], task: Callable, fit: Callable, nominal_gap) -> FitResult | None:
-    """The model holding ``others`` (the final model's effects but one) fitted together, every one started from its
-    value in ``final``; None when the fit failed."""
-    earlier = others[:-1]
+def _refit_subset(final: FitResult, names: list[str], task: Callable, fit: Callable, nominal_gap) -> FitResult | None:
+    """The model holding ``names`` (some of the final model's effects) fitted together, every one started from its
+    value in ``final``, recorded in the selection by ``fit``; None when the fit failed."""
+    earlier = names[:-1]
     held = FitResult(
         "+".join(earlier),
         {name: final.effects[name] for name in earlier},
@@ -483,8 +499,8 @@ def _refit_without(final: FitResult, others: list[str], task: Callable, fit: Cal
         None,
         samples={name: final.samples[name] for name in earlier if name in final.samples},
     )
-    tasks = [task(others[-1], held if earlier else None, start=final.effects[others[-1]])]
-    return next((r for r in fit(tasks, len(others), nominal_gap.per_window) if not r.failure), None)
+    tasks = [task(names[-1], held if earlier else None, start=final.effects[names[-1]])]
+    return next((r for r in fit(tasks, len(names), nominal_gap.per_window) if not r.failure), None)
 
 
 def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:

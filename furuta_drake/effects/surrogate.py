@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from furuta_drake.effects import surrogate_kernel as kernel
+from furuta_drake.effects import surrogate_tangent as tangent
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import RigParameters, encoder_resolution
 
@@ -273,13 +274,62 @@ def integrate_windows(
     return kernel.integrate(x, z, torque, period / substeps, substeps, *kernel.pack_rows(models))[0]
 
 
+def state_sensitivities(
+    model: Model, x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(the angles (horizon, 2, W) of :func:`integrate_windows` of ``model`` alone; their derivatives
+    (horizon, 2, W, n) in each window's initial theta, phi [rad], theta', phi' [rad/s] and, with ``bristle0``, the
+    arm's bristle z [rad] (n = 4 or 5)): the RK4's exact forward sensitivities
+    (:func:`~.surrogate_tangent.tangents`), in one pass."""
+    n = 4 if bristle0 is None else 5
+    return _tangents(model, x0, torque, period, substeps, bristle0, np.eye(n, tangent.STATE))
+
+
+def parameter_sensitivities(
+    model: Model, x0, torque, period: float, substeps: int, bristle0, rows: np.ndarray, torques: list
+) -> tuple[np.ndarray, np.ndarray]:
+    """(the angles (horizon, 2, W) of :func:`integrate_windows` of ``model`` alone; their derivatives
+    (horizon, 2, W, K) along K parameter directions from the same initial states): direction k changes the packed
+    parameters by ``rows[k]`` (:func:`~.surrogate_tangent.flat` of ``model``) and the arm torque by ``torques[k]``
+    (steps, W) [N m], or not where None; the RK4's exact forward sensitivities, in one pass."""
+    seeds = np.zeros((len(rows), tangent.STATE))
+    return _tangents(model, x0, torque, period, substeps, bristle0, seeds, rows, torques)
+
+
+def _tangents(model, x0, torque, period, substeps, bristle0, seeds, rows=None, torques=None):
+    """:func:`~.surrogate_tangent.tangents` of ``model`` from ``x0`` and ``bristle0`` (None: zero)."""
+    z = np.zeros(np.shape(x0)[1]) if bristle0 is None else bristle0
+    packed = kernel.pack(model)
+    return tangent.tangents(x0, z, torque, period / substeps, substeps, packed, seeds, rows, torques)
+
+
+def same_branches(model: Model, other: Model) -> bool:
+    """Whether the surrogate is differentiable along the way from ``model`` to ``other``: the kernel takes the same
+    branches for both (friction kinds, Stribeck curves, LuGre's bristle damping, the unmodelled terms' joints and
+    library terms, the input chain's forms) and no threshold dead zone's width differs (its torque jumps where the
+    width crosses a command)."""
+    rows, others = kernel.pack(model), kernel.pack(other)
+    for row, changed in zip(rows[1:3], others[1:3]):
+        if row[kernel.F_KIND] != changed[kernel.F_KIND] or row[kernel.F_STRIBECK] != changed[kernel.F_STRIBECK]:
+            return False
+        if (row[kernel.F_SIGMA1] == 0.0) != (changed[kernel.F_SIGMA1] == 0.0):
+            return False
+    if rows[3].shape != others[3].shape or not np.array_equal(rows[3][:, :2], others[3][:, :2]):
+        return False
+    forms = ("deadzone_form", "saturation_form")
+    if any(getattr(model, name) != getattr(other, name) for name in forms):
+        return False
+    return model.deadzone_form != "threshold" or model.deadzone == other.deadzone
+
+
 def load_kernel() -> None:
-    """Compile the kernel's functions for the argument types of :func:`predict_windows` in this process (or load
-    them from numba's cache), e.g. before worker processes are forked, which then inherit them instead of each
-    compiling or loading its own."""
+    """Compile the kernel's functions for the argument types of :func:`predict_windows` and
+    :func:`state_sensitivities` in this process (or load them from numba's cache), e.g. before worker processes
+    are forked, which then inherit them instead of each compiling or loading its own."""
     model = Model(
         1e-3, 1e-4, 5e-5, 1e-2, JointFrictionParameters.dahl(1e-3, 1e-3, sigma0=1.0), JointFrictionParameters()
     )
     command, starts = np.zeros(HISTORY + 8), np.array([HISTORY])
     bristle_path(command, model.arm_friction, 1e-3)
     predict_windows(model.replace(lag=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1, np.zeros(1))
+    state_sensitivities(model, np.zeros((4, 1)), np.zeros((2, 1)), 1e-3, 1, np.zeros(1))

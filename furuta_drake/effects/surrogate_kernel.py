@@ -268,14 +268,20 @@ _checked = njit(cache=True)(_integrate)
 _unchecked = _compiled_unchecked(_integrate)
 
 
+def divisor_is_zero(dt, substeps, arm, pendulum) -> bool:
+    """Whether a divisor among the step and the friction rows ``arm`` and ``pendulum`` (M, 11) is zero: then every
+    window runs checked."""
+    divisors = np.concatenate([arm[:, [F_VS, F_VREG, F_SIGMA0]].ravel(), pendulum[:, [F_VS, F_VREG]].ravel()])
+    return dt == 0.0 or substeps == 0 or bool(np.any(divisors == 0.0))
+
+
 def integrate(x0, z0, torque, dt, substeps, rigid, arm, pendulum, terms):
     """RK4 of every window (:func:`_integrate`) without the division checks, exactly as checked: a division by a
     zero state (the mass matrix' determinant, a LuGre Stribeck level) makes the window's states inf or nan, and
     those windows, or every window when a divisor among the parameters is zero, run again checked, which raises
     ZeroDivisionError where a division by zero happens and otherwise gives the same numbers."""
     rows = (rigid, arm, pendulum, terms)
-    divisors = np.concatenate([arm[:, [F_VS, F_VREG, F_SIGMA0]].ravel(), pendulum[:, [F_VS, F_VREG]].ravel()])
-    if dt == 0.0 or substeps == 0 or np.any(divisors == 0.0):
+    if divisor_is_zero(dt, substeps, arm, pendulum):
         return _checked(x0, z0, torque, dt, substeps, *rows)
     out, final, final_z = _unchecked(x0, z0, torque, dt, substeps, *rows)
     finite = np.isfinite(out).all(axis=(0, 1)) & np.isfinite(final).all(axis=0) & np.isfinite(final_z)

@@ -173,6 +173,48 @@ def _rate_term(form, v):
     return math.tanh(v / SATURATION_VELOCITY)
 
 
+@njit(cache=True, inline="always")
+def _rate_slope(form, v):
+    """d/dv of :func:`_rate_term`."""
+    if form == 0:
+        t = math.tanh(v / SIGN_VELOCITY)
+        return (1.0 - t * t) / SIGN_VELOCITY
+    if form == 1:
+        return 1.0
+    if form == 2:
+        return 2.0 * abs(v)
+    t = math.tanh(v / SATURATION_VELOCITY)
+    return (1.0 - t * t) / SATURATION_VELOCITY
+
+
+@njit(cache=True)
+def term_slopes(index, theta, phi, theta_dot, phi_dot):
+    """The partial derivatives (d/dtheta, d/dphi, d/dtheta_dot, d/dphi_dot) of :func:`term_value` at one state
+    (the surrogate's tangent kernel)."""
+    if index == 0:
+        return 0.0, 0.0, 0.0, 0.0
+    if index <= HARMONICS:
+        return 0.0, index * math.cos(index * phi), 0.0, 0.0
+    if index <= 2 * HARMONICS:
+        k = index - HARMONICS
+        return 0.0, -k * math.sin(k * phi), 0.0, 0.0
+    if index == 2 * HARMONICS + 1:
+        return math.cos(theta), 0.0, 0.0, 0.0
+    if index == 2 * HARMONICS + 2:
+        return -math.sin(theta), 0.0, 0.0, 0.0
+    rate = (index - _FIRST_RATE) if index < _FIRST_PRODUCT else (index - _FIRST_PRODUCT) // 2
+    v = phi_dot if rate < 4 else theta_dot
+    slope = _rate_slope(rate % 4, v)
+    d_phi = 0.0
+    if index >= _FIRST_PRODUCT:
+        value = _rate_term(rate % 4, v)
+        if (index - _FIRST_PRODUCT) % 2 == 0:
+            slope, d_phi = slope * math.sin(phi), value * math.cos(phi)
+        else:
+            slope, d_phi = slope * math.cos(phi), -value * math.sin(phi)
+    return (0.0, d_phi, 0.0, slope) if rate < 4 else (0.0, d_phi, slope, 0.0)
+
+
 @njit(cache=True)
 def term_value(index, theta, phi, theta_dot, phi_dot):
     """Term ``index`` of :data:`TERMS` at one state (the kernel's copy of the expressions)."""

@@ -1,0 +1,137 @@
+"""Speed of the diagnosis' Jacobians from the exact forward sensitivities against finite differences.
+
+QUBE-Servo 2 windows of the diagnosis' horizon from a log of the surrogate itself (hanging under a multisine at
+500 Hz, two RK4 substeps per sample), the arm with Dahl friction, the model holding a spring, a fixed input delay
+and the lumped constants' scales besides (nine fitted parameters). Timed in this process, on the same windows:
+
+1. the state Jacobian of the Levenberg-Marquardt refinement (``gap._state_jacobian``): the tangent kernel's one
+   pass against the forward differences it replaced (one surrogate call of the five perturbed copies of every
+   window, the steps the diagnosis used), and their largest difference relative to the Jacobian's size;
+2. one model evaluation (``gap.projected_residuals``: three Levenberg-Marquardt steps on every window, with the
+   state sensitivities at the end), with either state Jacobian;
+3. the fit's parameter Jacobian (``fit._columns``): exact columns against every column differenced (one
+   surrogate call of all nine shifted models, as before), and their largest difference relative to each column.
+
+Each time is the best of ``REPEATS`` runs after a first that compiles or loads the kernels. On a shared machine
+the times are indicative only. Run from the repository root: ``PYTHONPATH=. python benchmarks/sensitivity_speed.py``.
+"""
+
+from __future__ import annotations
+
+import time
+from unittest import mock
+
+import numpy as np
+
+from furuta_drake.diagnosis import fit, gap
+from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.effects.surrogate import HISTORY, Model, integrate_windows, predict_windows
+from furuta_drake.effects.vocabulary import Effect, apply_effects
+from furuta_drake.rig import encoder_resolution, qube_servo2_rig
+
+PERIOD, DURATION, WINDOWS, REPEATS = 2e-3, 20.0, 300, 3
+EFFECTS = {
+    "arm_coulomb_friction": Effect("presliding", (2e-3, 3e-3)),
+    "input_delay": Effect("fixed", (3.3e-3,)),
+    "arm_spring": Effect("linear", (0.01, 0.1)),
+    "inertia_mismatch": Effect("", (1.05, 0.95, 1.02, 0.98)),
+}
+STATE_STEPS = np.array([1e-4, 1e-4, 1e-3, 1e-3])  # the forward differences' steps [rad, rad, rad/s, rad/s]
+
+
+def _log(model: Model) -> RunLog:
+    rng = np.random.default_rng(0)
+    time_ = np.arange(int(DURATION / PERIOD)) * PERIOD
+    frequencies, phases = rng.uniform(0.5, 6.0, 6), rng.uniform(0, 2 * np.pi, 6)
+    command = 0.25 * model.gravity_torque * np.sin(2 * np.pi * frequencies * time_[:, None] + phases).sum(axis=1)
+    padded = np.concatenate([np.zeros(HISTORY), command])
+    x0 = np.array([[np.pi - 0.3], [0.0], [0.0], [0.0]])
+    angles = predict_windows(model, x0, padded, np.array([HISTORY]), time_.size, PERIOD, 2, np.zeros(1))[:, :, 0]
+    count = 2 * np.pi / model.counts_per_rev
+    theta, phi = np.round(angles.T / count) * count
+    return RunLog("hanging.csv", "", time_, theta, phi, "torque", command, PERIOD)
+
+
+def differenced_state_jacobian(model, x, torque, batch, substeps: int, count: float):
+    """The state Jacobian by forward differences, as the diagnosis took it before: (angles, (h, 2, k, n))."""
+    n, k = x.shape
+    delta = STATE_STEPS if n == 4 else np.append(STATE_STEPS, 0.05 * model.arm_friction.bristle_bound)
+    bristles = x[4] if n > 4 else None
+    angles = integrate_windows([model], x[:4], torque, batch.period, substeps, bristles)
+    points = np.concatenate([x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
+    predicted = integrate_windows(
+        [model], points[:4], np.tile(torque, (1, n)), batch.period, substeps, points[4] if n > 4 else None
+    )
+    columns = [(predicted[:, :, i * k : (i + 1) * k] - angles) / delta[i] / count for i in range(n)]
+    return angles, np.stack(columns, axis=-1)
+
+
+def _best(function) -> tuple[float, object]:
+    """(best wall time [s] of ``REPEATS`` runs after a first, the last result)."""
+    result = function()
+    seconds = []
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        result = function()
+        seconds.append(time.perf_counter() - start)
+    return min(seconds), result
+
+
+def _relative(a: np.ndarray, b: np.ndarray, axis) -> float:
+    """The largest difference of ``a`` from ``b`` relative to each column's largest entry of ``b``."""
+    return float(np.max(np.max(np.abs(a - b), axis=axis) / np.maximum(np.max(np.abs(b), axis=axis), 1e-300)))
+
+
+def _row(label: str, exact: float, differenced: float, difference: float | None = None) -> None:
+    shown = "" if difference is None else f"{difference:.1e}"
+    print(f"| {label} | {exact * 1e3:.1f} | {differenced * 1e3:.1f} | {differenced / exact:.1f}x | {shown} |")
+
+
+def main() -> None:
+    rig = qube_servo2_rig()
+    counts = rig.counts_per_rev
+    sizes = [len(effect.values) for effect in EFFECTS.values()]
+    x = np.concatenate([effect.values for effect in EFFECTS.values()])
+
+    def model_at(values):
+        parts = np.split(np.asarray(values), np.cumsum(sizes)[:-1])
+        named = {name: Effect(effect.form, tuple(part)) for (name, effect), part in zip(EFFECTS.items(), parts)}
+        return apply_effects(Model.from_rig(rig), named)
+
+    model = model_at(x)
+    windows = gap.make_windows([_log(model)], rig).subset(WINDOWS)
+    batch = windows.batches()[0]
+    substeps = gap.substeps_for(batch.period)
+    count = encoder_resolution(counts)
+    torque = gap.window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    states = gap.projected_residuals(model, windows, counts)[1][0]
+    print(
+        f"{windows.count} windows of {batch.horizon} samples at {PERIOD * 1e3:g} ms ({substeps} substeps), Dahl arm, "
+        f"{x.size} fitted parameters; best of {REPEATS} [ms], indicative (shared machine)\n"
+    )
+    print("| Jacobian | exact [ms] | finite differences [ms] | ratio | largest difference (relative) |")
+    print("|---|---:|---:|---:|---:|")
+    exact_s, (_, exact) = _best(lambda: gap._state_jacobian(model, states, torque, batch, substeps, count))
+    differenced_s, (_, differenced) = _best(
+        lambda: differenced_state_jacobian(model, states, torque, batch, substeps, count)
+    )
+    _row("state (5 directions)", exact_s, differenced_s, _relative(differenced, exact, axis=(0, 1)))
+    with mock.patch.object(gap, "_state_jacobian", differenced_state_jacobian):
+        old_s, _ = _best(lambda: gap.projected_residuals(model, windows, counts))
+    new_s, _ = _best(lambda: gap.projected_residuals(model, windows, counts))
+    _row("model evaluation (3 LM steps)", new_s, old_s)
+    last = dict(zip(("raw", "states", "state_jacobians"), gap.projected_residuals(model, windows, counts)))
+    span = np.maximum(np.abs(x), 1e-3)
+    high = x + span
+
+    def columns():
+        return np.stack(fit._columns(model_at, x, windows, last, counts, span, high))
+
+    exact_s, exact = _best(columns)
+    with mock.patch.object(fit, "same_branches", lambda model, other: False):
+        differenced_s, differenced = _best(columns)
+    _row(f"parameters ({x.size} columns)", exact_s, differenced_s, _relative(differenced, exact, axis=(1, 2, 3, 4)))
+
+
+if __name__ == "__main__":
+    main()
