@@ -13,11 +13,13 @@ import pytest
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
 from furuta_drake.errors import ConfigError
-from furuta_drake.rig import RIGS, MotorParameters, RigParameters, lund_rig
+from furuta_drake.rig import RIGS, DriveParameters, MotorParameters, RigParameters, lund_rig
 from furuta_drake.rig_file import load_rig, rig_check, rig_template
 
 RIG_KEYS = [f.name for f in dataclasses.fields(RigParameters) if f.metadata.get("required")]
 MOTOR_KEYS = [f.name for f in dataclasses.fields(MotorParameters)]
+DRIVE_KEYS = [f.name for f in dataclasses.fields(DriveParameters)]
+SECTION_REQUIRED = MOTOR_KEYS + [f.name for f in dataclasses.fields(DriveParameters) if f.metadata.get("required")]
 
 
 def test_the_required_keys_are_those_the_rig_file_format_does_not_mark_optional():
@@ -33,6 +35,7 @@ def test_the_required_keys_are_those_the_rig_file_format_does_not_mark_optional(
         "torque_limit",
     ]
     assert all(f.metadata.get("required") for f in dataclasses.fields(MotorParameters))
+    assert SECTION_REQUIRED[len(MOTOR_KEYS) :] == ["gear_ratio", "rotor_inertia"]
 
 
 def without_key(text: str, key: str) -> str:
@@ -42,17 +45,18 @@ def without_key(text: str, key: str) -> str:
     return "\n".join(kept) + "\n"
 
 
-@pytest.mark.parametrize("key", RIG_KEYS + MOTOR_KEYS)
+@pytest.mark.parametrize("key", RIG_KEYS + SECTION_REQUIRED)
 def test_a_missing_required_key_exits_2_naming_the_key_and_the_file(key, tmp_path, capsys):
     path = tmp_path / "my_rig.yaml"
-    path.write_text(without_key(rig_template(RIGS["qube_servo2"](), "test"), key))
+    path.write_text(without_key(rig_template(RIGS["geared"](), "test"), key))
     assert main(["rig", "--check", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
-    # A rig key is missing from the file; a motor key from the motor block, located at its line.
-    where = re.escape(f"{path}: ") if key in RIG_KEYS else re.escape(f"{path}:") + r"\d+: motor: "
+    # A rig key is missing from the file; a motor or drive key from its block, located at the block's line.
+    section, schema = ("motor", MotorParameters) if key in MOTOR_KEYS else ("drive", DriveParameters)
+    where = re.escape(f"{path}: ") if key in RIG_KEYS else re.escape(f"{path}:") + rf"\d+: {section}: "
     assert re.match(f"furuta-drake rig: error: {where}missing required key '{key}' ", err[0]), err[0]
-    unit = dataclasses.fields(RigParameters if key in RIG_KEYS else MotorParameters)
+    unit = dataclasses.fields(RigParameters if key in RIG_KEYS else schema)
     assert next(f for f in unit if f.name == key).metadata["unit"] in err[0]
 
 
@@ -76,9 +80,10 @@ def test_the_template_round_trips_to_the_shipped_rig(name, tmp_path, capsys):
         re.match(r"\s*(?:# )?(\w+): ", block.splitlines()[-1]).group(1): block
         for block in path.read_text().strip().split("\n\n")[1:]
     }
-    assert set(paragraphs) == ({f.name for f in dataclasses.fields(RigParameters)} - {"motor"}) | set(MOTOR_KEYS)
+    sections = set(MOTOR_KEYS) | set(DRIVE_KEYS)
+    assert set(paragraphs) == ({f.name for f in dataclasses.fields(RigParameters)} - {"motor", "drive"}) | sections
     for key, block in paragraphs.items():
-        assert "How:" in block and ("; required." in block) == (key in RIG_KEYS + MOTOR_KEYS), block
+        assert "How:" in block and ("; required." in block) == (key in RIG_KEYS + SECTION_REQUIRED), block
 
 
 def test_check_gives_the_lund_rig_constants():

@@ -75,15 +75,18 @@ class PreslidingPlant:
 def presliding_plant(config: SimulationConfig) -> PreslidingPlant:
     """Drake's ``Linearize`` at the upright of ``config``'s world (:func:`furuta_drake.world.add_furuta_world`)
     with its bristle friction (Dahl/LuGre joints; static Coulomb friction has no linearization at rest and is
-    left out) and the rig's back-EMF, permuted to paper order. The actuator chain, spring and cogging are left
-    out."""
+    left out) and the rig's back-EMF, permuted to paper order. The actuator chain, spring, cogging and a drive's
+    backlash and elasticity are left out."""
     keep = {
         joint: p if p.has_bristles else JointFrictionParameters()
         for joint, p in (("arm", config.friction.arm), ("pendulum", config.friction.pendulum))
     }
     builder = DiagramBuilder()
     world = add_furuta_world(
-        builder, rig=config.rig, friction=FrictionParameters(**keep), control_period=config.control_period
+        builder,
+        rig=config.rig.with_rigid_drive(),
+        friction=FrictionParameters(**keep),
+        control_period=config.control_period,
     )
     builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
     diagram = builder.Build()
