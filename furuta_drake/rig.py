@@ -142,7 +142,7 @@ class DriveParameters:
             _require_positive(self.stiffness, f"{where}.stiffness")
         _require_nonnegative(self.damping, f"{where}.damping")
         if self.damping > 0 and self.stiffness is None:
-            raise ConfigError(f"{where}.damping needs {where}.stiffness: a rigid drive has no spring to damp")
+            raise ConfigError(f"{where}.damping needs a stiffness: a rigid drive has no spring to damp")
 
     @property
     def reflected_inertia(self) -> float:
