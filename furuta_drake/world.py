@@ -146,21 +146,34 @@ def add_furuta_world(
     )
     rotor, encoder_state = None, true_state
     if dynamic_drive:
-        drive = add_drive(
-            builder,
-            rig.drive,
-            arm_inertia=rig.arm_inertia_total - rig.rotor_inertia_reflected,
-            rotor_damping=back_emf_damping,
-            motor_torque=actuator_output,
-            true_state=true_state,
-        )
-        actuator_output, rotor = drive.coupling_torque, drive.rotor
-        if rig.drive.encoder == "motor":
-            encoder_state = _motor_encoder_state(builder, true_state, drive.rotor_state)
+        actuator_output, rotor, encoder_state = _add_drive(builder, rig, back_emf_damping, actuator_output, true_state)
     builder.Connect(actuator_output, plant.get_actuation_input_port())
     return FurutaWorld(
         plant, scene_graph, joint_friction, true_state, actuator_input, friction_torque, encoder_state, rotor, P
     )
+
+
+def _add_drive(
+    builder: DiagramBuilder,
+    rig: RigParameters,
+    back_emf_damping: float,
+    motor_torque: OutputPort,
+    true_state: OutputPort,
+) -> tuple[OutputPort, LinearSystem, OutputPort]:
+    """``rig.drive`` (:func:`~furuta_drake.drive.add_drive`) between ``motor_torque`` and the arm, the back-EMF on its
+    rotor: (the torque on the arm [N m], the rotor, the state the encoders read)."""
+    drive = add_drive(
+        builder,
+        rig.drive,
+        arm_inertia=rig.arm_inertia_total - rig.rotor_inertia_reflected,
+        rotor_damping=back_emf_damping,
+        motor_torque=motor_torque,
+        true_state=true_state,
+    )
+    encoder_state = true_state
+    if rig.drive.encoder == "motor":
+        encoder_state = _motor_encoder_state(builder, true_state, drive.rotor_state)
+    return drive.coupling_torque, drive.rotor, encoder_state
 
 
 def _motor_encoder_state(builder: DiagramBuilder, true_state: OutputPort, rotor_state: OutputPort) -> OutputPort:
