@@ -1,7 +1,8 @@
 """The drive between a geared motor and the arm in the Drake world, against the mechanics of two inertias: an elastic
 coupling rings at sqrt(k (1/J + 1/J_arm)) with the damping ratio c / (2 sqrt(k mu)) and conserves the pair's
 momentum; backlash lets the rotor travel 2 b before the arm follows a reversal; the back-EMF brakes the rotor to
-u / d; a rigid drive adds J_m N^2 to the arm; the arm's encoder on the motor reads the rotor."""
+u / d; a rigid drive adds J_m N^2 to the arm; the arm's encoder on the motor reads the rotor; the corrected model
+keeps the drive."""
 
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, Sine
 
 from furuta_drake.drive import Coupling
+from furuta_drake.effects.corrected import model_config, model_rig
+from furuta_drake.effects.surrogate import Model
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.plant import make_furuta_plant
 from furuta_drake.rig import DriveParameters, MotorParameters, geared_rig
@@ -148,3 +151,15 @@ def test_the_arm_encoder_on_the_motor_reads_the_rotor():
     rotor = world.drive.GetMyMutableContextFromRoot(context).get_mutable_continuous_state_vector()
     rotor.SetFromVector([0.415, 2.5])  # turned 15 mrad past the arm, within the play
     assert diagram.GetOutputPort("encoder_state").Eval(context) == pytest.approx([0.1, 0.415, -1.0, 2.5])
+
+
+def test_the_corrected_model_keeps_the_drive_its_rotor_scaled_with_the_arm():
+    """A fitted arm inertia 1.2 times the rig file's: the arm and the rotor it turns keep their shares of it."""
+    rig = geared_rig()
+    model = Model.from_rig(rig).replace(arm_inertia_total=1.2 * rig.arm_inertia_total)
+    corrected = model_rig(model, rig)
+    assert corrected.arm_inertia_total == pytest.approx(1.2 * rig.arm_inertia_total, rel=1e-12)
+    assert corrected.drive.rotor_inertia == pytest.approx(1.2e-6, rel=1e-12)
+    tip = rig.pendulum_mass * rig.arm_length**2  # the pendulum's mass at the arm's tip, kept
+    assert corrected.arm_inertia == pytest.approx(1.2 * (ARM_INERTIA + tip) - tip, rel=1e-9)
+    assert model_config(rig, model).rig.drive == corrected.drive
