@@ -937,7 +937,7 @@ def write_rig_file(rig: Rig, path: Path, encoder: str = "arm") -> None:
         )
     )
     params = RigParameters(
-        arm_inertia=bd.arm_inertia - rig.rotor_inertia * rig.gear_ratio**2,
+        arm_inertia=float(f"{bd.arm_inertia - rig.rotor_inertia * rig.gear_ratio**2:.12g}"),  # the rotor stated apart
         arm_length=bd.arm_length,
         pendulum_mass=bd.pendulum_mass,
         pendulum_com=bd.pendulum_com,

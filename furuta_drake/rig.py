@@ -111,8 +111,8 @@ class DriveParameters:
         0.0,
         "half-width of the drive's free play, arm side: the arm turns freely within +-backlash of the rotor",
         "rad",
-        measure="hold the motor shaft (a locked gearmotor) and rock the arm by hand between the two flanks: half the "
-        "arm's free travel; 0 lets the diagnosis find it",
+        measure="hold the motor shaft (a gearmotor at rest holds itself) and rock the arm by hand between the two "
+        "flanks: half the arm's free travel",
     )
     stiffness: float | None = documented_field(
         None,
