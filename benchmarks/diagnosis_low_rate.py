@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.suite import VOCABULARY, CaseSpec, verdict_is_right, with_effect
+from benchmarks.suite import SUITE_RIGS, VOCABULARY, CaseSpec, verdict_is_right, with_effect
 from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
 from furuta_drake.diagnosis.log_writers import write_log
 from furuta_drake.rig import RIGS, RigParameters
@@ -121,7 +121,7 @@ def cases(rigs: list[str], effects: list[str], levels: list[int]) -> list[CaseSp
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
-    parser.add_argument("--rigs", nargs="+", default=list(RIGS), choices=list(RIGS))
+    parser.add_argument("--rigs", nargs="+", default=list(SUITE_RIGS), choices=list(SUITE_RIGS))
     parser.add_argument("--effects", nargs="+", default=["none", *VOCABULARY])
     parser.add_argument("--levels", nargs="+", type=int, default=[1, 2])
     parser.add_argument("--rates", nargs="+", default=list(RATES), choices=list(RATES))

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.suite import OUTSIDE_VOCABULARY, VOCABULARY, run_configs, with_effect
+from benchmarks.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
 from furuta_drake.errors import SimulationDiverged
@@ -37,7 +37,7 @@ from furuta_drake.yamlio import dump_yaml_dataclass
 def draw_case(rng: np.random.Generator) -> dict:
     effects = list(rng.choice(VOCABULARY + (OUTSIDE_VOCABULARY,), size=rng.integers(0, 4), replace=False))
     return {
-        "rig": str(rng.choice(sorted(RIGS))),
+        "rig": str(rng.choice(SUITE_RIGS)),
         "effects": effects,
         "levels": [float(v) for v in rng.uniform(0.2, 3.0, len(effects))],
         "seed": int(rng.integers(0, 10_000)),

@@ -5,9 +5,9 @@ Nothing of furuta_drake's physics, surrogate, friction, actuator or simulation c
 motion are derived here from the rigid bodies, the effects are realised in forms the package does not use
 (Karnopp stick-slip, tanh or banded-sign Coulomb friction, a static Stribeck curve, an integer-sample FIFO
 delay, an armature inductance or a discrete filter as the lag, two dead-zone and two saturation forms, a linear
-or a cubic cable spring, cogging, gear backlash), and the runs are integrated with ``scipy.integrate.solve_ivp``
-between samples with the command held. furuta_drake is imported only to write the nominal rig file
-(:func:`write_rig_file`) and, in ``--check``, to compare the linearisation with the package's.
+or a cubic cable spring, cogging, a drive's gear backlash and elastic coupling), and the runs are integrated with
+``scipy.integrate.solve_ivp`` between samples with the command held. furuta_drake is imported only to write the
+nominal rig file (:func:`write_rig_file`) and, in ``--check``, to compare the linearisation with the package's.
 
 Equations of motion (generalised coordinates q = [theta, phi]; theta the pendulum angle, 0 upright; phi the arm
 angle about the vertical axis). The arm is a rotor of inertia J; the pendulum's joint is at distance r from the
@@ -25,6 +25,13 @@ c = m l r and d = m g l the Lagrangian gives
 
 with s = sin(theta), co = cos(theta), tau_theta and tau_phi the other generalised torques (friction, drive,
 spring, cogging).
+
+A drive with backlash or elasticity adds a rotor on the arm's axis, counted on the arm side (its angle psi the
+motor's over the gear ratio, its inertia J_r the rotor's times the ratio squared, taken out of the arm's J): the
+actuator turns the rotor, J_r psi_ddot = tau_drive - tau_c, and the arm receives tau_c, a spring of stiffness k and
+damping c on the twist psi - phi beyond the gear's play +-b (no torque within it):
+tau_c = k (psi - phi - b sign(psi - phi)) + c (psi_dot - phi_dot), the damper acting while the teeth touch. A motor's
+back-EMF brakes the rotor. A motor-side encoder reads psi as the arm's angle.
 
 Sign conventions (checked in ``--check``): at the upright a positive arm torque gives theta_ddot = -c tau / det < 0;
 hanging (cos(theta) = -1) it gives theta_ddot = +c tau / det > 0, so accelerating the arm towards +phi swings the
@@ -108,7 +115,9 @@ class Motor:
 
 @dataclass(frozen=True)
 class Rig:
-    """A nominal rig: bodies, encoder, control period, command limit; ``motor``: the command is a voltage."""
+    """A nominal rig: bodies, encoder, control period, command limit; ``motor``: the command is a voltage;
+    ``gear_ratio`` and ``rotor_inertia``: a gearmotor whose rotor (inertia on the motor side) the bodies' arm
+    inertia includes, times the ratio squared."""
 
     name: str
     bodies: Bodies
@@ -116,6 +125,13 @@ class Rig:
     sample_period: float  # [s]
     torque_limit: float  # [N m]
     motor: Motor | None = None
+    gear_ratio: float = 1.0  # motor turns per arm turn
+    rotor_inertia: float = 0.0  # [kg m^2] motor side; 0: no drive stated
+
+    @property
+    def rotor_share(self) -> float:
+        """The geared rotor's part of the arm inertia, J_m N^2 / J [-]."""
+        return self.rotor_inertia * self.gear_ratio**2 / self.bodies.arm_inertia
 
     @property
     def command_limit(self) -> float:
@@ -154,7 +170,32 @@ def qube_like() -> Rig:
     )
 
 
-RIGS = {"lund": lund_like, "qube": qube_like}
+def geared_like() -> Rig:
+    """A lab-built rig: a 12 V DC motor through a 30:1 gearbox (rotor 1e-6 kg m^2, so 9e-4 kg m^2 at the arm;
+    kt = ke = 0.3 at the arm, R 2.2 ohm), an aluminium arm of 40 g and 0.15 m turned at one end (3.2e-4 kg m^2 with
+    its hub), a 30 g rod pendulum 0.25 m long, 2400-count encoders, logged at 100 Hz: voltage logs."""
+    motor = Motor(resistance=2.2, torque_constant=0.3, backemf_constant=0.3)
+    rotor, ratio, rod_mass, rod_length = 1e-6, 30.0, 0.03, 0.25
+    bodies = Bodies(
+        arm_inertia=3.2e-4 + rotor * ratio**2,
+        arm_length=0.15,
+        pendulum_mass=rod_mass,
+        pendulum_com=rod_length / 2,
+        pendulum_inertia=rod_mass * rod_length**2 / 12,
+    )
+    return Rig(
+        "geared",
+        bodies,
+        counts_per_rev=2400,
+        sample_period=0.01,
+        torque_limit=12.0 * motor.torque_per_volt,
+        motor=motor,
+        gear_ratio=ratio,
+        rotor_inertia=rotor,
+    )
+
+
+RIGS = {"lund": lund_like, "qube": qube_like, "geared": geared_like}
 
 
 @dataclass(frozen=True)
@@ -208,12 +249,23 @@ class ArmFriction:
 @dataclass(frozen=True)
 class Backlash:
     """A gear between the rotor and the arm with a free play of +-``half_gap`` [rad]: the rotor (``rotor_share``
-    of the arm inertia) drives the arm only in contact, through a stiff damped tooth contact."""
+    of the arm inertia) drives the arm only in contact, through a stiff damped tooth contact (or, beside a
+    :class:`Belt`, through the belt)."""
 
     half_gap: float  # [rad]
     rotor_share: float  # rotor inertia / (arm + rotor) inertia [-]
     contact_frequency: float = 150.0  # rotor natural frequency on the tooth contact [Hz]
     contact_damping: float = 0.3  # damping ratio of the contact [-]
+
+
+@dataclass(frozen=True)
+class Belt:
+    """An elastic coupling (a belt, a long shaft) between the rotor (``rotor_share`` of the arm inertia) and the
+    arm: a spring of ``stiffness`` [N m/rad] and a damper of ``damping`` [N m s/rad] on their twist."""
+
+    stiffness: float  # [N m/rad]
+    damping: float  # [N m s/rad]
+    rotor_share: float  # rotor inertia / (arm + rotor) inertia [-]
 
 
 @dataclass(frozen=True)
@@ -252,6 +304,8 @@ class World:
     cogging_amplitude: float = 0.0  # [N m]
     cogging_periods: int = 0  # per revolution
     backlash: Backlash | None = None
+    belt: Belt | None = None
+    encoder_on_rotor: bool = False  # the arm's encoder is the motor's: it reads the rotor (needs a backlash or belt)
     encoder_offset: tuple[float, float] = (0.0, 0.0)  # [theta, phi] read minus true angle [rad]: zeroed off
     drag: float = 0.0  # quadratic arm drag: -drag |phi_dot| phi_dot [N m s^2/rad^2]
     tilt_torque: float = 0.0  # a tilted base's gravity on the arm: -tilt_torque sin(phi - tilt_direction) [N m]
@@ -288,13 +342,18 @@ class World:
     def extra_states(self) -> int:
         """Number of states beyond [theta, phi, theta_dot, phi_dot]: actuator torque or current, rotor angle and
         velocity."""
-        return int(self.actuator_state) + 2 * (self.backlash is not None)
+        return int(self.actuator_state) + 2 * self.rotor
+
+    @property
+    def rotor(self) -> bool:
+        """Whether the drive's rotor is a body of its own (backlash or a belt)."""
+        return self.backlash is not None or self.belt is not None
 
     @property
     def stiff(self) -> bool:
-        """Whether the ODE needs an implicit-capable method (sharp smooth friction, the tooth contact)."""
+        """Whether the ODE needs an implicit-capable method (sharp smooth friction, the tooth contact, a belt)."""
         sharp = self.arm_friction is not None and not self.arm_friction.hybrid
-        return sharp or self.backlash is not None or self.pendulum_coulomb > 0
+        return sharp or self.rotor or self.pendulum_coulomb > 0
 
 
 # --- command chain --------------------------------------------------------------------------------------------
@@ -399,14 +458,23 @@ class Plant:
         self.bodies = world.true_bodies
         self.motor = world.motor
         self.actuator = 4 if world.actuator_state else None
-        self.rotor = 4 + world.actuator_state if world.backlash is not None else None
-        if world.backlash is not None:
-            bl = world.backlash
-            self.rotor_inertia = bl.rotor_share * world.true_bodies.arm_inertia
+        self.rotor = 4 + world.actuator_state if world.rotor else None
+        if world.encoder_on_rotor and not world.rotor:
+            raise ValueError("a motor-side encoder reads a rotor of its own: give the world a backlash or a belt")
+        if world.rotor:
+            bl, belt = world.backlash, world.belt
+            share = belt.rotor_share if belt is not None else bl.rotor_share
+            if bl is not None and belt is not None and bl.rotor_share != belt.rotor_share:
+                raise ValueError("the backlash and the belt turn one rotor: give them the same rotor_share")
+            self.rotor_inertia = share * world.true_bodies.arm_inertia
             self.bodies = dataclasses.replace(self.bodies, arm_inertia=self.bodies.arm_inertia - self.rotor_inertia)
-            omega = 2 * math.pi * bl.contact_frequency
-            self.contact_stiffness = self.rotor_inertia * omega**2
-            self.contact_damping = 2 * bl.contact_damping * self.rotor_inertia * omega
+            self.gap = 0.0 if bl is None else bl.half_gap
+            if belt is not None:
+                self.contact_stiffness, self.contact_damping = belt.stiffness, belt.damping
+            else:
+                omega = 2 * math.pi * bl.contact_frequency
+                self.contact_stiffness = self.rotor_inertia * omega**2
+                self.contact_damping = 2 * bl.contact_damping * self.rotor_inertia * omega
 
     def initial(self, theta: float, phi: float = 0.0) -> np.ndarray:
         x = np.zeros(4 + self.world.extra_states)
@@ -433,14 +501,18 @@ class Plant:
         return (u - m.resistance * x[self.actuator] - m.backemf_constant * speed) / m.inductance
 
     def contact_torque(self, x) -> float:
-        """Torque [N m] the rotor puts on the arm through the gear's play."""
-        gap = self.world.backlash.half_gap
+        """Torque [N m] the rotor puts on the arm through the gear's play and the belt."""
+        gap = self.gap
         twist = x[self.rotor] - x[1]
-        if abs(twist) <= gap:
+        if gap > 0 and abs(twist) <= gap:
             return 0.0
         return self.contact_stiffness * (twist - math.copysign(gap, twist)) + self.contact_damping * (
             x[self.rotor + 1] - x[3]
         )
+
+    def sensed(self, x) -> np.ndarray:
+        """The angles the encoders read [rad]: [theta, phi], or [theta, psi] with the arm's encoder on the motor."""
+        return np.array([x[0], x[self.rotor] if self.world.encoder_on_rotor else x[1]])
 
     def pendulum_torque(self, theta_dot: float) -> float:
         w = self.world
@@ -703,9 +775,11 @@ def square_reference(times: np.ndarray, amplitude: float, period: float) -> np.n
 @dataclass(frozen=True)
 class RunSpec:
     """One run: ``balance`` (discrete LQR with a multisine and an arm square-wave reference), ``hanging``
-    (open-loop multisine; excitation RMS as a fraction of m g l, torque-equivalent), or a designed experiment
-    (:func:`play`): ``played`` (a given open-loop command from rest hanging) or ``played_balance`` (a given
-    dither added to a given state feedback, from rest upright)."""
+    (open-loop multisine; excitation RMS as a fraction of m g l, torque-equivalent), ``step`` and ``square`` (open
+    loop from rest hanging: the command steps to ``level`` times the command limit at STEP_AT, or switches between
+    +-``level`` times it every half ``square_period``, the identification runs a lab records with a gearmotor), or
+    a designed experiment (:func:`play`): ``played`` (a given open-loop command from rest hanging) or
+    ``played_balance`` (a given dither added to a given state feedback, from rest upright)."""
 
     kind: str
     duration: float = 8.0  # [s]
@@ -717,6 +791,11 @@ class RunSpec:
     reference_period: float = 2.5  # [s]
     fade_in: float = 0.0  # [s]
     start: float | None = None  # [rad] the pendulum's initial angle (None: the kind's)
+    level: float = 0.3  # [command limit] of a step or square run
+    square_period: float = 1.0  # [s]
+
+
+STEP_AT = 0.5  # [s] a step run's command steps here
 
 
 def balance_run(duration: float, seed: int) -> RunSpec:
@@ -725,6 +804,13 @@ def balance_run(duration: float, seed: int) -> RunSpec:
 
 def hanging_run(duration: float, seed: int) -> RunSpec:
     return RunSpec("hanging", duration, seed, excitation_rms=0.25, f_max=5.0, fade_in=2.0)
+
+
+def step_command(run: RunSpec, times: np.ndarray, limit: float) -> np.ndarray:
+    """The command of a ``step`` or ``square`` run at ``times`` [s], ``limit`` the command limit."""
+    if run.kind == "step":
+        return np.where(times >= STEP_AT, run.level * limit, 0.0)
+    return run.level * limit * square_reference(times, 1.0, run.square_period)
 
 
 @dataclass
@@ -819,6 +905,8 @@ def simulate(
     scale = rig.bodies.d / rig.torque_per_command  # m g l in command units
     if run.kind.startswith("played"):
         excitation = command
+    elif run.kind in ("step", "square"):
+        excitation = step_command(run, times, rig.command_limit)
     else:
         excitation = multisine(run.excitation_rms * scale, run.f_min, run.f_max, times, rng)
         excitation = excitation * fade_in(times, run.fade_in)
@@ -830,8 +918,8 @@ def simulate(
     )
     integrator = Integrator(plant)
     balance = run.kind in ("balance", "played_balance")
-    starts = {"balance": 0.03, "hanging": math.pi + 0.1, "played": math.pi, "played_balance": 0.0}
-    x = plant.initial(starts[run.kind] if run.start is None else run.start)
+    starts = {"balance": 0.03, "hanging": math.pi + 0.1, "played_balance": 0.0}
+    x = plant.initial(starts.get(run.kind, math.pi) if run.start is None else run.start)
     gain = discrete_lqr(rig) if run.kind == "balance" else played_gain
     reference = square_reference(times, run.reference_amplitude, run.reference_period)
     if run.kind == "played_balance":
@@ -840,7 +928,7 @@ def simulate(
     measured, commands, states = np.zeros((times.size, 2)), np.zeros(times.size), np.zeros((times.size, 4))
     for k in range(times.size):
         y = encoder(
-            x + np.append(world.encoder_offset, np.zeros(x.size - 2)),
+            plant.sensed(x) + np.array(world.encoder_offset),
             world.encoder_counts,
             world.noise_std,
             rng,
@@ -886,12 +974,18 @@ def write_log(log: RunLog, path: Path) -> None:
     np.savetxt(path, table, delimiter=",", header=f"time,theta,phi,{log.command_name}", comments="", fmt="%.9g")
 
 
-def write_rig_file(rig: Rig, path: Path) -> None:
-    """The NOMINAL rig file (no effect) in furuta_drake's rig YAML."""
-    from furuta_drake.rig import MotorParameters, RigParameters
+def write_rig_file(rig: Rig, path: Path, encoder: str = "arm") -> None:
+    """The NOMINAL rig file (no effect) in furuta_drake's rig YAML; a geared rig's drive section says where the
+    arm's ``encoder`` sits (arm or motor)."""
+    from furuta_drake.rig import DriveParameters, MotorParameters, RigParameters
     from furuta_drake.yamlio import dump_yaml_dataclass
 
     bd = rig.bodies
+    drive = (
+        None
+        if rig.rotor_inertia == 0
+        else DriveParameters(gear_ratio=rig.gear_ratio, rotor_inertia=rig.rotor_inertia, encoder=encoder)
+    )
     motor = (
         None
         if rig.motor is None
@@ -902,7 +996,7 @@ def write_rig_file(rig: Rig, path: Path) -> None:
         )
     )
     params = RigParameters(
-        arm_inertia=bd.arm_inertia,
+        arm_inertia=float(f"{bd.arm_inertia - rig.rotor_inertia * rig.gear_ratio**2:.12g}"),  # the rotor stated apart
         arm_length=bd.arm_length,
         pendulum_mass=bd.pendulum_mass,
         pendulum_com=bd.pendulum_com,
@@ -913,6 +1007,7 @@ def write_rig_file(rig: Rig, path: Path) -> None:
         torque_limit=rig.torque_limit,
         theta_direction=1,
         motor=motor,
+        drive=drive,
     )
     path.write_text(dump_yaml_dataclass(params))
 

@@ -281,7 +281,10 @@ SEVERAL_EFFECTS = (
 )
 
 
-def default_cases(rigs=("lund", "qube_servo2"), seeds=(1,), levels=(1, 2), several: bool = True) -> list[CaseSpec]:
+SUITE_RIGS = ("lund", "qube_servo2")  # the rigs the suite's effects are sized and its controllers tuned for
+
+
+def default_cases(rigs=SUITE_RIGS, seeds=(1,), levels=(1, 2), several: bool = True) -> list[CaseSpec]:
     """Every vocabulary effect at each level on each rig and seed, plus none, cogging and (``several``) the
     combinations of :data:`SEVERAL_EFFECTS` at the strong level."""
     cases = []

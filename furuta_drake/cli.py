@@ -38,7 +38,8 @@ def _simulate_parser(sub) -> None:
     sim = sub.add_parser("simulate", help="simulate a Furuta rig in closed loop and write its log")
     sim.add_argument("--config", type=Path, help="simulate config YAML (default: the Lund rig balancing)")
     sim.add_argument(
-        "--rig", help="shipped rig name (lund, qube_servo2) or a rig YAML (docs/diagnose.md); ignored with --config"
+        "--rig",
+        help="shipped rig name (lund, qube_servo2, geared) or a rig YAML (docs/diagnose.md); ignored with --config",
     )
     sim.add_argument("--duration", type=float, help="override the config's duration [s]")
     sim.add_argument("--seed", type=int, help="override the config's seed")
@@ -175,15 +176,16 @@ def _rig_parser(sub) -> None:
     rig_action = rig.add_mutually_exclusive_group(required=True)
     rig_action.add_argument(
         "--template",
-        choices=["lund", "qube_servo2"],
-        help="print the shipped rig's file with every key explained (redirect it to a file)",
+        choices=["lund", "qube_servo2", "geared"],
+        help="print the shipped rig's file with every key explained (redirect it to a file): the paper's Lund rig, "
+        "the QUBE-Servo 2, or a geared lab-built rig (gearmotor, arm encoder, 100 Hz)",
     )
     rig_action.add_argument(
         "--check",
         type=Path,
         metavar="FILE",
         help="print the constants FILE implies: lumped constants, the paper's alpha1, alpha2, "
-        "beta3-beta5, the upright poles and the hanging natural frequency",
+        "beta3-beta5, the upright poles, the hanging natural frequency and a drive's constants",
     )
     rig.set_defaults(run=_run_rig)
 
@@ -255,7 +257,7 @@ def _simulate_config(args):
 
     if args.config is not None:
         config = load_config(args.config)
-    elif args.rig is None or args.rig in ("lund", "qube_servo2"):
+    elif args.rig is None or args.rig in ("lund", "qube_servo2", "geared"):
         config = SimulationConfig.from_rig(args.rig or "lund")
     else:
         from furuta_drake.rig_file import load_rig

@@ -50,9 +50,10 @@ from furuta_drake.world import FurutaWorld, add_furuta_world
 
 @dataclass
 class FurutaDiagram:
-    """A built diagram with handles to what callers read: the plant, the loggers and the LQR gain."""
+    """A built diagram with handles to what callers read: the world (its plant), the loggers and the LQR gain."""
 
     diagram: Diagram
+    world: FurutaWorld
     plant: MultibodyPlant
     scene_graph: object
     loggers: dict[str, VectorLogSink]
@@ -77,7 +78,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         with_scene_graph=meshcat is not None,
     )
     encoder = builder.AddNamedSystem("encoder", Encoder(config.encoder, period=period))
-    builder.Connect(world.true_state, encoder.GetInputPort("true_state"))
+    builder.Connect(world.encoder_state, encoder.GetInputPort("true_state"))
     measured = encoder.GetOutputPort("measured_angles_rad")
     command = add_command(builder, config, world=world)
     observers = add_observers(builder, config, true_state=world.true_state, measured=measured, command=command.torque)
@@ -100,7 +101,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         MeshcatVisualizer.AddToBuilder(builder, world.scene_graph, meshcat, params)
     diagram = builder.Build()
     diagram.set_name("furuta_" + config.controller.mode)
-    return FurutaDiagram(diagram, world.plant, world.scene_graph, loggers, command.lqr_gain, config)
+    return FurutaDiagram(diagram, world, world.plant, world.scene_graph, loggers, command.lqr_gain, config)
 
 
 @dataclass

@@ -32,12 +32,13 @@ def furuta_urdf(rig: RigParameters, name: str = "furuta") -> str:
     """URDF text of a Furuta pendulum with the rigid-body parameters of ``rig``.
 
     The arm's mass does not enter the dynamics (it only spins about a fixed axis), so the arm link carries
-    a nominal 0.1 kg on the axis with ``arm_inertia`` about it; the pendulum link has its mass at
+    a nominal 0.1 kg on the axis with ``rigid_arm_inertia`` about it (a drive's rotor turning with the arm); the
+    pendulum link has its mass at
     ``pendulum_com`` along its length and ``pendulum_inertia`` transverse about its centre of mass.
     """
     rig.validate()
     r, lc, m = rig.arm_length, rig.pendulum_com, rig.pendulum_mass
-    Ja, Jp = rig.arm_inertia, rig.pendulum_inertia
+    Ja, Jp = rig.rigid_arm_inertia, rig.pendulum_inertia
     arm_radius = max(0.05 * r, 0.003)
     pend_radius = max(0.03 * lc, 0.003)
     return f"""<?xml version="1.0"?>

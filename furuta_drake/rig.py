@@ -1,7 +1,7 @@
 """Rig parameters of a Furuta pendulum: the rig file of ``furuta-drake diagnose`` (``docs/diagnose.md``).
 
 A :class:`RigParameters` is the nominal model a user states for a rig: the rigid-body data that
-MultibodyPlant needs, the sensor and actuator limits, and the friction and DC motor the nominal model
+MultibodyPlant needs, the sensor and actuator limits, and the friction, DC motor and gear drive the nominal model
 already contains. The same dataclass is the ``rig`` section of a simulate config and the ``--rig`` file of
 ``furuta-drake diagnose``.
 
@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -33,7 +33,8 @@ def encoder_resolution(counts_per_rev: int) -> float:
 
 @dataclass
 class MotorParameters:
-    """Armature-controlled DC motor driving the arm: tau = kt (V - ke phi_dot) / R (inductance neglected)."""
+    """Armature-controlled DC motor driving the arm: tau = kt (V - ke phi_dot) / R (inductance neglected), its
+    constants as seen at the arm (through a drive's gear, at the rotor's speed over the gear ratio)."""
 
     resistance: float = documented_field(
         8.4,
@@ -48,7 +49,8 @@ class MotorParameters:
         "torque constant kt",
         "N m/A",
         required=True,
-        measure="the motor's datasheet; in SI units it equals the back-EMF constant",
+        measure="the motor's datasheet, times the drive's gear_ratio for a geared motor (the torque at the arm per "
+        "ampere); in SI units it equals the back-EMF constant",
     )
     backemf_constant: float = documented_field(
         0.042,
@@ -56,7 +58,7 @@ class MotorParameters:
         "V s/rad",
         required=True,
         measure="spin the arm by hand or with a second motor and divide the open-circuit terminal voltage by the "
-        "arm speed, or the datasheet",
+        "arm speed, or the datasheet (times the gear_ratio of a geared motor)",
     )
 
     def validate(self, where: str = "motor") -> None:
@@ -74,6 +76,86 @@ class MotorParameters:
 
 
 @dataclass
+class DriveParameters:
+    """A gear (or belt) between the motor's rotor and the arm: the rotor's inertia J_m reflected to the arm as
+    J_m N^2, and the drive's free play and elasticity (:mod:`furuta_drake.drive`), all on the arm side.
+
+    Rigid (no ``backlash``, no ``stiffness``) the rotor turns with the arm and only adds its reflected inertia;
+    otherwise it is a second body coupled to the arm through a dead band of half-width ``backlash`` and a spring
+    ``stiffness`` with damper ``damping``.
+    """
+
+    gear_ratio: float = documented_field(
+        1.0,
+        "motor turns per arm turn (1 for a direct or 1:1 belt drive)",
+        "-",
+        required=True,
+        measure="the gearbox's stated ratio, or count the motor shaft's turns for one arm turn",
+    )
+    rotor_inertia: float = documented_field(
+        1e-6,
+        "the motor rotor's own inertia, motor side (arm_inertia then leaves the rotor out)",
+        "kg m^2",
+        required=True,
+        measure="the motor's datasheet (rotor inertia, often in g cm^2: 1 g cm^2 = 1e-7 kg m^2); the arm feels it "
+        "gear_ratio^2 times larger",
+    )
+    encoder: Literal["arm", "motor"] = documented_field(
+        "arm",
+        "where the logged arm angle phi is read: arm (an encoder on the arm's shaft) or motor (the motor's encoder, "
+        "its angle divided by gear_ratio); both angles are read at counts_per_rev",
+        "",
+        measure="look where the encoder sits; a motor encoder turns gear_ratio times per arm turn",
+    )
+    backlash: float = documented_field(
+        0.0,
+        "half-width of the drive's free play, arm side: the arm turns freely within +-backlash of the rotor",
+        "rad",
+        measure="hold the motor shaft (a gearmotor at rest holds itself) and rock the arm by hand between the two "
+        "flanks: half the arm's free travel",
+    )
+    stiffness: float | None = documented_field(
+        None,
+        "torsional stiffness between the rotor and the arm, arm side (a belt, a long shaft); null: rigid",
+        "N m/rad",
+        measure="hold the motor shaft, hang a known torque on the arm and read the arm's twist; or tap the arm and "
+        "time the ringing: stiffness = J (2 pi f)^2 with J the arm side's inertia and the motor shaft held",
+    )
+    damping: float = documented_field(
+        0.0,
+        "damping of that spring (needs stiffness)",
+        "N m s/rad",
+        measure="the tapped ringing's decay: 2 zeta sqrt(stiffness J), zeta its damping ratio",
+    )
+
+    def validate(self, where: str = "drive") -> None:
+        ratio = self.gear_ratio
+        if isinstance(ratio, bool) or not isinstance(ratio, (int, float)) or not math.isfinite(ratio) or ratio < 1:
+            raise ConfigError(
+                f"{where}.gear_ratio must be a finite number >= 1 (motor turns per arm turn), got {self.gear_ratio!r}"
+            )
+        _require_positive(self.rotor_inertia, f"{where}.rotor_inertia")
+        if self.encoder not in ("arm", "motor"):
+            raise ConfigError(f"{where}.encoder must be 'arm' or 'motor', got {self.encoder!r}")
+        _require_nonnegative(self.backlash, f"{where}.backlash")
+        if self.stiffness is not None:
+            _require_positive(self.stiffness, f"{where}.stiffness")
+        _require_nonnegative(self.damping, f"{where}.damping")
+        if self.damping > 0 and self.stiffness is None:
+            raise ConfigError(f"{where}.damping needs a stiffness: a rigid drive has no spring to damp")
+
+    @property
+    def reflected_inertia(self) -> float:
+        """J_m N^2 [kg m^2]: the rotor's inertia as the arm feels it."""
+        return self.rotor_inertia * self.gear_ratio**2
+
+    @property
+    def rigid(self) -> bool:
+        """Whether the rotor turns with the arm (no backlash, no stiffness): it only adds its inertia."""
+        return self.backlash == 0 and self.stiffness is None
+
+
+@dataclass
 class RigParameters:
     """The nominal model of a Furuta rig (SI units), field for field the rig file.
 
@@ -84,7 +166,8 @@ class RigParameters:
 
     arm_inertia: float = documented_field(
         1.274e-3,
-        "arm with everything it carries except the pendulum (hub, encoder, motor rotor) about the vertical axis",
+        "arm with everything it carries except the pendulum (hub, encoder, motor rotor; the rotor left out when a "
+        "drive states it) about the vertical axis",
         "kg m^2",
         required=True,
         measure="CAD, or the rotor's datasheet inertia plus m_arm L^2/3 for a rod pivoted at its end "
@@ -189,6 +272,12 @@ class RigParameters:
         "DC motor driving the arm; required when the logs give the input as a voltage",
         measure="see its three keys",
     )
+    drive: DriveParameters | None = documented_field(
+        None,
+        "gear or belt between the motor and the arm: its ratio, the rotor's inertia, where the arm encoder sits, "
+        "and the drive's backlash and elasticity when the nominal model has them",
+        measure="see its keys; leave it out for a direct drive whose rotor arm_inertia includes",
+    )
     effects: dict[str, dict[str, Any]] | None = documented_field(
         None,
         "effects the nominal model already includes: vocabulary names -> parameters (docs/diagnose.md)",
@@ -228,14 +317,27 @@ class RigParameters:
             raise ConfigError(f"{where}.{err}") from None
         if self.motor is not None:
             self.motor.validate(f"{where}.motor")
+        if self.drive is not None:
+            self.drive.validate(f"{where}.drive")
         if self.unmodelled_torque is not None:
             self.unmodelled_torque.validate(f"{where}.unmodelled_torque")
+
+    @property
+    def rotor_inertia_reflected(self) -> float:
+        """The drive's rotor inertia as the arm feels it, J_m N^2 [kg m^2] (0 without a drive)."""
+        return 0.0 if self.drive is None else self.drive.reflected_inertia
+
+    @property
+    def rigid_arm_inertia(self) -> float:
+        """J_arm [kg m^2]: the arm with the drive's rotor turning with it (``arm_inertia`` plus J_m N^2)."""
+        return self.arm_inertia + self.rotor_inertia_reflected
 
     # Lumped constants of the Furuta equations of motion (Gaefvert 1998; docs/paper.md).
     @property
     def arm_inertia_total(self) -> float:
-        """J_arm + m r^2 [kg m^2]: arm inertia with the pendulum mass at the arm tip."""
-        return self.arm_inertia + self.pendulum_mass * self.arm_length**2
+        """J_arm + m r^2 [kg m^2]: arm inertia (the drive's rotor turning with it) with the pendulum mass at the
+        arm tip."""
+        return self.rigid_arm_inertia + self.pendulum_mass * self.arm_length**2
 
     @property
     def pendulum_inertia_total(self) -> float:
@@ -270,6 +372,12 @@ class RigParameters:
     def replace(self, **changes) -> RigParameters:
         return dataclasses.replace(self, **changes)
 
+    def with_rigid_drive(self) -> RigParameters:
+        """This rig with its drive's backlash and elasticity left out (its rotor turning with the arm)."""
+        if self.drive is None:
+            return self
+        return self.replace(drive=dataclasses.replace(self.drive, backlash=0.0, stiffness=None, damping=0.0))
+
 
 def lund_rig() -> RigParameters:
     """The Lund University Furuta pendulum of the paper (docs/paper.md), 4096-count encoders, 1 kHz control."""
@@ -296,7 +404,28 @@ def qube_servo2_rig() -> RigParameters:
     )
 
 
-RIGS = {"lund": lund_rig, "qube_servo2": qube_servo2_rig}
+def geared_rig() -> RigParameters:
+    """A lab-built rig with values typical of its parts, not of one product: a 12 V DC motor through a 30:1 spur
+    gearbox (rotor 1e-6 kg m^2; kt = ke = 0.3 at the arm, R 2.2 ohm), an optical encoder of 600 lines on the arm's
+    shaft and on the pendulum's (2400 counts), an aluminium arm of 40 g and 0.15 m pivoted at its end (with hub,
+    3.2e-4 kg m^2), a rod pendulum of 30 g and 0.25 m, logged by a microcontroller at 100 Hz."""
+    rod_mass, rod_length, volts = 0.03, 0.25, 12.0
+    motor = MotorParameters(resistance=2.2, torque_constant=0.3, backemf_constant=0.3)
+    return RigParameters(
+        arm_inertia=3.2e-4,
+        arm_length=0.15,
+        pendulum_mass=rod_mass,
+        pendulum_com=rod_length / 2,
+        pendulum_inertia=rod_mass * rod_length**2 / 12,
+        counts_per_rev=2400,
+        sample_period=0.01,
+        torque_limit=volts * motor.torque_constant / motor.resistance,
+        motor=motor,
+        drive=DriveParameters(gear_ratio=30.0, rotor_inertia=1e-6, encoder="arm"),
+    )
+
+
+RIGS = {"lund": lund_rig, "qube_servo2": qube_servo2_rig, "geared": geared_rig}
 
 
 def linearized_upright(rig: RigParameters) -> tuple[np.ndarray, np.ndarray]:
@@ -343,10 +472,12 @@ def _require_nonnegative(value, where: str) -> None:
 
 __all__ = [
     "MotorParameters",
+    "DriveParameters",
     "RigParameters",
     "RIGS",
     "lund_rig",
     "qube_servo2_rig",
+    "geared_rig",
     "linearized_upright",
     "linearized_hanging",
 ]

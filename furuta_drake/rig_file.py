@@ -4,7 +4,8 @@
 unit, whether it is optional and how to measure or derive it. ``furuta-drake rig --check FILE`` prints
 :func:`format_rig_check`: the lumped constants of paper Eq. 1, the linearization constants alpha1, alpha2,
 beta3-beta5 of Eq. 2 at the upright, its open-loop poles, and the hanging pendulum's natural frequency with the
-arm held and with the arm free, which a user compares with a pendulum-swing test on the bench.
+arm held and with the arm free, which a user compares with a pendulum-swing test on the bench; and a drive's
+constants: its rotor's reflected inertia, its backlash in encoder counts and an elastic drive's resonance.
 :func:`load_rig` reads a rig file strictly, its ``effects`` section checked against the effect vocabulary.
 """
 
@@ -19,9 +20,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from furuta_drake.drive import resonance
 from furuta_drake.effects.vocabulary import rig_effects
 from furuta_drake.errors import ConfigError, read_input_text
-from furuta_drake.rig import MotorParameters, RigParameters, linearized_hanging, linearized_upright
+from furuta_drake.rig import DriveParameters, MotorParameters, RigParameters, linearized_hanging, linearized_upright
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.yamlio import field_description, key_lines, loads_yaml_dataclass, locate, to_plain
 
@@ -52,8 +54,8 @@ def rig_template(rig: RigParameters, title: str) -> str:
         "",
     ]
     for field in dataclasses.fields(RigParameters):
-        if field.name == "motor":
-            lines += _motor_lines(field, rig.motor)
+        if field.name in SECTIONS:
+            lines += _section_lines(field, getattr(rig, field.name))
         elif field.name == "unmodelled_torque" and rig.unmodelled_torque is None:
             lines += _key_lines(field, UNMODELLED_TORQUE_EXAMPLE, indent="", comment_out=True)
         else:
@@ -74,16 +76,32 @@ def _key_lines(field: dataclasses.Field, value, indent: str, comment_out: bool =
     return lines + [""]
 
 
-def _motor_lines(field: dataclasses.Field, motor: MotorParameters | None) -> list[str]:
+# The rig file's sections: (their dataclass, how optional they are, what a rig without one is told).
+SECTIONS = {
+    "motor": (
+        MotorParameters,
+        "optional otherwise.",
+        "This rig's logs are torques; for voltage logs uncomment and fill in:",
+    ),
+    "drive": (
+        DriveParameters,
+        "optional.",
+        "This rig's motor turns the arm directly; for a gear or a belt uncomment and fill in:",
+    ),
+}
+
+
+def _section_lines(field: dataclasses.Field, section) -> list[str]:
+    """The lines of the section ``field`` (its keys indented), commented out with an example when ``section`` is
+    None."""
+    schema, optional, absent = SECTIONS[field.name]
     lines = _comment(
-        f"motor: {field_description(field)}; optional otherwise."
-        + ("" if motor is not None else " This rig's logs are torques; for voltage logs uncomment and fill in:"),
-        "",
+        f"{field.name}: {field_description(field)}; {optional}" + ("" if section is not None else f" {absent}"), ""
     )
-    lines.append("motor:" if motor is not None else "# motor:")
-    example = motor if motor is not None else MotorParameters()
-    for sub in dataclasses.fields(MotorParameters):
-        lines += _key_lines(sub, getattr(example, sub.name), indent="  ", comment_out=motor is None)
+    lines.append(f"{field.name}:" if section is not None else f"# {field.name}:")
+    example = section if section is not None else schema()
+    for sub in dataclasses.fields(schema):
+        lines += _key_lines(sub, getattr(example, sub.name), indent="  ", comment_out=section is None)
     return lines
 
 
@@ -110,6 +128,10 @@ def rig_check(rig: RigParameters) -> dict[str, float | list[float]]:
         ``beta5`` [1/(kg m^2)] of Eq. 2 at the upright; ``upright_poles`` [rad/s], the open-loop eigenvalues
         there (real parts; 0, 0, +-p); ``hanging_arm_held`` sqrt(m g l / (J_p + m l^2)) and ``hanging_arm_free``
         (from the hanging linearization) [rad/s], the small-swing natural frequencies of the hanging pendulum.
+        With a drive: ``rotor_inertia_reflected`` J_m N^2 [kg m^2] (part of J_arm + m r^2); with its stiffness k
+        stated, ``drive_resonance`` sqrt(k (1 / J_m N^2 + 1 / J_a)) [rad/s], the rotor ringing against the arm (the
+        pendulum locked, J_a = J_arm + m r^2 without the rotor), and ``drive_damping_ratio`` c / (2 sqrt(k mu)),
+        mu = J_m N^2 J_a / (J_m N^2 + J_a).
     """
     A, B_F = linearized_upright(rig)
     A_hanging, _ = linearized_hanging(rig)
@@ -126,7 +148,55 @@ def rig_check(rig: RigParameters) -> dict[str, float | list[float]]:
         "upright_poles": sorted(float(p) for p in np.linalg.eigvals(A).real.round(12)),
         "hanging_arm_held": math.sqrt(rig.gravity_torque / rig.pendulum_inertia_total),
         "hanging_arm_free": float(np.abs(np.linalg.eigvals(A_hanging).imag).max()),
-    }
+    } | _drive_constants(rig)
+
+
+def _drive_constants(rig: RigParameters) -> dict[str, float]:
+    """:func:`rig_check`'s drive entries (none without a drive)."""
+    if rig.drive is None:
+        return {}
+    rotor = rig.rotor_inertia_reflected
+    out = {"rotor_inertia_reflected": rotor}
+    if rig.drive.stiffness is not None:
+        arm = rig.arm_inertia_total - rotor
+        reduced = rotor * arm / (rotor + arm)
+        out["drive_resonance"] = resonance(rig.drive, arm)
+        out["drive_damping_ratio"] = rig.drive.damping / (2.0 * math.sqrt(rig.drive.stiffness * reduced))
+    return out
+
+
+def _drive_lines(rig: RigParameters, c: dict) -> list[str]:
+    """The drive's block of ``rig --check`` (none without a drive)."""
+    drive = rig.drive
+    if drive is None:
+        return []
+    share = c["rotor_inertia_reflected"] / c["arm_inertia_total"]
+    lines = [
+        f"drive, arm side (the motor turns {drive.gear_ratio:g} times per arm turn):",
+        f"  J_m N^2 = {c['rotor_inertia_reflected']:.6g} kg m^2  (the rotor as the arm feels it: {share:.0%} of "
+        f"J_arm + m r^2)",
+        f"  arm encoder on the {drive.encoder}"
+        + (f" (phi is the motor's angle / {drive.gear_ratio:g})" if drive.encoder == "motor" else ""),
+    ]
+    if drive.backlash > 0:
+        counts = 2 * drive.backlash / rig.encoder_resolution
+        lines.append(
+            f"  backlash +-{drive.backlash:.4g} rad = +-{math.degrees(drive.backlash):.3g} deg: the motor turns "
+            f"2 b = {counts:.3g} counts of the arm before the arm follows a reversal"
+        )
+    if drive.stiffness is not None:
+        w, nyquist = c["drive_resonance"], 0.5 / rig.sample_period
+        f = w / (2 * math.pi)
+        lines.append(
+            f"  elastic coupling: the rotor rings against the arm (pendulum locked) at {w:.4g} rad/s = {f:.4g} Hz, "
+            f"damping ratio {c['drive_damping_ratio']:.3g}"
+        )
+        if f >= nyquist:
+            lines.append(
+                f"  that is above these logs' Nyquist frequency ({nyquist:.4g} Hz): they see the coupling as a lag, "
+                f"not a ringing; logging above {2 * f:.4g} Hz samples the ringing"
+            )
+    return lines
 
 
 def format_rig_check(rig: RigParameters, source: str) -> str:
@@ -152,7 +222,7 @@ def format_rig_check(rig: RigParameters, source: str) -> str:
     for key, label in (("hanging_arm_held", "arm held"), ("hanging_arm_free", "arm free")):
         w = c[key]
         lines.append(f"  {label}: {w:.4g} rad/s = {w / (2 * math.pi):.4g} Hz, period {2 * math.pi / w:.4g} s")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _drive_lines(rig, c)) + "\n"
 
 
 __all__ = ["rig_template", "rig_check", "format_rig_check"]

@@ -72,16 +72,9 @@ def simulate(
     )
     context = simulator.get_mutable_context()
     diagram.SetRandomContext(context, RandomGenerator(config.seed))
-    plant_context = plant.GetMyMutableContextFromRoot(context)
-    theta_index, phi_index = joint_indices(plant)
-    nq = plant.num_positions()
-    x0 = np.zeros(plant.num_multibody_states())
-    theta0, phi0, theta_dot0, phi_dot0 = config.initial_state
-    x0[theta_index], x0[phi_index] = theta0, phi0
-    x0[nq + theta_index], x0[nq + phi_index] = theta_dot0, phi_dot0
-    plant.SetPositionsAndVelocities(plant_context, x0)
+    built.world.set_state(context, np.asarray(config.initial_state, dtype=float))
 
-    monitor = _EnvelopeMonitor(plant, theta_index, config)
+    monitor = _EnvelopeMonitor(plant, joint_indices(plant)[0], config)
     simulator.set_monitor(monitor)
     start = _time.perf_counter()
     simulator.Initialize()

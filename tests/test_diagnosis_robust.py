@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from benchmarks.suite import OUTSIDE_VOCABULARY, VOCABULARY, run_configs, with_effect
+from benchmarks.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import check_report, write_report
 from furuta_drake.diagnosis.settings import FAST
@@ -26,7 +26,7 @@ DURATION = 1.5  # [s] per log: a train and a held-out hanging run
 
 @settings(max_examples=16, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    rig_name=st.sampled_from(sorted(RIGS)),
+    rig_name=st.sampled_from(SUITE_RIGS),
     effects=st.lists(st.sampled_from(VOCABULARY + (OUTSIDE_VOCABULARY,)), max_size=3, unique=True),
     levels=st.lists(st.floats(0.2, 3.0), min_size=3, max_size=3),
     seed=st.integers(0, 10_000),

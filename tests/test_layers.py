@@ -10,7 +10,7 @@ from conftest import REPO
 LAYERS = [
     ["errors", "yamlio", "outputs", "data"],
     ["unmodelled", "rig", "plant"],
-    ["friction", "encoder", "actuator", "world", "controllers"],
+    ["friction", "encoder", "actuator", "drive", "world", "controllers"],
     ["observers", "linearization", "analysis"],
     ["config", "excitation", "diagram", "simulate", "sweep", "results", "plotting"],
     ["effects"],

@@ -1,5 +1,5 @@
-"""Rig files: every required key must be present, ``rig --template`` round-trips to the shipped rigs, and
-``rig --check`` prints the constants of the Lund rig that the paper's rig documentation gives."""
+"""Rig files: every required key must be present and physical, ``rig --template`` round-trips to the shipped rigs,
+and ``rig --check`` prints the constants of the Lund rig that the paper's rig documentation gives, and a drive's."""
 
 from __future__ import annotations
 
@@ -9,15 +9,18 @@ import re
 
 import numpy as np
 import pytest
+from conftest import REPO
 
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
 from furuta_drake.errors import ConfigError
-from furuta_drake.rig import RIGS, MotorParameters, RigParameters, lund_rig
+from furuta_drake.rig import RIGS, DriveParameters, MotorParameters, RigParameters, lund_rig
 from furuta_drake.rig_file import load_rig, rig_check, rig_template
 
 RIG_KEYS = [f.name for f in dataclasses.fields(RigParameters) if f.metadata.get("required")]
 MOTOR_KEYS = [f.name for f in dataclasses.fields(MotorParameters)]
+DRIVE_KEYS = [f.name for f in dataclasses.fields(DriveParameters)]
+SECTION_REQUIRED = MOTOR_KEYS + [f.name for f in dataclasses.fields(DriveParameters) if f.metadata.get("required")]
 
 
 def test_the_required_keys_are_those_the_rig_file_format_does_not_mark_optional():
@@ -33,6 +36,7 @@ def test_the_required_keys_are_those_the_rig_file_format_does_not_mark_optional(
         "torque_limit",
     ]
     assert all(f.metadata.get("required") for f in dataclasses.fields(MotorParameters))
+    assert SECTION_REQUIRED[len(MOTOR_KEYS) :] == ["gear_ratio", "rotor_inertia"]
 
 
 def without_key(text: str, key: str) -> str:
@@ -42,17 +46,18 @@ def without_key(text: str, key: str) -> str:
     return "\n".join(kept) + "\n"
 
 
-@pytest.mark.parametrize("key", RIG_KEYS + MOTOR_KEYS)
+@pytest.mark.parametrize("key", RIG_KEYS + SECTION_REQUIRED)
 def test_a_missing_required_key_exits_2_naming_the_key_and_the_file(key, tmp_path, capsys):
     path = tmp_path / "my_rig.yaml"
-    path.write_text(without_key(rig_template(RIGS["qube_servo2"](), "test"), key))
+    path.write_text(without_key(rig_template(RIGS["geared"](), "test"), key))
     assert main(["rig", "--check", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
-    # A rig key is missing from the file; a motor key from the motor block, located at its line.
-    where = re.escape(f"{path}: ") if key in RIG_KEYS else re.escape(f"{path}:") + r"\d+: motor: "
+    # A rig key is missing from the file; a motor or drive key from its block, located at the block's line.
+    section, schema = ("motor", MotorParameters) if key in MOTOR_KEYS else ("drive", DriveParameters)
+    where = re.escape(f"{path}: ") if key in RIG_KEYS else re.escape(f"{path}:") + rf"\d+: {section}: "
     assert re.match(f"furuta-drake rig: error: {where}missing required key '{key}' ", err[0]), err[0]
-    unit = dataclasses.fields(RigParameters if key in RIG_KEYS else MotorParameters)
+    unit = dataclasses.fields(RigParameters if key in RIG_KEYS else schema)
     assert next(f for f in unit if f.name == key).metadata["unit"] in err[0]
 
 
@@ -76,9 +81,10 @@ def test_the_template_round_trips_to_the_shipped_rig(name, tmp_path, capsys):
         re.match(r"\s*(?:# )?(\w+): ", block.splitlines()[-1]).group(1): block
         for block in path.read_text().strip().split("\n\n")[1:]
     }
-    assert set(paragraphs) == ({f.name for f in dataclasses.fields(RigParameters)} - {"motor"}) | set(MOTOR_KEYS)
+    sections = set(MOTOR_KEYS) | set(DRIVE_KEYS)
+    assert set(paragraphs) == ({f.name for f in dataclasses.fields(RigParameters)} - {"motor", "drive"}) | sections
     for key, block in paragraphs.items():
-        assert "How:" in block and ("; required." in block) == (key in RIG_KEYS + MOTOR_KEYS), block
+        assert "How:" in block and ("; required." in block) == (key in RIG_KEYS + SECTION_REQUIRED), block
 
 
 def test_check_gives_the_lund_rig_constants():
@@ -109,3 +115,61 @@ def test_check_prints_the_lund_constants_in_rad_per_s_hz_and_seconds(tmp_path, c
     assert "alpha1 = 47.949 1/s^2" in out and "-6.925, 0, 0, +6.925 rad/s" in out
     held = math.sqrt(0.097625 / 0.0038852)
     assert f"arm held: {held:.4g} rad/s = {held / (2 * np.pi):.4g} Hz, period {2 * np.pi / held:.4g} s" in out
+
+
+@pytest.mark.parametrize(
+    "line, edited, message",
+    [
+        ("  gear_ratio: 30.0", "  gear_raito: 30.0", r"drive\.gear_raito unknown key 'gear_raito' in DriveParameters"),
+        ("  gear_ratio: 30.0", "  gear_ratio: 0.5", r"drive\.gear_ratio must be a finite number >= 1 .*got 0\.5"),
+        ("  rotor_inertia: 1.0e-06", "  rotor_inertia: -1.0e-06", r"drive\.rotor_inertia must be a positive finite"),
+        ("  encoder: arm", "  encoder: shaft", r"drive\.encoder must be one of \['arm', 'motor'\], got 'shaft'"),
+        ("  backlash: 0.0", "  backlash: -0.01", r"drive\.backlash must be a non-negative finite number"),
+        ("  stiffness: null", "  stiffness: 0", r"drive\.stiffness must be a positive finite number, got 0"),
+        ("  damping: 0.0", "  damping: 0.01", r"drive\.damping needs a stiffness"),
+    ],
+)
+def test_a_non_physical_drive_key_exits_2_naming_the_key_and_its_line(line, edited, message, tmp_path, capsys):
+    text = rig_template(RIGS["geared"](), "test")
+    assert text.count(f"\n{line}\n") == 1
+    path = tmp_path / "my_rig.yaml"
+    path.write_text(text.replace(f"\n{line}\n", f"\n{edited}\n"))
+    assert main(["rig", "--check", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    line_number = path.read_text().splitlines().index(edited) + 1
+    assert len(err) == 1 and re.match(
+        rf"furuta-drake rig: error: {re.escape(str(path))}:{line_number}: {message}", err[0]
+    )
+
+
+def test_check_gives_the_drives_reflected_inertia_and_resonance(tmp_path, capsys):
+    """The geared rig (30:1, rotor 1e-6 kg m^2, arm 3.2e-4 kg m^2, pendulum 30 g at 0.15 m) with a belt of 8 N m/rad
+    damped by 2e-3 N m s/rad, logged at 100 Hz."""
+    rig = RIGS["geared"]()
+    rig = rig.replace(drive=dataclasses.replace(rig.drive, stiffness=8.0, damping=2e-3, backlash=0.01))
+    path = tmp_path / "belt.yaml"
+    path.write_text(rig_template(rig, "test"))
+    assert main(["rig", "--check", str(path)]) == 0
+    out = capsys.readouterr().out
+    J, Ja = 1e-6 * 30**2, 3.2e-4 + 0.03 * 0.15**2
+    assert f"J_m N^2 = {J:.6g} kg m^2" in out and f"{J / (J + Ja):.0%} of J_arm + m r^2" in out
+    w = math.sqrt(8.0 * (1 / J + 1 / Ja))
+    zeta = 2e-3 / (2 * math.sqrt(8.0 * J * Ja / (J + Ja)))
+    assert f"at {w:.4g} rad/s = {w / (2 * math.pi):.4g} Hz, damping ratio {zeta:.3g}" in out
+    assert f"2 b = {0.02 / (2 * math.pi / 2400):.3g} counts" in out  # 2400-count encoders
+    assert "Nyquist" not in out  # 20.7 Hz, below 50 Hz
+    path.write_text(rig_template(rig.replace(sample_period=0.04), "test"))  # 25 Hz logs: Nyquist 12.5 Hz
+    assert main(["rig", "--check", str(path)]) == 0
+    assert f"logging above {2 * w / (2 * math.pi):.4g} Hz samples the ringing" in capsys.readouterr().out
+
+
+def test_diagnose_refuses_a_rig_file_whose_drive_is_not_rigid(tmp_path, capsys):
+    rig = RIGS["geared"]()
+    path = tmp_path / "rig.yaml"
+    path.write_text(rig_template(rig.replace(drive=dataclasses.replace(rig.drive, backlash=0.01)), "test"))
+    log = REPO / "tests" / "bad_inputs" / "good_torque.csv"
+    assert main(["diagnose", "--rig", str(path), "--train", str(log), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    line = path.read_text().splitlines().index("  backlash: 0.01") + 1
+    assert err.startswith(f"furuta-drake diagnose: error: {path}:{line}: drive.backlash: the diagnosis models a rigid")
+    assert not (tmp_path / "out").exists()

@@ -7,7 +7,10 @@ Levenberg-Marquardt steps on the window's residuals (a step is kept only where t
 falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
 or integrator. The model then predicts the angles over the window from the logged command (held over each sample).
 Residuals are measured minus predicted angles in counts of the rig file's encoder. The horizon is short enough that
-the upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s.
+the upright's unstable pole amplifies initial-state errors by at most e^1.5 and at most 0.25 s. A window holds at least
+``MIN_WINDOW`` samples: a log that comes near the upright at a rate so low that these span more than twice the
+horizon (an error at a window's start grown e^3 times) cannot show an effect there and is refused, naming the
+rate that would.
 
     gap = sqrt(max(mean over windows, samples and both angles of r^2 - sigma_0^2, 0))   [counts]
 
@@ -46,6 +49,9 @@ from furuta_drake.errors import LogError
 from furuta_drake.rig import RigParameters, encoder_resolution, linearized_upright
 
 MAX_HORIZON_S = 0.25
+MIN_WINDOW = 5  # samples of a window at the least
+SLOW_RATE_MARGIN = 2.0  # a log near the upright is refused when MIN_WINDOW samples span this many horizons
+UPRIGHT_RADIUS = 0.5  # [rad] a log comes near the upright when its |theta| (wrapped) falls below this
 IMPULSES = 24  # command impulses simulated per window for a jittering delay's variance (the others shifted)
 SMOOTHING_S = 0.03  # Savitzky-Golay window for the initial states [s]
 
@@ -59,11 +65,32 @@ def gap_metric_definition(horizon_s: float) -> str:
     )
 
 
+def upright_pole(rig: RigParameters) -> float:
+    """lambda_u [1/s]: the unstable pole of the nominal model at the upright."""
+    A, _ = linearized_upright(rig)
+    return float(max(np.linalg.eigvals(A).real))
+
+
 def horizon_seconds(rig: RigParameters) -> float:
     """min(0.25 s, 1.5 / lambda_u), lambda_u the unstable upright pole of the nominal model."""
-    A, _ = linearized_upright(rig)
-    unstable = max(np.linalg.eigvals(A).real)
-    return float(min(MAX_HORIZON_S, 1.5 / unstable))
+    return float(min(MAX_HORIZON_S, 1.5 / upright_pole(rig)))
+
+
+def check_rate(log: RunLog, rig: RigParameters) -> None:
+    """Raise LogError when ``log`` comes near the upright at a rate whose shortest window spans more than
+    ``SLOW_RATE_MARGIN`` horizons, saying why and what rate would do."""
+    horizon_s, shortest = horizon_seconds(rig), MIN_WINDOW * log.sample_period
+    near_upright = np.abs(np.angle(np.exp(1j * log.theta))) < UPRIGHT_RADIUS
+    if shortest <= SLOW_RATE_MARGIN * horizon_s or not near_upright.any():
+        return
+    pole = upright_pole(rig)
+    raise LogError(
+        f"{log.name}: at {1 / log.sample_period:.3g} Hz a gap window of {MIN_WINDOW} samples lasts "
+        f"{shortest * 1e3:.0f} ms, over which the upright's instability ({pole:.3g} 1/s) grows an error at the "
+        f"window's start {np.exp(pole * shortest):.0f} times: near the upright (this log's theta comes within "
+        f"{UPRIGHT_RADIUS:g} rad of it) no effect can show; log at {MIN_WINDOW / (SLOW_RATE_MARGIN * horizon_s):.3g} "
+        f"Hz or faster, or diagnose runs that stay away from the upright"
+    )
 
 
 @dataclass
@@ -151,7 +178,7 @@ class Batch:
 def window_samples(period: float, rig: RigParameters) -> tuple[int, int]:
     """(samples per window, samples of the smoothing filter) of a log sampled every ``period`` [s]; a log needs
     more than one window plus a smoothing filter at each end."""
-    return max(5, int(round(horizon_seconds(rig) / period))), max(5, int(round(SMOOTHING_S / period)) | 1)
+    return max(MIN_WINDOW, int(round(horizon_seconds(rig) / period))), max(5, int(round(SMOOTHING_S / period)) | 1)
 
 
 def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
@@ -160,6 +187,7 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
     horizon_s = horizon_seconds(rig)
     horizons, starts, states, measured, paths = [], [], [], [], []
     for log in logs:
+        check_rate(log, rig)
         horizon, smooth = window_samples(log.sample_period, rig)
         if log.time.size <= horizon + 2 * smooth:
             raise LogError(

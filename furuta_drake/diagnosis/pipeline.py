@@ -308,10 +308,17 @@ def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -
 
 def _diagnosable_rig(rig_path: Path) -> RigParameters:
     """The rig file; ConfigError naming its line when its torque beyond the vocabulary is not a sum of the
-    library's terms (the surrogate's fits hold those alone)."""
+    library's terms (the surrogate's fits hold those alone), or when its drive has backlash or elasticity (the
+    surrogate's rotor turns with the arm)."""
     rig_params = load_rig(rig_path)
     try:
         library_terms(rig_params.unmodelled_torque)
+        if rig_params.drive is not None and not rig_params.drive.rigid:
+            key = "backlash" if rig_params.drive.backlash > 0 else "stiffness"
+            raise ConfigError(
+                f"drive.{key}: the diagnosis models a rigid drive (its rotor's inertia on the arm); leave the drive's "
+                f"backlash, stiffness and damping out of the rig file it reads (simulate reads them)"
+            )
     except ConfigError as err:
         raise locate_in_file(rig_path, err) from None
     return rig_params

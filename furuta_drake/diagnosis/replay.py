@@ -70,7 +70,7 @@ class WindowReplayer:
             disturbance=model_disturbance(model),
             unmodelled_torque=unmodelled_torque,
         )
-        self.plant, self.P, self.friction = world.plant, world.to_paper, world.friction
+        self.world, self.plant, self.P, self.friction = world, world.plant, world.to_paper, world.friction
         applied = _applied_command(model, time, command, period)
         # The applied command jumps (or kinks) at its breaks; the integrator stops there, so that no error-controlled
         # step straddles one (a break a fraction of a microsecond after a sample would otherwise go unresolved).
@@ -84,7 +84,7 @@ class WindowReplayer:
         self.context = self.simulator.get_mutable_context()
         self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
         self.default_context = self.context.Clone()
-        self.lag = model.lag > 0
+        self.lag = self.diagram.GetSubsystemByName("actuator_lag") if model.lag > 0 else None
 
     def replay(
         self,
@@ -101,13 +101,15 @@ class WindowReplayer:
         ApplySimulatorConfig(self.integrator, self.simulator)
         self.context.SetTimeStateAndParametersFrom(self.default_context)
         self.context.SetTime(start_time)
-        if self.lag:
-            self.context.get_mutable_continuous_state_vector().SetFromVector(self._with_lag_state(lag_at_start))
+        if self.lag is not None:
+            self.lag.GetMyMutableContextFromRoot(self.context).get_mutable_continuous_state_vector().SetFromVector(
+                [lag_at_start]
+            )
         if bristle is not None:  # the arm's is the friction system's only bristle (the pendulum's is static)
             self.friction.GetMyMutableContextFromRoot(self.context).get_mutable_continuous_state_vector().SetFromVector(
                 [bristle]
             )
-        self.plant.SetPositionsAndVelocities(self.plant_context, self.P.T @ x0)
+        self.world.set_state(self.context, x0)
         self.simulator.Initialize()
         out = np.empty((times.size, 2))
         out[0] = x0[:2]
@@ -117,12 +119,6 @@ class WindowReplayer:
             self.simulator.AdvanceTo(t)
             out[k] = (self.P @ self.plant.GetPositionsAndVelocities(self.plant_context))[:2]
         return out
-
-    def _with_lag_state(self, value: float) -> np.ndarray:
-        state = self.context.get_continuous_state_vector().CopyToVector()
-        # The lag filter's state is the last continuous entry (plant states and bristles come first).
-        state[-1] = value
-        return state
 
 
 def _between_samples(breaks: np.ndarray, time: np.ndarray, period: float) -> np.ndarray:

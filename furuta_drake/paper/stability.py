@@ -73,13 +73,15 @@ class PreslidingPlant:
 def presliding_plant(config: SimulationConfig) -> PreslidingPlant:
     """Drake's ``Linearize`` at the upright of ``config``'s world (:func:`furuta_drake.world.add_furuta_world`)
     with its bristle friction (Dahl/LuGre joints; static Coulomb friction has no linearization at rest and is
-    left out) and the rig's back-EMF, permuted to paper order. The actuator chain, spring and cogging are left
-    out."""
+    left out) and the rig's back-EMF, permuted to paper order. The actuator chain, spring, cogging and a drive's
+    backlash and elasticity are left out."""
     keep = {
         joint: p if p.has_bristles else JointFrictionParameters()
         for joint, p in (("arm", config.friction.arm), ("pendulum", config.friction.pendulum))
     }
-    A, B = linearized_world(rig=config.rig, friction=FrictionParameters(**keep), control_period=config.control_period)
+    A, B = linearized_world(
+        rig=config.rig.with_rigid_drive(), friction=FrictionParameters(**keep), control_period=config.control_period
+    )
     nb = A.shape[0] - 4
     bristle_joints = [index for index, p in ((0, keep["pendulum"]), (1, keep["arm"])) if p.has_bristles]
     W = np.zeros((nb, 4 + nb))
