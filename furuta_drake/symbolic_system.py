@@ -25,7 +25,7 @@ import numpy as np
 from pydrake.symbolic import Expression, ExpressionKind, Formula, Variable, if_then_else, logical_and, logical_not
 from pydrake.symbolic import max as symbolic_max
 from pydrake.systems.analysis import DiscreteTimeApproximation, SimulatorConfig
-from pydrake.systems.framework import DiagramBuilder, System
+from pydrake.systems.framework import Diagram, DiagramBuilder, System
 from pydrake.systems.primitives import Integrator, MatrixGain, Multiplexer, PassThrough, SymbolicVectorSystem
 
 Ports = Sequence[tuple[str, Sequence]]
@@ -145,6 +145,15 @@ def discrete_symbolic_system(
     return DiscreteTimeApproximation(continuous, period, euler)
 
 
+def build_into(diagram: Diagram, system: System) -> None:
+    """Build ``diagram`` (a Diagram subclass under construction) around ``system``: its one subsystem ``law``, every
+    port exported under its own name."""
+    builder = DiagramBuilder()
+    builder.AddNamedSystem("law", system)
+    export_ports(builder, system)
+    builder.BuildInto(diagram)
+
+
 def export_ports(builder: DiagramBuilder, system: System) -> None:
     """Export every input and output port of ``system`` (added to ``builder``) under its own name."""
     for i in range(system.num_input_ports()):
@@ -153,4 +162,4 @@ def export_ports(builder: DiagramBuilder, system: System) -> None:
         builder.ExportOutput(system.get_output_port(i), system.get_output_port(i).get_name())
 
 
-__all__ = ["both", "discrete_symbolic_system", "export_ports", "is_symbolic", "negation", "where"]
+__all__ = ["both", "build_into", "discrete_symbolic_system", "export_ports", "is_symbolic", "negation", "where"]

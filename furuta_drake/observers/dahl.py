@@ -27,7 +27,9 @@ Discrete at the control period h with the inputs frozen over the period: the z e
 constant input, dz/dt = (v + K_z) - r z, r = sigma0 |v| / Fc, and it takes its EXACT step, the Dahl part by
 :func:`furuta_drake.friction.dahl_exact_step` plus K_z (1 - e^(-r h)) / r (K_z h when v = 0). An exact
 exponential step is stable at any stiffness r (the Dahl state's rate reaches 1e4 1/s at a few rad/s) where an
-explicit Euler step at 1 kHz diverges once r h > 2, and it settles to the continuous steady state exactly.
+explicit Euler step at 1 kHz diverges once r h > 2, and it settles to the continuous steady state exactly. The
+step (:func:`dahl_step`) is written once for floats and symbolic expressions; the observer evaluates its
+expression in C++ (:mod:`furuta_drake.symbolic_system`), no Python call at a sample.
 
 LuGre (Sec. VII's open point, Freidovich et al. 2006): with Stribeck levels (``static_pos/neg``,
 ``stribeck_velocity``), ``sigma1`` and ``sigma2`` the same system is the LuGre observer: Fc(v) becomes the
@@ -53,7 +55,7 @@ import math
 from dataclasses import dataclass
 
 from pydrake.symbolic import MakeVectorVariable, Variable
-from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort, System
 from pydrake.systems.primitives import PassThrough
 
 from furuta_drake.errors import ConfigError, require_control_period
@@ -66,7 +68,7 @@ from furuta_drake.friction import (
 )
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters, KSigmaAdapter
 from furuta_drake.observers.parameter_adaptation import DahlParameterAdapter, ParameterAdaptationParameters
-from furuta_drake.symbolic_system import discrete_symbolic_system, export_ports, where
+from furuta_drake.symbolic_system import build_into, discrete_symbolic_system, where
 
 JOINTS = ("arm", "pendulum")
 
@@ -174,50 +176,53 @@ class DahlFrictionObserver(Diagram):
     def __init__(self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm"):
         Diagram.__init__(self)
         params = params or DahlObserverParameters()
-        params.validate()
-        section = "observers.dahl" if joint == "arm" else "observers.pendulum_friction"
-        require_control_period(params.period, period, f"{section}.period")
-        if joint not in JOINTS:
-            raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
-        adaptation = params.adaptation
-        if adaptation is not None and joint != "arm":
-            raise ConfigError(
-                f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the {joint}'s"
-            )
+        _check(params, period, joint)
         self.params, self.joint, self.period = params, joint, period
-        v, z = Variable(f"{joint}_velocity"), Variable("z_hat")
-        angles = list(MakeVectorVariable(2, "measured_angle"))
-        inputs = [(f"{joint}_velocity_estimate_rad_per_s", [v]), ("measured_angles_rad", angles)]
-        eps, eps_v = angles[1 if joint == "arm" else 0], v
-        if joint == "arm":
-            reference = list(MakeVectorVariable(2, "arm_reference"))
-            inputs.append(("arm_reference_rad", reference))
-            eps, eps_v = eps - reference[0], v - reference[1]
-        gain = adapted = None
-        if adaptation is not None and adaptation.k_sigma is not None:
-            gain = Variable("K_sigma")
-            inputs.append(("K_sigma", [gain]))
-        elif adaptation is not None:
-            adapted = list(MakeVectorVariable(3, "dahl_parameter"))
-            inputs.append(("dahl_parameters", adapted))
-        sigma0, level = observer_model(params, v, adapted)
-        torque = model_torque(params, z, v, sigma0)
-        outputs = [("friction_estimate_Nm", [torque if gain is None else gain * torque]), ("bristle_state_rad", [z])]
-        if adapted is not None:
-            outputs.append(("bristle_injection_rad_per_s", [injection(params, sigma0, v, level, eps, eps_v)]))
-        law = discrete_symbolic_system(
-            name=f"{joint}_dahl_law",
-            period=period,
-            state=[z],
-            initial=[0.0],
-            update=[dahl_step(params, period, z, v, sigma0, level, eps, eps_v)],
-            inputs=inputs,
-            outputs=outputs,
-        )
-        builder = DiagramBuilder()
-        builder.AddNamedSystem("law", law)
-        export_ports(builder, law)
-        builder.BuildInto(self)
+        build_into(self, _observer_law(params, period, joint))
+
+
+def _check(params: DahlObserverParameters, period: float, joint: str) -> None:
+    """Raise :class:`ConfigError` unless ``params`` fit an observer of ``joint`` at the control ``period``."""
+    params.validate()
+    section = "observers.dahl" if joint == "arm" else "observers.pendulum_friction"
+    require_control_period(params.period, period, f"{section}.period")
+    if joint not in JOINTS:
+        raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
+    if params.adaptation is not None and joint != "arm":
+        raise ConfigError(f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the {joint}'s")
+
+
+def _observer_law(params: DahlObserverParameters, period: float, joint: str):
+    """The observer's C++ system: :func:`dahl_step` and the outputs as expressions of its ports' variables."""
+    v, z = Variable(f"{joint}_velocity"), Variable("z_hat")
+    angles = list(MakeVectorVariable(2, "measured_angle"))
+    inputs = [(f"{joint}_velocity_estimate_rad_per_s", [v]), ("measured_angles_rad", angles)]
+    eps, eps_v = angles[1 if joint == "arm" else 0], v
+    if joint == "arm":
+        reference = list(MakeVectorVariable(2, "arm_reference"))
+        inputs.append(("arm_reference_rad", reference))
+        eps, eps_v = eps - reference[0], v - reference[1]
+    adaptation, gain, adapted = params.adaptation, None, None
+    if adaptation is not None and adaptation.k_sigma is not None:
+        gain = Variable("K_sigma")
+        inputs.append(("K_sigma", [gain]))
+    elif adaptation is not None:
+        adapted = list(MakeVectorVariable(3, "dahl_parameter"))
+        inputs.append(("dahl_parameters", adapted))
+    sigma0, level = observer_model(params, v, adapted)
+    torque = model_torque(params, z, v, sigma0)
+    outputs = [("friction_estimate_Nm", [torque if gain is None else gain * torque]), ("bristle_state_rad", [z])]
+    if adapted is not None:
+        outputs.append(("bristle_injection_rad_per_s", [injection(params, sigma0, v, level, eps, eps_v)]))
+    return discrete_symbolic_system(
+        name=f"{joint}_dahl_law",
+        period=period,
+        state=[z],
+        initial=[0.0],
+        update=[dahl_step(params, period, z, v, sigma0, level, eps, eps_v)],
+        inputs=inputs,
+        outputs=outputs,
+    )
 
 
 def observer_model(p: DahlObserverParameters, v, adapted=None) -> tuple:
@@ -267,7 +272,7 @@ def add_dahl_adaptation(
     friction_error: OutputPort,
     name: str,
     error_response=None,
-) -> LeafSystem | None:
+) -> System | None:
     """The adapter of ``dahl``'s ``params.adaptation`` added to ``builder`` as ``name`` (None without one), on the
     observer's arm ``velocity`` estimate [rad/s] and the VFE's ``friction_error`` eps_hat_F [N m], wired to the
     observer both ways. ``error_response``: that VFE's ``friction_error_response`` (the Fc and sigma0 law)."""
@@ -305,7 +310,7 @@ def add_dahl_adaptation(
 
 def adapting_dahl_observer(
     params: DahlObserverParameters, *, period: float, error_response=None
-) -> tuple[Diagram, DahlFrictionObserver, LeafSystem | None]:
+) -> tuple[Diagram, DahlFrictionObserver, System | None]:
     """The arm's Dahl observer and its adapter (:func:`add_dahl_adaptation`) as one Diagram, to run the pair on
     its own: inputs ``arm_velocity_estimate_rad_per_s``, ``measured_angles_rad``, ``arm_reference_rad`` and
     ``friction_error_estimate_Nm``; outputs the observer's and the adapter's, under their own names. Returns

@@ -22,10 +22,10 @@ import math
 from dataclasses import dataclass
 
 from pydrake.symbolic import MakeVectorVariable, Variable
-from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.framework import Diagram
 
 from furuta_drake.errors import ConfigError
-from furuta_drake.symbolic_system import both, discrete_symbolic_system, export_ports, negation, where
+from furuta_drake.symbolic_system import both, build_into, discrete_symbolic_system, negation, where
 
 K_SIGMA_POS, K_SIGMA_NEG = 0, 1  # the branches' places in the adapter's state
 
@@ -104,10 +104,7 @@ class KSigmaAdapter(Diagram):
             outputs=[("K_sigma", [active_gain(v, gains)]), ("K_sigma_branches", gains)],
             time=time,
         )
-        builder = DiagramBuilder()
-        builder.AddNamedSystem("law", law)
-        export_ports(builder, law)
-        builder.BuildInto(self)
+        build_into(self, law)
 
 
 __all__ = ["KSigmaAdaptationParameters", "KSigmaAdapter", "active_gain", "k_sigma_update"]
