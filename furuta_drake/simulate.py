@@ -85,9 +85,13 @@ def simulate(
     state_log = built.loggers["state"].FindLog(context)
     start = _time.perf_counter()
     simulator.Initialize()
-    t, checked, reported = 0.0, 0, 0.0
+    # Chunks end on sample instants (k periods, as Drake times the samples): the integrator stops there anyway.
+    period = config.control_period
+    per_check = max(1, round(CHECK_INTERVAL / period))
+    t, samples, checked, reported = 0.0, 0, 0, 0.0
     while t < config.duration - 1e-12:
-        t = min(t + CHECK_INTERVAL, config.duration)
+        samples += per_check
+        t = min(samples * period, config.duration)
         try:
             simulator.AdvanceTo(t)
         except SimulationDiverged:
