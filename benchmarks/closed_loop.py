@@ -25,7 +25,10 @@ the wall time also counts their time slices, so the package's best wall time is 
   is what it adds around the same computations: the encoder's initialization sample (a Python event, once per
   run), the envelope checks between chunks of simulated time, and its wiring (the world's actuator and friction
   ports, the LQR's compensation and u_LQ ports, the true friction's sampler and logger, each block a Diagram of
-  its own); ``--profile`` lists the Python calls of one run. (The discrete update of a symbolic block cannot be a
+  its own); ``--profile`` lists the Python calls of one run. ``x bare`` compares the package with the bare loop
+  instead: the same loop without the encoder's quantisation (a ``ZeroOrderHold`` sampler) and without the friction
+  observer and its adapter (F_hat = 0), the floor before these blocks were C++: what they cost, in the package's
+  C++ systems, shows there. (The discrete update of a symbolic block cannot be a
   ``SymbolicVectorSystem(time_period=h)`` itself: in a diagram with continuous state Drake evaluates every
   subsystem's time derivatives at every integrator stage, and that system's derivatives abort unless its period
   is zero. Drake's ``DiscreteTimeApproximation`` holds it instead, so nothing of it runs between samples.)
@@ -114,8 +117,9 @@ def configurations(duration: float) -> dict[str, SimulationConfig]:
 # --- The C++ floor ------------------------------------------------------------------------------------------------
 
 
-def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
-    """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring)."""
+def floor_simulator(config: SimulationConfig, gain: np.ndarray, bare: bool = False) -> Simulator:
+    """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring); ``bare``: the bare
+    loop, without the encoder's quantisation and the friction observer."""
     rig, period = config.rig, config.control_period
     builder = DiagramBuilder()
     plant, _ = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=False)
@@ -124,12 +128,12 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     true_state = to_paper.get_output_port()
     state_sample = builder.AddSystem(ZeroOrderHold(period, 4))
     builder.Connect(true_state, state_sample.get_input_port())
-    measured = _floor_encoder(builder, config, true_state)
+    measured = _floor_encoder(builder, config, true_state, bare)
 
     hold = builder.AddSystem(ZeroOrderHold(period, 1))
     builder.Connect(hold.get_output_port(), plant.get_actuation_input_port())
     command = hold.get_output_port()
-    estimate, friction = _floor_observers(builder, config, true_state, measured, command)
+    estimate, friction = _floor_observers(builder, config, true_state, measured, command, bare)
     law = -np.asarray(gain).reshape(1, 4)
     if friction is not None:  # u = u_LQ - F_hat
         law = np.hstack([law, [[-1.0]]])
@@ -153,8 +157,15 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     return simulator
 
 
-def _floor_encoder(builder: DiagramBuilder, config: SimulationConfig, true_state) -> OutputPort:
-    """The encoder's C++ periodic sampler, its first sample a constant (the package takes it at initialization)."""
+def _floor_encoder(builder: DiagramBuilder, config: SimulationConfig, true_state, bare: bool) -> OutputPort:
+    """The encoder's C++ periodic sampler, its first sample a constant (the package takes it at initialization);
+    ``bare``: a ``ZeroOrderHold`` of the angles."""
+    if bare:
+        angles = builder.AddSystem(MatrixGain(np.hstack([np.eye(2), np.zeros((2, 2))])))
+        encoder = builder.AddSystem(ZeroOrderHold(config.control_period, 2))
+        builder.Connect(true_state, angles.get_input_port())
+        builder.Connect(angles.get_output_port(), encoder.get_input_port())
+        return encoder.get_output_port()
     resolution = config.encoder.encoder_resolution
     sampler = builder.AddSystem(periodic_sampler(resolution, config.control_period))
     first = builder.AddSystem(ConstantVectorSource([quantise(angle, resolution) for angle in config.initial_state[:2]]))
@@ -163,10 +174,10 @@ def _floor_encoder(builder: DiagramBuilder, config: SimulationConfig, true_state
     return sampler.GetOutputPort("measured_angles_rad")
 
 
-def _floor_observers(builder: DiagramBuilder, config: SimulationConfig, true_state, measured, command):
+def _floor_observers(builder: DiagramBuilder, config: SimulationConfig, true_state, measured, command, bare: bool):
     """(state estimate, F_hat or None) of the controller's velocity source, logged as the package logs them: the
     true velocities beside the angles, the HG observer, or the VFE observer nested with the Dahl observer and, when
-    it adapts, its K_sigma adapter (the package's C++ systems)."""
+    it adapts, its K_sigma adapter (the package's C++ systems); ``bare``: the VFE observer with F_hat = 0."""
     period, observers = config.control_period, config.observers
     model = linearized_upright(config.rig)
     source = config.controller.velocity_source
@@ -186,6 +197,11 @@ def _floor_observers(builder: DiagramBuilder, config: SimulationConfig, true_sta
     estimate = observer.GetOutputPort("state_estimate")
     LogVectorOutput(estimate, builder, publish_period=period)
     if source == "hg":
+        return estimate, None
+    if bare:
+        no_friction = builder.AddSystem(ConstantVectorSource([0.0]))
+        builder.Connect(no_friction.get_output_port(), observer.GetInputPort("friction_estimate_Nm"))
+        LogVectorOutput(observer.GetOutputPort("friction_error_estimate_Nm"), builder, publish_period=period)
         return estimate, None
     dahl = builder.AddSystem(DahlFrictionObserver(observers.dahl, period=period))
     arm_velocity = builder.AddSystem(MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
@@ -211,8 +227,8 @@ def _floor_observers(builder: DiagramBuilder, config: SimulationConfig, true_sta
     return estimate, friction if config.controller.friction_compensation else None
 
 
-def time_floor(config: SimulationConfig, gain: np.ndarray) -> float:
-    simulator = floor_simulator(config, gain)
+def time_floor(config: SimulationConfig, gain: np.ndarray, bare: bool = False) -> float:
+    simulator = floor_simulator(config, gain, bare)
     start = time.process_time()
     simulator.Initialize()
     simulator.AdvanceTo(config.duration)
@@ -326,66 +342,82 @@ def with_fine_encoder(config: SimulationConfig) -> SimulationConfig:
     return dataclasses.replace(config, encoder=dataclasses.replace(config.encoder, counts_per_rev=FINE_COUNTS))
 
 
+def measure(configs: dict[str, SimulationConfig], repeats: int) -> dict[str, dict]:
+    """Per configuration, the best of ``repeats`` interleaved runs: ``package``, ``wall``, ``floor``, ``bare``
+    and ``peer`` [s], and on the first repeat the agreement with the peer: ``until`` (:func:`agreement`) and
+    ``check`` (the 2^32-count encoder's max |dx|)."""
+    times = {name: dict.fromkeys(("package", "wall", "floor", "bare", "peer"), math.inf) for name in configs}
+    for repeat in range(repeats):  # interleaved: other load on the machine comes and goes
+        for name, config in configs.items():
+            best = times[name]
+            seconds, result = time_package(config)
+            best["package"], best["wall"] = min(best["package"], seconds), min(best["wall"], result.wall_time)
+            best["floor"] = min(best["floor"], time_floor(config, result.lqr_gain))
+            best["bare"] = min(best["bare"], time_floor(config, result.lqr_gain, bare=True))
+            seconds, states, measured = scipy_closed_loop(config, result.lqr_gain)
+            best["peer"] = min(best["peer"], seconds)
+            if repeat == 0:
+                best["until"] = agreement(config, result, states, measured)
+                _, fine_states, _ = scipy_closed_loop(with_fine_encoder(config), result.lqr_gain)
+                best["check"] = float(np.max(np.abs(simulate(with_fine_encoder(config)).state - fine_states)))
+    return times
+
+
+def report(times: dict[str, dict], duration: float, repeats: int) -> None:
+    """The table and the targets."""
+    print(
+        f"{duration:g} s closed loop, Lund rig, best of {repeats}, CPU seconds on one core; x real = "
+        f"simulated / CPU s, ratio = CPU s / C++ floor's (x bare: / the bare loop's), speedup = scipy peer's CPU s / "
+        f"CPU s"
+    )
+    print(
+        f"{'config':<11} {'cpu [s]':>7} {'wall [s]':>8} {'x real':>6} {'floor [s]':>9} {'ratio':>5} {'x bare':>6} "
+        f"{'scipy [s]':>9} {'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}"
+    )
+    for name, t in times.items():
+        deviation, time_differs = t["until"]
+        print(
+            f"{name:<11} {t['package']:>7.3f} {t['wall']:>8.3f} {duration / t['package']:>6.1f} {t['floor']:>9.3f} "
+            f"{t['package'] / t['floor']:>5.2f} {t['package'] / t['bare']:>6.2f} {t['peer']:>9.2f} "
+            f"{t['peer'] / t['package']:>7.1f} | {deviation:>22.1e} ({time_differs:>5.2f} s) {t['check']:>18.1e}"
+        )
+    full = times["VFE+Dahl+K"]
+    checks = [
+        (f"full diagram >= {TARGET_REAL_TIME:g}x real time", duration / full["package"] >= TARGET_REAL_TIME),
+        (
+            f"full diagram <= {TARGET_FLOOR_RATIO:g}x its C++ floor",
+            full["package"] / full["floor"] <= TARGET_FLOOR_RATIO,
+        ),
+        (
+            f"full diagram >= {TARGET_PEER_SPEEDUP:g}x faster than the scipy peer",
+            full["peer"] / full["package"] >= TARGET_PEER_SPEEDUP,
+        ),
+        (
+            f"package = scipy peer within {TOLERANCE:g} (2^32-count encoder)",
+            max(t["check"] for t in times.values()) <= TOLERANCE,
+        ),
+    ]
+    for label, met in checks:
+        print(f"{label}: {'met' if met else 'NOT met'}")
+    print(
+        f"the C++ floor itself is {full['peer'] / full['floor']:.1f}x faster than the scipy peer (full diagram's "
+        f"loop): the ceiling of the speedup for any Drake diagram of this loop"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=10.0, help="simulated seconds per run")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per configuration (the best is kept)")
     parser.add_argument("--profile", action="store_true", help="print the profile of the full diagram's run")
     args = parser.parse_args()
-
     configs = configurations(args.duration)
-    package, wall, floor, peer = ({name: math.inf for name in configs} for _ in range(4))
-    until, check = {}, {}
-    for repeat in range(args.repeats):  # interleaved: other load on the machine comes and goes
-        for name, config in configs.items():
-            seconds, result = time_package(config)
-            package[name], wall[name] = min(package[name], seconds), min(wall[name], result.wall_time)
-            floor[name] = min(floor[name], time_floor(config, result.lqr_gain))
-            seconds, states, measured = scipy_closed_loop(config, result.lqr_gain)
-            peer[name] = min(peer[name], seconds)
-            if repeat == 0:
-                until[name] = agreement(config, result, states, measured)
-                fine = with_fine_encoder(config)
-                _, fine_states, _ = scipy_closed_loop(fine, result.lqr_gain)
-                check[name] = float(np.max(np.abs(simulate(fine).state - fine_states)))
-
-    print(
-        f"{args.duration:g} s closed loop, Lund rig, best of {args.repeats}, CPU seconds on one core; x real = "
-        f"simulated / CPU s, ratio = CPU s / C++ floor's, speedup = scipy peer's CPU s / CPU s"
-    )
-    print(
-        f"{'config':<11} {'cpu [s]':>7} {'wall [s]':>8} {'x real':>6} {'floor [s]':>9} {'ratio':>5} "
-        f"{'scipy [s]':>9} {'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}"
-    )
-    for name in configs:
-        deviation, time_differs = until[name]
-        print(
-            f"{name:<11} {package[name]:>7.3f} {wall[name]:>8.3f} {args.duration / package[name]:>6.1f} "
-            f"{floor[name]:>9.3f} "
-            f"{package[name] / floor[name]:>5.2f} {peer[name]:>9.2f} {peer[name] / package[name]:>7.1f} | "
-            f"{deviation:>22.1e} ({time_differs:>5.2f} s) {check[name]:>18.1e}"
-        )
-    full = "VFE+Dahl+K"
-    checks = [
-        (f"full diagram >= {TARGET_REAL_TIME:g}x real time", args.duration / package[full] >= TARGET_REAL_TIME),
-        (f"full diagram <= {TARGET_FLOOR_RATIO:g}x its C++ floor", package[full] / floor[full] <= TARGET_FLOOR_RATIO),
-        (
-            f"full diagram >= {TARGET_PEER_SPEEDUP:g}x faster than the scipy peer",
-            peer[full] / package[full] >= TARGET_PEER_SPEEDUP,
-        ),
-        (f"package = scipy peer within {TOLERANCE:g} (2^32-count encoder)", max(check.values()) <= TOLERANCE),
-    ]
-    for label, met in checks:
-        print(f"{label}: {'met' if met else 'NOT met'}")
-    print(
-        f"the C++ floor itself is {peer[full] / floor[full]:.1f}x faster than the scipy peer (full diagram's loop): "
-        f"the ceiling of the speedup for any Drake diagram of this loop"
-    )
-
+    report(measure(configs, args.repeats), args.duration, args.repeats)
     if args.profile:
+        full = configs["VFE+Dahl+K"]
         profiler = cProfile.Profile()
-        built = build_furuta_diagram(configs[full])
-        profiler.runcall(simulate, configs[full], built=built)
+        built = build_furuta_diagram(full)
+        profiler.runcall(simulate, full, built=built)
         pstats.Stats(profiler).sort_stats("tottime").print_stats(12)
 
 
