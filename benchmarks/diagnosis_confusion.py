@@ -254,40 +254,43 @@ def error_row(answer: dict, error: str, seconds: float | None) -> dict:
     }
 
 
-def _diagnose_case(task: tuple[dict, Path, Path]) -> dict:
-    """A task: diagnose one case blind and score it."""
+def _diagnose_case(task: tuple[dict, Path, Path]) -> tuple[dict, list[str]]:
+    """A task: diagnose one case blind; its scored row and the report's effects."""
     answer, suite, out = task
     report, seconds, cpu = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"])
-    return score_case(answer, report, seconds, cpu)
+    return score_case(answer, report, seconds, cpu), report["effects"]
 
 
-def verdicts(rows: list[dict]) -> list[dict]:
-    """The rows as the verdict table every suite writes (:mod:`benchmarks.shards`)."""
+def verdicts(rows: list[dict], effects: list[list[str]]) -> list[dict]:
+    """The rows and their reports' effects as the verdict table every suite writes (:mod:`benchmarks.shards`)."""
     return [
         verdict_row(
             "confusion",
             row["case"],
             row["expected"],
             row["found"],
-            row["found"].split("+") if row["found"] not in ("none", "unexplained") else [],
+            found,
             row["right"],
             row["heldout_reduction"],
             row["seconds"],
         )
-        for row in rows
+        for row, found in zip(rows, effects)
     ]
 
 
-def diagnose_all(answers: list[dict], suite: Path, out: Path, client) -> list[dict]:
+def diagnose_all(answers: list[dict], suite: Path, out: Path, client) -> tuple[list[dict], list[list[str]]]:
     """Diagnose every case folder blind on ``client``'s cluster, one case per task; print a line per case as it
-    finishes and write the results so far; return one scored row per case, in the answers' order."""
+    finishes and write the results so far; return one scored row per case and its report's effects, in the
+    answers' order."""
     rows: list[dict | None] = [None] * len(answers)
+    effects: list[list[str]] = [[] for _ in answers]
 
     def finished(done: int, total: int, index: int, outcome: Outcome) -> None:
-        answer = answers[index]
-        row = rows[index] = (
-            outcome.value if outcome.error is None else error_row(answer, outcome.error, outcome.seconds)
-        )
+        if outcome.error is None:
+            rows[index], effects[index] = outcome.value
+        else:
+            rows[index] = error_row(answers[index], outcome.error, outcome.seconds)
+        row = rows[index]
         mark = "ok " if row["right"] else "BAD"
         reduction = "-" if row["heldout_reduction"] is None else f"{row['heldout_reduction']:6.1%}"
         cpu = "-" if row["cpu_seconds"] is None else f"{row['cpu_seconds']:5.1f}"
@@ -297,12 +300,13 @@ def diagnose_all(answers: list[dict], suite: Path, out: Path, client) -> list[di
             f"reduction {reduction}  {seconds} s (CPU {cpu} s)",
             flush=True,
         )
-        write_all(out, [r for r in rows if r is not None])
+        done_rows = [(r, e) for r, e in zip(rows, effects) if r is not None]
+        write_all(out, [r for r, _ in done_rows], [e for _, e in done_rows])
 
     start = time.perf_counter()
     outcomes = shard(client, _diagnose_case, [(answer, suite, out) for answer in answers], finished)
     print(speed_up_line(outcomes, time.perf_counter() - start, worker_count(client)))
-    return rows
+    return rows, effects
 
 
 def print_figures(figures: dict) -> None:
@@ -341,10 +345,10 @@ def write_results(out: Path, rows: list[dict], figures: dict, confusion_matrix: 
     )
 
 
-def write_all(out: Path, rows: list[dict]) -> None:
-    """``results.csv``, ``results.json`` and ``verdicts.json`` of the rows so far."""
+def write_all(out: Path, rows: list[dict], effects: list[list[str]]) -> None:
+    """``results.csv``, ``results.json`` and ``verdicts.json`` of the rows (and their reports' effects) so far."""
     write_results(out, rows, summarise(rows), confusion(rows))
-    write_verdicts(out / "verdicts.json", verdicts(rows))
+    write_verdicts(out / "verdicts.json", verdicts(rows, effects))
 
 
 def write_config(out: Path, argv: list[str] | None, args: argparse.Namespace, suite: Path, answers: list[dict]) -> None:
@@ -387,14 +391,14 @@ def main(argv: list[str] | None = None) -> int:
                 return 0
         write_config(out, argv, args, suite, answers)
         start = time.perf_counter()
-        rows = diagnose_all(answers, suite, out, client)
+        rows, effects = diagnose_all(answers, suite, out, client)
         wall = time.perf_counter() - start
     expected, found, matrix = confusion(rows)
     print_confusion(expected, found, matrix)
     figures = {**summarise(rows), "run_seconds_per_case": wall / len(rows) if rows else float("nan")}
     print_figures(figures)
     write_results(out, rows, figures, (expected, found, matrix))
-    write_verdicts(out / "verdicts.json", verdicts(rows))
+    write_verdicts(out / "verdicts.json", verdicts(rows, effects))
     return 0
 
 

@@ -8,9 +8,10 @@ in the same fields (:data:`VERDICT_FIELDS`), so that two runs compare case by ca
 ``python benchmarks/shards.py OLD/verdicts.json NEW/verdicts.json``.
 
 Speed-up: the run takes about the larger of (cases / workers) x the mean case time and the longest case, plus
-the cluster's start (a few seconds, and each worker's first case pays the imports and numba's compilation). So
-it scales with the workers while every worker has cases left, up to cases / workers = 1, where the longest case
-sets the time; a suite prints the sum of its case times over its wall time, the speed-up over one worker.
+the cluster's start (each worker's first case also pays the imports and numba's compilation). So it scales with
+the workers while every worker has cases left, up to cases / workers = 1, where the longest case sets the time;
+a suite prints the sum of its case times over its wall time, the speed-up over one worker. On a machine shared
+with other jobs the workers also share its cores: more workers than free cores lengthen every case.
 """
 
 from __future__ import annotations
