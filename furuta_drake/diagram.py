@@ -88,8 +88,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         )
         if config.controller.friction_compensation:
             builder.Connect(observers.compensation, command.controller.GetInputPort("friction_compensation_Nm"))
-    if command.state_reference is not None:
-        connect_arm_reference(builder, command.state_reference, observers.arm_dahl)
+    connect_arm_reference(builder, command.state_reference, observers.arm_dahl)
     loggers = add_loggers(builder, period, world=world, measured=measured, command=command, observers=observers)
     if meshcat is not None:
         from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
@@ -203,7 +202,7 @@ class Observers:
     estimates: dict[str, OutputPort] = field(default_factory=dict)
     compensation: OutputPort | None = None
     signals: dict[str, OutputPort] = field(default_factory=dict)
-    arm_dahl: list[LeafSystem] = field(default_factory=list)
+    arm_dahl: list[DahlFrictionObserver] = field(default_factory=list)
 
 
 def add_observers(
@@ -292,15 +291,21 @@ def _add_nested_vfe(builder, config, model, measured, command, out: Observers, c
     return vfe
 
 
-def connect_arm_reference(builder: DiagramBuilder, state_reference: OutputPort, arm_dahl: list[LeafSystem]) -> None:
+def connect_arm_reference(
+    builder: DiagramBuilder, state_reference: OutputPort | None, arm_dahl: list[DahlFrictionObserver]
+) -> None:
     """The arm's [phi_ref, v_phi_ref] of the paper-order ``state_reference`` into each of the ``arm_dahl``
-    observers: Eq. 9's eps_phi and eps_v are the arm's errors from its reference, not from the upright's zero."""
+    observers: Eq. 9's eps_phi and eps_v are the arm's errors from its reference, not from the upright's zero
+    (``state_reference`` None: the upright, a zero reference)."""
     if not arm_dahl:
         return
-    rows = np.zeros((2, 4))
-    rows[0, 1] = rows[1, 3] = 1.0
-    select = builder.AddNamedSystem("arm_reference_of_dahl", MatrixGain(rows))
-    builder.Connect(state_reference, select.get_input_port())
+    if state_reference is None:
+        select = builder.AddNamedSystem("arm_reference_of_dahl", ConstantVectorSource(np.zeros(2)))
+    else:
+        rows = np.zeros((2, 4))
+        rows[0, 1] = rows[1, 3] = 1.0
+        select = builder.AddNamedSystem("arm_reference_of_dahl", MatrixGain(rows))
+        builder.Connect(state_reference, select.get_input_port())
     for dahl in arm_dahl:
         builder.Connect(select.get_output_port(), dahl.GetInputPort("arm_reference_rad"))
 
@@ -504,6 +509,7 @@ __all__ = [
     "start_at",
     "NestedObservers",
     "add_vfe_with_dahl",
+    "connect_arm_reference",
     "add_dahl_observer",
     "add_loggers",
 ]

@@ -8,7 +8,7 @@ import ast
 from conftest import REPO
 
 LAYERS = [
-    ["errors", "yamlio", "outputs", "data"],
+    ["errors", "yamlio", "outputs", "data", "symbolic_system"],
     ["unmodelled", "rig", "plant"],
     ["friction", "encoder", "actuator", "drive", "world", "controllers"],
     ["observers", "linearization", "analysis"],
