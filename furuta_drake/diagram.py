@@ -82,11 +82,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
     command = add_command(builder, config, world=world)
     observers = add_observers(builder, config, true_state=world.true_state, measured=measured, command=command.torque)
     if command.controller is not None:
-        builder.Connect(
-            observers.estimates[config.controller.velocity_source], command.controller.GetInputPort("state_estimate")
-        )
-        if config.controller.friction_compensation:
-            builder.Connect(observers.compensation, command.controller.GetInputPort("friction_compensation_Nm"))
+        connect_estimates(builder, config, command.controller, observers)
     if command.state_reference is not None:
         connect_arm_reference(builder, command.state_reference, observers.arm_dahl)
     loggers = add_loggers(builder, period, world=world, measured=measured, command=command, observers=observers)
@@ -183,6 +179,14 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
         torque = total.get_output_port()
     builder.Connect(torque, world.arm_torque_input)
     return Command(torque, controller, gain, state_reference)
+
+
+def connect_estimates(builder: DiagramBuilder, config: SimulationConfig, controller, observers: Observers) -> None:
+    """Feed ``controller`` the estimate of ``config``'s velocity source and, when it compensates, the F_hat of
+    ``observers``."""
+    builder.Connect(observers.estimates[config.controller.velocity_source], controller.GetInputPort("state_estimate"))
+    if config.controller.friction_compensation:
+        builder.Connect(observers.compensation, controller.GetInputPort("friction_compensation_Nm"))
 
 
 def controller_gain(plant: MultibodyPlant, config: SimulationConfig) -> np.ndarray:
@@ -497,6 +501,7 @@ __all__ = [
     "build_furuta_diagram",
     "Command",
     "add_command",
+    "connect_estimates",
     "controller_gain",
     "Observers",
     "add_observers",
