@@ -225,7 +225,7 @@ def add_observers(
     source = controller.velocity_source if controller.mode != "open_loop" else None
     compensate = source is not None and controller.friction_compensation
     needed = set(config.observers.run) | ({source} & {"hg", "vfe"})
-    model = linearized_upright(config.rig)
+    model = linearized_upright(config.observers.model or config.rig)
     out, linear = Observers(), []
     if "hg" in needed:
         linear.append(_add_hg(builder, config, model, measured, command, out, compensate and source == "hg"))
