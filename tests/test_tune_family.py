@@ -13,8 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from furuta_drake.config import SimulationConfig, dump_config, swingup_config
+from furuta_drake.config import SimulationConfig, dump_config, quanser_swingup_config, swingup_config
 from furuta_drake.controllers.lqr import LqrParameters, design_lqr
+from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.errors import ConfigError
 from furuta_drake.observers.dahl import DahlObserverParameters
@@ -26,7 +27,7 @@ from furuta_drake.tune.design import design_model, upright_model
 from furuta_drake.tune.family import FLOOR_COUNTS, Member, Problem, run_budget, score, search, worst
 from furuta_drake.tune.pipeline import TuneSettings, nominal_outcome
 from furuta_drake.tune.predict import Prediction
-from furuta_drake.tune.swingup import SwingUpCheck, predict_catch, read_swingup
+from furuta_drake.tune.swingup import SwingUpCheck, predict_catch, read_swingup, swingup_run
 
 COUNT = 2.0 * math.pi / 4096  # [rad] one count of the Lund rig's encoders
 
@@ -177,10 +178,30 @@ def test_a_swing_up_file_must_configure_the_energy_swing_up(tmp_path):
     path.write_text(dump_config(SimulationConfig.from_rig("lund")))
     with pytest.raises(ConfigError, match="controller.mode must be 'swingup'"):
         read_swingup(path)
-    moved = dataclasses.replace(swingup_config("lund"), initial_state=[math.pi, 0.3, 0.0, 0.0])
-    path.write_text(dump_config(moved))
+    moving = dataclasses.replace(swingup_config("lund"), initial_state=[math.pi, 0.0, 0.5, 0.0])
+    path.write_text(dump_config(moving))
     with pytest.raises(ConfigError, match="initial_state must start at rest"):
         read_swingup(path)
-    path.write_text(dump_config(swingup_config("lund", duration=6.0, theta0=3.0)))
+    started = swingup_config("lund", duration=6.0, theta0=3.0)
+    path.write_text(dump_config(dataclasses.replace(started, initial_state=[3.0, 0.2, 0.0, 0.0])))
     check = read_swingup(path)
-    assert (check.theta0, check.duration, check.velocity_source) == (3.0, 6.0, "kinematic_hg")
+    assert (check.mode, check.theta0, check.phi0, check.duration) == ("swingup", 3.0, 0.2, 6.0)
+    assert check.velocity_source == "kinematic_hg"
+    quanser = quanser_swingup_config("qube_servo2", initial_state=[math.pi, 0.0, 0.0, 0.0], duration=5.0)
+    path.write_text(dump_config(quanser))
+    assert read_swingup(path).mode == "quanser_swingup"
+
+
+def test_behind_quansers_swing_up_a_design_balances_with_its_gain_in_volts():
+    # The LQR u = -K x [N m] behind Quanser's swing-up: its PD law's gains in volts are -K / (kt / R).
+    world = SimulationConfig.from_rig("qube_servo2")
+    motor = world.rig.motor
+    K = (-0.5, -0.1, -0.04, -0.03)
+    controller = Controller(K, "hg", world.rig.torque_limit, LqrParameters())
+    params = QuanserSwingUpParameters()
+    check = SwingUpCheck(params, theta0=math.pi, duration=3.0)
+    config = swingup_run(world, controller, check, seed=0)
+    assert config.controller.mode == "quanser_swingup"
+    expected = [-k * motor.resistance / motor.torque_constant for k in K]
+    np.testing.assert_allclose(config.controller.quanser_swingup.balance_gains, expected)
+    assert config.controller.quanser_swingup.balance_angle == params.balance_angle  # the same window
