@@ -507,9 +507,10 @@ def _run_tune(args) -> int:
         if before is not None
         else f"the nominal design falls on the corrected model; tuned theta RMS {1e3 * after['theta_rms']:.3g} mrad"
     )
+    kept = " (the nominal design kept: no design of the family predicts better)" if tuning.tuned.member is None else ""
     print(
-        f"tuned: {change}; worst margins over the intervals {worst.gain_db:.3g} dB, {1e3 * worst.delay_s:.3g} ms; "
-        f"wrote {args.out} (simulate --config {args.out / 'controller.yaml'})"
+        f"tuned{kept}: {change}; worst margins over the intervals {worst.gain_db:.3g} dB, "
+        f"{1e3 * worst.delay_s:.3g} ms; wrote {args.out} (simulate --config {args.out / 'controller.yaml'})"
     )
     return 0
 
