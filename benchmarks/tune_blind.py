@@ -184,6 +184,7 @@ def run_case(case: indep.Case, out: Path, args) -> dict:
         "lqr_gain": document["designs"]["tuned"]["lqr_gain"],
         "compensation": document["designs"]["tuned"]["friction_compensation"]["gain"],
         "observer": document["designs"]["tuned"]["observer"]["kind"],
+        "family_member": document["designs"]["tuned"].get("family_member"),
     }
     return {**row, **judged(row)}
 
@@ -195,6 +196,22 @@ def _figure(entry: dict, figure: str) -> str:
     return f"{1e3 * value['mean']:.3g} +- {1e3 * value['spread']:.2g}"
 
 
+def _design(design: dict) -> str:
+    """The tuned design in a few words: its member of the family, or the nominal design kept."""
+    member = design.get("family_member")
+    if member is None:
+        return "nominal kept"
+    weights = f"Q_theta x {member['theta_weight_scale']:g}, Q_phi x {member['phi_weight_scale']:g}"
+    text = f"{design['observer']} x {member['observer_scale']:g}, {weights}, R x {member['input_weight_scale']:g}"
+    return text + (f", K_sigma {design['compensation']:g}" if design["observer"] == "vfe" else "")
+
+
+def _predicted(row: dict) -> str:
+    """Theta's RMS predicted on the corrected model [mrad], nominal -> tuned."""
+    values = [row["predicted"][name].get("theta_rms") for name in DESIGNS]
+    return " -> ".join("fell" if v is None else f"{1e3 * v:.3g}" for v in values)
+
+
 def _verdict(row: dict, prefix: str) -> str:
     return ", ".join("yes" if row[f"{prefix}{figure}"] else "no" for figure in FIGURES_JUDGED)
 
@@ -203,18 +220,18 @@ def table(rows: list[dict]) -> str:
     """The Markdown table of the runs: per case, both designs' theta RMS and limit-cycle amplitude [mrad] (mean +-
     run-to-run spread over the seeds) and the verdict."""
     lines = [
-        "| case | diagnosis | tuned design | theta RMS nominal [mrad] | theta RMS tuned | limit cycle nominal [mrad] "
-        "| limit cycle tuned | tuned better (theta, limit cycle) | worse beyond the spread |",
-        "|---|---|---|---:|---:|---:|---:|---|---|",
+        "| case | diagnosis | tuned design | theta RMS predicted [mrad] | theta RMS nominal [mrad] "
+        "| theta RMS tuned | limit cycle nominal [mrad] | limit cycle tuned | tuned better (theta, limit cycle) "
+        "| worse beyond the spread |",
+        "|---|---|---|---|---:|---:|---:|---:|---|---|",
     ]
     for row in rows:
         effects = "+".join(row["effects"]) or row["verdict"]
         if "refused" in row:
-            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | |")
+            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | | |")
             continue
-        design = row["tuned_design"]
         lines.append(
-            f"| {row['case']} | {effects} | {design['observer']}, K_sigma {design['compensation']:g} | "
+            f"| {row['case']} | {effects} | {_design(row['tuned_design'])} | {_predicted(row)} | "
             f"{_figure(row['nominal'], 'theta_rms')} | {_figure(row['tuned'], 'theta_rms')} | "
             f"{_figure(row['nominal'], 'limit_cycle_amplitude')} | {_figure(row['tuned'], 'limit_cycle_amplitude')} | "
             f"{_verdict(row, 'better_')} | {_verdict(row, 'worse_')} |"
