@@ -83,11 +83,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
     command = add_command(builder, config, world=world)
     observers = add_observers(builder, config, true_state=world.true_state, measured=measured, command=command.torque)
     if command.controller is not None:
-        builder.Connect(
-            observers.estimates[config.controller.velocity_source], command.controller.GetInputPort("state_estimate")
-        )
-        if config.controller.friction_compensation:
-            builder.Connect(observers.compensation, command.controller.GetInputPort("friction_compensation_Nm"))
+        connect_estimates(builder, config, command.controller, observers)
     connect_arm_reference(builder, command.state_reference, observers.arm_dahl)
     loggers = add_loggers(builder, period, world=world, measured=measured, command=command, observers=observers)
     if meshcat is not None:
@@ -185,6 +181,14 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
     return Command(torque, controller, gain, state_reference)
 
 
+def connect_estimates(builder: DiagramBuilder, config: SimulationConfig, controller, observers: Observers) -> None:
+    """Feed ``controller`` the estimate of ``config``'s velocity source and, when it compensates, the F_hat of
+    ``observers``."""
+    builder.Connect(observers.estimates[config.controller.velocity_source], controller.GetInputPort("state_estimate"))
+    if config.controller.friction_compensation:
+        builder.Connect(observers.compensation, controller.GetInputPort("friction_compensation_Nm"))
+
+
 def controller_gain(plant: MultibodyPlant, config: SimulationConfig) -> np.ndarray:
     """The LQR gain K (1x4, paper order) of ``config``: ``controller.gain`` checked to stabilise the upright of
     ``plant``, or the LQ design of ``controller.lqr``, at the control period."""
@@ -221,7 +225,7 @@ def add_observers(
     source = controller.velocity_source if controller.mode != "open_loop" else None
     compensate = source is not None and controller.friction_compensation
     needed = set(config.observers.run) | ({source} & {"hg", "vfe"})
-    model = linearized_upright(config.rig)
+    model = linearized_upright(config.observers.model or config.rig)
     out, linear = Observers(), []
     if "hg" in needed:
         linear.append(_add_hg(builder, config, model, measured, command, out, compensate and source == "hg"))
@@ -503,6 +507,7 @@ __all__ = [
     "build_furuta_diagram",
     "Command",
     "add_command",
+    "connect_estimates",
     "controller_gain",
     "Observers",
     "add_observers",

@@ -12,7 +12,7 @@ LAYERS = [
     ["unmodelled", "rig", "plant"],
     ["friction", "encoder", "actuator", "drive", "world", "controllers"],
     ["observers", "linearization", "analysis"],
-    ["config", "excitation", "diagram", "simulate", "sweep", "results", "plotting"],
+    ["config", "excitation", "diagram", "lab_controller", "simulate", "sweep", "results", "plotting"],
     ["effects"],
     ["rig_file"],
     ["diagnosis"],
