@@ -29,7 +29,7 @@ from pydrake.systems.primitives import ZeroOrderHold
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import LqrController
-from furuta_drake.diagram import add_observers, connect_estimates, controller_gain
+from furuta_drake.diagram import add_observers, connect_arm_reference, connect_estimates, controller_gain
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import make_furuta_plant
 
@@ -79,6 +79,7 @@ class LabController:
         torque = lqr.GetOutputPort("arm_torque_Nm")
         observers = add_observers(builder, config, true_state=None, measured=hold.get_output_port(), command=torque)
         connect_estimates(builder, config, lqr, observers)
+        connect_arm_reference(builder, None, observers.arm_dahl)  # balancing: the arm's reference is the upright's 0
         builder.ExportOutput(torque, "arm_torque_Nm")
         diagram = builder.Build()
         self._simulator = Simulator(diagram)
