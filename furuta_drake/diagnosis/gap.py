@@ -2,7 +2,8 @@
 
 Each log is cut into consecutive windows of ``horizon`` samples (multiple shooting). A window's initial state is
 first estimated from the measured angles by a centred Savitzky-Golay smoother (angle and derivative), with a
-Dahl or LuGre arm's bristle state integrated along the smoothed arm path, then refined for each model by
+Dahl or LuGre arm's bristle state integrated along the smoothed arm path and a drive's twist read from the command
+and that path (:func:`initial_twists`), then refined for each model by
 Levenberg-Marquardt steps on the window's residuals (a step is kept only where the re-simulated residual
 falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
 or integrator. The model then predicts the angles over the window from the logged command (held over each sample).
@@ -31,15 +32,18 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
+from furuta_drake.effects.drive_kernel import D_BACKLASH, D_INERTIA, D_STIFFNESS, pack_drive
 from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import (
     HISTORY,
     INPUT_CHAIN,
     Model,
+    applied_torque,
     bristle_path,
     integrate_windows,
     parameter_sensitivities,
     sensor_variance,
+    split_states,
     state_sensitivities,
     window_torques,
 )
@@ -226,12 +230,54 @@ def _batch_bristles(bristles: list[np.ndarray | None], batch: Batch) -> np.ndarr
     return None if parts[0] is None else np.concatenate(parts)
 
 
+def initial_twists(model: Model, windows: Windows) -> list[np.ndarray | None]:
+    """Per log, the drive's twist [delta, delta'] [rad, rad/s] (2, W) at each window start that the command and the
+    smoothed arm path suggest: the rotor following the arm, the coupling passes T = u - d phi' - J phi'' (u the
+    applied command, d the back-EMF damping, J the rotor's inertia), so the twist is T / k beyond the backlash on
+    the side T pushes, b sign(T) + T / k (k the drive's or the tooth contact's stiffness), and its rate the path's
+    of that twist; None per log without a drive of its own state. The windows refine both (hidden states)."""
+    if not model.has_drive:
+        return [None] * len(windows.logs)
+    row = pack_drive(model)
+    rotor, backlash, stiffness = row[D_INERTIA], row[D_BACKLASH], row[D_STIFFNESS]
+    out = []
+    for log, path, starts in zip(windows.logs, windows.arm_paths, windows.starts):
+        rate = np.gradient(path, log.sample_period)
+        passed = (
+            applied_torque(model, log.torque_command)
+            - model.back_emf_damping * rate
+            - rotor * np.gradient(rate, log.sample_period)
+        )
+        twist = backlash * np.sign(passed) + passed / stiffness
+        out.append(np.vstack([twist, np.gradient(twist, log.sample_period)])[:, starts])
+    return out
+
+
+def window_states(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
+    """The batch's windows' initial states for ``model``: the smoothed ones (4, W), then its hidden states
+    (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): the arm's bristle read from the arm path
+    (:func:`initial_bristles`) and the drive's twist (:func:`initial_twists`; with the encoder on the motor the
+    smoothed arm angle and rate are the rotor's, the arm's those less the twist's)."""
+    x = batch.initial_states
+    z0 = _batch_bristles(initial_bristles(model, windows), batch)
+    if z0 is not None:
+        x = np.vstack([x, z0])
+    if model.has_drive:
+        twist = np.concatenate([initial_twists(model, windows)[i] for i in batch.members], axis=1)
+        if model.drive_encoder == "motor":
+            x = x.copy()
+            x[[1, 3]] -= twist
+        x = np.vstack([x, twist])
+    return x
+
+
 def substeps_for(period: float) -> int:
     """RK4 substeps so that the integration step is at most 1 ms."""
     return max(1, int(np.ceil(period / 1e-3 - 1e-9)))
 
 
 GAUSS_NEWTON_STEPS = 3
+TWIST_SCALES = (0.1, 10.0)  # [rad, rad/s]: a step of the drive's twist or its rate this large weighs one count^2
 LM_DAMPING = 1e-3  # initial Levenberg-Marquardt damping, relative to the normal matrix' diagonal
 
 
@@ -254,21 +300,24 @@ def _predict(models: list[Model], x: np.ndarray, batch: Batch, substeps: int) ->
         if chain not in torques:
             torques[chain] = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
     torque = np.concatenate([torques[chain] for chain in chains], axis=1)
-    return integrate_windows(models, x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
+    _, bristle, twist = split_states(models[0], x)
+    return integrate_windows(models, x[:4], torque, batch.period, substeps, bristle, twist)
 
 
 def _angles(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
     """The predicted angles (h, 2, k) of windows from their initial states x (n, k) under their arm torques
     (steps, k) (:func:`~furuta_drake.effects.surrogate.window_torques` of the batch's windows, or a choice of
     its columns: each window's prediction depends on its own column alone)."""
-    return integrate_windows([model], x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
+    _, bristle, twist = split_states(model, x)
+    return integrate_windows([model], x[:4], torque, batch.period, substeps, bristle, twist)
 
 
 def _state_jacobian(model, x, torque, batch: Batch, substeps: int, count: float):
     """(the predicted angles (h, 2, k) of :func:`_angles`; the residuals' sensitivities (h, 2, k, n) [counts per
     unit of state] to the initial states x (n, k)): the integration's exact forward sensitivities, one surrogate
     pass."""
-    angles, slopes = state_sensitivities(model, x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
+    _, bristle, twist = split_states(model, x)
+    angles, slopes = state_sensitivities(model, x[:4], torque, batch.period, substeps, bristle, twist)
     return angles, slopes / count
 
 
@@ -287,12 +336,9 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int, sen
     windows, every window's step costs one surrogate call for all of them."""
     count = encoder_resolution(nominal_counts)
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
-    bristles = initial_bristles(model, windows)
     for batch in windows.batches():
         substeps = substeps_for(batch.period)
-        z0 = _batch_bristles(bristles, batch)
-        x = batch.initial_states if z0 is None else np.vstack([batch.initial_states, z0])
-        x, r, J = _refined(model, x, batch, substeps, count, sensitivities)
+        x, r, J = _refined(model, window_states(model, windows, batch), batch, substeps, count, sensitivities)
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
             out[i], states[i] = r[:, :, part], x[:, part]
@@ -305,9 +351,12 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
     residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
     n, W = x.shape
     prior = np.zeros(n)
-    if n > 4:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
+    bristles = model.arm_friction.has_bristles
+    if bristles:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
         bound = model.arm_friction.bristle_bound  # over its whole range weighs one count^2)
         prior[4] = 1.0 / bound**2
+    if model.has_drive:  # inside the backlash the twist is free of the arm: damp its steps the same way
+        prior[-2:] = 1.0 / np.square(TWIST_SCALES)
     torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
     angles, J = _state_jacobian(model, x, torque, batch, substeps, count)
     r = (batch.measured - angles) / count
@@ -320,7 +369,7 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         normal = normal + (damping[:, None] * diagonal + prior + 1e-9)[:, :, None] * np.eye(n)
         gradient = np.einsum("wki,wk->wi", Jw, np.nan_to_num(r.transpose(2, 0, 1).reshape(W, -1)))
         trial = x + np.linalg.solve(normal, gradient[..., None])[..., 0].T
-        if n > 4:
+        if bristles:
             trial[4] = np.clip(trial[4], -bound, bound)
         angles = _angles(model, trial, torque, batch, substeps)
         r_trial = (batch.measured - angles) / count
@@ -381,7 +430,7 @@ def parameter_slopes_of(
             None if tuple(getattr(other, name) for name in INPUT_CHAIN) == chain else (torque_of(other) - torque) / step
             for other, step in zip(shifted, steps)
         ]
-        bristle0 = x[4] if x.shape[0] > 4 else None
+        bristle0 = split_states(model, x)[1]
         slopes = parameter_sensitivities(model, x[:4], torque, batch.period, substeps, bristle0, rows, torques)[1]
         for k in range(len(shifted)):
             for j, i in enumerate(batch.members):
@@ -404,13 +453,13 @@ def fixed_state_residuals_of(
     models: list[Model], windows: Windows, states: list[np.ndarray], nominal_counts: int
 ) -> list[list[np.ndarray]]:
     """:func:`fixed_state_residuals` of each of ``models``, up to ``MODELS_PER_CALL`` of those holding the same
-    number of unmodelled torque terms in one surrogate call per batch (the parameter steps of a finite-difference
-    Jacobian)."""
+    number of unmodelled torque terms (and a drive of their own state, or none) in one surrogate call per batch (the
+    parameter steps of a finite-difference Jacobian)."""
     count = encoder_resolution(nominal_counts)
     out = [[None] * len(windows.logs) for _ in models]
-    alike: dict[int, list[int]] = {}
+    alike: dict[tuple[int, bool], list[int]] = {}
     for k, model in enumerate(models):
-        alike.setdefault(len(model.unmodelled_terms), []).append(k)
+        alike.setdefault((len(model.unmodelled_terms), model.has_drive), []).append(k)
     calls = [group[i : i + MODELS_PER_CALL] for group in alike.values() for i in range(0, len(group), MODELS_PER_CALL)]
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
@@ -431,7 +480,7 @@ class GapResult:
     per_window: np.ndarray  # each window's excess mean squared residual over the floor [counts^2]
     sensor_variance: float  # the floor taken off [counts^2]
     residuals: list[np.ndarray]
-    initial_states: list[np.ndarray]  # per log (4, W), refined for this model (5, W: with the arm's bristle)
+    initial_states: list[np.ndarray]  # per log (4, W), refined for this model, and its hidden states' rows
 
 
 def jitter_energy(model: Model, windows: Windows, states, jacobians, nominal_counts: int):

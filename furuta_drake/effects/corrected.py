@@ -21,13 +21,18 @@ from furuta_drake.unmodelled import UnmodelledTorqueParameters
 def model_rig(model: Model, rig: RigParameters) -> RigParameters:
     """A rigid body with the model's lumped constants a = J_arm + m r^2, b = J_p + m l^2, c = m l r, d = m g l
     (gravity kept): m l = d / g, r = c g / d, the pendulum mass kept where the inertias allow it; a drive's rotor
-    inertia scaled with a (the model's a over the rig file's), so that the arm and its rotor keep their shares."""
+    inertia scaled with a (the model's a over the rig file's), so that the arm and its rotor keep their shares, and
+    its backlash, stiffness and damping the model's."""
     ml = model.gravity_torque / rig.gravity
     r = model.coupling / ml
     drive = rig.drive
     if drive is not None:
         drive = dataclasses.replace(
-            drive, rotor_inertia=drive.rotor_inertia * model.arm_inertia_total / rig.arm_inertia_total
+            drive,
+            rotor_inertia=drive.rotor_inertia * model.arm_inertia_total / rig.arm_inertia_total,
+            backlash=model.drive_backlash,
+            stiffness=model.drive_stiffness if model.drive_stiffness > 0 else None,
+            damping=model.drive_damping if model.drive_stiffness > 0 else 0.0,
         )
     arm = model.arm_inertia_total - (0.0 if drive is None else drive.reflected_inertia)  # J_arm + m r^2 but the rotor
     mass = float(np.clip(rig.pendulum_mass, 1.0001 * ml**2 / model.pendulum_inertia_total, 0.9999 * arm / r**2))
