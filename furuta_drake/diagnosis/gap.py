@@ -253,6 +253,24 @@ def initial_twists(model: Model, windows: Windows) -> list[np.ndarray | None]:
     return out
 
 
+def with_hidden_states(model: Model, windows: Windows, batch: Batch, x: np.ndarray) -> np.ndarray:
+    """The batch's window states ``x`` (4, W and any hidden rows: 4 + 1 with a bristle, + 2 with a twist) laid out
+    for ``model`` (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): rows it lacks start at zero (the
+    bristle) or from :func:`initial_twists` (the twist), rows it has no use for are dropped."""
+    if x.shape[0] == 4 + model.hidden_states:
+        return x
+    rows = [x[:4]]
+    if model.arm_friction.has_bristles:
+        rows.append(x[4:5] if x.shape[0] in (5, 7) else np.zeros((1, x.shape[1])))
+    if model.has_drive:
+        rows.append(x[-2:] if x.shape[0] >= 6 else _batch_twists(model, windows, batch))
+    return np.vstack(rows)
+
+
+def _batch_twists(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
+    return np.concatenate([initial_twists(model, windows)[i] for i in batch.members], axis=1)
+
+
 def window_states(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
     """The batch's windows' initial states for ``model``: the smoothed ones (4, W), then its hidden states
     (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): the arm's bristle read from the arm path
@@ -263,7 +281,7 @@ def window_states(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
     if z0 is not None:
         x = np.vstack([x, z0])
     if model.has_drive:
-        twist = np.concatenate([initial_twists(model, windows)[i] for i in batch.members], axis=1)
+        twist = _batch_twists(model, windows, batch)
         if model.drive_encoder == "motor":
             x = x.copy()
             x[[1, 3]] -= twist
@@ -358,6 +376,8 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
     if model.has_drive:  # inside the backlash the twist is free of the arm: damp its steps the same way
         prior[-2:] = 1.0 / np.square(TWIST_SCALES)
     torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    if model.has_drive and model.drive_backlash > 0:
+        x = _screened_twists(model, x, torque, batch, substeps, count)
     angles, J = _state_jacobian(model, x, torque, batch, substeps, count)
     r = (batch.measured - angles) / count
     cost = np.nansum(r**2, axis=(0, 1))
@@ -383,6 +403,30 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         cost = np.where(better, cost_trial, cost)
         damping = np.where(better, damping / 3.0, np.maximum(damping * 10.0, 1.0))
     return x, r, J
+
+
+TWIST_SCREEN = (-1.0, -0.5, 0.0, 0.5, 1.0)  # twists screened at a window's start, in backlash half-widths
+
+
+def _screened_twists(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int, count: float):
+    """``x`` with each window's twist [delta, delta'] the best of its estimate and the twists ``TWIST_SCREEN``
+    across the backlash, each at the estimate's rate and at rest against the arm (delta' = 0): inside the play the arm
+    does not feel the twist until a flank touches, so the residual is flat in it there and a linearised step cannot
+    find the flank the rotor sits on; at a window that starts at a command's reversal the estimate's rate (of a twist
+    that jumps across the play) is no start either. The screen's predictions all run in one call."""
+    n, W = x.shape
+    trials = [x]
+    for share in TWIST_SCREEN:
+        for rate in (x[-1], np.zeros(W)):
+            trial = x.copy()
+            trial[-2], trial[-1] = share * model.drive_backlash, rate
+            trials.append(trial)
+    every = np.hstack(trials)
+    angles = _angles(model, every, np.tile(torque, (1, len(trials))), batch, substeps)
+    r = (np.tile(batch.measured, (1, 1, len(trials))) - angles) / count
+    cost = np.nansum(r**2, axis=(0, 1)).reshape(len(trials), W)
+    best = np.argmin(cost, axis=0)
+    return every[:, best * W + np.arange(W)]
 
 
 def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
@@ -453,19 +497,21 @@ def fixed_state_residuals_of(
     models: list[Model], windows: Windows, states: list[np.ndarray], nominal_counts: int
 ) -> list[list[np.ndarray]]:
     """:func:`fixed_state_residuals` of each of ``models``, up to ``MODELS_PER_CALL`` of those holding the same
-    number of unmodelled torque terms (and a drive of their own state, or none) in one surrogate call per batch (the
-    parameter steps of a finite-difference Jacobian)."""
+    number of unmodelled torque terms and the same hidden states in one surrogate call per batch (the parameter steps
+    of a finite-difference Jacobian); ``states`` laid out for each (:func:`with_hidden_states`)."""
     count = encoder_resolution(nominal_counts)
     out = [[None] * len(windows.logs) for _ in models]
-    alike: dict[tuple[int, bool], list[int]] = {}
+    alike: dict[tuple[int, bool, bool], list[int]] = {}
     for k, model in enumerate(models):
-        alike.setdefault((len(model.unmodelled_terms), model.has_drive), []).append(k)
+        layout = (len(model.unmodelled_terms), model.has_drive, model.arm_friction.has_bristles)
+        alike.setdefault(layout, []).append(k)
     calls = [group[i : i + MODELS_PER_CALL] for group in alike.values() for i in range(0, len(group), MODELS_PER_CALL)]
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
         W, substeps = x.shape[1], substeps_for(batch.period)
         for call in calls:
-            predicted = _predict([models[k] for k in call], np.tile(x, (1, len(call))), batch, substeps)
+            laid = with_hidden_states(models[call[0]], windows, batch, x)
+            predicted = _predict([models[k] for k in call], np.tile(laid, (1, len(call))), batch, substeps)
             for slot, k in enumerate(call):
                 r = (batch.measured - predicted[:, :, slot * W : (slot + 1) * W]) / count
                 for j, i in enumerate(batch.members):

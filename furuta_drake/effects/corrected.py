@@ -12,7 +12,7 @@ from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.config import SimulationConfig
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import torque_parameters_of
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, describe, effect_from_params
+from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, Effect, describe, effect_from_params
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
@@ -110,11 +110,16 @@ def fitted_rig(
     nominal: Model,
     unmodelled_torque: UnmodelledTorqueParameters | None = None,
 ) -> RigParameters:
-    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section, and the
-    ``unmodelled_torque`` expressions (when given) replacing its own."""
+    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section, a drive's
+    (backlash, compliance) written as the keys of its ``drive:`` section, and the ``unmodelled_torque`` expressions
+    (when given) replacing its own."""
     stated = dict(rig.effects or {})
     for name, effect in effects.items():
-        stated[name] = rig_entry(name, describe(name, effect, nominal))
+        params = describe(name, effect, nominal)
+        if name in DRIVE_KEYS:
+            rig = rig.replace(drive=dataclasses.replace(rig.drive, **{key: params[key] for key in DRIVE_KEYS[name]}))
+        else:
+            stated[name] = rig_entry(name, params)
     if unmodelled_torque is not None:
         rig = rig.replace(unmodelled_torque=None if unmodelled_torque.is_empty else unmodelled_torque)
     return rig.replace(effects=stated or None)

@@ -1,0 +1,230 @@
+"""The diagnosis of a geared rig's drive: backlash and an elastic coupling, each at two sizes and two log rates,
+beside an arm friction and an input delay on the same rig, logged as built rigs log them.
+
+The truth is the package's Drake world of the shipped geared rig (``furuta_drake.rig.geared_rig``: a 30:1
+gearmotor whose rotor weighs about half the arm side), its drive stated with the case's backlash or stiffness and
+damping; the rig file the diagnosis reads states the same drive rigid (gear ratio and rotor inertia only), so the
+drive's play or spring is what it has to find. Every log is open loop from the hanging pendulum under a step
+command (a square wave of the motor's voltage whose level switches sign after a random dwell of DWELL_S), as a
+microcontroller that logs its PWM command records it; the arm reverses at every step, where backlash and a spring
+show. Two train and two held-out runs of DURATION_S per case, at 200 Hz and at 50 Hz.
+
+Printed: per case the effect, its size, the rate, the verdict, the fitted value (95 % interval) against the
+truth, the held-out reduction of the gap, and the detection limit of the drive's effects.
+
+Run from the repository root: ``PYTHONPATH=. nice -n 19 python benchmarks/diagnosis_drives.py --out DIR
+[--cases backlash_small ...] [--rates 200Hz 50Hz] [--workers 1]``. ``DIR`` keeps the recorded cases and the reports;
+a case already diagnosed there is read back, not rerun.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.suite import _with_actuator, _with_arm_friction
+from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
+from furuta_drake.diagnosis.log_writers import write_log
+from furuta_drake.friction import JointFrictionParameters
+from furuta_drake.rig import RigParameters, geared_rig
+from furuta_drake.simulate import simulate
+from furuta_drake.yamlio import dump_yaml_dataclass
+
+RATES = {"200Hz": 0.005, "50Hz": 0.02}  # control and logging period [s]
+VOLTS = 1.0  # the step command's level [V]: the arm swings through about a radian between reversals
+DWELL_S = (0.25, 0.6)  # the command keeps its sign for a uniform random time in this range [s]
+DURATION_S = 6.0
+RUNS = {"train_1": 1, "train_2": 2, "heldout_1": 501, "heldout_2": 502}  # run -> command seed
+
+
+@dataclass(frozen=True)
+class DriveCase:
+    """A case: its name, the effect the diagnosis should name, the truth's changes (``drive`` keys of the rig's
+    drive, or a simulate config's ``effects``), and the truth's values of the effect's parameters."""
+
+    name: str
+    effect: str
+    drive: dict
+    truth: dict
+    config: dict = dataclasses.field(default_factory=dict)
+
+
+def _compliance(frequency: float, ratio: float) -> dict:
+    """A drive spring ringing at ``frequency`` [Hz] (pendulum locked) with the damping ratio ``ratio``:
+    k = mu (2 pi f)^2, c = 2 zeta sqrt(k mu), mu the reduced inertia of the geared rig's rotor and arm side."""
+    rig = geared_rig()
+    rotor = rig.drive.reflected_inertia
+    arm_side = rig.arm_inertia_total - rotor
+    mu = rotor * arm_side / (rotor + arm_side)
+    k = mu * (2.0 * math.pi * frequency) ** 2
+    return {"stiffness": k, "damping": 2.0 * ratio * math.sqrt(k * mu)}
+
+
+SOFT, STIFF = _compliance(8.0, 0.1), _compliance(30.0, 0.1)  # a belt ringing at 8 Hz and at 30 Hz
+FRICTION = 0.01  # [N m] Coulomb friction on the arm (Dahl's, presliding 1 mrad)
+DELAY = 0.02  # [s]
+CASES = {
+    c.name: c
+    for c in [
+        DriveCase("backlash_small", "drive_backlash", {"backlash": 0.01}, {"backlash": 0.01}),
+        DriveCase("backlash_large", "drive_backlash", {"backlash": 0.03}, {"backlash": 0.03}),
+        DriveCase("compliance_soft", "drive_compliance", SOFT, {"stiffness": SOFT["stiffness"]}),
+        DriveCase("compliance_stiff", "drive_compliance", STIFF, {"stiffness": STIFF["stiffness"]}),
+        DriveCase("arm_friction", "arm_coulomb_friction", {}, {"coulomb": FRICTION}, {"coulomb": FRICTION}),
+        DriveCase("delay", "input_delay", {}, {"delay": DELAY}, {"delay": DELAY}),
+    ]
+}
+
+
+def lab_rig(period: float) -> RigParameters:
+    """The geared rig as its rig file states it: a rigid drive (gear ratio and rotor inertia), the lab's period."""
+    return geared_rig().replace(sample_period=period)
+
+
+def step_command(rig: RigParameters, seed: int, duration: float) -> np.ndarray:
+    """The torque-equivalent command [N m] per control period: +-VOLTS through the motor, switching sign after
+    dwells drawn uniformly from DWELL_S (the same function of time at every period)."""
+    rng = np.random.default_rng(seed)
+    switches = np.cumsum(rng.uniform(*DWELL_S, size=int(duration / DWELL_S[0]) + 2))
+    level = VOLTS * rig.motor.torque_constant / rig.motor.resistance * rng.choice([-1.0, 1.0])
+    times = np.arange(int(round(duration / rig.sample_period))) * rig.sample_period
+    return level * (-1.0) ** np.searchsorted(switches, times, side="right")
+
+
+def true_config(case: DriveCase, rig: RigParameters, seed: int, duration: float) -> SimulationConfig:
+    """The truth's run: the rig with the case's drive (or effect), open loop from hanging under the step command."""
+    truth = rig.replace(drive=dataclasses.replace(rig.drive, **case.drive)) if case.drive else rig
+    base = SimulationConfig.from_rig(truth)
+    config = dataclasses.replace(
+        base,
+        duration=duration,
+        seed=seed,
+        initial_state=[math.pi, 0.0, 0.0, 0.0],
+        controller=dataclasses.replace(base.controller, mode="open_loop"),
+        excitation=ExcitationConfig(command=step_command(rig, seed, duration).tolist()),
+        monitor=MonitorConfig(theta_bound=None),
+    )
+    if "coulomb" in case.config:
+        level = case.config["coulomb"]
+        friction = JointFrictionParameters(model="dahl", coulomb_pos=level, coulomb_neg=level, sigma0=level / 1e-3)
+        config = _with_arm_friction(config, friction)
+    if "delay" in case.config:
+        config = _with_actuator(config, delay=case.config["delay"])
+    return config
+
+
+def record_case(case: DriveCase, folder: Path, period: float, duration: float = DURATION_S) -> None:
+    """The case's rig file (the drive rigid) and four runs, each a CSV of time, theta, phi and torque only."""
+    rig = lab_rig(period)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "rig.yaml").write_text(dump_yaml_dataclass(rig))
+    for run, seed in RUNS.items():
+        result = simulate(true_config(case, rig, seed, duration))
+        columns = {"time": result.time, "theta": result.measured[:, 0], "phi": result.measured[:, 1]}
+        write_log(folder / f"{run}.csv", {**columns, "torque": result.torque})
+
+
+def diagnose_case(folder: Path, out: Path, workers: int) -> tuple[dict, float]:
+    """The report of the case in ``folder`` (diagnosed blind) and its wall time [s], read back when already there."""
+    from furuta_drake.cli import main
+
+    start = time.perf_counter()
+    if not (out / "report.json").exists():
+        runs = sorted(folder.glob("*.csv"))
+        train = [str(p) for p in runs if p.name.startswith("train")]
+        heldout = [str(p) for p in runs if p.name.startswith("heldout")]
+        args = ["diagnose", "--rig", str(folder / "rig.yaml"), "--train", *train, "--heldout", *heldout]
+        code = main(args + ["--out", str(out), "--workers", str(workers), "--force"])
+        if code != 0:
+            return {"verdict": f"exit {code}", "effects": []}, time.perf_counter() - start
+    return json.loads((out / "report.json").read_text()), time.perf_counter() - start
+
+
+def _entry(report: dict, effect: str) -> dict:
+    """The ranking entry of the accepted model, else the case's effect's own entry."""
+    accepted = "+".join(name for name in report.get("effects", []) if name not in ("measurement_noise",))
+    for name in (accepted, effect):
+        entry = next((e for e in report.get("ranking", []) if e["effect"] == name), None)
+        if entry is not None:
+            return entry
+    return {}
+
+
+def row_for(case: DriveCase, rate: str, report: dict, seconds: float) -> dict:
+    """The table's row of a case: verdict, the fitted main parameter (its 95 % interval) of the case's effect
+    against the truth, the held-out reduction, and the drive effects' detection limits."""
+    entry = _entry(report, case.effect)
+    names = entry.get("effect", "").split("+")
+    prefix = f"{case.effect}." if len(names) > 1 else ""
+    param, truth = next(iter(case.truth.items()))
+    fitted = entry.get("params", {}).get(prefix + param) if case.effect in names else None
+    interval = entry.get("params_ci", {}).get(prefix + param) if case.effect in names else None
+    limits = {limit["effect"]: limit["value"] for limit in report.get("detection_limits", [])}
+    return {
+        "case": case.name,
+        "effect": case.effect,
+        "size": f"{param} {truth:.3g}",
+        "rate": rate,
+        "verdict": report.get("verdict"),
+        "effects": "+".join(report.get("effects", [])) or "-",
+        "fitted": fitted,
+        "interval": interval,
+        "truth": truth,
+        "within": bool(interval and interval[0] <= truth <= interval[1]),
+        "reduction": (report.get("gap") or {}).get("heldout_reduction"),
+        "limit_backlash": limits.get("drive_backlash"),
+        "limit_stiffness": limits.get("drive_compliance"),
+        "seconds": seconds,
+    }
+
+
+def _g(value, digits: int = 3) -> str:
+    return "-" if value is None else f"{value:.{digits}g}"
+
+
+def table(rows: list[dict]) -> str:
+    head = (
+        "| case | size | rate | verdict (accepted) | fitted (95 % interval) | truth in interval | held-out reduction "
+        "| limit: backlash [rad] | limit: stiffness [N m/rad] |"
+    )
+    lines = [head, "|" + "---|" * 9]
+    for r in rows:
+        fitted = _g(r["fitted"]) + (f" ({_g(r['interval'][0])} to {_g(r['interval'][1])})" if r["interval"] else "")
+        reduction = "-" if r["reduction"] is None else f"{100 * r['reduction']:.0f} %"
+        lines.append(
+            f"| {r['case']} | {r['size']} | {r['rate']} | {r['verdict']} ({r['effects']}) | {fitted} | "
+            f"{'yes' if r['within'] else 'no'} | {reduction} | {_g(r['limit_backlash'])} | {_g(r['limit_stiffness'])} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--rates", nargs="+", default=list(RATES), choices=list(RATES))
+    parser.add_argument("--workers", type=int, default=1)
+    args = parser.parse_args(argv)
+    rows = []
+    for name in args.cases:
+        for rate in args.rates:
+            case, folder = CASES[name], args.out / "cases" / f"{name}_{rate}"
+            if not (folder / "heldout_2.csv").exists():
+                record_case(case, folder, RATES[rate])
+            report, seconds = diagnose_case(folder, args.out / "reports" / f"{name}_{rate}", args.workers)
+            rows.append(row_for(case, rate, report, seconds))
+            print(f"  {name} {rate}: {rows[-1]['verdict']} in {seconds:.0f} s", flush=True)
+            (args.out / "rows.json").write_text(json.dumps(rows, indent=2) + "\n")
+    print(table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
