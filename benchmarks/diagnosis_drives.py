@@ -10,7 +10,9 @@ microcontroller that logs its PWM command records it; the arm reverses at every 
 show. Two train and two held-out runs of DURATION_S per case, at 200 Hz and at 50 Hz.
 
 Printed: per case the effect, its size, the rate, the verdict, the fitted value (95 % interval) against the
-truth, the held-out reduction of the gap, and the detection limit of the drive's effects.
+truth, the held-out reduction of the gap, and the detection limit of the drive's effects. The candidates are the
+drive's two effects, their look-alikes (arm Coulomb friction, a dead zone, an actuator lag) and the input delay
+(``CANDIDATES``; the whole vocabulary takes about ten times as long).
 
 Run from the repository root: ``PYTHONPATH=. nice -n 19 python benchmarks/diagnosis_drives.py --out DIR
 [--cases backlash_small ...] [--rates 200Hz 50Hz] [--workers 1]``. ``DIR`` keeps the recorded cases and the reports;
@@ -40,7 +42,15 @@ from furuta_drake.yamlio import dump_yaml_dataclass
 RATES = {"200Hz": 0.005, "50Hz": 0.02}  # control and logging period [s]
 VOLTS = 1.0  # the step command's level [V]: the arm swings through about a radian between reversals
 DWELL_S = (0.25, 0.6)  # the command keeps its sign for a uniform random time in this range [s]
-DURATION_S = 6.0
+DURATION_S = 4.0
+CANDIDATES = (  # the drive's effects, their look-alikes and the friction and delay cases' own
+    "drive_backlash",
+    "drive_compliance",
+    "arm_coulomb_friction",
+    "actuator_deadzone",
+    "actuator_lag",
+    "input_delay",
+)
 RUNS = {"train_1": 1, "train_2": 2, "heldout_1": 501, "heldout_2": 502}  # run -> command seed
 
 
@@ -131,19 +141,21 @@ def record_case(case: DriveCase, folder: Path, period: float, duration: float = 
         write_log(folder / f"{run}.csv", {**columns, "torque": result.torque})
 
 
-def diagnose_case(folder: Path, out: Path, workers: int) -> tuple[dict, float]:
+def diagnose_case(folder: Path, out: Path, workers: int, candidates=CANDIDATES) -> tuple[dict, float]:
     """The report of the case in ``folder`` (diagnosed blind) and its wall time [s], read back when already there."""
-    from furuta_drake.cli import main
+    from furuta_drake.diagnosis.pipeline import diagnose
+    from furuta_drake.diagnosis.report import write_report
 
     start = time.perf_counter()
     if not (out / "report.json").exists():
-        runs = sorted(folder.glob("*.csv"))
-        train = [str(p) for p in runs if p.name.startswith("train")]
-        heldout = [str(p) for p in runs if p.name.startswith("heldout")]
-        args = ["diagnose", "--rig", str(folder / "rig.yaml"), "--train", *train, "--heldout", *heldout]
-        code = main(args + ["--out", str(out), "--workers", str(workers), "--force"])
-        if code != 0:
-            return {"verdict": f"exit {code}", "effects": []}, time.perf_counter() - start
+        diagnosis = diagnose(
+            rig=folder / "rig.yaml",
+            train=sorted(folder.glob("train_*.csv")),
+            heldout=sorted(folder.glob("heldout_*.csv")),
+            candidates=list(candidates),
+            workers=workers,
+        )
+        write_report(out, diagnosis, force=True)
     return json.loads((out / "report.json").read_text()), time.perf_counter() - start
 
 

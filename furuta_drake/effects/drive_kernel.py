@@ -101,28 +101,55 @@ def _drive_stage(y, out, phi_start, z, tau, bristles, rigid, arm, pendulum, term
     out[4], out[5] = y[5], rotor - out[3]
 
 
+ENGAGEMENT_SPLIT = 16  # RK4 steps into which a step that engages the teeth is split
+
+
+@njit(cache=True, inline="always")
+def _rk4(s, h, slopes, y, z, tau, bristles, rigid, arm, pendulum, terms, drive):
+    """One RK4 step of ``h`` [s] from the state ``s`` (6,) (changed in place); returns the arm's move."""
+    weights = (0.0, 0.5, 0.5, 1.0)
+    start = s[1]
+    for stage in range(4):
+        for j in range(6):
+            y[j] = s[j] + (weights[stage] * h * slopes[stage - 1, j] if stage > 0 else 0.0)
+        _drive_stage(y, slopes[stage], start, z, tau, bristles, rigid, arm, pendulum, terms, drive)
+    for j in range(6):
+        s[j] += h / 6.0 * (slopes[0, j] + 2.0 * slopes[1, j] + 2.0 * slopes[2, j] + slopes[3, j])
+    return s[1] - start
+
+
 @njit(cache=True)
 def _drive_window(s, z, column, dt, inner, substeps, out, w, bristles, rigid, arm, pendulum, terms, drive):
     """One window's RK4 from the state ``s`` (6,) (changed in place) and the bristle ``z`` under the torque ``column``
     (steps,), held over each substep of ``dt`` [s] and stepped ``inner`` times in it; the angles read are written to
-    ``out[:, :, w]`` every ``substeps`` substeps. Returns the final bristle."""
+    ``out[:, :, w]`` every ``substeps`` substeps. Returns the final bristle.
+
+    With backlash, a step that ends with the teeth touching where it started in the play is taken again as
+    ``ENGAGEMENT_SPLIT`` shorter steps: the coupling's damping switches on at the touch, and a fixed step would place
+    that impact anywhere within it (an error of the impact speed times the step in the angles that follow)."""
     h = dt / inner
-    slopes, y = np.empty((4, 6)), np.empty(6)
-    weights = (0.0, 0.5, 0.5, 1.0)
+    slopes, y, before = np.empty((4, 6)), np.empty(6), np.empty(6)
     motor = drive[D_MOTOR_ENCODER] != 0.0
+    b = drive[D_BACKLASH]
     row, substep = 0, 0
     out[0, 0, w], out[0, 1, w] = s[0], s[1] + (s[4] if motor else 0.0)
     for i in range(column.size):
         for _ in range(inner):
-            start = s[1]
-            for stage in range(4):
-                for j in range(6):
-                    y[j] = s[j] + (weights[stage] * h * slopes[stage - 1, j] if stage > 0 else 0.0)
-                _drive_stage(y, slopes[stage], start, z, column[i], bristles, rigid, arm, pendulum, terms, drive)
             for j in range(6):
-                s[j] += h / 6.0 * (slopes[0, j] + 2.0 * slopes[1, j] + 2.0 * slopes[2, j] + slopes[3, j])
-            if bristles:
-                moved = s[1] - start
+                before[j] = s[j]
+            moved = _rk4(s, h, slopes, y, z, column[i], bristles, rigid, arm, pendulum, terms, drive)
+            if b > 0.0 and abs(before[4]) <= b and abs(s[4]) > b:
+                for j in range(6):
+                    s[j] = before[j]
+                moved = 0.0
+                for _ in range(ENGAGEMENT_SPLIT):
+                    part = _rk4(
+                        s, h / ENGAGEMENT_SPLIT, slopes, y, z, column[i], bristles, rigid, arm, pendulum, terms, drive
+                    )
+                    if bristles:
+                        z = bristle_step(z, part, part / (h / ENGAGEMENT_SPLIT), arm)
+                    moved += part
+            elif bristles:
                 z = bristle_step(z, moved, moved / h, arm)
         substep += 1
         if substep == substeps:
