@@ -87,6 +87,8 @@ class Candidate:
     vanishes: tuple[tuple[str, float | str], ...] = ()
     nested: tuple[tuple[str, str, str], ...] = ()
     drive: bool = False  # an effect of the rig file's drive (its rotor's inertia read there): offered with one only
+    look_alike: tuple[tuple[str, str], ...] = ()  # (another effect, why the two look alike on logs): the report
+    # names the pair beside the accepted effect, with what the other removes on its own
 
     def offered(self, model: Model) -> bool:
         """Whether the effect can act in ``model``: a drive's needs the rig file's drive (a rotor of its own)."""
@@ -577,6 +579,18 @@ CANDIDATES: dict[str, Candidate] = {
             main="backlash",
             vanishes=(("backlash", 0.0),),
             drive=True,
+            look_alike=(
+                (
+                    "arm_coulomb_friction",
+                    "both act at the arm's velocity reversals: friction brakes the arm by a torque, backlash leaves "
+                    "it free while the rotor crosses the play and then jerks it",
+                ),
+                (
+                    "actuator_deadzone",
+                    "both take the command's effect away around its reversals: a dead zone below a torque, backlash "
+                    "for the time the rotor needs to cross the play",
+                ),
+            ),
         ),
         Candidate(
             "drive_compliance",
@@ -590,6 +604,13 @@ CANDIDATES: dict[str, Candidate] = {
             vanishes=(("stiffness", "upper"),),
             nested=(("stiffness", "upper", "a rigid drive (as stiff as a gear's tooth contact)"),),
             drive=True,
+            look_alike=(
+                (
+                    "actuator_lag",
+                    "both make the arm follow a step of the command late; a spring rings at its frequency while a "
+                    "lag does not, and logs slower than twice that frequency see the spring as a lag",
+                ),
+            ),
         ),
         Candidate(
             "inertia_mismatch",
