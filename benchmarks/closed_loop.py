@@ -1,5 +1,5 @@
 """Wall time and real-time factor of a closed loop per diagram configuration, against the C++ floor and a scipy
-peer (targets: the full paper diagram >= 10x real time on one core, <= 3x its C++ floor, >= 5x faster than the
+peer (targets: the full paper diagram >= 10x real time on one core, <= 1.5x its C++ floor, >= 5x faster than the
 scipy peer).
 
 Configurations, all on the default Lund config (``SimulationConfig.from_rig("lund")``: 4096-count encoders at
@@ -14,18 +14,24 @@ Each is timed three ways in the same process, interleaved, best of ``--repeats``
 process (``time.process_time``: the wall time of the run alone on one core; on a machine shared with other jobs
 the wall time also counts their time slices, so the package's best wall time is printed beside it):
 
-- ``furuta_drake.simulate.simulate`` on a built diagram (the package, monitor included; build time excluded);
-- the C++ floor: the same sampled loop from Drake's C++ systems only (the MultibodyPlant, a ``ZeroOrderHold``
-  sampler in place of the quantising encoder, the observer's discrete ``LinearSystem``, the LQR as
-  ``MatrixGain`` -> ``Saturation`` -> ``ZeroOrderHold``, the same loggers and integrator); the Dahl observer and
-  the adapter have no C++ equivalent, so both VFE configurations share the VFE floor. (Written as
-  ``SymbolicVectorSystem`` blocks they would evaluate in C++, but Drake calls every subsystem's time
-  derivatives and a ``SymbolicVectorSystem`` demands continuous dynamics, so in a diagram with a continuous
-  plant each block needs a placeholder continuous state, evaluated at every integrator stage, and its outputs
-  are invalidated at every stage: such a block costs as much as the Python callbacks it replaces.) So the
-  package's excess over the floor is its Python blocks' callbacks, each a crossing between C++ and Python at
-  every sample or step: the encoder's sample, the Dahl observer's update and F_hat, the adapter's update and
-  K_sigma, and the divergence monitor; ``--profile`` lists them with their calls;
+- ``furuta_drake.simulate.simulate`` on a built diagram (the package, envelope checks included; build time
+  excluded);
+- the C++ floor: the same sampled loop from C++ systems only, wired directly: the MultibodyPlant, a
+  ``ZeroOrderHold`` sampling the true state, the encoder's periodic sampler (its symbolic C++ system, the first
+  sample a constant), the observer's discrete ``LinearSystem``, for the VFE configurations the package's Dahl
+  observer and K_sigma adapter (symbolic expressions evaluated in C++:
+  :func:`furuta_drake.symbolic_system.discrete_symbolic_system`), the LQR as ``MatrixGain`` -> ``Saturation`` ->
+  ``ZeroOrderHold``, loggers of the same signals and the same integrator. So the package's excess over the floor
+  is what it adds around the same computations: the encoder's initialization sample (a Python event, once per
+  run), the envelope checks between chunks of simulated time, and its wiring (the world's actuator and friction
+  ports, the LQR's compensation and u_LQ ports, the true friction's sampler and logger, each block a Diagram of
+  its own); ``--profile`` lists the Python calls of one run. ``x bare`` compares the package with the bare loop
+  instead: the same loop without the encoder's quantisation (a ``ZeroOrderHold`` sampler) and without the friction
+  observer and its adapter (F_hat = 0), the floor before these blocks were C++: what they cost, in the package's
+  C++ systems, shows there. (The discrete update of a symbolic block cannot be a
+  ``SymbolicVectorSystem(time_period=h)`` itself: in a diagram with continuous state Drake evaluates every
+  subsystem's time derivatives at every integrator stage, and that system's derivatives abort unless its period
+  is zero. Drake's ``DiscreteTimeApproximation`` holds it instead, so nothing of it runs between samples.)
 - the scipy peer: the same sampled loop written for this benchmark, the package's closed-form Furuta equations
   (the diagnosis surrogate's, in the lumped constants a, b, c, d; tests pin them to the MultibodyPlant)
   integrated by ``solve_ivp`` (RK45, rtol 1e-8, atol 1e-10; a looser
@@ -55,7 +61,7 @@ import time
 
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
     ConstantVectorSource,
     LogVectorOutput,
@@ -70,16 +76,17 @@ from scipy.linalg import expm
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.effects.surrogate import Model, _accelerations
+from furuta_drake.encoder import periodic_sampler, quantise
 from furuta_drake.friction import JointFrictionParameters
-from furuta_drake.observers.dahl import DahlAdaptation
+from furuta_drake.observers.dahl import DahlAdaptation, DahlFrictionObserver
 from furuta_drake.observers.hg import HighGainObserver, continuous_high_gain_observer
-from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
+from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters, KSigmaAdapter
 from furuta_drake.observers.vfe import VfeObserver, continuous_vfe_observer
 from furuta_drake.plant import add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import linearized_upright
 from furuta_drake.simulate import SimulationResult, simulate
 
-TARGET_REAL_TIME, TARGET_FLOOR_RATIO, TARGET_PEER_SPEEDUP = 10.0, 3.0, 5.0
+TARGET_REAL_TIME, TARGET_FLOOR_RATIO, TARGET_PEER_SPEEDUP = 10.0, 1.5, 5.0
 TOLERANCE = 1e-4  # [rad, rad/s] package vs peer with the fine encoder: RK3 at accuracy 1e-4 against RK45 at 1e-8
 FINE_COUNTS = 2**32
 PEER_RTOL, PEER_ATOL = 1e-8, 1e-10
@@ -110,8 +117,9 @@ def configurations(duration: float) -> dict[str, SimulationConfig]:
 # --- The C++ floor ------------------------------------------------------------------------------------------------
 
 
-def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
-    """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring)."""
+def floor_simulator(config: SimulationConfig, gain: np.ndarray, bare: bool = False) -> Simulator:
+    """The sampled loop of ``config`` from Drake's C++ systems only (see the module docstring); ``bare``: the bare
+    loop, without the encoder's quantisation and the friction observer."""
     rig, period = config.rig, config.control_period
     builder = DiagramBuilder()
     plant, _ = add_furuta_plant(builder, rig, time_step=0.0, with_scene_graph=False)
@@ -120,45 +128,25 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     true_state = to_paper.get_output_port()
     state_sample = builder.AddSystem(ZeroOrderHold(period, 4))
     builder.Connect(true_state, state_sample.get_input_port())
-    angles = builder.AddSystem(MatrixGain(np.hstack([np.eye(2), np.zeros((2, 2))])))
-    builder.Connect(true_state, angles.get_input_port())
-    encoder = builder.AddSystem(ZeroOrderHold(period, 2))
-    builder.Connect(angles.get_output_port(), encoder.get_input_port())
-    measured = encoder.get_output_port()
+    measured = _floor_encoder(builder, config, true_state, bare)
 
-    lqr = builder.AddSystem(MatrixGain(-np.asarray(gain).reshape(1, 4)))
-    saturation = builder.AddSystem(
-        Saturation([-config.controller.lqr.torque_limit], [config.controller.lqr.torque_limit])
-    )
     hold = builder.AddSystem(ZeroOrderHold(period, 1))
-    builder.Connect(lqr.get_output_port(), saturation.get_input_port())
-    builder.Connect(saturation.get_output_port(), hold.get_input_port())
     builder.Connect(hold.get_output_port(), plant.get_actuation_input_port())
     command = hold.get_output_port()
-
-    source = config.controller.velocity_source
-    model = linearized_upright(rig)
-    if source == "true":
-        velocities = builder.AddSystem(MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
-        builder.Connect(true_state, velocities.get_input_port())
-        mux = builder.AddSystem(Multiplexer([2, 2]))
-        builder.Connect(measured, mux.get_input_port(0))
-        builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
-        estimate = mux.get_output_port()
-    elif source == "hg":
-        observer = builder.AddSystem(HighGainObserver(model, config.observers.hg, period=period))
-        estimate = observer.GetOutputPort("state_estimate")
-    else:
-        observer = builder.AddSystem(VfeObserver(model, config.observers.vfe, period=period))
-        no_friction = builder.AddSystem(ConstantVectorSource([0.0]))
-        builder.Connect(no_friction.get_output_port(), observer.GetInputPort("friction_estimate_Nm"))
-        estimate = observer.GetOutputPort("state_estimate")
-        LogVectorOutput(observer.GetOutputPort("friction_error_estimate_Nm"), builder, publish_period=period)
-    if source != "true":
-        builder.Connect(measured, observer.GetInputPort("measured_angles_rad"))
-        builder.Connect(command, observer.GetInputPort("arm_torque_Nm"))
-        LogVectorOutput(estimate, builder, publish_period=period)
+    estimate, friction = _floor_observers(builder, config, true_state, measured, command, bare)
+    law = -np.asarray(gain).reshape(1, 4)
+    if friction is not None:  # u = u_LQ - F_hat
+        law = np.hstack([law, [[-1.0]]])
+        stacked = builder.AddSystem(Multiplexer([4, 1]))
+        builder.Connect(estimate, stacked.get_input_port(0))
+        builder.Connect(friction, stacked.get_input_port(1))
+        estimate = stacked.get_output_port()
+    lqr = builder.AddSystem(MatrixGain(law))
+    limit = config.controller.lqr.torque_limit
+    saturation = builder.AddSystem(Saturation([-limit], [limit]))
     builder.Connect(estimate, lqr.get_input_port())
+    builder.Connect(lqr.get_output_port(), saturation.get_input_port())
+    builder.Connect(saturation.get_output_port(), hold.get_input_port())
     for port in (state_sample.get_output_port(), measured, command):
         LogVectorOutput(port, builder, publish_period=period)
 
@@ -169,8 +157,78 @@ def floor_simulator(config: SimulationConfig, gain: np.ndarray) -> Simulator:
     return simulator
 
 
-def time_floor(config: SimulationConfig, gain: np.ndarray) -> float:
-    simulator = floor_simulator(config, gain)
+def _floor_encoder(builder: DiagramBuilder, config: SimulationConfig, true_state, bare: bool) -> OutputPort:
+    """The encoder's C++ periodic sampler, its first sample a constant (the package takes it at initialization);
+    ``bare``: a ``ZeroOrderHold`` of the angles."""
+    if bare:
+        angles = builder.AddSystem(MatrixGain(np.hstack([np.eye(2), np.zeros((2, 2))])))
+        encoder = builder.AddSystem(ZeroOrderHold(config.control_period, 2))
+        builder.Connect(true_state, angles.get_input_port())
+        builder.Connect(angles.get_output_port(), encoder.get_input_port())
+        return encoder.get_output_port()
+    resolution = config.encoder.encoder_resolution
+    sampler = builder.AddSystem(periodic_sampler(resolution, config.control_period))
+    first = builder.AddSystem(ConstantVectorSource([quantise(angle, resolution) for angle in config.initial_state[:2]]))
+    builder.Connect(true_state, sampler.GetInputPort("true_state"))
+    builder.Connect(first.get_output_port(), sampler.GetInputPort("first_sample_rad"))
+    return sampler.GetOutputPort("measured_angles_rad")
+
+
+def _floor_observers(builder: DiagramBuilder, config: SimulationConfig, true_state, measured, command, bare: bool):
+    """(state estimate, F_hat or None) of the controller's velocity source, logged as the package logs them: the
+    true velocities beside the angles, the HG observer, or the VFE observer nested with the Dahl observer and, when
+    it adapts, its K_sigma adapter (the package's C++ systems); ``bare``: the VFE observer with F_hat = 0."""
+    period, observers = config.control_period, config.observers
+    model = linearized_upright(config.rig)
+    source = config.controller.velocity_source
+    if source == "true":
+        velocities = builder.AddSystem(MatrixGain(np.hstack([np.zeros((2, 2)), np.eye(2)])))
+        builder.Connect(true_state, velocities.get_input_port())
+        mux = builder.AddSystem(Multiplexer([2, 2]))
+        builder.Connect(measured, mux.get_input_port(0))
+        builder.Connect(velocities.get_output_port(), mux.get_input_port(1))
+        return mux.get_output_port(), None
+    if source == "hg":
+        observer = builder.AddSystem(HighGainObserver(model, observers.hg, period=period))
+    else:
+        observer = builder.AddSystem(VfeObserver(model, observers.vfe, period=period))
+    builder.Connect(measured, observer.GetInputPort("measured_angles_rad"))
+    builder.Connect(command, observer.GetInputPort("arm_torque_Nm"))
+    estimate = observer.GetOutputPort("state_estimate")
+    LogVectorOutput(estimate, builder, publish_period=period)
+    if source == "hg":
+        return estimate, None
+    if bare:
+        no_friction = builder.AddSystem(ConstantVectorSource([0.0]))
+        builder.Connect(no_friction.get_output_port(), observer.GetInputPort("friction_estimate_Nm"))
+        LogVectorOutput(observer.GetOutputPort("friction_error_estimate_Nm"), builder, publish_period=period)
+        return estimate, None
+    dahl = builder.AddSystem(DahlFrictionObserver(observers.dahl, period=period))
+    arm_velocity = builder.AddSystem(MatrixGain(np.array([[0.0, 0.0, 0.0, 1.0]])))
+    upright = builder.AddSystem(ConstantVectorSource([0.0, 0.0]))
+    builder.Connect(estimate, arm_velocity.get_input_port())
+    builder.Connect(arm_velocity.get_output_port(), dahl.GetInputPort("arm_velocity_estimate_rad_per_s"))
+    builder.Connect(measured, dahl.GetInputPort("measured_angles_rad"))
+    builder.Connect(upright.get_output_port(), dahl.GetInputPort("arm_reference_rad"))
+    friction = dahl.GetOutputPort("friction_estimate_Nm")
+    builder.Connect(friction, observer.GetInputPort("friction_estimate_Nm"))
+    error = observer.GetOutputPort("friction_error_estimate_Nm")
+    signals = [friction, error]
+    adaptation = observers.dahl.adaptation
+    if adaptation is not None:
+        adapter = builder.AddSystem(KSigmaAdapter(adaptation.k_sigma, period=period, sigma0=observers.dahl.sigma0))
+        builder.Connect(arm_velocity.get_output_port(), adapter.GetInputPort("arm_velocity_estimate_rad_per_s"))
+        builder.Connect(dahl.GetOutputPort("bristle_state_rad"), adapter.GetInputPort("bristle_state_rad"))
+        builder.Connect(error, adapter.GetInputPort("friction_error_estimate_Nm"))
+        builder.Connect(adapter.GetOutputPort("K_sigma"), dahl.GetInputPort("K_sigma"))
+        signals.append(adapter.GetOutputPort("K_sigma_branches"))
+    for port in signals:
+        LogVectorOutput(port, builder, publish_period=period)
+    return estimate, friction if config.controller.friction_compensation else None
+
+
+def time_floor(config: SimulationConfig, gain: np.ndarray, bare: bool = False) -> float:
+    simulator = floor_simulator(config, gain, bare)
     start = time.process_time()
     simulator.Initialize()
     simulator.AdvanceTo(config.duration)
@@ -284,66 +342,82 @@ def with_fine_encoder(config: SimulationConfig) -> SimulationConfig:
     return dataclasses.replace(config, encoder=dataclasses.replace(config.encoder, counts_per_rev=FINE_COUNTS))
 
 
+def measure(configs: dict[str, SimulationConfig], repeats: int) -> dict[str, dict]:
+    """Per configuration, the best of ``repeats`` interleaved runs: ``package``, ``wall``, ``floor``, ``bare``
+    and ``peer`` [s], and on the first repeat the agreement with the peer: ``until`` (:func:`agreement`) and
+    ``check`` (the 2^32-count encoder's max |dx|)."""
+    times = {name: dict.fromkeys(("package", "wall", "floor", "bare", "peer"), math.inf) for name in configs}
+    for repeat in range(repeats):  # interleaved: other load on the machine comes and goes
+        for name, config in configs.items():
+            best = times[name]
+            seconds, result = time_package(config)
+            best["package"], best["wall"] = min(best["package"], seconds), min(best["wall"], result.wall_time)
+            best["floor"] = min(best["floor"], time_floor(config, result.lqr_gain))
+            best["bare"] = min(best["bare"], time_floor(config, result.lqr_gain, bare=True))
+            seconds, states, measured = scipy_closed_loop(config, result.lqr_gain)
+            best["peer"] = min(best["peer"], seconds)
+            if repeat == 0:
+                best["until"] = agreement(config, result, states, measured)
+                _, fine_states, _ = scipy_closed_loop(with_fine_encoder(config), result.lqr_gain)
+                best["check"] = float(np.max(np.abs(simulate(with_fine_encoder(config)).state - fine_states)))
+    return times
+
+
+def report(times: dict[str, dict], duration: float, repeats: int) -> None:
+    """The table and the targets."""
+    print(
+        f"{duration:g} s closed loop, Lund rig, best of {repeats}, CPU seconds on one core; x real = "
+        f"simulated / CPU s, ratio = CPU s / C++ floor's (x bare: / the bare loop's), speedup = scipy peer's CPU s / "
+        f"CPU s"
+    )
+    print(
+        f"{'config':<11} {'cpu [s]':>7} {'wall [s]':>8} {'x real':>6} {'floor [s]':>9} {'ratio':>5} {'x bare':>6} "
+        f"{'scipy [s]':>9} {'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}"
+    )
+    for name, t in times.items():
+        deviation, time_differs = t["until"]
+        print(
+            f"{name:<11} {t['package']:>7.3f} {t['wall']:>8.3f} {duration / t['package']:>6.1f} {t['floor']:>9.3f} "
+            f"{t['package'] / t['floor']:>5.2f} {t['package'] / t['bare']:>6.2f} {t['peer']:>9.2f} "
+            f"{t['peer'] / t['package']:>7.1f} | {deviation:>22.1e} ({time_differs:>5.2f} s) {t['check']:>18.1e}"
+        )
+    full = times["VFE+Dahl+K"]
+    checks = [
+        (f"full diagram >= {TARGET_REAL_TIME:g}x real time", duration / full["package"] >= TARGET_REAL_TIME),
+        (
+            f"full diagram <= {TARGET_FLOOR_RATIO:g}x its C++ floor",
+            full["package"] / full["floor"] <= TARGET_FLOOR_RATIO,
+        ),
+        (
+            f"full diagram >= {TARGET_PEER_SPEEDUP:g}x faster than the scipy peer",
+            full["peer"] / full["package"] >= TARGET_PEER_SPEEDUP,
+        ),
+        (
+            f"package = scipy peer within {TOLERANCE:g} (2^32-count encoder)",
+            max(t["check"] for t in times.values()) <= TOLERANCE,
+        ),
+    ]
+    for label, met in checks:
+        print(f"{label}: {'met' if met else 'NOT met'}")
+    print(
+        f"the C++ floor itself is {full['peer'] / full['floor']:.1f}x faster than the scipy peer (full diagram's "
+        f"loop): the ceiling of the speedup for any Drake diagram of this loop"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=10.0, help="simulated seconds per run")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per configuration (the best is kept)")
     parser.add_argument("--profile", action="store_true", help="print the profile of the full diagram's run")
     args = parser.parse_args()
-
     configs = configurations(args.duration)
-    package, wall, floor, peer = ({name: math.inf for name in configs} for _ in range(4))
-    until, check = {}, {}
-    for repeat in range(args.repeats):  # interleaved: other load on the machine comes and goes
-        for name, config in configs.items():
-            seconds, result = time_package(config)
-            package[name], wall[name] = min(package[name], seconds), min(wall[name], result.wall_time)
-            floor[name] = min(floor[name], time_floor(config, result.lqr_gain))
-            seconds, states, measured = scipy_closed_loop(config, result.lqr_gain)
-            peer[name] = min(peer[name], seconds)
-            if repeat == 0:
-                until[name] = agreement(config, result, states, measured)
-                fine = with_fine_encoder(config)
-                _, fine_states, _ = scipy_closed_loop(fine, result.lqr_gain)
-                check[name] = float(np.max(np.abs(simulate(fine).state - fine_states)))
-
-    print(
-        f"{args.duration:g} s closed loop, Lund rig, best of {args.repeats}, CPU seconds on one core; x real = "
-        f"simulated / CPU s, ratio = CPU s / C++ floor's, speedup = scipy peer's CPU s / CPU s"
-    )
-    print(
-        f"{'config':<11} {'cpu [s]':>7} {'wall [s]':>8} {'x real':>6} {'floor [s]':>9} {'ratio':>5} "
-        f"{'scipy [s]':>9} {'speedup':>7} | {'max|dx| until counts differ (t)':>31} {'2^32-count max|dx|':>18}"
-    )
-    for name in configs:
-        deviation, time_differs = until[name]
-        print(
-            f"{name:<11} {package[name]:>7.3f} {wall[name]:>8.3f} {args.duration / package[name]:>6.1f} "
-            f"{floor[name]:>9.3f} "
-            f"{package[name] / floor[name]:>5.2f} {peer[name]:>9.2f} {peer[name] / package[name]:>7.1f} | "
-            f"{deviation:>22.1e} ({time_differs:>5.2f} s) {check[name]:>18.1e}"
-        )
-    full = "VFE+Dahl+K"
-    checks = [
-        (f"full diagram >= {TARGET_REAL_TIME:g}x real time", args.duration / package[full] >= TARGET_REAL_TIME),
-        (f"full diagram <= {TARGET_FLOOR_RATIO:g}x its C++ floor", package[full] / floor[full] <= TARGET_FLOOR_RATIO),
-        (
-            f"full diagram >= {TARGET_PEER_SPEEDUP:g}x faster than the scipy peer",
-            peer[full] / package[full] >= TARGET_PEER_SPEEDUP,
-        ),
-        (f"package = scipy peer within {TOLERANCE:g} (2^32-count encoder)", max(check.values()) <= TOLERANCE),
-    ]
-    for label, met in checks:
-        print(f"{label}: {'met' if met else 'NOT met'}")
-    print(
-        f"the C++ floor itself is {peer[full] / floor[full]:.1f}x faster than the scipy peer (full diagram's loop): "
-        f"the ceiling of the speedup for any Drake diagram of this loop"
-    )
-
+    report(measure(configs, args.repeats), args.duration, args.repeats)
     if args.profile:
+        full = configs["VFE+Dahl+K"]
         profiler = cProfile.Profile()
-        built = build_furuta_diagram(configs[full])
-        profiler.runcall(simulate, configs[full], built=built)
+        built = build_furuta_diagram(full)
+        profiler.runcall(simulate, full, built=built)
         pstats.Stats(profiler).sort_stats("tottime").print_stats(12)
 
 

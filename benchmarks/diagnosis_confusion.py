@@ -3,19 +3,27 @@ held-out gap reduction where right, the coverage of the 95 % parameter intervals
 
 The suite (:mod:`benchmarks.suite`): each vocabulary effect at two magnitudes on both rigs and the
 seeds asked for, plus ``none`` cases, an effect outside the vocabulary (cogging torque, expected
-``unexplained``) and cases with two and three effects acting together (all must be named). Its logs are simulated on
-Dask (the sweep's cluster, one case per task) into
-``OUT/suite/cases/<case>/`` and the answers go to ``OUT/suite/answers.json``; the diagnosis is then run on each
-case folder alone (rig.yaml, train_*.csv, heldout_*.csv), blind, and scored against the answers afterwards.
+``unexplained``) and cases with two and three effects acting together (all must be named). Its logs are simulated
+into ``OUT/suite/cases/<case>/`` and the answers go to ``OUT/suite/answers.json``; the diagnosis is then run on each
+case folder alone (rig.yaml, train_*.csv, heldout_*.csv), blind, and scored against the answers afterwards. Both
+run on a Dask cluster, one case per task (:mod:`benchmarks.shards`; each case diagnosed with one worker process):
+``--scheduler ADDRESS`` for an existing cluster (its workers must import this repository and see ``OUT``), else a
+local cluster of ``--workers`` single-threaded processes (default one per core). A line per case is printed as it
+finishes; a case that raises is a wrong row naming the error.
 
-Writes ``OUT/results.csv`` (one row per case), ``OUT/results.json`` (the figures and every row) and
-``OUT/config.json`` (the options, cases and versions). Targets: >= 90 % right, no false alarm on ``none``,
-median held-out reduction >= 50 % where right, every effect named in >= 80 % of the cases with several, 85-99 %
-of the true parameters of right verdicts inside their 95 % intervals, <= 60 s per case of four 8 s logs at 1 kHz
-on 2 cores.
+Writes, as the cases finish, ``OUT/results.csv`` (one row per case), ``OUT/results.json`` (the figures and every
+row) and ``OUT/verdicts.json`` (the verdict table every suite writes, to compare two runs:
+``python benchmarks/shards.py OLD/verdicts.json NEW/verdicts.json``); and ``OUT/config.json`` (the options, cases
+and versions). Targets: >= 90 % right, no false alarm on ``none``, median held-out reduction >= 50 % where right,
+every effect named in >= 80 % of the cases with several, 85-99 % of the true parameters of right verdicts inside
+their 95 % intervals, <= 60 s of the run's wall time per case of four 8 s logs at 1 kHz on 2 cores
+(``run_seconds_per_case``; ``seconds_per_case`` is a case's own time on its one core). The run ends with the sum
+of the case times over the wall time: its speed-up over one worker, which grows with the workers until each has
+one case left (:mod:`benchmarks.shards`).
 
 Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_confusion.py --out runs/confusion``
-(``--quick``: a handful of cases with 8 s logs; ``--suite DIR`` reuses logs written earlier).
+(``--quick``: a handful of cases with 8 s logs; ``--only WORD ...``: the cases whose name holds a word;
+``--suite DIR`` reuses logs written earlier).
 """
 
 from __future__ import annotations
@@ -31,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
 from benchmarks.suite import CaseSpec, default_cases, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report import write_report
@@ -51,7 +60,7 @@ TARGETS = {
     "median_reduction_where_right": 0.5,
     "several_effects_named": 0.8,
     "interval_coverage": (0.85, 0.99),
-    "seconds_per_case": 60.0,
+    "run_seconds_per_case": 60.0,
 }
 
 
@@ -60,18 +69,16 @@ def _write_case(args):
     return write_case(case, Path(directory), duration)
 
 
-def generate(
-    cases: list[CaseSpec], suite: Path, duration: float, workers: int | None, scheduler: str | None
-) -> list[dict]:
-    """Simulate every case's logs on Dask; write and return the answers (kept apart from the case folders)."""
+def generate(cases: list[CaseSpec], suite: Path, duration: float, client) -> list[dict]:
+    """Simulate every case's logs on ``client``'s cluster; write and return the answers (kept apart from the case
+    folders)."""
     tasks = [(case, str(suite / "cases" / case.name), duration) for case in cases]
-    with dask_client(scheduler, workers, len(tasks)) as client:
-        answers = map_on_dask(
-            client,
-            _write_case,
-            tasks,
-            progress=lambda done, total: print(f"\r  simulated {done}/{total} cases", end=""),
-        )
+    answers = map_on_dask(
+        client,
+        _write_case,
+        tasks,
+        progress=lambda done, total: print(f"\r  simulated {done}/{total} cases", end=""),
+    )
     print()
     (suite / "answers.json").write_text(json.dumps(answers, indent=2, sort_keys=True) + "\n")
     return answers
@@ -82,16 +89,16 @@ def _cpu_seconds() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def diagnose_blind(case_dir: Path, out: Path, workers: int | None) -> tuple[dict, float, float]:
-    """Run the diagnosis on one case folder (no answer in sight); return its report, wall time and CPU time
-    (this process and its finished worker processes: on a shared machine, CPU / cores estimates the wall time
-    the case would take with the cores to itself)."""
+def diagnose_blind(case_dir: Path, out: Path) -> tuple[dict, float, float]:
+    """Run the diagnosis on one case folder (no answer in sight) with one worker process; return its report, wall
+    time and CPU time (on a shared machine, the CPU time estimates the wall time the case would take with a
+    core to itself)."""
     start, cpu = time.perf_counter(), _cpu_seconds()
     diagnosis = diagnose(
         rig=case_dir / "rig.yaml",
         train=sorted(case_dir.glob("train_*.csv")),
         heldout=sorted(case_dir.glob("heldout_*.csv")),
-        workers=workers,
+        workers=1,
     )
     seconds, cpu = time.perf_counter() - start, _cpu_seconds() - cpu
     write_report(out, diagnosis, force=True)
@@ -144,6 +151,8 @@ def summarise(rows: list[dict]) -> dict:
     reductions = [row["heldout_reduction"] for row in right if row["expected"] != "none"]
     several = [row for row in rows if row["several"]]
     intervals = sum(row["params_with_interval"] for row in rows)
+    seconds = [row["seconds"] for row in rows if row["seconds"] is not None]  # None: the case's worker was lost
+    cpu = [row["cpu_seconds"] for row in rows if row["cpu_seconds"] is not None]
     return {
         "several_effects_named": (sum(row["right"] for row in several) / len(several)) if several else float("nan"),
         "interval_coverage": sum(row["params_inside"] for row in rows) / intervals if intervals else float("nan"),
@@ -155,9 +164,9 @@ def summarise(rows: list[dict]) -> dict:
             sum(row["found"] != "none" for row in none_rows) / len(none_rows) if none_rows else float("nan")
         ),
         "median_reduction_where_right": float(np.median(reductions)) if reductions else float("nan"),
-        "seconds_per_case": float(np.mean([row["seconds"] for row in rows])) if rows else float("nan"),
-        "max_seconds": float(np.max([row["seconds"] for row in rows])) if rows else float("nan"),
-        "cpu_seconds_per_case": float(np.mean([row["cpu_seconds"] for row in rows])) if rows else float("nan"),
+        "seconds_per_case": float(np.mean(seconds)) if seconds else float("nan"),
+        "max_seconds": float(np.max(seconds)) if seconds else float("nan"),
+        "cpu_seconds_per_case": float(np.mean(cpu)) if cpu else float("nan"),
     }
 
 
@@ -182,8 +191,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--duration", type=float, default=8.0, help="length of every log [s] (default 8)")
     parser.add_argument("--suite", type=Path, help="reuse a suite written earlier (its answers.json and cases/)")
     parser.add_argument("--generate-only", action="store_true", help="write the suite and stop")
-    parser.add_argument("--workers", type=int, help="processes (default: all cores)")
-    parser.add_argument("--scheduler", help="Dask scheduler address for the log generation (default: local)")
+    parser.add_argument("--workers", type=int, help="the local cluster's worker processes (default: one per core)")
+    parser.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster started here)")
     return parser.parse_args(argv)
 
 
@@ -224,22 +233,80 @@ def score_case(answer: dict, report: dict, seconds: float, cpu: float) -> dict:
     }
 
 
-def diagnose_all(answers: list[dict], suite: Path, out: Path, workers: int | None) -> list[dict]:
-    """Diagnose every case folder blind, print and return one scored row per case."""
-    rows = []
-    for i, answer in enumerate(answers, start=1):
-        report, seconds, cpu = diagnose_blind(
-            suite / "cases" / answer["case"], out / "reports" / answer["case"], workers
+def error_row(answer: dict, error: str, seconds: float | None) -> dict:
+    """The row of a case whose diagnosis raised: wrong, with the error as what was found."""
+    return {
+        "case": answer["case"],
+        "rig": answer["rig"],
+        "expected": answer["expected_verdict"],
+        "found": f"ERROR {error}"[:200],
+        "right": False,
+        "several": "+" in answer["expected_verdict"],
+        "params_inside": 0,
+        "params_with_interval": 0,
+        "confusable": "[]",
+        "heldout_reduction": None,
+        "nominal_heldout_gap": None,
+        "runner_up": "",
+        "fitted": "{}",
+        "seconds": seconds,
+        "cpu_seconds": None,
+    }
+
+
+def _diagnose_case(task: tuple[dict, Path, Path]) -> tuple[dict, list[str]]:
+    """A task: diagnose one case blind; its scored row and the report's effects."""
+    answer, suite, out = task
+    report, seconds, cpu = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"])
+    return score_case(answer, report, seconds, cpu), report["effects"]
+
+
+def verdicts(rows: list[dict], effects: list[list[str]]) -> list[dict]:
+    """The rows and their reports' effects as the verdict table every suite writes (:mod:`benchmarks.shards`)."""
+    return [
+        verdict_row(
+            "confusion",
+            row["case"],
+            row["expected"],
+            row["found"],
+            found,
+            row["right"],
+            row["heldout_reduction"],
+            row["seconds"],
         )
-        row = score_case(answer, report, seconds, cpu)
-        rows.append(row)
+        for row, found in zip(rows, effects)
+    ]
+
+
+def diagnose_all(answers: list[dict], suite: Path, out: Path, client) -> tuple[list[dict], list[list[str]]]:
+    """Diagnose every case folder blind on ``client``'s cluster, one case per task; print a line per case as it
+    finishes and write the results so far; return one scored row per case and its report's effects, in the
+    answers' order."""
+    rows: list[dict | None] = [None] * len(answers)
+    effects: list[list[str]] = [[] for _ in answers]
+
+    def finished(done: int, total: int, index: int, outcome: Outcome) -> None:
+        if outcome.error is None:
+            rows[index], effects[index] = outcome.value
+        else:
+            rows[index] = error_row(answers[index], outcome.error, outcome.seconds)
+        row = rows[index]
         mark = "ok " if row["right"] else "BAD"
+        reduction = "-" if row["heldout_reduction"] is None else f"{row['heldout_reduction']:6.1%}"
+        cpu = "-" if row["cpu_seconds"] is None else f"{row['cpu_seconds']:5.1f}"
+        seconds = "-" if row["seconds"] is None else f"{row['seconds']:5.1f}"
         print(
-            f"[{i}/{len(answers)}] {mark} {row['case']:<55} -> {row['found']:<24} "
-            f"reduction {row['heldout_reduction']:6.1%}  {seconds:5.1f} s (CPU {cpu:5.1f} s)",
+            f"[{done}/{total}] {mark} {row['case']:<55} -> {row['found']:<24} "
+            f"reduction {reduction}  {seconds} s (CPU {cpu} s)",
             flush=True,
         )
-    return rows
+        done_rows = [(r, e) for r, e in zip(rows, effects) if r is not None]
+        write_all(out, [r for r, _ in done_rows], [e for _, e in done_rows])
+
+    start = time.perf_counter()
+    outcomes = shard(client, _diagnose_case, [(answer, suite, out) for answer in answers], finished)
+    print(speed_up_line(outcomes, time.perf_counter() - start, worker_count(client)))
+    return rows, effects
 
 
 def print_figures(figures: dict) -> None:
@@ -251,8 +318,8 @@ def print_figures(figures: dict) -> None:
         f"all effects named in {figures['several_effects_named']:.0%} of the cases with several, "
         f"interval coverage {figures['interval_coverage']:.1%} of {figures['parameters_with_interval']} true "
         f"parameters, "
-        f"{figures['seconds_per_case']:.1f} s per case (max {figures['max_seconds']:.1f} s; "
-        f"{figures['cpu_seconds_per_case']:.1f} CPU s per case)"
+        f"{figures['run_seconds_per_case']:.1f} s of the run per case; a case {figures['seconds_per_case']:.1f} s "
+        f"on its core (max {figures['max_seconds']:.1f} s; {figures['cpu_seconds_per_case']:.1f} CPU s)"
     )
     print("targets: " + ", ".join(f"{k} {v}" for k, v in TARGETS.items()))
 
@@ -276,6 +343,12 @@ def write_results(out: Path, rows: list[dict], figures: dict, confusion_matrix: 
         )
         + "\n"
     )
+
+
+def write_all(out: Path, rows: list[dict], effects: list[list[str]]) -> None:
+    """``results.csv``, ``results.json`` and ``verdicts.json`` of the rows (and their reports' effects) so far."""
+    write_results(out, rows, summarise(rows), confusion(rows))
+    write_verdicts(out / "verdicts.json", verdicts(rows, effects))
 
 
 def write_config(out: Path, argv: list[str] | None, args: argparse.Namespace, suite: Path, answers: list[dict]) -> None:
@@ -304,25 +377,28 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     cases = select_cases(args)
-    if args.suite is not None:
-        suite = args.suite
-        answers = reused_answers(suite, cases)
-    else:
-        suite = out / "suite"
-        print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}")
+    with dask_client(args.scheduler, args.workers, len(cases)) as client:
+        if args.suite is not None:
+            suite = args.suite
+            answers = reused_answers(suite, cases)
+        else:
+            suite = out / "suite"
+            print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}")
+            start = time.perf_counter()
+            answers = generate(cases, suite, args.duration, client)
+            print(f"  {time.perf_counter() - start:.0f} s")
+            if args.generate_only:
+                return 0
+        write_config(out, argv, args, suite, answers)
         start = time.perf_counter()
-        answers = generate(cases, suite, args.duration, args.workers, args.scheduler)
-        print(f"  {time.perf_counter() - start:.0f} s")
-        if args.generate_only:
-            return 0
-
-    rows = diagnose_all(answers, suite, out, args.workers)
+        rows, effects = diagnose_all(answers, suite, out, client)
+        wall = time.perf_counter() - start
     expected, found, matrix = confusion(rows)
     print_confusion(expected, found, matrix)
-    figures = summarise(rows)
+    figures = {**summarise(rows), "run_seconds_per_case": wall / len(rows) if rows else float("nan")}
     print_figures(figures)
     write_results(out, rows, figures, (expected, found, matrix))
-    write_config(out, argv, args, suite, answers)
+    write_verdicts(out / "verdicts.json", verdicts(rows, effects))
     return 0
 
 

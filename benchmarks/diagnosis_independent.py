@@ -11,10 +11,19 @@ effect being in ``effects``, ``none`` by ``none``, an effect outside the vocabul
 listed effect: Coulomb friction next to cogging, the listed effect named among the effects kept beside the torque
 beyond the vocabulary, never displaced by it).
 
-Writes, as it goes, ``OUT/results.json`` (one row per case: truth, verdict, effects, confusable pairs, fitted
-parameters of the accepted model next to the truth, or of the true effect fitted alone where it was not
-accepted, the best candidate, held-out reduction, seconds), ``OUT/table.md`` and ``OUT/config.json`` (argv,
-seeds, versions); the reports go to ``OUT/reports/<case>/``. Each case also states its effect's size in the
+The cases are written and diagnosed on a Dask cluster, one case per task (:mod:`benchmarks.shards`; each case
+diagnosed with one worker process): ``--scheduler ADDRESS`` for an existing cluster (its workers must import this
+repository and ``benchmarks/``, and see ``OUT``), else a local cluster of ``--workers`` single-threaded processes
+(default one per core). A line per case is printed as it finishes; a case that raises is a wrong row naming the
+error. The run ends with the sum of the case times over the wall time: its speed-up over one worker, which grows
+with the workers until each has one case left (:mod:`benchmarks.shards`).
+
+Writes, as the cases finish, ``OUT/results.json`` (one row per case: truth, verdict, effects, confusable pairs,
+fitted parameters of the accepted model next to the truth, or of the true effect fitted alone where it was not
+accepted, the best candidate, held-out reduction, seconds), ``OUT/table.md``, ``OUT/verdicts.json`` (the verdict
+table every suite writes, to compare two runs: ``python benchmarks/shards.py OLD/verdicts.json
+NEW/verdicts.json``) and ``OUT/config.json`` (argv, seeds, workers, versions); the reports go to
+``OUT/reports/<case>/``. Each case also states its effect's size in the
 train logs, in encoder counts: the RMS of the true angles minus the nominal rig's prediction over 100 ms windows
 restarted from the true state (balancing / hanging), and the sensor error RMS (0.29 for a rounding encoder).
 
@@ -39,8 +48,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import independent_sim as sim  # noqa: E402  (the simulator sits next to this file)
+from shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts  # noqa: E402
 
 from furuta_drake.rig import encoder_resolution
+from furuta_drake.sweep import dask_client
 
 OUTSIDE = {"cogging_torque", "gear_backlash"}
 SEEDS = {"train": 11, "heldout": 23}  # base seeds of the train and held-out runs (a case adds its own offset)
@@ -438,25 +449,36 @@ def write_case(case: Case, folder: Path, duration: float) -> dict:
     }
 
 
-def generate(cases: list[Case], suite: Path, duration: float) -> list[dict]:
-    """Write every case folder under ``suite/cases`` and ``suite/answers.json``; print the time per case."""
-    answers = []
-    for i, case in enumerate(cases, start=1):
-        start = time.perf_counter()
-        answers.append(write_case(case, suite / "cases" / case.name, duration))
-        fell = [k for k, v in answers[-1]["balance_fell"].items() if v]
+def _write_case(task: tuple[Case, Path, float]) -> dict:
+    """A task: write one case folder; its answer."""
+    case, suite, duration = task
+    return write_case(case, suite / "cases" / case.name, duration)
+
+
+def generate(cases: list[Case], suite: Path, duration: float, client) -> list[dict]:
+    """Write every case folder under ``suite/cases`` on ``client``'s cluster, one case per task, and
+    ``suite/answers.json``; print the time per case as it finishes."""
+    answers: list[dict | None] = [None] * len(cases)
+
+    def finished(done: int, total: int, index: int, outcome: Outcome) -> None:
+        if outcome.error is not None:
+            raise RuntimeError(f"{cases[index].name}: its logs could not be written: {outcome.error}")
+        answer = answers[index] = outcome.value
+        fell = [k for k, v in answer["balance_fell"].items() if v]
         print(
-            f"  [{i}/{len(cases)}] {case.name}: {time.perf_counter() - start:.1f} s"
+            f"  [{done}/{total}] {answer['case']}: {outcome.seconds:.1f} s"
             + (f"  BALANCE FELL in {', '.join(fell)}" if fell else ""),
             flush=True,
         )
-        (suite / "answers.json").write_text(json.dumps(answers, indent=2) + "\n")
+        (suite / "answers.json").write_text(json.dumps([a for a in answers if a is not None], indent=2) + "\n")
+
+    shard(client, _write_case, [(case, suite, duration) for case in cases], finished)
     return answers
 
 
-def diagnose_blind(folder: Path, report_dir: Path, workers: int) -> tuple[dict, float]:
-    """``diagnose`` on one case folder (rig.yaml and the four logs; no answer in sight); its report.json and the
-    wall time [s]."""
+def diagnose_blind(folder: Path, report_dir: Path) -> tuple[dict, float]:
+    """``diagnose`` on one case folder (rig.yaml and the four logs; no answer in sight) with one worker process;
+    its report.json and the wall time [s]."""
     from furuta_drake.diagnosis.pipeline import diagnose
     from furuta_drake.diagnosis.report import write_report
 
@@ -465,7 +487,7 @@ def diagnose_blind(folder: Path, report_dir: Path, workers: int) -> tuple[dict, 
         rig=folder / "rig.yaml",
         train=sorted(folder.glob("train_*.csv")),
         heldout=sorted(folder.glob("heldout_*.csv")),
-        workers=workers,
+        workers=1,
     )
     seconds = time.perf_counter() - start
     write_report(report_dir, diagnosis, force=True)
@@ -542,13 +564,13 @@ def row_for(answer: dict, report: dict, seconds: float) -> dict:
     }
 
 
-def error_row(answer: dict, error: BaseException, seconds: float) -> dict:
+def error_row(answer: dict, error: str, seconds: float | None) -> dict:
     return {
         "case": answer["case"],
         "rig": answer["rig"],
         "expected": answer["expected"],
         "truth": [f"{e['name']}[{e['form']}]" for e in answer["effects"]] or ["none"],
-        "verdict": f"ERROR {type(error).__name__}: {error}"[:200],
+        "verdict": f"ERROR {error}"[:200],
         "effects": [],
         "right": False,
         "confusable": [],
@@ -670,12 +692,55 @@ def versions() -> dict:
 
 
 def write_results(out: Path, rows: list[dict], pending: int) -> None:
-    """results.json and table.md as they stand (``pending`` cases still to run)."""
+    """results.json, table.md and verdicts.json as they stand (``pending`` cases still to run)."""
     figures = summary(rows)
     (out / "results.json").write_text(
         json.dumps({"summary": figures, "pending": pending, "rows": rows}, indent=2) + "\n"
     )
     (out / "table.md").write_text(table(rows) + "\n" + json.dumps(figures) + "\n")
+    verdicts = [
+        verdict_row(
+            "independent",
+            r["case"],
+            r["expected"],
+            r["verdict"],
+            r["effects"],
+            r["right"],
+            r["heldout_reduction"],
+            r["seconds"],
+        )
+        for r in rows
+    ]
+    write_verdicts(out / "verdicts.json", verdicts)
+
+
+def _diagnose_case(task: tuple[dict, Path, Path]) -> dict:
+    """A task: diagnose one case folder blind; its results row."""
+    answer, suite, out = task
+    report, seconds = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"])
+    return row_for(answer, report, seconds)
+
+
+def diagnose_all(answers: list[dict], suite: Path, out: Path, client) -> list[dict]:
+    """Diagnose every case on ``client``'s cluster, one case per task; print a line per case and write the
+    results as each finishes; the rows in the answers' order."""
+    rows: list[dict | None] = [None] * len(answers)
+
+    def finished(done: int, total: int, index: int, outcome: Outcome) -> None:
+        failed = outcome.error is not None
+        row = rows[index] = error_row(answers[index], outcome.error, outcome.seconds) if failed else outcome.value
+        seconds = "-" if row["seconds"] is None else f"{row['seconds']:.0f}"
+        print(
+            f"[{done}/{total}] {'ok ' if row['right'] else 'BAD'} {row['case']:<70} -> {row['verdict']} "
+            f"{row['effects']} ({seconds} s)",
+            flush=True,
+        )
+        write_results(out, [r for r in rows if r is not None], total - done)
+
+    start = time.perf_counter()
+    outcomes = shard(client, _diagnose_case, [(answer, suite, out) for answer in answers], finished)
+    print(speed_up_line(outcomes, time.perf_counter() - start, worker_count(client)))
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -686,54 +751,39 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=8.0, help="length of every log [s]")
     parser.add_argument("--suite", type=Path, help="reuse a suite written earlier (its answers.json and cases/)")
     parser.add_argument("--generate-only", action="store_true", help="write the suite and stop")
-    parser.add_argument("--workers", type=int, default=1, help="diagnose's worker processes (default 1)")
+    parser.add_argument("--workers", type=int, help="the local cluster's worker processes (default: one per core)")
+    parser.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster started here)")
     args = parser.parse_args(argv)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     cases = select(all_cases(), args.quick, args.only)
-    if args.suite is not None:
-        suite = args.suite
-        names = {case.name for case in cases}
-        answers = [a for a in json.loads((suite / "answers.json").read_text()) if a["case"] in names]
-    else:
-        suite = out / "suite"
-        print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}", flush=True)
-        answers = generate(cases, suite, args.duration)
-    (out / "config.json").write_text(
-        json.dumps(
-            {
-                "argv": sys.argv[1:] if argv is None else argv,
-                "suite": str(suite),
-                "duration_s": args.duration,
-                "workers": args.workers,
-                "run_seeds": SEEDS,
-                "cases": {c.name: c.seed for c in cases},
-                "versions": versions(),
-            },
-            indent=2,
-        )
-        + "\n"
-    )
-    if args.generate_only:
-        return 0
-
-    rows = []
-    for i, answer in enumerate(answers, start=1):
-        start = time.perf_counter()
-        try:
-            report, seconds = diagnose_blind(
-                suite / "cases" / answer["case"], out / "reports" / answer["case"], args.workers
+    with dask_client(args.scheduler, args.workers, len(cases)) as client:
+        if args.suite is not None:
+            suite = args.suite
+            names = {case.name for case in cases}
+            answers = [a for a in json.loads((suite / "answers.json").read_text()) if a["case"] in names]
+        else:
+            suite = out / "suite"
+            print(f"simulating {len(cases)} cases ({args.duration:g} s logs) into {suite}", flush=True)
+            answers = generate(cases, suite, args.duration, client)
+        (out / "config.json").write_text(
+            json.dumps(
+                {
+                    "argv": sys.argv[1:] if argv is None else argv,
+                    "suite": str(suite),
+                    "duration_s": args.duration,
+                    "workers": worker_count(client),
+                    "run_seeds": SEEDS,
+                    "cases": {c.name: c.seed for c in cases},
+                    "versions": versions(),
+                },
+                indent=2,
             )
-            rows.append(row_for(answer, report, seconds))
-        except Exception as error:  # a crash is this case's result, reported, not the benchmark's end
-            rows.append(error_row(answer, error, time.perf_counter() - start))
-        row = rows[-1]
-        print(
-            f"[{i}/{len(answers)}] {'ok ' if row['right'] else 'BAD'} {row['case']:<70} -> {row['verdict']} "
-            f"{row['effects']} ({row['seconds']:.0f} s)",
-            flush=True,
+            + "\n"
         )
-        write_results(out, rows, len(answers) - i)
+        if args.generate_only:
+            return 0
+        rows = diagnose_all(answers, suite, out, client)
     print()
     print(table(rows))
     print(json.dumps(summary(rows), indent=2))

@@ -12,8 +12,9 @@ delay, a cable spring, an inertia error, alone and together, on a Lund-like rig 
 3. run both designs on the simulator in closed loop, balancing from a small seeded disturbance
    (:func:`benchmarks.independent_sim.regulate`): the nominal design (the LQR of the rig file on the HG observer)
    and the tuned one (its gain, its observer and its friction compensation), each as ``tune`` writes it
-   (``nominal.yaml``, ``controller.yaml``) and run as a lab's controller (:class:`ObserverFeedback`): the
-   package's observer, the simulator's own Dahl model for the compensation.
+   (``nominal.yaml``, ``controller.yaml``) and run as a lab's controller
+   (:class:`furuta_drake.lab_controller.LabController`: the same Drake blocks as ``tune``'s predictions, observers,
+   Dahl observer, K_sigma adaptation and compensation included, fed the simulator's encoder samples).
    Each design runs from ``SEEDS`` seeds; the figures are theta's RMS and the limit cycle's amplitude over the
    steady part of each run (:mod:`furuta_drake.tune.limit_cycle`), their mean and run-to-run spread (the standard
    deviation over the seeds).
@@ -34,7 +35,6 @@ import json
 import math
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -43,8 +43,7 @@ from benchmarks import diagnosis_independent as indep
 from benchmarks.design_suite import diagnosed
 from furuta_drake.config import SimulationConfig, load_config
 from furuta_drake.errors import FurutaError
-from furuta_drake.observers.hg import HighGainObserver
-from furuta_drake.observers.vfe import VfeObserver
+from furuta_drake.lab_controller import LabController
 from furuta_drake.outputs import versions
 from furuta_drake.tune.controller import initial_angle
 from furuta_drake.tune.limit_cycle import limit_cycle, rms, steady_part
@@ -109,68 +108,16 @@ def tuned(directory: Path, diagnosis: Path, workers: int | None) -> dict:
     return json.loads((directory / "tune.json").read_text())
 
 
-@dataclass
-class ObserverFeedback:
-    """A design as ``tune`` delivers it (its simulate config), run as a lab's controller on the simulator: the
-    package's observer (HG or VFE) discrete at the sample period, x_hat_k+1 = F x_hat_k + G [y_k; u_k (; F_hat_k)],
-    feeding u_k = -K x_hat_k. Beside the VFE runs its Dahl friction observer, here the simulator's own Dahl model
-    (:class:`benchmarks.independent_sim.Compensation` on the VFE's arm velocity, at the design's initial K_sigma,
-    neither adapting nor injecting), whose estimate F_hat feeds the VFE and, with friction compensation, the
-    command. Commands in the rig's units."""
-
-    gain: np.ndarray  # [N m per state unit]
-    observer: object  # the discrete LinearSystem
-    period: float  # [s]
-    torque_limit: float  # [N m]
-    torque_per_command: float
-    dahl: sim.Compensation | None  # the VFE's friction observer (None on the HG)
-    compensate: bool
-    state: np.ndarray | None = None
-
-    @classmethod
-    def of(cls, config: SimulationConfig, torque_per_command: float) -> ObserverFeedback:
-        period, control = config.control_period, config.controller
-        dahl = None
-        if control.velocity_source == "vfe":
-            observer = VfeObserver(config.rig, config.observers.vfe, period=period).discrete
-            p = config.observers.dahl
-            k_sigma = p.adaptation.k_sigma.initial if p.adaptation is not None else 1.0
-            dahl = sim.Compensation(p.coulomb_pos, p.coulomb_neg, p.sigma0, k_sigma)
-        else:
-            observer = HighGainObserver(config.rig, config.observers.hg, period=period).discrete
-        return cls(
-            np.asarray(control.gain, dtype=float),
-            observer,
-            period,
-            control.lqr.torque_limit,
-            torque_per_command,
-            dahl,
-            control.friction_compensation,
-        )
-
-    def __call__(self, measured: np.ndarray) -> float:
-        if self.state is None:  # started at the first sample, at rest
-            self.state = np.zeros(self.observer.A().shape[0])
-            self.state[:2] = measured
-        estimate = self.state[:4]
-        u = -float(self.gain @ estimate)
-        friction = 0.0
-        if self.dahl is not None:
-            opposing = self.dahl.torque(estimate[3], self.period)  # -F_hat, K_sigma sigma0 z
-            friction = -opposing
-            u += opposing if self.compensate else 0.0
-        u = min(max(u, -self.torque_limit), self.torque_limit)
-        inputs = np.concatenate([measured, [u, friction] if self.dahl is not None else [u]])
-        self.state = self.observer.A() @ self.state + self.observer.B() @ inputs
-        return u / self.torque_per_command
-
-
 def closed_loop(case: indep.Case, config: SimulationConfig, seed: int) -> dict:
     """One balancing run of a design (its simulate config) on the case's true rig: theta's RMS and the limit
     cycle's amplitude over the steady part of the encoder's theta [rad], and whether it fell."""
     rig = case.world.rig
-    controller = ObserverFeedback.of(config, rig.torque_per_command)
-    log = sim.regulate(case.world, controller, RUN_SECONDS, seed, initial_angle(seed))
+    controller = LabController(config)
+
+    def command(measured: np.ndarray) -> float:  # the rig's command units
+        return controller(measured) / rig.torque_per_command
+
+    log = sim.regulate(case.world, command, RUN_SECONDS, seed, initial_angle(seed))
     theta = log.measured[:, 0]
     amplitude, frequency = limit_cycle(theta, rig.sample_period)
     return {
@@ -237,6 +184,7 @@ def run_case(case: indep.Case, out: Path, args) -> dict:
         "lqr_gain": document["designs"]["tuned"]["lqr_gain"],
         "compensation": document["designs"]["tuned"]["friction_compensation"]["gain"],
         "observer": document["designs"]["tuned"]["observer"]["kind"],
+        "family_member": document["designs"]["tuned"].get("family_member"),
     }
     return {**row, **judged(row)}
 
@@ -248,6 +196,22 @@ def _figure(entry: dict, figure: str) -> str:
     return f"{1e3 * value['mean']:.3g} +- {1e3 * value['spread']:.2g}"
 
 
+def _design(design: dict) -> str:
+    """The tuned design in a few words: its member of the family, or the nominal design kept."""
+    member = design.get("family_member")
+    if member is None:
+        return "nominal kept"
+    weights = f"Q_theta x {member['theta_weight_scale']:g}, Q_phi x {member['phi_weight_scale']:g}"
+    text = f"{design['observer']} x {member['observer_scale']:g}, {weights}, R x {member['input_weight_scale']:g}"
+    return text + (f", K_sigma {design['compensation']:g}" if design["observer"] == "vfe" else "")
+
+
+def _predicted(row: dict) -> str:
+    """Theta's RMS predicted on the corrected model [mrad], nominal -> tuned."""
+    values = [row["predicted"][name].get("theta_rms") for name in DESIGNS]
+    return " -> ".join("fell" if v is None else f"{1e3 * v:.3g}" for v in values)
+
+
 def _verdict(row: dict, prefix: str) -> str:
     return ", ".join("yes" if row[f"{prefix}{figure}"] else "no" for figure in FIGURES_JUDGED)
 
@@ -256,18 +220,18 @@ def table(rows: list[dict]) -> str:
     """The Markdown table of the runs: per case, both designs' theta RMS and limit-cycle amplitude [mrad] (mean +-
     run-to-run spread over the seeds) and the verdict."""
     lines = [
-        "| case | diagnosis | tuned design | theta RMS nominal [mrad] | theta RMS tuned | limit cycle nominal [mrad] "
-        "| limit cycle tuned | tuned better (theta, limit cycle) | worse beyond the spread |",
-        "|---|---|---|---:|---:|---:|---:|---|---|",
+        "| case | diagnosis | tuned design | theta RMS predicted [mrad] | theta RMS nominal [mrad] "
+        "| theta RMS tuned | limit cycle nominal [mrad] | limit cycle tuned | tuned better (theta, limit cycle) "
+        "| worse beyond the spread |",
+        "|---|---|---|---|---:|---:|---:|---:|---|---|",
     ]
     for row in rows:
         effects = "+".join(row["effects"]) or row["verdict"]
         if "refused" in row:
-            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | |")
+            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | | |")
             continue
-        design = row["tuned_design"]
         lines.append(
-            f"| {row['case']} | {effects} | {design['observer']}, K_sigma {design['compensation']:g} | "
+            f"| {row['case']} | {effects} | {_design(row['tuned_design'])} | {_predicted(row)} | "
             f"{_figure(row['nominal'], 'theta_rms')} | {_figure(row['tuned'], 'theta_rms')} | "
             f"{_figure(row['nominal'], 'limit_cycle_amplitude')} | {_figure(row['tuned'], 'limit_cycle_amplitude')} | "
             f"{_verdict(row, 'better_')} | {_verdict(row, 'worse_')} |"

@@ -167,6 +167,11 @@ def _tune_parser(sub) -> None:
         "--seed", type=int, default=0, help="seed of the predicted runs' disturbance and encoder noise (default 0)"
     )
     tune.add_argument("--workers", type=int, help="processes for the predicted runs (default: all cores)")
+    tune.add_argument(
+        "--swingup",
+        type=Path,
+        help="a simulate config with controller.mode swingup: predict each design's catch time behind that swing-up",
+    )
     tune.set_defaults(run=_run_tune)
 
 
@@ -482,8 +487,12 @@ def _run_tune(args) -> int:
     from furuta_drake.outputs import prepare_output_dir
     from furuta_drake.tune.output import write_tune
     from furuta_drake.tune.pipeline import TuneSettings, tune
+    from furuta_drake.tune.swingup import read_swingup
 
-    settings = dataclasses.replace(TuneSettings(), duration=args.duration, seed=args.seed, workers=args.workers)
+    swingup = read_swingup(args.swingup) if args.swingup is not None else None
+    settings = dataclasses.replace(
+        TuneSettings(), duration=args.duration, seed=args.seed, workers=args.workers, swingup=swingup
+    )
     settings.validate()
     prepare_output_dir(args.out, force=args.force, protect=[args.diagnosis])
     tuning = tune(
@@ -500,9 +509,10 @@ def _run_tune(args) -> int:
         if before is not None
         else f"the nominal design falls on the corrected model; tuned theta RMS {1e3 * after['theta_rms']:.3g} mrad"
     )
+    kept = " (the nominal design kept: no design of the family predicts better)" if tuning.tuned.member is None else ""
     print(
-        f"tuned: {change}; worst margins over the intervals {worst.gain_db:.3g} dB, {1e3 * worst.delay_s:.3g} ms; "
-        f"wrote {args.out} (simulate --config {args.out / 'controller.yaml'})"
+        f"tuned{kept}: {change}; worst margins over the intervals {worst.gain_db:.3g} dB, "
+        f"{1e3 * worst.delay_s:.3g} ms; wrote {args.out} (simulate --config {args.out / 'controller.yaml'})"
     )
     return 0
 

@@ -104,8 +104,13 @@ class ObserverConfig:
     pendulum_friction: DahlObserverParameters | None = None  # a friction observer on the pendulum, feeding VFE
     filtered_derivative: FilteredDerivativeParameters = field(default_factory=FilteredDerivativeParameters)
     start_at_initial_state: bool = False  # the linear observers start at initial_state (else at x_hat = 0)
+    # The rig file whose upright linearization (Eq. 1-2) the HG and VFE observers carry; None: ``rig``'s. A
+    # controller designed on another rig file than the simulated one (a lab's rig file beside the corrected model).
+    model: RigParameters | None = None
 
     def validate(self, where: str = "observers") -> None:
+        if self.model is not None:
+            self.model.validate(f"{where}.model")
         self.hg.validate(f"{where}.hg")
         self.dahl.validate(f"{where}.dahl")
         if self.pendulum_friction is not None:

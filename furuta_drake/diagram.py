@@ -83,13 +83,8 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
     command = add_command(builder, config, world=world)
     observers = add_observers(builder, config, true_state=world.true_state, measured=measured, command=command.torque)
     if command.controller is not None:
-        builder.Connect(
-            observers.estimates[config.controller.velocity_source], command.controller.GetInputPort("state_estimate")
-        )
-        if config.controller.friction_compensation:
-            builder.Connect(observers.compensation, command.controller.GetInputPort("friction_compensation_Nm"))
-    if command.state_reference is not None:
-        connect_arm_reference(builder, command.state_reference, observers.arm_dahl)
+        connect_estimates(builder, config, command.controller, observers)
+    connect_arm_reference(builder, command.state_reference, observers.arm_dahl)
     loggers = add_loggers(builder, period, world=world, measured=measured, command=command, observers=observers)
     if meshcat is not None:
         from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
@@ -186,6 +181,14 @@ def add_command(builder: DiagramBuilder, config: SimulationConfig, *, world: Fur
     return Command(torque, controller, gain, state_reference)
 
 
+def connect_estimates(builder: DiagramBuilder, config: SimulationConfig, controller, observers: Observers) -> None:
+    """Feed ``controller`` the estimate of ``config``'s velocity source and, when it compensates, the F_hat of
+    ``observers``."""
+    builder.Connect(observers.estimates[config.controller.velocity_source], controller.GetInputPort("state_estimate"))
+    if config.controller.friction_compensation:
+        builder.Connect(observers.compensation, controller.GetInputPort("friction_compensation_Nm"))
+
+
 def controller_gain(plant: MultibodyPlant, config: SimulationConfig) -> np.ndarray:
     """The LQR gain K (1x4, paper order) of ``config``: ``controller.gain`` checked to stabilise the upright of
     ``plant``, or the LQ design of ``controller.lqr``, at the control period."""
@@ -203,7 +206,7 @@ class Observers:
     estimates: dict[str, OutputPort] = field(default_factory=dict)
     compensation: OutputPort | None = None
     signals: dict[str, OutputPort] = field(default_factory=dict)
-    arm_dahl: list[LeafSystem] = field(default_factory=list)
+    arm_dahl: list[DahlFrictionObserver] = field(default_factory=list)
 
 
 def add_observers(
@@ -222,7 +225,7 @@ def add_observers(
     source = controller.velocity_source if controller.mode != "open_loop" else None
     compensate = source is not None and controller.friction_compensation
     needed = set(config.observers.run) | ({source} & {"hg", "vfe"})
-    model = linearized_upright(config.rig)
+    model = linearized_upright(config.observers.model or config.rig)
     out, linear = Observers(), []
     if "hg" in needed:
         linear.append(_add_hg(builder, config, model, measured, command, out, compensate and source == "hg"))
@@ -292,15 +295,21 @@ def _add_nested_vfe(builder, config, model, measured, command, out: Observers, c
     return vfe
 
 
-def connect_arm_reference(builder: DiagramBuilder, state_reference: OutputPort, arm_dahl: list[LeafSystem]) -> None:
+def connect_arm_reference(
+    builder: DiagramBuilder, state_reference: OutputPort | None, arm_dahl: list[DahlFrictionObserver]
+) -> None:
     """The arm's [phi_ref, v_phi_ref] of the paper-order ``state_reference`` into each of the ``arm_dahl``
-    observers: Eq. 9's eps_phi and eps_v are the arm's errors from its reference, not from the upright's zero."""
+    observers: Eq. 9's eps_phi and eps_v are the arm's errors from its reference, not from the upright's zero
+    (``state_reference`` None: the upright, a zero reference)."""
     if not arm_dahl:
         return
-    rows = np.zeros((2, 4))
-    rows[0, 1] = rows[1, 3] = 1.0
-    select = builder.AddNamedSystem("arm_reference_of_dahl", MatrixGain(rows))
-    builder.Connect(state_reference, select.get_input_port())
+    if state_reference is None:
+        select = builder.AddNamedSystem("arm_reference_of_dahl", ConstantVectorSource(np.zeros(2)))
+    else:
+        rows = np.zeros((2, 4))
+        rows[0, 1] = rows[1, 3] = 1.0
+        select = builder.AddNamedSystem("arm_reference_of_dahl", MatrixGain(rows))
+        builder.Connect(state_reference, select.get_input_port())
     for dahl in arm_dahl:
         builder.Connect(select.get_output_port(), dahl.GetInputPort("arm_reference_rad"))
 
@@ -498,12 +507,14 @@ __all__ = [
     "build_furuta_diagram",
     "Command",
     "add_command",
+    "connect_estimates",
     "controller_gain",
     "Observers",
     "add_observers",
     "start_at",
     "NestedObservers",
     "add_vfe_with_dahl",
+    "connect_arm_reference",
     "add_dahl_observer",
     "add_loggers",
 ]

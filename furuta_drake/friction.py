@@ -22,7 +22,7 @@ Dahl is passive: with the bristle energy sigma0 z^2 / 2, d/dt (E + sigma0 z^2 / 
 The bristle state is stiff (rate sigma0 |v| / Fc: about 800 |v| 1/s with the paper's sigma0 = 10 N m/rad and
 Fc = 0.012 N m): :func:`dahl_exact_step` is its exact step at frozen velocity, stable at any step size, and
 :func:`held_input_gain` what a constant input adds over that step, for discrete-time users (the friction
-observers).
+observers, which build them as symbolic expressions: :mod:`furuta_drake.symbolic_system`).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydrake import symbolic
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
@@ -38,6 +39,7 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import ARM_JOINT, PENDULUM_JOINT
 from furuta_drake.rig import _require_nonnegative, _require_positive
+from furuta_drake.symbolic_system import is_symbolic, where
 
 MODELS = ("none", "static", "dahl", "lugre")
 
@@ -130,19 +132,22 @@ class FrictionParameters:
         self.pendulum.validate(f"{where}.pendulum")
 
 
-# --- The laws: the one place they are written. Scalars (float or AutoDiffXd) or numpy arrays of v. ---------------
+# --- The laws: the one place they are written. Scalars (float, AutoDiffXd or symbolic) or numpy arrays of v. -----
 
 
 def _functions(v):
-    """``math`` for a float (three to ten times cheaper on a scalar), ``numpy`` for arrays and AutoDiffXd."""
-    return math if isinstance(v, float) else np
+    """``math`` for a float (three to ten times cheaper on a scalar), ``pydrake.symbolic`` for a symbolic
+    expression (the C++ observers' laws), ``numpy`` for arrays and AutoDiffXd."""
+    if isinstance(v, float):
+        return math
+    return symbolic if is_symbolic(v) else np
 
 
 def _by_direction(v, positive, negative):
     """``positive`` where v > 0, ``negative`` elsewhere."""
     if isinstance(v, np.ndarray):
         return np.where(v > 0, positive, negative)
-    return positive if v > 0 else negative
+    return where(v > 0, positive, negative)
 
 
 def stribeck_curve(v, p: JointFrictionParameters):
@@ -198,8 +203,12 @@ def joint_friction_torque(v, z, p: JointFrictionParameters):
 def dahl_exact_step(z, v, dt, sigma0, coulomb_level):
     """Exact solution over ``dt`` of dz/dt = v - (sigma0 |v| / Fc) z at frozen v [rad]:
     z_ss + (z - z_ss) exp(-sigma0 |v| dt / Fc), z_ss = Fc sign(v) / sigma0. At v = 0 it holds z (z_ss = 0, no
-    decay). Stable at any step: the result lies between z and z_ss. Floats (an observer's step at every sample)
-    take the math module, three times cheaper than numpy on scalars."""
+    decay). Stable at any step: the result lies between z and z_ss. Floats take the math module, three times
+    cheaper than numpy on scalars; a symbolic z or v gives the expression of the step."""
+    if is_symbolic(z, v, sigma0, coulomb_level):
+        level = coulomb_level / sigma0
+        z_ss = where(v > 0, level, where(v < 0, -level, 0.0))
+        return z_ss + (z - z_ss) * symbolic.exp(-sigma0 * abs(v) * dt / coulomb_level)
     if isinstance(z, float) and isinstance(v, float):
         z_ss = math.copysign(coulomb_level / sigma0, v) if v != 0.0 else 0.0
         return z_ss + (z - z_ss) * math.exp(-sigma0 * abs(v) * dt / coulomb_level)
@@ -207,9 +216,14 @@ def dahl_exact_step(z, v, dt, sigma0, coulomb_level):
     return z_ss + (z - z_ss) * np.exp(-sigma0 * np.abs(v) * dt / coulomb_level)
 
 
-def held_input_gain(rate: float, period: float) -> float:
-    """int_0^h e^(-r s) ds [s]: what a constant input adds over one ``period`` h [s] to dz/dt = -r z + input,
-    r = ``rate`` [1/s] >= 0 (h itself at r = 0)."""
+def held_input_gain(rate, period: float):
+    """int_0^h e^(-r s) ds = -expm1(-r h) / r [s]: what a constant input adds over one ``period`` h [s] to
+    dz/dt = -r z + input, r = ``rate`` [1/s] >= 0 (h itself at r = 0). A symbolic rate gives the expression
+    2 tanh(r h / 2) / ((1 + tanh(r h / 2)) r), the same function to a few ulp at every r h (there is no symbolic
+    expm1, and 1 - exp(-r h) loses its digits as r h -> 0)."""
+    if is_symbolic(rate):
+        half = symbolic.tanh(rate * period / 2.0)
+        return where(rate > 0, 2.0 * half / ((1.0 + half) * rate), period)
     return -math.expm1(-rate * period) / rate if rate > 0 else period
 
 

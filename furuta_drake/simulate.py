@@ -1,8 +1,9 @@
 """``simulate``: build the diagram of a config, run it with Drake's Simulator, return a tape.
 
 One entry point shared by the CLI, notebooks, benchmarks and tests (Drake's ``examples/acrobot`` idiom). A
-monitor stops a run that leaves its envelope (NaN, a fallen pendulum, a runaway joint) and raises
-:class:`~furuta_drake.errors.SimulationDiverged` saying when and why.
+run that leaves its envelope (NaN, a fallen pendulum, a runaway joint) is stopped within ``CHECK_INTERVAL`` of
+simulated time and raises :class:`~furuta_drake.errors.SimulationDiverged` saying at which control sample and
+why.
 """
 
 from __future__ import annotations
@@ -14,7 +15,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.common import RandomGenerator
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
-from pydrake.systems.framework import EventStatus
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagram import FurutaDiagram, build_furuta_diagram
@@ -54,7 +54,7 @@ def simulate(
 ) -> SimulationResult:
     """Simulate ``config`` for ``config.duration`` seconds; ``progress(t)`` is called about every 0.5 s.
 
-    Raises SimulationDiverged when the monitor stops the run.
+    Raises SimulationDiverged when the run leaves its envelope (``config.monitor``).
     """
     import time as _time
 
@@ -74,67 +74,78 @@ def simulate(
     diagram.SetRandomContext(context, RandomGenerator(config.seed))
     built.world.set_state(context, np.asarray(config.initial_state, dtype=float))
 
-    monitor = _EnvelopeMonitor(plant, joint_indices(plant)[0], config)
-    simulator.set_monitor(monitor)
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    envelope = _Envelope(config)
+    state_log = built.loggers["state"].FindLog(context)
     start = _time.perf_counter()
     simulator.Initialize()
-    step = 0.5
-    t = 0.0
+    # Chunks end on sample instants (k periods, as Drake times the samples): the integrator stops there anyway.
+    period = config.control_period
+    per_check = max(1, round(CHECK_INTERVAL / period))
+    t, samples, checked, reported = 0.0, 0, 0, 0.0
     while t < config.duration - 1e-12:
-        t = min(t + step, config.duration)
-        simulator.AdvanceTo(t)
-        if monitor.reason is not None:
-            raise SimulationDiverged(
-                f"simulation diverged at t = {monitor.time:.4f} s: {monitor.reason}", monitor.time, monitor.reason
-            )
-        if progress is not None:
+        samples += per_check
+        t = min(samples * period, config.duration)
+        try:
+            simulator.AdvanceTo(t)
+        except SimulationDiverged:
+            raise
+        except RuntimeError:
+            # A blown-up state can stop the integrator before the check sees it: name it if so.
+            envelope.check(state_log, checked, plant, plant_context)
+            raise
+        checked = envelope.check(state_log, checked, plant, plant_context)
+        if progress is not None and (t >= reported + PROGRESS_INTERVAL - 1e-12 or t >= config.duration - 1e-12):
+            reported = t
             progress(t)
     wall = _time.perf_counter() - start
     return _tape(built, context, config, wall)
 
 
-class _EnvelopeMonitor:
-    """Simulator monitor: NaN or infinite state, |theta| above the bound, a joint faster than the bound.
+CHECK_INTERVAL = 0.05  # [s] simulated between two checks of the envelope: at most this much runs past a fall
+PROGRESS_INTERVAL = 0.5  # [s] simulated between two calls of ``progress``
 
-    Called after every integrator step, so the common case is a few float comparisons on the plant's state
-    (a NaN or inf makes the sum non-finite), read through a view of the context's state vector taken at the
-    first call (the simulator writes the state in place); only a failed check looks for the reason."""
 
-    def __init__(self, plant, theta_index: int, config: SimulationConfig):
-        self.plant = plant
-        self.theta_index = theta_index
+class _Envelope:
+    """The run's envelope: a finite state, |theta| within the bound, every joint slower than the bound. Checked at
+    every control sample of the true state (the ``state`` logger's samples) and on the plant's state, after each
+    ``CHECK_INTERVAL`` of simulated time: vectorised over the samples, where a Simulator monitor would cross from
+    C++ into Python after every integrator step."""
+
+    def __init__(self, config: SimulationConfig):
         self.theta_bound = math.inf if config.monitor.theta_bound is None else config.monitor.theta_bound
         self.speed_bound = config.monitor.speed_bound
-        self.nq = plant.num_positions()
-        self.reason: str | None = None
-        self.time = math.nan
-        self._state = None  # a read-only view of the plant's continuous state, taken on the first call
-        self._succeeded = EventStatus.Succeeded()
+        self.period = config.control_period
 
-    def __call__(self, root_context):
-        if self._state is None:
-            self._state = self.plant.GetMyContextFromRoot(root_context).get_continuous_state_vector().value()
-        x = self._state.tolist()
-        velocities = x[self.nq :]
-        if (
-            math.isfinite(sum(x))
-            and abs(x[self.theta_index]) <= self.theta_bound
-            and -self.speed_bound <= min(velocities)
-            and max(velocities) <= self.speed_bound
-        ):
-            return self._succeeded
-        if not all(math.isfinite(value) for value in x):
+    def check(self, log, checked: int, plant, plant_context) -> int:
+        """Raise :class:`SimulationDiverged` at the first sample of ``log`` from index ``checked`` on, then at the
+        plant's current state, that is outside the envelope; else return the number of samples checked."""
+        states = log.data()[:, checked:]  # paper order [theta, phi, theta_dot, phi_dot]; a view, no copy
+        finite = np.isfinite(states).all(axis=0)
+        outside = ~finite | (np.abs(states[0]) > self.theta_bound)
+        outside |= np.abs(states[2:]).max(axis=0, initial=0.0) > self.speed_bound
+        if outside.any():
+            k = int(np.argmax(outside))
+            # A logger publishing at t_k holds the sample taken at t_(k-1) (see _tape).
+            self._stop(log.sample_times()[checked + k] - self.period, states[0, k], states[2:, k], finite[k])
+        x = plant.GetPositionsAndVelocities(plant_context)
+        theta, velocities = x[joint_indices(plant)[0]], x[plant.num_positions() :]
+        self._stop(plant_context.get_time(), theta, velocities, bool(np.isfinite(x).all()))
+        return checked + states.shape[1]
+
+    def _stop(self, time: float, theta: float, velocities: np.ndarray, finite: bool) -> None:
+        """Raise :class:`SimulationDiverged` at ``time`` [s] if the state of pendulum angle ``theta`` [rad] and
+        joint ``velocities`` [rad/s] (``finite``: the whole state is) is outside the envelope."""
+        speed = float(np.max(np.abs(velocities)))
+        if not finite:
             reason = "non-finite state (NaN or inf)"
-        elif abs(x[self.theta_index]) > self.theta_bound:
-            reason = (
-                f"pendulum fell: |theta| = {abs(x[self.theta_index]):.3f} rad exceeds the bound {self.theta_bound} rad"
-            )
-        elif max(abs(v) for v in velocities) > self.speed_bound:
-            reason = f"runaway joint speed {max(abs(v) for v in velocities):.1f} rad/s exceeds {self.speed_bound} rad/s"
-        else:  # finite values whose sum overflowed
-            return self._succeeded
-        self.reason, self.time = reason, root_context.get_time()
-        return EventStatus.ReachedTermination(None, reason)
+        elif abs(theta) > self.theta_bound:
+            reason = f"pendulum fell: |theta| = {abs(theta):.3f} rad exceeds the bound {self.theta_bound} rad"
+        elif speed > self.speed_bound:
+            reason = f"runaway joint speed {speed:.1f} rad/s exceeds {self.speed_bound} rad/s"
+        else:
+            return
+        raise SimulationDiverged(f"simulation diverged at t = {time:.4f} s: {reason}", time, reason)
 
 
 def _tape(built: FurutaDiagram, context, config: SimulationConfig, wall: float) -> SimulationResult:

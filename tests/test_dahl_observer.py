@@ -26,16 +26,15 @@ def stepper(
     z0: float = 0.0,
 ):
     """The observer with fixed inputs; returns a function advancing n periods and returning (z_hat, F_hat).
-    ``k_sigma``: the observer's K_sigma input held at that value (an adapting observer); None: no adaptation
-    (K_sigma = 1)."""
+    ``reference``: [phi_ref, v_ref] (None: the upright's zero); ``k_sigma``: the observer's K_sigma input held at
+    that value (an adapting observer); None: no adaptation (K_sigma = 1)."""
     if k_sigma is not None:
         params = dataclasses.replace(params, adaptation=DahlAdaptation(k_sigma=KSigmaAdaptationParameters()))
     system = DahlFrictionObserver(params, period=PERIOD)
     context = system.CreateDefaultContext()
     system.GetInputPort("arm_velocity_estimate_rad_per_s").FixValue(context, [velocity])
     system.GetInputPort("measured_angles_rad").FixValue(context, [0.0, phi])
-    if reference is not None:
-        system.GetInputPort("arm_reference_rad").FixValue(context, list(reference))
+    system.GetInputPort("arm_reference_rad").FixValue(context, list(reference or (0.0, 0.0)))
     if k_sigma is not None:
         system.GetInputPort("K_sigma").FixValue(context, [k_sigma])
     context.SetDiscreteState([z0])

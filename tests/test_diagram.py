@@ -11,7 +11,7 @@ from furuta_drake.config import SimulationConfig, dump_config, load_config
 from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
-from furuta_drake.observers.dahl import DahlAdaptation
+from furuta_drake.observers.dahl import DahlAdaptation, dahl_step, observer_model
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.simulate import simulate
 
@@ -139,6 +139,10 @@ def test_the_dahl_observers_errors_are_from_the_arms_reference(source):
     context = dahl.GetMyContextFromRoot(root)
     phi = dahl.GetInputPort("measured_angles_rad").Eval(context)[1]
     v = dahl.GetInputPort("arm_velocity_estimate_rad_per_s").Eval(context)[0]
-    eps, eps_v = dahl.tracking_errors(context)
-    assert eps == pytest.approx(phi - 0.2, abs=1e-12) and eps_v == pytest.approx(v, abs=1e-12)
+    np.testing.assert_array_equal(dahl.GetInputPort("arm_reference_rad").Eval(context), [0.2, 0.0])
+    # The observer's next z_hat is Eq. 8-9's step with eps = phi - 0.2 and eps_v = v.
+    params, z = dahl.params, dahl.GetOutputPort("bristle_state_rad").Eval(context)[0]
+    sigma0, level = observer_model(params, v)
+    expected = dahl_step(params, config.control_period, z, v, sigma0, level, phi - 0.2, v)
+    assert dahl.EvalUniquePeriodicDiscreteUpdate(context).value()[0] == pytest.approx(expected, rel=1e-12)
     assert abs(phi) > 0.05  # the arm has moved towards its reference, so the two readings differ

@@ -20,7 +20,8 @@ from furuta_drake.rig import encoder_resolution
 def measured_after_first_sample(encoder, x):
     context = encoder.CreateDefaultContext()
     encoder.GetInputPort("true_state").FixValue(context, x)
-    return encoder.EvalUniquePeriodicDiscreteUpdate(context).get_vector(0).CopyToVector()
+    context.SetDiscreteState(encoder.EvalUniquePeriodicDiscreteUpdate(context))
+    return encoder.GetOutputPort("measured_angles_rad").Eval(context)
 
 
 @settings(max_examples=25, deadline=None)

@@ -8,11 +8,11 @@ import ast
 from conftest import REPO
 
 LAYERS = [
-    ["errors", "yamlio", "outputs", "data"],
+    ["errors", "yamlio", "outputs", "data", "symbolic_system"],
     ["unmodelled", "rig", "plant"],
     ["friction", "encoder", "actuator", "drive", "world", "controllers"],
     ["observers", "linearization", "analysis"],
-    ["config", "excitation", "diagram", "simulate", "sweep", "results", "plotting"],
+    ["config", "excitation", "diagram", "lab_controller", "simulate", "sweep", "results", "plotting"],
     ["effects"],
     ["rig_file"],
     ["diagnosis"],

@@ -15,10 +15,10 @@ import yaml
 from scipy.linalg import expm, solve_discrete_are
 
 from furuta_drake.cli import main
-from furuta_drake.config import SimulationConfig
+from furuta_drake.config import SimulationConfig, dump_config, swingup_config
 from furuta_drake.controllers.lqr import LqrParameters, design_lqr
 from furuta_drake.plant import make_furuta_plant
-from furuta_drake.rig import lund_rig
+from furuta_drake.rig import linearized_hanging, lund_rig
 from furuta_drake.tune.design import delayed_model, design_model, output_lqr, spectral_radius
 from furuta_drake.tune.limit_cycle import limit_cycle
 from furuta_drake.tune.margins import margins
@@ -227,7 +227,10 @@ def test_tune_writes_a_controller_that_simulate_runs(tmp_path, monkeypatch, caps
     monkeypatch.setattr(pipeline, "TuneSettings", lambda: pipeline.FAST)
     directory = diagnosis_folder(tmp_path / "diagnosis", FRICTION, FRICTION_CI, ["arm_coulomb_friction"])
     out = tmp_path / "tuned"
-    assert main(["tune", "--diagnosis", str(directory), "--out", str(out), "--duration", "1.5", "--workers", "1"]) == 0
+    swingup = tmp_path / "swingup.yaml"
+    swingup.write_text(dump_config(swingup_config("lund", duration=6.0)))
+    arguments = ["--duration", "1.5", "--workers", "1", "--swingup", str(swingup)]
+    assert main(["tune", "--diagnosis", str(directory), "--out", str(out), *arguments]) == 0
     document = json.loads((out / "tune.json").read_text())
     assert document["sample_period"] == 0.001
     assert document["design_model"]["states"] == 4  # no delay, no lag
@@ -244,10 +247,19 @@ def test_tune_writes_a_controller_that_simulate_runs(tmp_path, monkeypatch, caps
         }
         assert design["margins"]["gain_db"] > 0 and design["margins"]["delay_s"] > 0
     tuned = document["designs"]["tuned"]
-    assert tuned["observer"]["kind"] == "vfe"
-    # The Dahl observer's stiffness is the fitted level over the fitted presliding displacement.
-    assert tuned["observer"]["dahl"]["sigma0"] == pytest.approx(0.012 / 0.002)
+    if tuned["family_member"] is None:  # the nominal design kept: no member predicted better over the intervals
+        assert tuned["lqr_gain"] == document["designs"]["nominal"]["lqr_gain"]
+    else:  # with arm friction in the model, every member runs the VFE and the fitted Dahl observer
+        assert tuned["observer"]["kind"] == "vfe"
+        # The Dahl observer's stiffness is the fitted level over the fitted presliding displacement.
+        assert tuned["observer"]["dahl"]["sigma0"] == pytest.approx(0.012 / 0.002)
     assert set(tuned["friction_compensation"]) >= {"arm_coulomb", "gain"}
+    # The swing-up configured: each design's gain behind it catches, no sooner than half a hanging swing.
+    half_swing = math.pi / np.max(np.abs(np.linalg.eigvals(linearized_hanging(lund_rig())[0])))
+    for name in ("nominal", "tuned"):
+        catch = document["swingup"]["designs"][name]["at_fit"]["catch_time_s"]
+        assert catch is not None and half_swing < catch < 6.0
+    assert "Swing-up catch time" in (out / "tune.md").read_text()
     for name in ("controller.yaml", "nominal.yaml", "tune.md", "tune.html", "balancing.png", "config.yaml"):
         assert (out / name).is_file()
     assert "data:image/png;base64," in (out / "tune.html").read_text()

@@ -1,10 +1,11 @@
 """The paper's observers: high-gain (Eq. 4-6), Dahl friction (Eq. 8-9, 16) with its optional adaptation (the
 K_sigma law of Eq. 16-18, or Fc and sigma0 of Sec. VII), velocity and friction error (Eq. 11-13).
 
-HG and VFE are linear, so each is a Drake Diagram of C++ blocks (:mod:`.linear`); the Dahl observer is a Python
-LeafSystem with an exact exponential step, and each adaptation law is a LeafSystem of its own beside it
-(:class:`.k_sigma.KSigmaAdapter`, :class:`.parameter_adaptation.DahlParameterAdapter`). All are discrete at the
-control period.
+HG and VFE are linear, so each is a Drake Diagram of C++ blocks (:mod:`.linear`); the Dahl observer (an exact
+exponential step) and its K_sigma adapter (:class:`.k_sigma.KSigmaAdapter`) are symbolic expressions evaluated in
+C++ (:mod:`furuta_drake.symbolic_system`); the Fc and sigma0 adapter
+(:class:`.parameter_adaptation.DahlParameterAdapter`) is a Python LeafSystem. All are discrete at the control
+period.
 """
 
 from furuta_drake.observers.dahl import (

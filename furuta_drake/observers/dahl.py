@@ -27,7 +27,9 @@ Discrete at the control period h with the inputs frozen over the period: the z e
 constant input, dz/dt = (v + K_z) - r z, r = sigma0 |v| / Fc, and it takes its EXACT step, the Dahl part by
 :func:`furuta_drake.friction.dahl_exact_step` plus K_z (1 - e^(-r h)) / r (K_z h when v = 0). An exact
 exponential step is stable at any stiffness r (the Dahl state's rate reaches 1e4 1/s at a few rad/s) where an
-explicit Euler step at 1 kHz diverges once r h > 2, and it settles to the continuous steady state exactly.
+explicit Euler step at 1 kHz diverges once r h > 2, and it settles to the continuous steady state exactly. The
+step (:func:`dahl_step`) is written once for floats and symbolic expressions; the observer evaluates its
+expression in C++ (:mod:`furuta_drake.symbolic_system`), no Python call at a sample.
 
 LuGre (Sec. VII's open point, Freidovich et al. 2006): with Stribeck levels (``static_pos/neg``,
 ``stribeck_velocity``), ``sigma1`` and ``sigma2`` the same system is the LuGre observer: Fc(v) becomes the
@@ -52,7 +54,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem, OutputPort
+from pydrake.symbolic import MakeVectorVariable, Variable
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort, System
 from pydrake.systems.primitives import PassThrough
 
 from furuta_drake.errors import ConfigError, require_control_period
@@ -65,6 +68,7 @@ from furuta_drake.friction import (
 )
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters, KSigmaAdapter
 from furuta_drake.observers.parameter_adaptation import DahlParameterAdapter, ParameterAdaptationParameters
+from furuta_drake.symbolic_system import build_into, discrete_symbolic_system, where
 
 JOINTS = ("arm", "pendulum")
 
@@ -152,118 +156,106 @@ class DahlObserverParameters:
         )
 
 
-class DahlFrictionObserver(LeafSystem):
+class DahlFrictionObserver(Diagram):
     """Eq. 8-9, 16 of one joint (the arm by default), discrete at the control period ``period`` [s] (exact step,
-    see the module docstring). An adapting observer reads its adapted model from its adapter (arm only; wired by
-    :func:`add_dahl_adaptation`).
+    see the module docstring), evaluated in C++ (:func:`~furuta_drake.symbolic_system.discrete_symbolic_system`
+    of :func:`dahl_step` and :func:`model_torque`). An adapting observer reads its adapted model from its adapter
+    (arm only; wired by :func:`add_dahl_adaptation`).
 
     Inputs: ``{joint}_velocity_estimate_rad_per_s`` (v), ``measured_angles_rad`` ([theta, phi]; the joint's
-    angle gives eps), ``arm_reference_rad`` (arm only: [phi_ref [rad], v_ref [rad/s]], zero if unconnected) and,
-    when adapting, ``K_sigma`` (Eq. 16's gain of v's sign, :class:`~furuta_drake.observers.k_sigma.KSigmaAdapter`)
-    or ``dahl_parameters`` ([Fc+ [N m], Fc- [N m], sigma0 [N m/rad]] of
-    :class:`~furuta_drake.observers.parameter_adaptation.DahlParameterAdapter`). Discrete state z_hat [rad].
-    Outputs: ``friction_estimate_Nm`` (F_hat = -K_sigma sigma0 z_hat [N m] for Dahl; feeds through v for LuGre's
-    sigma1, sigma2), ``bristle_state_rad`` (z_hat) and, with ``dahl_parameters``, ``bristle_injection_rad_per_s``
-    (K_z of Eq. 9, which the parameter law's sensitivities follow).
+    angle gives eps), ``arm_reference_rad`` (arm only: [phi_ref [rad], v_ref [rad/s]]; connect [0, 0] to regulate
+    about the upright) and, when adapting, ``K_sigma`` (Eq. 16's gain of v's sign,
+    :class:`~furuta_drake.observers.k_sigma.KSigmaAdapter`) or ``dahl_parameters`` ([Fc+ [N m], Fc- [N m], sigma0
+    [N m/rad]] of :class:`~furuta_drake.observers.parameter_adaptation.DahlParameterAdapter`). Discrete state
+    z_hat [rad]. Outputs: ``friction_estimate_Nm`` (F_hat = -K_sigma sigma0 z_hat [N m] for Dahl; feeds through
+    K_sigma, and v for LuGre's sigma1, sigma2), ``bristle_state_rad`` (z_hat, no feedthrough) and, with
+    ``dahl_parameters``, ``bristle_injection_rad_per_s`` (K_z of Eq. 9, which the parameter law's sensitivities
+    follow).
     """
 
     def __init__(self, params: DahlObserverParameters | None = None, *, period: float, joint: str = "arm"):
-        LeafSystem.__init__(self)
+        Diagram.__init__(self)
         params = params or DahlObserverParameters()
-        params.validate()
-        where = "observers.dahl" if joint == "arm" else "observers.pendulum_friction"
-        require_control_period(params.period, period, f"{where}.period")
-        if joint not in JOINTS:
-            raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
-        adaptation = params.adaptation
-        if adaptation is not None and joint != "arm":
-            raise ConfigError(
-                f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the {joint}'s"
-            )
+        _check(params, period, joint)
         self.params, self.joint, self.period = params, joint, period
-        self._law = params.friction_law()
-        self._angle_index = 1 if joint == "arm" else 0
-        self._velocity = self.DeclareVectorInputPort(f"{joint}_velocity_estimate_rad_per_s", 1)
-        self._angles = self.DeclareVectorInputPort("measured_angles_rad", 2)
-        self._reference = self.DeclareVectorInputPort("arm_reference_rad", 2) if joint == "arm" else None
-        self._gain = self._parameters = None
-        xd = self.xd_ticket()
-        state = {xd}
-        if params.sigma1 > 0 or params.sigma2 > 0:
-            state = {*state, self._velocity.ticket()}
-        if adaptation is not None and adaptation.k_sigma is not None:
-            self._gain = self.DeclareVectorInputPort("K_sigma", 1)
-            state = {*state, self._gain.ticket()}
-        elif adaptation is not None:
-            self._parameters = self.DeclareVectorInputPort("dahl_parameters", 3)
-            state = {*state, self._parameters.ticket()}
-        bristle = self.DeclareDiscreteState([0.0])
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareVectorOutputPort("friction_estimate_Nm", 1, self._calc_friction, prerequisites_of_calc=state)
-        self.DeclareStateOutputPort("bristle_state_rad", bristle)
-        if self._parameters is not None:
-            self.DeclareVectorOutputPort("bristle_injection_rad_per_s", 1, self._calc_injection)
-
-    # --- Outputs --------------------------------------------------------------------------------------------
-
-    def _model_torque(self, context, z: float) -> float:
-        """F of the observer's model at z [rad]: -sigma0 z (Dahl, with the adapted sigma0 when adapting) or the
-        LuGre torque at v [N m]."""
-        p = self.params
-        if p.sigma1 > 0 or p.sigma2 > 0:
-            return bristle_friction_torque(z, self._velocity.Eval(context)[0], self._law)
-        if self._parameters is not None:
-            return -self._parameters.Eval(context)[2] * z
-        return -p.sigma0 * z
-
-    def _calc_friction(self, context, output: BasicVector):
-        torque = self._model_torque(context, context.get_discrete_state(0).GetAtIndex(0))
-        output.SetAtIndex(0, torque if self._gain is None else self._gain.Eval(context)[0] * torque)
-
-    def _calc_injection(self, context, output: BasicVector):
-        v = self._velocity.Eval(context)[0]
-        output.SetAtIndex(0, self._injection(context, v, *self._model(context, v)))
-
-    # --- The update, one a sample: Eq. 8-9 ------------------------------------------------------------------
-
-    def _model(self, context, v: float) -> tuple[float, float]:
-        """(sigma0 [N m/rad], the level g(v) [N m]) of the model at v: the adapter's when it adapts them."""
-        if self._parameters is not None:
-            fc_pos, fc_neg, sigma0 = self._parameters.Eval(context)
-            return sigma0, (fc_pos if v > 0 else fc_neg)
-        return self.params.sigma0, stribeck_curve(v, self._law)
-
-    def _injection(self, context, v: float, sigma0: float, level: float) -> float:
-        """K_z of Eq. 9 [rad/s] at v (0 without injection)."""
-        if self.params.rho is None:
-            return 0.0
-        return injection(self.params, sigma0, v, level, *self.tracking_errors(context, v))
-
-    def tracking_errors(self, context, v: float | None = None) -> tuple[float, float]:
-        """(eps, eps_v) of Eq. 9: the joint angle and velocity (``v`` when the caller has read it) minus the
-        reference (zero for the pendulum)."""
-        angle = self._angles.Eval(context)[self._angle_index]
-        if v is None:
-            v = self._velocity.Eval(context)[0]
-        if self._reference is not None and self._reference.HasValue(context):
-            reference = self._reference.Eval(context)
-            return angle - reference[0], v - reference[1]
-        return angle, v
-
-    def _update(self, context, discrete_state):
-        """Eq. 8-9 over one period: z_hat by the exact step with K_z held (module docstring)."""
-        v = float(self._velocity.Eval(context)[0])  # a float: math, not numpy scalars, in the step
-        bristle = discrete_state.get_mutable_vector(0)  # holds z_hat before the update
-        z = bristle.GetAtIndex(0)
-        sigma0, level = self._model(context, v)
-        z_next = float(dahl_exact_step(z, v, self.period, sigma0, level))
-        if self.params.rho is not None:
-            z_next += held_input_gain(sigma0 * abs(v) / level, self.period) * self._injection(context, v, sigma0, level)
-        bristle.SetAtIndex(0, z_next)
+        build_into(self, _observer_law(params, period, joint))
 
 
-def injection(p: DahlObserverParameters, sigma0: float, v: float, level: float, eps: float, eps_v: float) -> float:
-    """K_z of Eq. 9 [rad/s]: -s (sigma0 / rho) (1 + s1 sigma1 |v| / g(v)) (eps + rho2 eps_v), s = injection_sign."""
+def _check(params: DahlObserverParameters, period: float, joint: str) -> None:
+    """Raise :class:`ConfigError` unless ``params`` fit an observer of ``joint`` at the control ``period``."""
+    params.validate()
+    section = "observers.dahl" if joint == "arm" else "observers.pendulum_friction"
+    require_control_period(params.period, period, f"{section}.period")
+    if joint not in JOINTS:
+        raise ConfigError(f"DahlFrictionObserver joint must be one of {list(JOINTS)}, got {joint!r}")
+    if params.adaptation is not None and joint != "arm":
+        raise ConfigError(f"DahlFrictionObserver: only the arm's observer adapts, got an adaptation for the {joint}'s")
+
+
+def _observer_law(params: DahlObserverParameters, period: float, joint: str):
+    """The observer's C++ system: :func:`dahl_step` and the outputs as expressions of its ports' variables."""
+    v, z = Variable(f"{joint}_velocity"), Variable("z_hat")
+    angles = list(MakeVectorVariable(2, "measured_angle"))
+    inputs = [(f"{joint}_velocity_estimate_rad_per_s", [v]), ("measured_angles_rad", angles)]
+    eps, eps_v = angles[1 if joint == "arm" else 0], v
+    if joint == "arm":
+        reference = list(MakeVectorVariable(2, "arm_reference"))
+        inputs.append(("arm_reference_rad", reference))
+        eps, eps_v = eps - reference[0], v - reference[1]
+    adaptation, gain, adapted = params.adaptation, None, None
+    if adaptation is not None and adaptation.k_sigma is not None:
+        gain = Variable("K_sigma")
+        inputs.append(("K_sigma", [gain]))
+    elif adaptation is not None:
+        adapted = list(MakeVectorVariable(3, "dahl_parameter"))
+        inputs.append(("dahl_parameters", adapted))
+    sigma0, level = observer_model(params, v, adapted)
+    torque = model_torque(params, z, v, sigma0)
+    outputs = [("friction_estimate_Nm", [torque if gain is None else gain * torque]), ("bristle_state_rad", [z])]
+    if adapted is not None:
+        outputs.append(("bristle_injection_rad_per_s", [injection(params, sigma0, v, level, eps, eps_v)]))
+    return discrete_symbolic_system(
+        name=f"{joint}_dahl_law",
+        period=period,
+        state=[z],
+        initial=[0.0],
+        update=[dahl_step(params, period, z, v, sigma0, level, eps, eps_v)],
+        inputs=inputs,
+        outputs=outputs,
+    )
+
+
+def observer_model(p: DahlObserverParameters, v, adapted=None) -> tuple:
+    """(sigma0 [N m/rad], the level g(v) [N m]) of the observer's model at v: ``adapted`` = [Fc+, Fc-, sigma0]
+    when it adapts them (the Coulomb level of v's direction), else its own (the Stribeck curve for LuGre)."""
+    if adapted is not None:
+        return adapted[2], where(v > 0, adapted[0], adapted[1])
+    return p.sigma0, stribeck_curve(v, p.friction_law())
+
+
+def model_torque(p: DahlObserverParameters, z, v, sigma0):
+    """F of the observer's model at z [rad]: -sigma0 z (Dahl, sigma0 [N m/rad] the adapted one when adapting) or
+    the LuGre torque at v [N m]."""
+    if p.sigma1 > 0 or p.sigma2 > 0:
+        return bristle_friction_torque(z, v, p.friction_law())
+    return -sigma0 * z
+
+
+def dahl_step(p: DahlObserverParameters, period: float, z, v, sigma0, level, eps, eps_v):
+    """Eq. 8-9 over one ``period`` [s] from z_hat = z [rad]: the exact step with K_z held (module docstring).
+    Floats, or symbolic expressions for the C++ observer."""
+    z_next = dahl_exact_step(z, v, period, sigma0, level)
+    if p.rho is None:
+        return z_next
+    return z_next + held_input_gain(sigma0 * abs(v) / level, period) * injection(p, sigma0, v, level, eps, eps_v)
+
+
+def injection(p: DahlObserverParameters, sigma0, v, level, eps, eps_v):
+    """K_z of Eq. 9 [rad/s]: -s (sigma0 / rho) (1 + s1 sigma1 |v| / g(v)) (eps + rho2 eps_v), s = injection_sign,
+    at v [rad/s] with the model's sigma0 [N m/rad] and level g(v) [N m] and Eq. 9's errors eps [rad], eps_v
+    [rad/s]; 0 without injection (rho None)."""
+    if p.rho is None:
+        return 0.0
     return (
         -p.injection_sign
         * (sigma0 / p.rho)
@@ -280,7 +272,7 @@ def add_dahl_adaptation(
     friction_error: OutputPort,
     name: str,
     error_response=None,
-) -> LeafSystem | None:
+) -> System | None:
     """The adapter of ``dahl``'s ``params.adaptation`` added to ``builder`` as ``name`` (None without one), on the
     observer's arm ``velocity`` estimate [rad/s] and the VFE's ``friction_error`` eps_hat_F [N m], wired to the
     observer both ways. ``error_response``: that VFE's ``friction_error_response`` (the Fc and sigma0 law)."""
@@ -318,7 +310,7 @@ def add_dahl_adaptation(
 
 def adapting_dahl_observer(
     params: DahlObserverParameters, *, period: float, error_response=None
-) -> tuple[Diagram, DahlFrictionObserver, LeafSystem | None]:
+) -> tuple[Diagram, DahlFrictionObserver, System | None]:
     """The arm's Dahl observer and its adapter (:func:`add_dahl_adaptation`) as one Diagram, to run the pair on
     its own: inputs ``arm_velocity_estimate_rad_per_s``, ``measured_angles_rad``, ``arm_reference_rad`` and
     ``friction_error_estimate_Nm``; outputs the observer's and the adapter's, under their own names. Returns

@@ -7,7 +7,7 @@ printed: dK_sigma/dt = -gamma eps_hat_F sigma0 z_hat. As in Sec. V-C there are t
 the velocity estimate is positive and K_sigma- otherwise; the active one adapts only while |v| exceeds
 ``velocity_threshold`` (enough excitation, one sign held) and from ``enable_time`` on (t = 7.8 s in Sec. V-D).
 
-Discrete at the control period h, explicit Euler (:func:`adapting_branch`, :func:`k_sigma_step`). Near steady
+Discrete at the control period h, explicit Euler (:func:`k_sigma_update`). Near steady
 sliding sigma0 z_hat ~ Fc sign(v) and e ~ F - K_sigma sigma0 z_hat, so the law is linear in K_sigma with rate
 gamma (sigma0 z_hat)^2 ~ gamma Fc^2: Euler is stable for h gamma Fc^2 < 2 and monotone below 1. The default
 gamma = 5000 / ((N m)^2 s) puts that rate at gamma Fc^2 for the paper's Coulomb levels, far inside the bound
@@ -21,9 +21,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.symbolic import MakeVectorVariable, Variable
+from pydrake.systems.framework import Diagram
 
 from furuta_drake.errors import ConfigError
+from furuta_drake.symbolic_system import both, build_into, discrete_symbolic_system, negation, where
 
 K_SIGMA_POS, K_SIGMA_NEG = 0, 1  # the branches' places in the adapter's state
 
@@ -46,25 +48,32 @@ class KSigmaAdaptationParameters:
             raise ConfigError(f"{where}.initial must be > 0, got {self.initial!r}")
 
 
-def adapting_branch(p: KSigmaAdaptationParameters, time: float, v: float) -> int | None:
-    """The K_sigma that Eq. 18 adapts over the period from ``time`` [s] at velocity estimate v [rad/s]: 0
-    (K_sigma+) for v > 0, 1 (K_sigma-) for v < 0, None before ``enable_time`` or while |v| <= the threshold."""
-    if time < p.enable_time or abs(v) <= p.velocity_threshold:
-        return None
-    return 0 if v > 0 else 1
+def k_sigma_update(
+    p: KSigmaAdaptationParameters, period: float, sigma0: float, *, time, v, friction_error, bristle, gains
+):
+    """Eq. 18 over one ``period`` [s] from ``time`` [s] (explicit Euler): the next [K_sigma+, K_sigma-] from
+    ``gains``. The branch of v's sign [rad/s] (v > 0: K_sigma+, else K_sigma-) moves by
+    -h gamma eps_hat_F sigma0 z_hat, eps_hat_F [N m] the arm entry of the VFE's friction error, sigma0 [N m/rad] and
+    z_hat [rad] the Dahl observer's; neither moves before ``enable_time`` or while |v| <= the threshold. Floats, or
+    symbolic expressions for the C++ adapter."""
+    step = period * (-p.gamma * friction_error * sigma0 * bristle)
+    active = both(time >= p.enable_time, abs(v) > p.velocity_threshold)
+    positive = v > 0
+    return [
+        where(both(active, positive), gains[K_SIGMA_POS] + step, gains[K_SIGMA_POS]),
+        where(both(active, negation(positive)), gains[K_SIGMA_NEG] + step, gains[K_SIGMA_NEG]),
+    ]
 
 
-def k_sigma_step(
-    p: KSigmaAdaptationParameters, period: float, sigma0: float, friction_error: float, bristle: float
-) -> float:
-    """Eq. 18 over one ``period`` [s] (explicit Euler): -h gamma eps_hat_F sigma0 z_hat, eps_hat_F [N m] the arm
-    entry of the VFE's friction error, sigma0 [N m/rad] and z_hat [rad] the Dahl observer's."""
-    return period * (-p.gamma * friction_error * sigma0 * bristle)
+def active_gain(v, gains):
+    """The K_sigma of v's sign [rad/s] (Sec. V-C): K_sigma+ while v > 0, else K_sigma-."""
+    return where(v > 0, gains[K_SIGMA_POS], gains[K_SIGMA_NEG])
 
 
-class KSigmaAdapter(LeafSystem):
-    """Eq. 18 with Sec. V-C's two branches, discrete at the control period ``period`` [s], for a Dahl observer of
-    bristle stiffness ``sigma0`` [N m/rad].
+class KSigmaAdapter(Diagram):
+    """Eq. 18 with Sec. V-C's two branches (:func:`k_sigma_update`), discrete at the control period ``period``
+    [s], for a Dahl observer of bristle stiffness ``sigma0`` [N m/rad], evaluated in C++
+    (:func:`~furuta_drake.symbolic_system.discrete_symbolic_system`).
 
     Inputs: ``arm_velocity_estimate_rad_per_s`` (v, the Dahl observer's), ``bristle_state_rad`` (its z_hat) and
     ``friction_error_estimate_Nm`` (the VFE's eps_hat_F = [pendulum, arm] [N m]). Discrete state
@@ -73,34 +82,29 @@ class KSigmaAdapter(LeafSystem):
     """
 
     def __init__(self, params: KSigmaAdaptationParameters, *, period: float, sigma0: float):
-        LeafSystem.__init__(self)
+        Diagram.__init__(self)
         params.validate()
         self.params, self.period, self.sigma0 = params, period, sigma0
-        self._velocity = self.DeclareVectorInputPort("arm_velocity_estimate_rad_per_s", 1)
-        self._bristle = self.DeclareVectorInputPort("bristle_state_rad", 1)
-        self._error = self.DeclareVectorInputPort("friction_error_estimate_Nm", 2)
-        branches = self.DeclareDiscreteState([params.initial, params.initial])
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        xd = self.xd_ticket()
-        self.DeclareVectorOutputPort("K_sigma", 1, self._calc_gain, prerequisites_of_calc={xd, self._velocity.ticket()})
-        self.DeclareStateOutputPort("K_sigma_branches", branches)
-
-    def _calc_gain(self, context, output: BasicVector):
-        branch = K_SIGMA_POS if self._velocity.Eval(context)[0] > 0 else K_SIGMA_NEG
-        output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(branch))
-
-    def _update(self, context, discrete_state):
-        """Eq. 18 on the branch of v's sign, from the inputs before the sample."""
-        v = float(self._velocity.Eval(context)[0])
-        branch = adapting_branch(self.params, context.get_time(), v)
-        if branch is None:
-            return
-        state = discrete_state.get_mutable_vector(0)
-        index = K_SIGMA_POS + branch
-        step = k_sigma_step(
-            self.params, self.period, self.sigma0, self._error.Eval(context)[1], self._bristle.Eval(context)[0]
+        time, v, bristle = Variable("t"), Variable("arm_velocity"), Variable("z_hat")
+        error, gains = MakeVectorVariable(2, "friction_error"), list(MakeVectorVariable(2, "K_sigma"))
+        update = k_sigma_update(
+            params, period, sigma0, time=time, v=v, friction_error=error[1], bristle=bristle, gains=gains
         )
-        state.SetAtIndex(index, state.GetAtIndex(index) + step)
+        law = discrete_symbolic_system(
+            name="k_sigma_law",
+            period=period,
+            state=gains,
+            initial=[params.initial, params.initial],
+            update=update,
+            inputs=[
+                ("arm_velocity_estimate_rad_per_s", [v]),
+                ("bristle_state_rad", [bristle]),
+                ("friction_error_estimate_Nm", list(error)),
+            ],
+            outputs=[("K_sigma", [active_gain(v, gains)]), ("K_sigma_branches", gains)],
+            time=time,
+        )
+        build_into(self, law)
 
 
-__all__ = ["KSigmaAdaptationParameters", "KSigmaAdapter", "adapting_branch", "k_sigma_step"]
+__all__ = ["KSigmaAdaptationParameters", "KSigmaAdapter", "active_gain", "k_sigma_update"]

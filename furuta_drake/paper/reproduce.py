@@ -22,7 +22,7 @@ from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.config import ExcitationConfig, SimulationConfig
-from furuta_drake.diagram import add_vfe_with_dahl, start_at
+from furuta_drake.diagram import add_vfe_with_dahl, connect_arm_reference, start_at
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.observers.dahl import DahlAdaptation
 from furuta_drake.observers.hg import HighGainObserver
@@ -187,7 +187,7 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
         linear.append(hg_system)
     if vfe is not None:
         vfe_params, dahl_params = vfe
-        vfe_system = add_vfe_with_dahl(
+        nested = add_vfe_with_dahl(
             builder,
             (A, B_F),
             vfe_params,
@@ -196,7 +196,9 @@ def replay_observers(result: SimulationResult, config: SimulationConfig, *, hg=N
             torque.get_output_port(),
             config.observers.pendulum_friction,
             period=period,
-        ).vfe
+        )
+        connect_arm_reference(builder, None, [nested.dahl] if nested.dahl is not None else [])
+        vfe_system = nested.vfe
         loggers["vfe"] = LogVectorOutput(vfe_system.GetOutputPort("state_estimate"), builder, period)
         linear.append(vfe_system)
     if config.observers.start_at_initial_state:

@@ -31,6 +31,7 @@ from furuta_drake.observers.dahl import DahlAdaptation, DahlObserverParameters
 from furuta_drake.observers.hg import HighGainParameters
 from furuta_drake.observers.k_sigma import KSigmaAdaptationParameters
 from furuta_drake.observers.vfe import VfeParameters
+from furuta_drake.rig import RigParameters
 
 VFE_SPREAD = (1.0, 1.15, 1.3, 1.45, 1.6, 1.75)  # the package's default VFE eigenvalues over their slowest
 SLOWEST_OBSERVER = 20.0  # [rad/s] the VFE's slowest eigenvalue at the least (the package's default)
@@ -45,7 +46,8 @@ class Controller:
     """A balancing controller: ``gain`` K [N m/rad, N m s/rad] in paper order (u = -K x), the velocity source
     ``observer`` ('hg' or 'vfe') with its ``hg`` or ``vfe`` gains, the Dahl observer ``dahl`` (None without arm
     friction in the design), ``compensation`` the initial K_sigma of u = u_LQ - K_sigma F_hat (0: none), the
-    controller's ``torque_limit`` [N m] and the LQ weights it was designed with."""
+    controller's ``torque_limit`` [N m], the LQ weights it was designed with and the rig file its observer's model
+    is linearized from (``model``; None: the model it balances, the corrected one)."""
 
     gain: tuple[float, float, float, float]
     observer: str
@@ -55,6 +57,7 @@ class Controller:
     vfe: VfeParameters = field(default_factory=VfeParameters)
     dahl: DahlObserverParameters | None = None
     compensation: float = 0.0
+    model: RigParameters | None = None
 
     def observer_dict(self) -> dict:
         """The observer's settings as ``tune.json`` states them."""
@@ -103,11 +106,12 @@ def arm_friction_observer(friction: JointFrictionParameters, count: float) -> Da
 
 
 def observer_for(
-    rate: float, period: float, dahl: DahlObserverParameters | None
+    rate: float, period: float, dahl: DahlObserverParameters | None, scale: float = 1.0
 ) -> tuple[str, HighGainParameters, VfeParameters]:
     """(velocity source, HG gains, VFE gains) of a tuned controller on a model whose upright pole is ``rate``
-    [1/s] (module docstring)."""
-    slowest = max(2.0 * rate, SLOWEST_OBSERVER)
+    [1/s] (module docstring), its time scale ``scale`` times the default's (2: every pole half as fast; the HG's
+    eps stays at least ``HG_PERIODS`` sample periods)."""
+    slowest = max(2.0 * rate, SLOWEST_OBSERVER) / scale
     if dahl is not None:
         return "vfe", HighGainParameters(), VfeParameters(eigenvalues=[-slowest * k for k in VFE_SPREAD])
     eps = max(1.0 / (HG_SPEED * slowest), HG_PERIODS * period)
@@ -140,6 +144,7 @@ def closed_loop(world: SimulationConfig, controller: Controller, *, duration: fl
         vfe=controller.vfe,
         dahl=controller.dahl or DahlObserverParameters(),
         start_at_initial_state=True,
+        model=controller.model,
     )
     control = dataclasses.replace(
         world.controller,

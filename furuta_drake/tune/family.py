@@ -1,0 +1,349 @@
+"""The family of designs ``tune`` chooses the tuned controller from, and the robust choice among them.
+
+A :class:`Member` is a design recipe on the corrected model: the LQ weights as scales of the package's Q_theta,
+Q_phi and R, the observer's time scale over the default of :func:`~.controller.observer_for` (HG eps, or the
+inverse of the VFE's eigenvalues), and the friction compensation's initial K_sigma. Its gain is the output LQ gain
+of those weights on the design model (:func:`~.design.output_lqr`).
+
+Every member is judged against the **nominal design** (the rig file's LQR on its HG observer) by :func:`score`:
+theta's RMS and the limit cycle's amplitude, each as a ratio to the nominal's; the larger ratio first (a design is
+better only when it is better in both), their sum breaking ties. The search, within a fixed budget of Drake runs
+(:func:`run_budget`):
+
+0. each weight set's gain must keep the margins (:mod:`.robustness`) at the fit and at every linear corner of the
+   intervals; a set that does not is out before any run;
+1. round 1 runs each remaining weight set with the default observer and the first compensation gain (none without
+   arm friction in the model) on the corrected model at the fit; round 2 the best member so far with each other
+   observer scale; round 3, when the model has arm friction, the best so far with each other compensation gain;
+2. the ``finalists`` best members at the fit are run at every effect extreme (each accepted effect's parameters at
+   the lower, then the upper ends of their 95 % intervals); one that falls there is out;
+3. the tuned design is the finalist of the smallest **robust score**: the score of each figure's worst over the fit
+   and the extremes, as a ratio to the nominal design's worst. The nominal design itself competes when it meets
+   the requirements over the intervals and wins ties: the tuned design's predicted worst case is never worse than
+   the nominal's.
+
+Every run starts from the same seeded disturbance and encoder noise (common random numbers: members differ only by
+their design), so the search is reproducible and its differences are the designs'.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.systems.controllers import DiscreteTimeLinearQuadraticRegulator
+
+from furuta_drake.config import SimulationConfig
+from furuta_drake.controllers.lqr import LqrParameters, zero_order_hold
+from furuta_drake.diagnosis.parallel import Failure, run_tasks
+from furuta_drake.errors import ConfigError
+from furuta_drake.tune.controller import Controller, observer_for, upright_rate, with_compensation
+from furuta_drake.tune.design import DesignModel, output_lqr
+from furuta_drake.tune.inputs import TuneInputs
+from furuta_drake.tune.margins import Margins, margins
+from furuta_drake.tune.predict import Prediction, predict
+from furuta_drake.tune.robustness import NotRobust, margin_failure
+
+JUDGED = ("theta_rms", "limit_cycle_amplitude")  # the figures a design is judged by
+FLOOR_COUNTS = 0.5  # a reference figure below half an encoder count is taken as half a count (no ratio blows up)
+
+
+@dataclass(frozen=True)
+class Member:
+    """A design recipe: ``weights`` (scales of Q_theta, Q_phi and R over the package's LQ weights), ``observer``
+    (the observer's time scale over the default) and ``compensation`` (the initial K_sigma; 0: none)."""
+
+    weights: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    observer: float = 1.0
+    compensation: float = 0.0
+
+    def as_dict(self) -> dict:
+        theta, phi, r = self.weights
+        return {
+            "theta_weight_scale": theta,
+            "phi_weight_scale": phi,
+            "input_weight_scale": r,
+            "observer_scale": self.observer,
+            "compensation_gain": self.compensation,
+        }
+
+    def lqr(self, base: LqrParameters) -> LqrParameters:
+        """``base``'s weights scaled (module docstring)."""
+        theta, phi, r = self.weights
+        q = list(base.state_weights)
+        return dataclasses.replace(
+            base, state_weights=[q[0] * theta, q[1] * phi, *q[2:]], input_weight=base.input_weight * r
+        )
+
+
+@dataclass
+class DesignOutcome:
+    """A controller and how it does on the corrected model: ``margins`` at the fit and at every linear corner
+    (``corner_margins``: label -> Margins), the predicted run at the fit and at each effect extreme
+    (``extremes``: label -> Prediction), whether it meets the requirements there (``failure``: why not), and the
+    family ``member`` it was made from (None: the nominal design)."""
+
+    controller: Controller
+    margins: Margins
+    corner_margins: dict[str, Margins]
+    prediction: Prediction
+    extremes: dict[str, Prediction] = field(default_factory=dict)
+    failure: str = ""
+    member: Member | None = None
+
+    @property
+    def robust(self) -> bool:
+        return not self.failure
+
+    def worst_corner(self) -> tuple[str, Margins]:
+        """The linear corner of the smallest delay margin (the fit when there is none)."""
+        items = list(self.corner_margins.items()) or [("the fit", self.margins)]
+        return min(items, key=lambda item: (item[1].stable, item[1].delay_s))
+
+    def runs(self) -> list[Prediction]:
+        """The predicted runs at the fit and at every effect extreme."""
+        return [self.prediction, *self.extremes.values()]
+
+
+@dataclass
+class Problem:
+    """What every design is judged on: the corrected model (``world``, its design model and linearization ``A``,
+    ``B``), the linear corners' design models, the effect extremes' models, the fitted friction's Dahl observer,
+    the nominal controller and the settings (:class:`~.pipeline.TuneSettings`)."""
+
+    inputs: TuneInputs
+    world: SimulationConfig
+    model: DesignModel
+    A: np.ndarray
+    B: np.ndarray
+    corners: list[tuple[str, DesignModel]]
+    extremes: list[tuple[str, SimulationConfig]]
+    dahl: object
+    nominal: Controller
+    settings: object
+
+    @property
+    def period(self) -> float:
+        return self.world.control_period
+
+    @property
+    def count(self) -> float:
+        """One encoder count [rad]."""
+        return self.world.encoder.encoder_resolution
+
+    def margins_of(self, K) -> tuple[Margins, dict[str, Margins]]:
+        """K's margins at the fit and at every linear corner."""
+        return margins(self.model, K), {label: margins(model, K) for label, model in self.corners}
+
+    def predictions(self, tasks: list[tuple[SimulationConfig, Controller]]) -> list[Prediction]:
+        """The predictions of (world, controller) pairs with the settings' duration and seed, on worker processes;
+        a run that raised is a fallen one, with the reason."""
+        settings = self.settings
+        calls = [(world, controller, settings.duration, settings.seed) for world, controller in tasks]
+        results = run_tasks(_run, calls, workers=settings.workers)
+        return [Prediction(None, result.reason, None) if isinstance(result, Failure) else result for result in results]
+
+    def at_extremes(self, controller: Controller) -> dict[str, Prediction]:
+        runs = self.predictions([(world, controller) for _, world in self.extremes])
+        return dict(zip([label for label, _ in self.extremes], runs))
+
+
+def _run(task) -> Prediction:
+    world, controller, duration, seed = task
+    return predict(world, controller, duration=duration, seed=seed)
+
+
+def delay_free_gain(A: np.ndarray, B: np.ndarray, lqr: LqrParameters, period: float) -> np.ndarray:
+    """The DARE gain of the design model's plant without its delay and lag (a start of the output LQ design):
+    with a lag state, the torque enters x through the lag state's column."""
+    B_plant = A[:4, 4:] if A.shape[0] > 4 else B[:4]
+    Ad, Bd = zero_order_hold(A[:4, :4], B_plant[:, :1], period)
+    K, _ = DiscreteTimeLinearQuadraticRegulator(Ad, Bd, np.diag(lqr.state_weights), np.array([[lqr.input_weight]]))
+    return K
+
+
+def shortfall(corner_margins: dict[str, Margins], runs: dict[str, Prediction], period: float) -> str:
+    """The first requirement a design misses: its margins at a corner (``corner_margins``), or a run that fell
+    (``runs``); '' when it meets them all."""
+    for label, m in corner_margins.items():
+        reason = margin_failure(m, period)
+        if reason:
+            return f"at {label}: {reason}"
+    return next((f"fell at {label}: {run.fell}" for label, run in runs.items() if not run.balanced), "")
+
+
+def worst(runs: list[Prediction]) -> dict | None:
+    """Each judged figure's largest over ``runs``; None when one of them fell."""
+    if not runs or not all(run.balanced for run in runs):
+        return None
+    return {figure: max(run.figures[figure] for run in runs) for figure in JUDGED}
+
+
+def score(figures: dict | None, reference: dict | None, count: float) -> tuple[float, float]:
+    """(the larger, the sum) of the judged ``figures``' ratios to ``reference``'s, each reference at least
+    ``FLOOR_COUNTS`` encoder counts (``count`` [rad]; all of it without a reference); (inf, inf) for no figures.
+    Smaller is better: below 1 in its first entry, a design is better than the reference in both figures."""
+    if figures is None:
+        return (math.inf, math.inf)
+    floor = FLOOR_COUNTS * count
+    ratios = [figures[f] / max(reference[f] if reference else 0.0, floor) for f in JUDGED]
+    return (max(ratios), sum(ratios))
+
+
+def run_budget(settings, friction: bool, effects: int) -> int:
+    """The most Drake runs the search makes (module docstring), the nominal design's fit and extremes included."""
+    compensation = len(settings.compensation_gains) - 1 if friction else 0
+    fit = len(settings.weight_sets) + len(settings.observer_scales) + compensation
+    extremes = 2 * effects
+    return fit + settings.finalists * extremes + 1 + extremes
+
+
+def member_gain(problem: Problem, member: Member) -> np.ndarray:
+    """The output LQ gain of ``member``'s weights on the design model (ConfigError when none stabilises it)."""
+    lqr = member.lqr(problem.nominal.lqr)
+    starts = [np.asarray(problem.nominal.gain), delay_free_gain(problem.A, problem.B, lqr, problem.period)]
+    return output_lqr(problem.model, lqr.state_weights, lqr.input_weight, starts)
+
+
+def member_controller(problem: Problem, member: Member, K) -> Controller:
+    """``member``'s controller with the gain ``K``: its observer on the corrected model, its compensation."""
+    nominal = problem.nominal
+    source, hg, vfe = observer_for(upright_rate(problem.A), problem.period, problem.dahl, member.observer)
+    gain = tuple(float(k) for k in np.ravel(K))
+    base = Controller(gain, source, nominal.torque_limit, member.lqr(nominal.lqr), hg, vfe, problem.dahl)
+    return with_compensation(base, member.compensation)
+
+
+@dataclass
+class _Search:
+    """The search's state: the admissible weight sets' gains and margins, every member run at the fit, and the
+    rows of ``tune.json``'s ``candidates``."""
+
+    problem: Problem
+    reference: dict | None  # the nominal design's figures at the fit
+    gains: dict = field(default_factory=dict)  # weights -> (K, fit margins, corner margins)
+    runs: dict = field(default_factory=dict)  # Member -> Prediction at the fit
+    rows: dict = field(default_factory=dict)  # Member (or weights) -> candidate row
+    controllers: list = field(default_factory=list)  # the controllers run, one per member run
+
+    def fit_score(self, member: Member) -> tuple[float, float]:
+        run = self.runs[member]
+        return score(run.figures, self.reference, self.problem.count)
+
+    def best(self) -> Member | None:
+        balanced = [m for m, run in self.runs.items() if run.balanced]
+        return min(balanced, key=self.fit_score) if balanced else None
+
+    def run(self, members: list[Member]) -> None:
+        """Run the members not run yet at the fit."""
+        fresh = []
+        for member in dict.fromkeys(members):
+            if member in self.runs or member.weights not in self.gains:
+                continue
+            controller = member_controller(self.problem, member, self.gains[member.weights][0])
+            if controller not in self.controllers:  # an observer scale at its floor makes no new design
+                self.controllers.append(controller)
+                fresh.append((member, controller))
+        members, controllers = [m for m, _ in fresh], [c for _, c in fresh]
+        for member, controller, run in zip(
+            members, controllers, self.problem.predictions([(self.problem.world, c) for c in controllers])
+        ):
+            self.runs[member] = run
+            self.rows[member] = {
+                **member.as_dict(),
+                "lqr_gain": list(controller.gain),
+                "predicted": run.figures,
+                "fell": run.fell,
+                "score_at_fit": list(score(run.figures, self.reference, self.problem.count)),
+            }
+
+
+def search(problem: Problem, nominal: DesignOutcome, say: Callable[[str], None]) -> tuple[DesignOutcome, list]:
+    """The tuned design (module docstring) and the candidate rows; NotRobust when no member nor the nominal design
+    meets the requirements over the intervals."""
+    settings = problem.settings
+    found = _Search(problem, nominal.prediction.figures)
+    failures = _admissible_gains(problem, found, settings.weight_sets)
+    friction = problem.dahl is not None
+    gains = settings.compensation_gains if friction else (0.0,)
+    say(f"round 1: {len(found.gains)} weight set(s) on the corrected model")
+    found.run([Member(weights, 1.0, gains[0]) for weights in settings.weight_sets])
+    for label, variants in (("observer scales", settings.observer_scales), ("compensation gains", gains[1:])):
+        best = found.best()
+        if best is None or not variants:
+            continue
+        say(f"the best so far with {len(variants)} other {label}")
+        key = "observer" if label == "observer scales" else "compensation"
+        found.run([dataclasses.replace(best, **{key: value}) for value in variants])
+    balanced = sorted((m for m, run in found.runs.items() if run.balanced), key=found.fit_score)
+    finalists = balanced[: settings.finalists]
+    reference = worst(nominal.runs()) if nominal.robust else None
+    options = [(score(reference, reference, problem.count), 0, nominal)] if nominal.robust else []
+    for rank, member in enumerate(finalists, start=1):
+        say(f"finalist {rank}: its runs at the effect extremes")
+        outcome = _finalist(problem, found, member)
+        row = found.rows[member]
+        row["finalist"] = True
+        if outcome.failure:
+            row["rejected"] = outcome.failure
+            failures.append(f"{_label(member)}: {outcome.failure}")
+            continue
+        robust = score(worst(outcome.runs()), reference, problem.count)
+        row["worst_over_intervals"] = worst(outcome.runs())
+        row["robust_score"] = list(robust)
+        options.append((robust, rank, outcome))
+    for member, row in found.rows.items():
+        if isinstance(member, Member) and not row.get("finalist") and row.get("fell") == "":
+            row["rejected"] = "not among the finalists at the fit"
+    if not options:
+        raise NotRobust(
+            "no tuned design is robust over the parameters' 95 % intervals: "
+            + " | ".join(failures + [f"the nominal design: {nominal.failure}"])
+        )
+    chosen = min(options, key=lambda option: (option[0], option[1]))[2]
+    if chosen.member is not None:
+        found.rows[chosen.member]["chosen"] = True
+    rows = [{"design": "nominal", "chosen": chosen is nominal, "robust": nominal.robust}]
+    return chosen, rows + list(found.rows.values())
+
+
+def _admissible_gains(problem: Problem, found: _Search, weight_sets) -> list[str]:
+    """Each weight set's gain and margins into ``found.gains`` when they meet the requirements at every linear
+    corner; a row and a reason for each set that does not (returned)."""
+    failures = []
+    for weights in dict.fromkeys(tuple(float(w) for w in ws) for ws in weight_sets):
+        member = Member(weights)
+        try:
+            K = member_gain(problem, member)
+        except ConfigError as err:
+            failures.append(f"{_label(member)}: {err}")
+            found.rows[weights] = {**member.as_dict(), "rejected": str(err)}
+            continue
+        fit_margins, corner_margins = problem.margins_of(K)
+        failure = shortfall({"the fit": fit_margins, **corner_margins}, {}, problem.period)
+        if failure:
+            failures.append(f"{_label(member)}: {failure}")
+            found.rows[weights] = {**member.as_dict(), "lqr_gain": np.ravel(K).tolist(), "rejected": failure}
+            continue
+        found.gains[weights] = (K, fit_margins, corner_margins)
+    return failures
+
+
+def _finalist(problem: Problem, found: _Search, member: Member) -> DesignOutcome:
+    """A finalist's outcome: its margins and its runs at the fit and the effect extremes."""
+    K, fit_margins, corner_margins = found.gains[member.weights]
+    controller = member_controller(problem, member, K)
+    extremes = problem.at_extremes(controller)
+    failure = shortfall({}, extremes, problem.period)
+    return DesignOutcome(controller, fit_margins, corner_margins, found.runs[member], extremes, failure, member)
+
+
+def _label(member: Member) -> str:
+    theta, phi, r = member.weights
+    return (
+        f"Q_theta x {theta:g}, Q_phi x {phi:g}, R x {r:g}, observer x {member.observer:g}, "
+        f"K_sigma {member.compensation:g}"
+    )
