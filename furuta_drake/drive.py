@@ -70,10 +70,16 @@ def drive_coupling(drive: DriveParameters, arm_inertia: float) -> Coupling:
     _require_positive(arm_inertia, "drive arm_inertia")
     if drive.stiffness is not None:
         return Coupling(drive.backlash, drive.stiffness, drive.damping)
-    rotor = drive.reflected_inertia
-    reduced = rotor * arm_inertia / (rotor + arm_inertia)
+    return Coupling(drive.backlash, *tooth_contact(drive.reflected_inertia, arm_inertia))
+
+
+def tooth_contact(rotor_inertia: float, arm_inertia: float) -> tuple[float, float]:
+    """(k [N m/rad], c [N m s/rad]) of a rigid gear's tooth contact between a rotor of ``rotor_inertia`` J and an arm
+    side of ``arm_inertia`` J_arm [kg m^2]: k = mu w^2, c = 2 zeta mu w, mu = J J_arm / (J + J_arm) (module
+    docstring)."""
+    reduced = rotor_inertia * arm_inertia / (rotor_inertia + arm_inertia)
     w = 2.0 * math.pi * CONTACT_FREQUENCY
-    return Coupling(drive.backlash, reduced * w**2, 2.0 * CONTACT_DAMPING_RATIO * reduced * w)
+    return reduced * w**2, 2.0 * CONTACT_DAMPING_RATIO * reduced * w
 
 
 def resonance(drive: DriveParameters, arm_inertia: float) -> float:
@@ -163,6 +169,7 @@ __all__ = [
     "CONTACT_DAMPING_RATIO",
     "Coupling",
     "drive_coupling",
+    "tooth_contact",
     "resonance",
     "BacklashCoupling",
     "Drive",

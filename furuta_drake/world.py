@@ -62,13 +62,13 @@ class FurutaWorld:
     drive: LinearSystem | None
     to_paper: np.ndarray = field(repr=False)
 
-    def set_state(self, root_context, x: np.ndarray) -> None:
-        """Set the paper-order state ``x`` [rad, rad/s] in the diagram's ``root_context``; a drive's rotor turns with
-        the arm, untwisted (in the middle of its backlash)."""
+    def set_state(self, root_context, x: np.ndarray, twist=(0.0, 0.0)) -> None:
+        """Set the paper-order state ``x`` [rad, rad/s] in the diagram's ``root_context``; a drive's rotor at the
+        ``twist`` [delta, delta_dot] [rad, rad/s] from the arm (default untwisted: in the middle of its backlash)."""
         self.plant.SetPositionsAndVelocities(self.plant.GetMyMutableContextFromRoot(root_context), self.to_paper.T @ x)
         if self.drive is not None:
             rotor = self.drive.GetMyMutableContextFromRoot(root_context).get_mutable_continuous_state_vector()
-            rotor.SetFromVector([x[1], x[3]])
+            rotor.SetFromVector([x[1] + twist[0], x[3] + twist[1]])
 
 
 def add_furuta_world(

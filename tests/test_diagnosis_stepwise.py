@@ -15,7 +15,7 @@ from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales
 
 WINDOWS = 200
 NOMINAL = np.full(WINDOWS, 1.0)  # excess squared residual per held-out window [counts^2]
-SCALES = Scales(torque=0.1, command=0.2, arm_inertia=3e-3, pendulum_inertia=4e-3, period=1e-3)
+SCALES = Scales(torque=0.1, command=0.2, arm_inertia=3e-3, pendulum_inertia=4e-3, period=1e-3, drive_inertia=7e-4)
 
 
 def _sized(name: str) -> Effect:

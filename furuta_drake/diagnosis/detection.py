@@ -42,8 +42,18 @@ from furuta_drake.diagnosis.sensor import (
     Hypothesis,
     signature_of,
 )
+from furuta_drake.drive import CONTACT_FREQUENCY
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import CANDIDATES, PRESLIDING_STARTS, UNITS, Effect, Scales, apply_effects
+from furuta_drake.effects.vocabulary import (
+    BACKLASH_BOUNDS,
+    CANDIDATES,
+    COMPLIANCE_FREQUENCIES,
+    PRESLIDING_STARTS,
+    UNITS,
+    Effect,
+    Scales,
+    apply_effects,
+)
 from furuta_drake.rig import encoder_resolution
 
 BISECTIONS = 14  # halvings of the log-scale bracket: the limit to within about 1 % of its bracket's ratio
@@ -58,6 +68,8 @@ class Injection:
     effect: Callable[[float, Scales, Model], Effect]
     value: Callable[[float, Scales, Model], float]
     note: str = ""
+    rate_note: Callable[[float, Scales], str] | None = None  # what the logs' rate shows of the effect at the
+    # reported value (appended to the note)
 
 
 def _same(s, scales, model):
@@ -68,6 +80,37 @@ def _arm_level(model: Model) -> float:
     """The model's arm Coulomb level [N m] (the larger of the two directions; 0 without arm friction)."""
     p = model.arm_friction
     return max(p.coulomb_pos, p.coulomb_neg) if p.model != "none" else 0.0
+
+
+COMPLIANCE_INJECTED_RATIO = 0.1  # the damping ratio of an injected drive compliance
+
+
+def _ringing(s: float) -> float:
+    """The ringing [Hz] of a drive compliance injected at the size s: CONTACT_FREQUENCY / (1 + s) (s = 0: as stiff
+    as a gear's tooth contact)."""
+    return CONTACT_FREQUENCY / (1.0 + s)
+
+
+def _compliance_stiffness(s: float, scales: Scales) -> float:
+    """k = mu (2 pi f)^2 [N m/rad] of the ringing f of :func:`_ringing`, mu the drive pair's reduced inertia."""
+    return scales.drive_inertia * (2.0 * np.pi * _ringing(s)) ** 2
+
+
+def _compliance_damping(s: float, scales: Scales) -> float:
+    """c = 2 zeta sqrt(k mu) [N m s/rad] at ``COMPLIANCE_INJECTED_RATIO``."""
+    return 2.0 * COMPLIANCE_INJECTED_RATIO * np.sqrt(_compliance_stiffness(s, scales) * scales.drive_inertia)
+
+
+def _ringing_note(stiffness: float, scales: Scales) -> str:
+    """Where the ringing sqrt(k / mu) of a drive of ``stiffness`` [N m/rad] lies against the logs' Nyquist frequency."""
+    ringing = np.sqrt(stiffness / scales.drive_inertia) / (2.0 * np.pi)
+    nyquist = 0.5 / scales.period
+    if ringing <= nyquist:
+        return f"; it rings at {ringing:.3g} Hz, below these logs' Nyquist frequency ({nyquist:.3g} Hz)"
+    return (
+        f"; it rings at {ringing:.3g} Hz, above these logs' Nyquist frequency ({nyquist:.3g} Hz): a stiffer "
+        f"drive shows as a lag, not a ringing; logs at {2.0 * ringing:.3g} Hz or faster would sample the ringing"
+    )
 
 
 INJECTIONS: dict[str, Injection] = {
@@ -152,6 +195,21 @@ INJECTIONS: dict[str, Injection] = {
         _same,
         "a linear spring added to the model's",
     ),
+    "drive_backlash": Injection(
+        "backlash",
+        lambda sc, m: (1e-5, BACKLASH_BOUNDS[1]),
+        lambda s, sc, m: Effect("", (m.drive_backlash + s,)),
+        _same,
+        "added to the model's drive, its teeth touching through its spring or a gear's stiff contact",
+    ),
+    "drive_compliance": Injection(
+        "stiffness",
+        lambda sc, m: (1e-3, CONTACT_FREQUENCY / COMPLIANCE_FREQUENCIES[0] - 1.0),
+        lambda s, sc, m: Effect("", (_compliance_stiffness(s, sc), _compliance_damping(s, sc))),
+        lambda s, sc, m: _compliance_stiffness(s, sc),
+        f"the stiffest coupling detected, damping ratio {COMPLIANCE_INJECTED_RATIO:g}",
+        _ringing_note,
+    ),
     "inertia_mismatch": Injection(
         "arm_inertia_scale",
         lambda sc, m: (1e-3, 1.0),
@@ -203,14 +261,15 @@ def detection_limits(
     seed: int = 0,
 ) -> list[DetectionLimit]:
     """The detection limit of every vocabulary effect that is neither accepted nor a variant of an accepted
-    effect's law, on the held-out ``windows`` of ``model`` (the model holding the accepted effects)."""
+    effect's law, and is offered for ``model`` (a drive's with a drive), on the held-out ``windows`` of ``model``
+    (the model holding the accepted effects)."""
     from furuta_drake.effects.vocabulary import law_of
 
     judge = _Judge(model, windows, counts, bootstrap, first=not accepted)
     taken = set().union(*(law_of(name) for name in accepted)) if accepted else set()
     out = []
-    for name in CANDIDATES:
-        if name in taken:
+    for name, candidate in CANDIDATES.items():
+        if name in taken or not candidate.offered(model):
             continue
         if name == "measurement_noise":
             out.append(_noise_limit(judge, seed))
@@ -258,17 +317,19 @@ def _injected_limit(name: str, judge: _Judge, scales: Scales) -> DetectionLimit:
     low, high = injection.bracket(scales, judge.model)
     size = _bisect(detected, low, high)
     if size is None:
+        value = injection.value(high, scales, judge.model)
+        note = f"not detected even at {value:.3g} {UNITS[injection.param]}, the end of its search range"
         return DetectionLimit(
-            name,
-            injection.param,
-            None,
-            UNITS[injection.param],
-            f"not detected even at {injection.value(high, scales, judge.model):.3g} "
-            f"{UNITS[injection.param]}, the end of its search range",
+            name, injection.param, None, UNITS[injection.param], note + _rate_note(injection, value, scales)
         )
+    value = injection.value(size, scales, judge.model)
     return DetectionLimit(
-        name, injection.param, injection.value(size, scales, judge.model), UNITS[injection.param], injection.note
+        name, injection.param, value, UNITS[injection.param], injection.note + _rate_note(injection, value, scales)
     )
+
+
+def _rate_note(injection: Injection, value: float, scales: Scales) -> str:
+    return "" if injection.rate_note is None else injection.rate_note(value, scales)
 
 
 def _noise_limit(judge: _Judge, seed: int) -> DetectionLimit:

@@ -98,6 +98,7 @@ def scales_of(logs, model: Model, regressed: dict | None = None) -> Scales:
         period=float(np.median([log.sample_period for log in logs])),
         command_levels=tuple(float(q) for q in np.quantile(magnitudes, COMMAND_QUANTILES)),
         regressed=regressed or {},
+        drive_inertia=model.rotor_share * (1.0 - model.rotor_share) * model.arm_inertia_total,
     )
 
 

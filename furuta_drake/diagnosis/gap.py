@@ -2,7 +2,8 @@
 
 Each log is cut into consecutive windows of ``horizon`` samples (multiple shooting). A window's initial state is
 first estimated from the measured angles by a centred Savitzky-Golay smoother (angle and derivative), with a
-Dahl or LuGre arm's bristle state integrated along the smoothed arm path, then refined for each model by
+Dahl or LuGre arm's bristle state integrated along the smoothed arm path and a drive's twist read from the command
+and that path (:func:`initial_twists`), then refined for each model by
 Levenberg-Marquardt steps on the window's residuals (a step is kept only where the re-simulated residual
 falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
 or integrator. The model then predicts the angles over the window from the logged command (held over each sample).
@@ -31,15 +32,18 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
+from furuta_drake.effects.drive_kernel import D_BACKLASH, D_INERTIA, D_STIFFNESS, pack_drive
 from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import (
     HISTORY,
     INPUT_CHAIN,
     Model,
+    applied_torque,
     bristle_path,
     integrate_windows,
     parameter_sensitivities,
     sensor_variance,
+    split_states,
     state_sensitivities,
     window_torques,
 )
@@ -226,12 +230,72 @@ def _batch_bristles(bristles: list[np.ndarray | None], batch: Batch) -> np.ndarr
     return None if parts[0] is None else np.concatenate(parts)
 
 
+def initial_twists(model: Model, windows: Windows) -> list[np.ndarray | None]:
+    """Per log, the drive's twist [delta, delta'] [rad, rad/s] (2, W) at each window start that the command and the
+    smoothed arm path suggest: the rotor following the arm, the coupling passes T = u - d phi' - J phi'' (u the
+    applied command, d the back-EMF damping, J the rotor's inertia), so the twist is T / k beyond the backlash on
+    the side T pushes, b sign(T) + T / k (k the drive's or the tooth contact's stiffness), and its rate the path's
+    of that twist; None per log without a drive of its own state. The windows refine both (hidden states)."""
+    if not model.has_drive:
+        return [None] * len(windows.logs)
+    row = pack_drive(model)
+    rotor, backlash, stiffness = row[D_INERTIA], row[D_BACKLASH], row[D_STIFFNESS]
+    out = []
+    for log, path, starts in zip(windows.logs, windows.arm_paths, windows.starts):
+        rate = np.gradient(path, log.sample_period)
+        passed = (
+            applied_torque(model, log.torque_command)
+            - model.back_emf_damping * rate
+            - rotor * np.gradient(rate, log.sample_period)
+        )
+        twist = backlash * np.sign(passed) + passed / stiffness
+        out.append(np.vstack([twist, np.gradient(twist, log.sample_period)])[:, starts])
+    return out
+
+
+def with_hidden_states(model: Model, windows: Windows, batch: Batch, x: np.ndarray) -> np.ndarray:
+    """The batch's window states ``x`` (4, W and any hidden rows: 4 + 1 with a bristle, + 2 with a twist) laid out
+    for ``model`` (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): rows it lacks start at zero (the
+    bristle) or from :func:`initial_twists` (the twist), rows it has no use for are dropped."""
+    if x.shape[0] == 4 + model.hidden_states:
+        return x
+    rows = [x[:4]]
+    if model.arm_friction.has_bristles:
+        rows.append(x[4:5] if x.shape[0] in (5, 7) else np.zeros((1, x.shape[1])))
+    if model.has_drive:
+        rows.append(x[-2:] if x.shape[0] >= 6 else _batch_twists(model, windows, batch))
+    return np.vstack(rows)
+
+
+def _batch_twists(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
+    return np.concatenate([initial_twists(model, windows)[i] for i in batch.members], axis=1)
+
+
+def window_states(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
+    """The batch's windows' initial states for ``model``: the smoothed ones (4, W), then its hidden states
+    (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): the arm's bristle read from the arm path
+    (:func:`initial_bristles`) and the drive's twist (:func:`initial_twists`; with the encoder on the motor the
+    smoothed arm angle and rate are the rotor's, the arm's those less the twist's)."""
+    x = batch.initial_states
+    z0 = _batch_bristles(initial_bristles(model, windows), batch)
+    if z0 is not None:
+        x = np.vstack([x, z0])
+    if model.has_drive:
+        twist = _batch_twists(model, windows, batch)
+        if model.drive_encoder == "motor":
+            x = x.copy()
+            x[[1, 3]] -= twist
+        x = np.vstack([x, twist])
+    return x
+
+
 def substeps_for(period: float) -> int:
     """RK4 substeps so that the integration step is at most 1 ms."""
     return max(1, int(np.ceil(period / 1e-3 - 1e-9)))
 
 
 GAUSS_NEWTON_STEPS = 3
+TWIST_SCALES = (0.1, 10.0)  # [rad, rad/s]: a step of the drive's twist or its rate this large weighs one count^2
 LM_DAMPING = 1e-3  # initial Levenberg-Marquardt damping, relative to the normal matrix' diagonal
 
 
@@ -254,21 +318,24 @@ def _predict(models: list[Model], x: np.ndarray, batch: Batch, substeps: int) ->
         if chain not in torques:
             torques[chain] = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
     torque = np.concatenate([torques[chain] for chain in chains], axis=1)
-    return integrate_windows(models, x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
+    _, bristle, twist = split_states(models[0], x)
+    return integrate_windows(models, x[:4], torque, batch.period, substeps, bristle, twist)
 
 
 def _angles(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
     """The predicted angles (h, 2, k) of windows from their initial states x (n, k) under their arm torques
     (steps, k) (:func:`~furuta_drake.effects.surrogate.window_torques` of the batch's windows, or a choice of
     its columns: each window's prediction depends on its own column alone)."""
-    return integrate_windows([model], x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
+    _, bristle, twist = split_states(model, x)
+    return integrate_windows([model], x[:4], torque, batch.period, substeps, bristle, twist)
 
 
 def _state_jacobian(model, x, torque, batch: Batch, substeps: int, count: float):
     """(the predicted angles (h, 2, k) of :func:`_angles`; the residuals' sensitivities (h, 2, k, n) [counts per
     unit of state] to the initial states x (n, k)): the integration's exact forward sensitivities, one surrogate
     pass."""
-    angles, slopes = state_sensitivities(model, x[:4], torque, batch.period, substeps, x[4] if x.shape[0] > 4 else None)
+    _, bristle, twist = split_states(model, x)
+    angles, slopes = state_sensitivities(model, x[:4], torque, batch.period, substeps, bristle, twist)
     return angles, slopes / count
 
 
@@ -287,12 +354,9 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int, sen
     windows, every window's step costs one surrogate call for all of them."""
     count = encoder_resolution(nominal_counts)
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
-    bristles = initial_bristles(model, windows)
     for batch in windows.batches():
         substeps = substeps_for(batch.period)
-        z0 = _batch_bristles(bristles, batch)
-        x = batch.initial_states if z0 is None else np.vstack([batch.initial_states, z0])
-        x, r, J = _refined(model, x, batch, substeps, count, sensitivities)
+        x, r, J = _refined(model, window_states(model, windows, batch), batch, substeps, count, sensitivities)
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
             out[i], states[i] = r[:, :, part], x[:, part]
@@ -305,10 +369,15 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
     residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
     n, W = x.shape
     prior = np.zeros(n)
-    if n > 4:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
+    bristles = model.arm_friction.has_bristles
+    if bristles:  # while the arm slides its bristle is saturated and unobservable: damp its step (a move
         bound = model.arm_friction.bristle_bound  # over its whole range weighs one count^2)
         prior[4] = 1.0 / bound**2
+    if model.has_drive:  # inside the backlash the twist is free of the arm: damp its steps the same way
+        prior[-2:] = 1.0 / np.square(TWIST_SCALES)
     torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    if model.has_drive and model.drive_backlash > 0:
+        x = _screened_twists(model, x, torque, batch, substeps, count)
     angles, J = _state_jacobian(model, x, torque, batch, substeps, count)
     r = (batch.measured - angles) / count
     cost = np.nansum(r**2, axis=(0, 1))
@@ -320,7 +389,7 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         normal = normal + (damping[:, None] * diagonal + prior + 1e-9)[:, :, None] * np.eye(n)
         gradient = np.einsum("wki,wk->wi", Jw, np.nan_to_num(r.transpose(2, 0, 1).reshape(W, -1)))
         trial = x + np.linalg.solve(normal, gradient[..., None])[..., 0].T
-        if n > 4:
+        if bristles:
             trial[4] = np.clip(trial[4], -bound, bound)
         angles = _angles(model, trial, torque, batch, substeps)
         r_trial = (batch.measured - angles) / count
@@ -334,6 +403,30 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         cost = np.where(better, cost_trial, cost)
         damping = np.where(better, damping / 3.0, np.maximum(damping * 10.0, 1.0))
     return x, r, J
+
+
+TWIST_SCREEN = (-1.0, -0.5, 0.0, 0.5, 1.0)  # twists screened at a window's start, in backlash half-widths
+
+
+def _screened_twists(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int, count: float):
+    """``x`` with each window's twist [delta, delta'] the best of its estimate and the twists ``TWIST_SCREEN``
+    across the backlash, each at the estimate's rate and at rest against the arm (delta' = 0): inside the play the arm
+    does not feel the twist until a flank touches, so the residual is flat in it there and a linearised step cannot
+    find the flank the rotor sits on; at a window that starts at a command's reversal the estimate's rate (of a twist
+    that jumps across the play) is no start either. The screen's predictions all run in one call."""
+    n, W = x.shape
+    trials = [x]
+    for share in TWIST_SCREEN:
+        for rate in (x[-1], np.zeros(W)):
+            trial = x.copy()
+            trial[-2], trial[-1] = share * model.drive_backlash, rate
+            trials.append(trial)
+    every = np.hstack(trials)
+    angles = _angles(model, every, np.tile(torque, (1, len(trials))), batch, substeps)
+    r = (np.tile(batch.measured, (1, 1, len(trials))) - angles) / count
+    cost = np.nansum(r**2, axis=(0, 1)).reshape(len(trials), W)
+    best = np.argmin(cost, axis=0)
+    return every[:, best * W + np.arange(W)]
 
 
 def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.ndarray:
@@ -381,7 +474,7 @@ def parameter_slopes_of(
             None if tuple(getattr(other, name) for name in INPUT_CHAIN) == chain else (torque_of(other) - torque) / step
             for other, step in zip(shifted, steps)
         ]
-        bristle0 = x[4] if x.shape[0] > 4 else None
+        bristle0 = split_states(model, x)[1]
         slopes = parameter_sensitivities(model, x[:4], torque, batch.period, substeps, bristle0, rows, torques)[1]
         for k in range(len(shifted)):
             for j, i in enumerate(batch.members):
@@ -404,19 +497,21 @@ def fixed_state_residuals_of(
     models: list[Model], windows: Windows, states: list[np.ndarray], nominal_counts: int
 ) -> list[list[np.ndarray]]:
     """:func:`fixed_state_residuals` of each of ``models``, up to ``MODELS_PER_CALL`` of those holding the same
-    number of unmodelled torque terms in one surrogate call per batch (the parameter steps of a finite-difference
-    Jacobian)."""
+    number of unmodelled torque terms and the same hidden states in one surrogate call per batch (the parameter steps
+    of a finite-difference Jacobian); ``states`` laid out for each (:func:`with_hidden_states`)."""
     count = encoder_resolution(nominal_counts)
     out = [[None] * len(windows.logs) for _ in models]
-    alike: dict[int, list[int]] = {}
+    alike: dict[tuple[int, bool, bool], list[int]] = {}
     for k, model in enumerate(models):
-        alike.setdefault(len(model.unmodelled_terms), []).append(k)
+        layout = (len(model.unmodelled_terms), model.has_drive, model.arm_friction.has_bristles)
+        alike.setdefault(layout, []).append(k)
     calls = [group[i : i + MODELS_PER_CALL] for group in alike.values() for i in range(0, len(group), MODELS_PER_CALL)]
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
         W, substeps = x.shape[1], substeps_for(batch.period)
         for call in calls:
-            predicted = _predict([models[k] for k in call], np.tile(x, (1, len(call))), batch, substeps)
+            laid = with_hidden_states(models[call[0]], windows, batch, x)
+            predicted = _predict([models[k] for k in call], np.tile(laid, (1, len(call))), batch, substeps)
             for slot, k in enumerate(call):
                 r = (batch.measured - predicted[:, :, slot * W : (slot + 1) * W]) / count
                 for j, i in enumerate(batch.members):
@@ -431,7 +526,7 @@ class GapResult:
     per_window: np.ndarray  # each window's excess mean squared residual over the floor [counts^2]
     sensor_variance: float  # the floor taken off [counts^2]
     residuals: list[np.ndarray]
-    initial_states: list[np.ndarray]  # per log (4, W), refined for this model (5, W: with the arm's bristle)
+    initial_states: list[np.ndarray]  # per log (4, W), refined for this model, and its hidden states' rows
 
 
 def jitter_energy(model: Model, windows: Windows, states, jacobians, nominal_counts: int):

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from furuta_drake.diagnosis.formatting import ends, number, percent, quantity
 from furuta_drake.diagnosis.torque_report import torque_words
 from furuta_drake.effects.corrected import rig_entry
-from furuta_drake.effects.vocabulary import CANDIDATES, UNITS
+from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, UNITS
 
 NOUNS = {
     "arm_coulomb_friction": "Coulomb friction on the arm",
@@ -31,6 +31,8 @@ NOUNS = {
     "actuator_saturation": "a saturation of the drive",
     "arm_spring": "a spring on the arm",
     "inertia_mismatch": "wrong inertias in the rig file",
+    "drive_backlash": "backlash in the drive",
+    "drive_compliance": "an elastic drive",
 }
 SCALES = {  # inertia_mismatch's scales: what each one scales in the rig file
     "arm_inertia_scale": "the arm's inertia",
@@ -178,6 +180,14 @@ STATEMENTS = {
     "torque_gain_error": lambda p, ci, _: f"the arm gets {_ratio(p['gain'], ci, 'gain', 'the commanded torque')}",
     "actuator_deadzone": lambda p, ci, _: f"commands under about {_q(p, 'deadzone', ci)} do not reach the arm",
     "actuator_saturation": lambda p, ci, _: f"the drive saturates at about {_q(p, 'limit', ci)}",
+    "drive_backlash": lambda p, ci, _: (
+        f"the drive has a play of about {_q(p, 'backlash', ci)} either way (half its width, arm side): the motor "
+        "turns twice that before the arm follows a reversal"
+    ),
+    "drive_compliance": lambda p, ci, _: (
+        f"the drive twists like a spring of about {_q(p, 'stiffness', ci)} damped by {_q(p, 'damping', ci)} "
+        "between the motor and the arm"
+    ),
     "arm_spring": lambda p, ci, _: (
         f"a spring of about {_q(p, 'stiffness', ci)} pulls the arm towards phi = "
         f"{number(math.degrees(p.get('equilibrium', 0.0)), 2)} deg"
@@ -338,6 +348,56 @@ def confusable_sentences(report: dict) -> list[str]:
     ]
 
 
+def look_alike_sentences(report: dict) -> list[str]:
+    """Each accepted effect's look-alikes (the vocabulary's ``look_alike``) in words, with what the other removes of
+    the gap on its own when the ranking has it; a pair the report already names confusable is left to that."""
+    named = {frozenset(pair["effects"]) for pair in report.get("confusable", [])}
+    ranking = {entry["effect"]: entry for entry in report.get("ranking", [])}
+    out = []
+    for name in report.get("effects", []):
+        for other, why in CANDIDATES[name].look_alike if name in CANDIDATES else ():
+            if frozenset((name, other)) in named:
+                continue
+            entry = ranking.get(other)
+            alone = (
+                f"; on its own {NOUNS.get(other, other)} removes {percent(entry['heldout_reduction'])} of the gap on "
+                f"logs {NEVER_SEEN}, against {percent(ranking[name]['heldout_reduction'])}"
+                if entry and entry.get("heldout_reduction") is not None and name in ranking
+                else ""
+            )
+            out.append(f"{_capital(NOUNS.get(name, name))} can look like {NOUNS.get(other, other)}: {why}{alone}.")
+    return out
+
+
+REVERSAL_SHARE = 2.0  # the gap is "at velocity reversals" when their share of it is this many times their samples'
+
+
+def reversal_sentence(report: dict) -> str:
+    """For a gap that no effect nor a torque of the state explains and that concentrates at the arm's velocity
+    reversals (their share of it at least ``REVERSAL_SHARE`` times their share of the samples), that in words: what
+    acts there only ('' otherwise)."""
+    if report["verdict"] != "unexplained" or report.get("unmodelled_torque"):
+        return ""
+    regimes = (report.get("localization") or {}).get("regimes", [])
+    reversal = next((r for r in regimes if r.get("regime") == "arm velocity reversal"), None)
+    if not reversal or not reversal.get("share_of_samples") or reversal.get("share_of_gap") is None:
+        return ""
+    if reversal["share_of_gap"] < REVERSAL_SHARE * reversal["share_of_samples"]:
+        return ""
+    tried = {name for entry in report.get("ranking", []) for name in entry["effect"].split("+")}
+    drive = (
+        "backlash in the drive or friction of another law than the vocabulary's"
+        if "drive_backlash" in tried
+        else "backlash in the drive (state the drive's gear_ratio and rotor_inertia in the rig file's drive: section, "
+        "and the diagnosis fits its play) or friction of another law than the vocabulary's"
+    )
+    return (
+        f"The gap concentrates at the arm's velocity reversals ({percent(reversal['share_of_gap'])} of it in "
+        f"{percent(reversal['share_of_samples'])} of the samples) and no torque of the state explains it: something "
+        f"acts as the arm turns back, such as {drive}"
+    )
+
+
 def consistency_sentence(report: dict) -> str:
     """The decision repeated on splits of the logs, in words ('' when ``--folds`` did not run)."""
     consistency = report.get("consistency")
@@ -352,7 +412,9 @@ def consistency_sentence(report: dict) -> str:
 
 def trust_sentences(report: dict) -> list[str]:
     """How far to trust the verdict: the folds' consistency and the confusable pairs, or what would tell."""
-    sentences = [s for s in [consistency_sentence(report), *confusable_sentences(report)] if s]
+    sentences = [
+        s for s in [consistency_sentence(report), *confusable_sentences(report), *look_alike_sentences(report)] if s
+    ]
     if sentences:
         return sentences
     folds = "run with --folds K to repeat the decision on K splits of the logs."
@@ -371,13 +433,19 @@ def limit_sentence(limit: dict) -> str:
         return f"{_capital(noun)} within {percent(abs(value - 1), 1)} of 1 could hide here"
     if param == "limit":
         return f"A saturation of the drive above {quantity(value, limit['unit'])} could hide here"
+    if name == "drive_compliance":  # the softer the drive, the larger its effect
+        return f"An elastic drive stiffer than {quantity(value, limit['unit'])} could hide here"
     if param == "counts_per_rev":
         return f"An encoder finer than {number(value, 6)} counts/rev could hide here"
     return f"{_capital(noun)} under {quantity(value, limit['unit'])} could hide here"
 
 
 def rig_line(effect: Accepted) -> str:
-    """The line the effect adds under ``effects:`` in the rig file (as ``fitted_rig.yaml`` holds it)."""
+    """The line the effect adds under ``effects:`` in the rig file (as ``fitted_rig.yaml`` holds it); a drive's
+    effect, the keys it sets in the ``drive:`` section."""
+    if effect.name in DRIVE_KEYS:
+        keys = [key for key in DRIVE_KEYS[effect.name] if key in effect.params]
+        return "drive: {" + ", ".join(f"{key}: {number(effect.params[key], 6)}" for key in keys) + "}"
     try:
         entry = rig_entry(effect.name, effect.params)
     except (KeyError, ValueError):
@@ -410,9 +478,11 @@ def next_steps(report: dict) -> list[tuple[str, str]]:
         why += [f"make {NOUNS.get(name, name)} detectable" for name in hidden]
         steps.append((f"Design the experiment that would {_joined(why)}", DESIGN_COMMAND))
     if report["verdict"] == "unexplained":
+        reversal = reversal_sentence(report)
         steps.append(
             (
-                "The gap is not an effect of the vocabulary: check the rig file's constants on the bench (the "
+                (reversal + ". " if reversal else "")
+                + "The gap is not an effect of the vocabulary: check the rig file's constants on the bench (the "
                 "hanging swing period), then look where the gap is left (below) for the missing physics",
                 "furuta-drake rig --check RIG.yaml",
             )
@@ -428,7 +498,8 @@ def _held_in_rig(report: dict) -> str:
     torque) and the torque beyond the vocabulary."""
     held = []
     if report.get("effects"):
-        held.append("the accepted effects are in its effects: section")
+        drive = any(name in DRIVE_KEYS for name in report["effects"])
+        held.append("the accepted effects are in its effects: section" + (" (the drive's in drive:)" if drive else ""))
     elif beside_effects(report):
         held.append("the effects fitted beside the torque are in its effects: section")
     if report.get("unmodelled_torque"):

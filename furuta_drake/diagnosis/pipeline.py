@@ -288,14 +288,21 @@ def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -
         holdout_note = "held-out logs: " + ", ".join(log.name for log in given_heldout)
     else:
         train_logs, heldout_logs, holdout_note = split_heldout(given_train)
-    names = list(candidates or CANDIDATES)
+    nominal = rig_model(rig_params)
+    names = list(candidates or [name for name, candidate in CANDIDATES.items() if candidate.offered(nominal)])
     unknown = [name for name in names if name not in CANDIDATES]
     if unknown:
         raise ConfigError(f"unknown candidate effect {', '.join(unknown)} (the vocabulary: {', '.join(CANDIDATES)})")
+    driveless = [name for name in names if not CANDIDATES[name].offered(nominal)]
+    if driveless:
+        raise ConfigError(
+            f"candidate effect {', '.join(driveless)}: an effect of a drive needs the rig file's drive: section "
+            f"(its gear_ratio and rotor_inertia give the rotor's inertia)"
+        )
     return _Inputs(
         rig_path,
         rig_params,
-        rig_model(rig_params),
+        nominal,
         given_train + given_heldout,
         train_logs,
         make_windows(train_logs, rig_params),
@@ -308,17 +315,10 @@ def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -
 
 def _diagnosable_rig(rig_path: Path) -> RigParameters:
     """The rig file; ConfigError naming its line when its torque beyond the vocabulary is not a sum of the
-    library's terms (the surrogate's fits hold those alone), or when its drive has backlash or elasticity (the
-    surrogate's rotor turns with the arm)."""
+    library's terms (the surrogate's fits hold those alone)."""
     rig_params = load_rig(rig_path)
     try:
         library_terms(rig_params.unmodelled_torque)
-        if rig_params.drive is not None and not rig_params.drive.rigid:
-            key = "backlash" if rig_params.drive.backlash > 0 else "stiffness"
-            raise ConfigError(
-                f"drive.{key}: the diagnosis models a rigid drive (its rotor's inertia on the arm); leave the drive's "
-                f"backlash, stiffness and damping out of the rig file it reads (simulate reads them)"
-            )
     except ConfigError as err:
         raise locate_in_file(rig_path, err) from None
     return rig_params

@@ -24,7 +24,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, substeps_for
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
-from furuta_drake.effects.surrogate import Model, expected_command_points, lag_states
+from furuta_drake.effects.surrogate import Model, expected_command_points, lag_states, split_states
 from furuta_drake.effects.torque_library import torque_parameters_of
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.rig import RigParameters, encoder_resolution
@@ -83,6 +83,8 @@ class WindowReplayer:
         ApplySimulatorConfig(self.integrator, self.simulator)
         self.context = self.simulator.get_mutable_context()
         self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
+        self.encoders = world.encoder_state  # [theta, phi or the rotor's psi, rates]
+        self.encoders_context = self.encoders.get_system().GetMyContextFromRoot(self.context)
         self.default_context = self.context.Clone()
         self.lag = self.diagram.GetSubsystemByName("actuator_lag") if model.lag > 0 else None
 
@@ -93,11 +95,13 @@ class WindowReplayer:
         lag_at_start: float,
         times: np.ndarray,
         bristle: float | None = None,
+        twist=(0.0, 0.0),
     ) -> np.ndarray:
         """Paper-order angles at ``times`` from state ``x0`` at ``start_time`` (the lag filter at
         ``lag_at_start``, :func:`~furuta_drake.effects.surrogate.lag_states`; the arm's Dahl bristle at
-        ``bristle``). Every window starts with a fresh integrator, so its result does not
-        depend on the step size the previous window ended with."""
+        ``bristle``; a drive's rotor at the ``twist`` [delta, delta_dot] from the arm, the surrogate's refined one).
+        The angles are those the encoders read (the rotor's for an encoder on the motor). Every window starts with a
+        fresh integrator, so its result does not depend on the step size the previous window ended with."""
         ApplySimulatorConfig(self.integrator, self.simulator)
         self.context.SetTimeStateAndParametersFrom(self.default_context)
         self.context.SetTime(start_time)
@@ -109,15 +113,15 @@ class WindowReplayer:
             self.friction.GetMyMutableContextFromRoot(self.context).get_mutable_continuous_state_vector().SetFromVector(
                 [bristle]
             )
-        self.world.set_state(self.context, x0)
+        self.world.set_state(self.context, x0, twist)
         self.simulator.Initialize()
         out = np.empty((times.size, 2))
-        out[0] = x0[:2]
+        out[0] = self.encoders.Eval(self.encoders_context)[:2]
         for k, t in enumerate(times[1:], start=1):
             for stop in self.breaks[np.searchsorted(self.breaks, times[k - 1]) : np.searchsorted(self.breaks, t)]:
                 self.simulator.AdvanceTo(stop)
             self.simulator.AdvanceTo(t)
-            out[k] = (self.P @ self.plant.GetPositionsAndVelocities(self.plant_context))[:2]
+            out[k] = self.encoders.Eval(self.encoders_context)[:2]
         return out
 
 
@@ -155,8 +159,14 @@ def _replay_log(task) -> np.ndarray:
     r = np.empty_like(measured)
     for w, start in enumerate(starts):
         times = log.time[start : start + horizon]
+        _, bristle, twist = split_states(model, x0[:, w])
         predicted = replayer.replay(
-            log.time[start], x0[:4, w], float(lags[w]), times, float(x0[4, w]) if x0.shape[0] > 4 else None
+            log.time[start],
+            x0[:4, w],
+            float(lags[w]),
+            times,
+            None if bristle is None else float(bristle),
+            (0.0, 0.0) if twist is None else twist,
         )
         r[:, :, w] = (measured[:, :, w] - predicted) / count
     return r
@@ -168,7 +178,8 @@ def replay_gaps(
     windows: Windows,
     run: Callable = run_tasks,
 ) -> list[GapResult | None]:
-    """The gap of each (model, initial states per log: 4 x W, or 5 x W with the arm's bristle state) on
+    """The gap of each (model, initial states per log: 4 x W, and the rows of its hidden states,
+    :attr:`~furuta_drake.effects.surrogate.Model.hidden_states`) on
     ``windows`` from Drake replays, one task per model and log, run by ``run`` (:func:`run_tasks` with its
     options); None for a model whose replay failed (raised, or diverged to a non-finite residual)."""
     tasks = [

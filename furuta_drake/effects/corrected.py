@@ -12,7 +12,7 @@ from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.config import SimulationConfig
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import torque_parameters_of
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, describe, effect_from_params
+from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, Effect, describe, effect_from_params
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
@@ -21,13 +21,18 @@ from furuta_drake.unmodelled import UnmodelledTorqueParameters
 def model_rig(model: Model, rig: RigParameters) -> RigParameters:
     """A rigid body with the model's lumped constants a = J_arm + m r^2, b = J_p + m l^2, c = m l r, d = m g l
     (gravity kept): m l = d / g, r = c g / d, the pendulum mass kept where the inertias allow it; a drive's rotor
-    inertia scaled with a (the model's a over the rig file's), so that the arm and its rotor keep their shares."""
+    inertia scaled with a (the model's a over the rig file's), so that the arm and its rotor keep their shares, and
+    its backlash, stiffness and damping the model's."""
     ml = model.gravity_torque / rig.gravity
     r = model.coupling / ml
     drive = rig.drive
     if drive is not None:
         drive = dataclasses.replace(
-            drive, rotor_inertia=drive.rotor_inertia * model.arm_inertia_total / rig.arm_inertia_total
+            drive,
+            rotor_inertia=drive.rotor_inertia * model.arm_inertia_total / rig.arm_inertia_total,
+            backlash=model.drive_backlash,
+            stiffness=model.drive_stiffness if model.drive_stiffness > 0 else None,
+            damping=model.drive_damping if model.drive_stiffness > 0 else 0.0,
         )
     arm = model.arm_inertia_total - (0.0 if drive is None else drive.reflected_inertia)  # J_arm + m r^2 but the rotor
     mass = float(np.clip(rig.pendulum_mass, 1.0001 * ml**2 / model.pendulum_inertia_total, 0.9999 * arm / r**2))
@@ -105,11 +110,16 @@ def fitted_rig(
     nominal: Model,
     unmodelled_torque: UnmodelledTorqueParameters | None = None,
 ) -> RigParameters:
-    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section, and the
-    ``unmodelled_torque`` expressions (when given) replacing its own."""
+    """The rig file with the accepted effects added to (or replacing those of) its ``effects:`` section, a drive's
+    (backlash, compliance) written as the keys of its ``drive:`` section, and the ``unmodelled_torque`` expressions
+    (when given) replacing its own."""
     stated = dict(rig.effects or {})
     for name, effect in effects.items():
-        stated[name] = rig_entry(name, describe(name, effect, nominal))
+        params = describe(name, effect, nominal)
+        if name in DRIVE_KEYS:
+            rig = rig.replace(drive=dataclasses.replace(rig.drive, **{key: params[key] for key in DRIVE_KEYS[name]}))
+        else:
+            stated[name] = rig_entry(name, params)
     if unmodelled_torque is not None:
         rig = rig.replace(unmodelled_torque=None if unmodelled_torque.is_empty else unmodelled_torque)
     return rig.replace(effects=stated or None)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from furuta_drake.effects import drive_kernel
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects import surrogate_tangent as tangent
 from furuta_drake.friction import JointFrictionParameters
@@ -63,6 +64,11 @@ class Model:
     rig_constants: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # the rig file's (a, b, c, d)
     unmodelled_terms: tuple[tuple[int, int, float], ...] = ()  # (joint: 0 arm, 1 pendulum; term of
     # torque_library.TERMS; coefficient [N m]): a torque the vocabulary does not hold
+    rotor_share: float = 0.0  # J_m N^2 / a [-]: the drive's rotor's share of a (0: no drive)
+    drive_backlash: float = 0.0  # b [rad], arm side
+    drive_stiffness: float = 0.0  # k [N m/rad]; 0: rigid, or with backlash the tooth contact (drive.tooth_contact)
+    drive_damping: float = 0.0  # c [N m s/rad], with a stiffness
+    drive_encoder: str = "arm"  # "motor": the logged arm angle is the rotor's
 
     @classmethod
     def from_rig(cls, rig: RigParameters) -> Model:
@@ -76,6 +82,7 @@ class Model:
             )
 
         constants = (rig.arm_inertia_total, rig.pendulum_inertia_total, rig.coupling, rig.gravity_torque)
+        drive = rig.drive
         return cls(
             *constants,
             rig_constants=constants,
@@ -83,10 +90,35 @@ class Model:
             pendulum_friction=joint(rig.pendulum_coulomb, rig.pendulum_viscous),
             back_emf_damping=0.0 if rig.motor is None else rig.motor.back_emf_damping,
             counts_per_rev=rig.counts_per_rev,
+            rotor_share=0.0 if drive is None else drive.reflected_inertia / rig.arm_inertia_total,
+            drive_backlash=0.0 if drive is None else drive.backlash,
+            drive_stiffness=0.0 if drive is None or drive.stiffness is None else drive.stiffness,
+            drive_damping=0.0 if drive is None else drive.damping,
+            drive_encoder="arm" if drive is None else drive.encoder,
         )
 
     def replace(self, **changes) -> Model:
         return dataclasses.replace(self, **changes)
+
+    @property
+    def has_drive(self) -> bool:
+        """Whether the model's drive has a state of its own (backlash or a spring between a rotor and the arm):
+        its windows then carry the twist [delta, delta'] and run in :mod:`~.drive_kernel`."""
+        return self.rotor_share > 0 and (self.drive_backlash > 0 or self.drive_stiffness > 0)
+
+    @property
+    def hidden_states(self) -> int:
+        """The window states beyond [theta, phi, theta', phi']: the arm's bristle z (a Dahl or LuGre arm), then the
+        drive's twist delta [rad] and its rate [rad/s] (:attr:`has_drive`)."""
+        return int(self.arm_friction.has_bristles) + 2 * int(self.has_drive)
+
+
+def split_states(model: Model, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """(the arm and pendulum states x[:4]; the bristle row or None; the twist rows (2, W) or None) of window states
+    ``x`` (4 + ``model.hidden_states``, W) laid out as :attr:`Model.hidden_states` says."""
+    bristle = x[4] if model.arm_friction.has_bristles else None
+    twist = x[-2:] if model.has_drive else None
+    return x[:4], bristle, twist
 
 
 def sensor_variance(model: Model, nominal_counts: int) -> float:
@@ -230,20 +262,21 @@ def predict_windows(
     period: float,
     substeps: int,
     bristle0: np.ndarray | None = None,
+    twist0: np.ndarray | None = None,
 ) -> np.ndarray:
     """Angles [theta, phi] predicted at ``horizon`` samples after each window start.
 
     ``x0``: (4, W) initial states; ``command``: the whole log's torque command (ZOH over each period), with
     ``HISTORY`` samples before every start (the delay and the lag read the command's past);
     ``starts``: (W,) sample index of each window; ``bristle0``: (W,) the arm's bristle state at each start
-    (a Dahl or LuGre arm only).
+    (a Dahl or LuGre arm only); ``twist0``: (2, W) the drive's twist and its rate (a drive of its own state only).
     Returns (horizon, 2, W); row k is the prediction at start + k (row 0 is the initial angle). The input chain
     (delay, lag, static map) is evaluated for every substep at once (:func:`window_torques`); the fixed-step RK4
     is the compiled :func:`~.surrogate_kernel.integrate` (scipy's ODE solvers integrate one system at a time and
     cost far more per step than these windows' short, smooth intervals need).
     """
     torque = window_torques(model, command, starts, horizon, period, substeps)
-    return integrate_windows([model], x0, torque, period, substeps, bristle0)
+    return integrate_windows([model], x0, torque, period, substeps, bristle0, twist0)
 
 
 def window_torques(
@@ -263,24 +296,62 @@ def window_torques(
 
 
 def integrate_windows(
-    models: list[Model], x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None
+    models: list[Model], x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None, twist0=None
 ) -> np.ndarray:
     """Angles (horizon, 2, W) of windows from ``x0`` (4, W) under their arm torques ``torque`` (steps, W) at every
     substep (:func:`window_torques`), model m from its m-th block of W / M windows (the models, holding the same
-    number of unmodelled torque terms, in one kernel call); every window's angles are those of its model alone."""
+    number of unmodelled torque terms, in one kernel call); every window's angles are those of its model alone.
+    Models with a drive of their own state (:attr:`Model.has_drive`) start from the twist ``twist0`` (2, W) and run
+    in :mod:`~.drive_kernel` (the angles read: the rotor's for an encoder on the motor)."""
     x = np.ascontiguousarray(x0, dtype=float)
     z = np.zeros(x.shape[1]) if bristle0 is None else np.array(bristle0, dtype=float)
     torque = np.ascontiguousarray(torque, dtype=float)
+    if models[0].has_drive:
+        twist = np.zeros((2, x.shape[1])) if twist0 is None else twist0
+        rows = drive_kernel.pack_drive_rows(models)
+        return drive_kernel.integrate(np.vstack([x, twist]), z, torque, period / substeps, substeps, *rows)[0]
     return kernel.integrate(x, z, torque, period / substeps, substeps, *kernel.pack_rows(models))[0]
 
 
+STATE_STEPS = (1e-6, 1e-6, 1e-4, 1e-4)  # finite-difference steps of the states theta, phi [rad], their rates [rad/s]
+TWIST_STEPS = (1e-6, 1e-4)  # of the twist [rad] and its rate [rad/s]
+
+
+def _differenced_states(model: Model, x0, torque, period, substeps, bristle0, twist0):
+    """:func:`state_sensitivities` of a model with a drive of its own state by central differences of its windows
+    (the coupling law is not smooth): every state's two steps in one kernel call."""
+    rows = [np.asarray(x0, dtype=float)]
+    steps = list(STATE_STEPS)
+    if bristle0 is not None:
+        rows.append(np.asarray(bristle0, dtype=float)[None, :])
+        steps.append(1e-3 * model.arm_friction.bristle_bound)
+    rows.append(np.zeros((2, np.shape(x0)[1])) if twist0 is None else np.asarray(twist0, dtype=float))
+    steps += TWIST_STEPS
+    x = np.vstack(rows)
+    n, W = x.shape
+    shifted = [x + sign * step * np.eye(n)[:, [i]] for i, step in enumerate(steps) for sign in (1.0, -1.0)]
+    every = np.hstack([x] + shifted)
+    bristles = None if bristle0 is None else every[4]
+    angles = integrate_windows(
+        [model] * (2 * n + 1), every[:4], np.tile(torque, (1, 2 * n + 1)), period, substeps, bristles, every[-2:]
+    )
+    blocks = angles.reshape(angles.shape[0], 2, 2 * n + 1, W)
+    slopes = np.stack(
+        [(blocks[:, :, 1 + 2 * i] - blocks[:, :, 2 + 2 * i]) / (2 * step) for i, step in enumerate(steps)], axis=-1
+    )
+    return blocks[:, :, 0], slopes
+
+
 def state_sensitivities(
-    model: Model, x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None
+    model: Model, x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None, twist0=None
 ) -> tuple[np.ndarray, np.ndarray]:
     """(the angles (horizon, 2, W) of :func:`integrate_windows` of ``model`` alone; their derivatives
     (horizon, 2, W, n) in each window's initial theta, phi [rad], theta', phi' [rad/s] and, with ``bristle0``, the
     arm's bristle z [rad] (n = 4 or 5)): the RK4's exact forward sensitivities
-    (:func:`~.surrogate_tangent.tangents`), in one pass."""
+    (:func:`~.surrogate_tangent.tangents`), in one pass; with a drive of its own state also in the twist ``twist0``
+    [rad, rad/s] (n = 6 or 7), by central differences (:func:`_differenced_states`)."""
+    if model.has_drive:
+        return _differenced_states(model, x0, torque, period, substeps, bristle0, twist0)
     n = 4 if bristle0 is None else 5
     return _tangents(model, x0, torque, period, substeps, bristle0, np.eye(n, tangent.STATE))
 
@@ -306,8 +377,11 @@ def _tangents(model, x0, torque, period, substeps, bristle0, seeds, rows=None, t
 def same_branches(model: Model, other: Model) -> bool:
     """Whether the surrogate is differentiable along the way from ``model`` to ``other``: the kernel takes the same
     branches for both (friction kinds, Stribeck curves, LuGre's bristle damping, the unmodelled terms' joints and
-    library terms, the input chain's forms) and no threshold dead zone's width differs (its torque jumps where the
-    width crosses a command)."""
+    library terms, the input chain's forms), no threshold dead zone's width differs (its torque jumps where the
+    width crosses a command) and neither has a drive of its own state (the tangent kernel has no drive; its
+    backlash and contact are not smooth)."""
+    if model.has_drive or other.has_drive:  # the coupling law is not smooth
+        return False
     rows, others = kernel.pack(model), kernel.pack(other)
     for row, changed in zip(rows[1:3], others[1:3]):
         if row[kernel.F_KIND] != changed[kernel.F_KIND] or row[kernel.F_STRIBECK] != changed[kernel.F_STRIBECK]:
@@ -333,3 +407,4 @@ def load_kernel() -> None:
     bristle_path(command, model.arm_friction, 1e-3)
     predict_windows(model.replace(lag=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1, np.zeros(1))
     state_sensitivities(model, np.zeros((4, 1)), np.zeros((2, 1)), 1e-3, 1, np.zeros(1))
+    predict_windows(model.replace(rotor_share=0.5, drive_backlash=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1)

@@ -16,7 +16,10 @@ report's ranking lists it. Real hardware has more than one form of an effect, so
 - saturation ``hard``: a clip at the limit; ``smooth``: L tanh(u / L) (a drive that saturates gradually);
 - measurement noise ``white``; ``correlated``: first-order low-passed with a ``correlation_time`` (an interface that
   filters before it logs), both read from the angles' second differences;
-- spring ``linear``: -k (phi - phi_0); ``cubic``: -(k x + k3 x^3), x = phi - phi_0 (a cable that stiffens).
+- spring ``linear``: -k (phi - phi_0); ``cubic``: -(k x + k3 x^3), x = phi - phi_0 (a cable that stiffens);
+- a drive's backlash (half-width b) and compliance (a spring k and damper c between its rotor and the arm), of
+  :mod:`furuta_drake.drive`'s laws: offered only for a rig file that states a drive, whose gear ratio and rotor
+  inertia give the rotor's inertia (a fitted inertia would trade against the stiffness at the rates logs have).
 
 Scales come from the rig: torques from m g l and the logged commands, damping from the lumped inertias, times
 from the sample period.
@@ -31,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from furuta_drake.drive import CONTACT_FREQUENCY
 from furuta_drake.effects.surrogate import LUMPED_CONSTANTS, Model
 from furuta_drake.effects.torque_library import library_terms
 from furuta_drake.friction import JointFrictionParameters
@@ -48,6 +52,8 @@ class Scales:
     command_levels: tuple[float, ...] = ()  # quantiles COMMAND_QUANTILES of |command| in the train logs [N m]
     regressed: dict = field(default_factory=dict)  # effect -> {param: value}: the train logs' equation-error
     # estimates, a start of each form that has those parameters (:func:`form_starts`)
+    drive_inertia: float = 0.0  # mu = J (a - J) / a [kg m^2]: the reduced inertia of the rig file's drive's rotor J
+    # and the arm side (0: the rig file states no drive)
 
 
 @dataclass(frozen=True)
@@ -80,6 +86,13 @@ class Candidate:
     fit: bool = True
     vanishes: tuple[tuple[str, float | str], ...] = ()
     nested: tuple[tuple[str, str, str], ...] = ()
+    drive: bool = False  # an effect of the rig file's drive (its rotor's inertia read there): offered with one only
+    look_alike: tuple[tuple[str, str], ...] = ()  # (another effect, why the two look alike on logs): the report
+    # names the pair beside the accepted effect, with what the other removes on its own
+
+    def offered(self, model: Model) -> bool:
+        """Whether the effect can act in ``model``: a drive's needs the rig file's drive (a rotor of its own)."""
+        return not self.drive or model.rotor_share > 0
 
     def form(self, name: str) -> Form:
         return next(f for f in self.forms if f.name == name)
@@ -159,6 +172,8 @@ UNITS = {
     "coupling_scale": "-",
     "gravity_scale": "-",
     "arm_inertia_total": "kg m^2",
+    "backlash": "rad",
+    "damping": "N m s/rad",
     "pendulum_inertia_total": "kg m^2",
     "coupling": "kg m^2",
     "gravity_torque": "N m",
@@ -345,6 +360,39 @@ def _single(params, bounds, starts, apply) -> tuple[Form, ...]:
     return (Form("", params, bounds, starts, apply),)
 
 
+BACKLASH_BOUNDS = (0.0, 0.2)  # [rad] half-width of a drive's free play, arm side (0.2 rad: 11 degrees)
+# Starts of the backlash: the cost is non-convex in it (a reversal's free travel either spans a sample or not), so a
+# log grid spans from a count of a fine encoder to a few degrees.
+BACKLASH_STARTS = (0.002, 0.006, 0.02, 0.06)  # [rad]
+COMPLIANCE_FREQUENCIES = (0.5, CONTACT_FREQUENCY)  # [Hz] bounds of the stiffness as the pair's ringing
+# sqrt(k / mu) / (2 pi): stiffer than a gear's tooth contact is a rigid drive at any log's rate
+COMPLIANCE_STARTS = (3.0, 8.0, 20.0, 50.0)  # [Hz]: the ringing sets where the response bends, a log grid
+COMPLIANCE_DAMPING_RATIOS = (0.1, 0.5)  # starts of the damping, as damping ratios c / (2 sqrt(k mu))
+COMPLIANCE_DAMPING_RATIO_MAX = 2.0  # the damping's upper bound, as a ratio at the stiffest coupling
+
+
+def _stiffness_at(frequency: float, scales: Scales) -> float:
+    """k [N m/rad] at which the rotor-arm pair of ``scales`` rings at ``frequency`` [Hz]: mu (2 pi f)^2."""
+    return scales.drive_inertia * (2.0 * math.pi * frequency) ** 2
+
+
+def _compliance_bounds(s: Scales) -> tuple[list[float], list[float]]:
+    low, high = (_stiffness_at(f, s) for f in COMPLIANCE_FREQUENCIES)
+    return [low, 0.0], [high, 2.0 * COMPLIANCE_DAMPING_RATIO_MAX * math.sqrt(high * s.drive_inertia)]
+
+
+def _compliance_starts(s: Scales) -> list[list[float]]:
+    return [
+        [_stiffness_at(f, s), 2.0 * zeta * math.sqrt(_stiffness_at(f, s) * s.drive_inertia)]
+        for f in COMPLIANCE_STARTS
+        for zeta in COMPLIANCE_DAMPING_RATIOS
+    ]
+
+
+DRIVE_KEYS = {"drive_backlash": ("backlash",), "drive_compliance": ("stiffness", "damping")}  # the drive effects'
+# parameters, each the rig file's ``drive:`` key of its name
+
+
 CANDIDATES: dict[str, Candidate] = {
     c.name: c
     for c in [
@@ -521,6 +569,50 @@ CANDIDATES: dict[str, Candidate] = {
             nested=(("cubic_stiffness", "lower", "a linear spring"),),
         ),
         Candidate(
+            "drive_backlash",
+            _single(
+                ("backlash",),
+                lambda s: ([BACKLASH_BOUNDS[0]], [BACKLASH_BOUNDS[1]]),
+                lambda s: [[b] for b in BACKLASH_STARTS],
+                lambda m, p: m.replace(drive_backlash=p[0]),
+            ),
+            main="backlash",
+            vanishes=(("backlash", 0.0),),
+            drive=True,
+            look_alike=(
+                (
+                    "arm_coulomb_friction",
+                    "both act at the arm's velocity reversals: friction brakes the arm by a torque, backlash leaves "
+                    "it free while the rotor crosses the play and then jerks it",
+                ),
+                (
+                    "actuator_deadzone",
+                    "both take the command's effect away around its reversals: a dead zone below a torque, backlash "
+                    "for the time the rotor needs to cross the play",
+                ),
+            ),
+        ),
+        Candidate(
+            "drive_compliance",
+            _single(
+                ("stiffness", "damping"),
+                _compliance_bounds,
+                _compliance_starts,
+                lambda m, p: m.replace(drive_stiffness=p[0], drive_damping=p[1]),
+            ),
+            main="stiffness",
+            vanishes=(("stiffness", "upper"),),
+            nested=(("stiffness", "upper", "a rigid drive (as stiff as a gear's tooth contact)"),),
+            drive=True,
+            look_alike=(
+                (
+                    "actuator_lag",
+                    "both make the arm follow a step of the command late; a spring rings at its frequency while a "
+                    "lag does not, and logs slower than twice that frequency see the spring as a lag",
+                ),
+            ),
+        ),
+        Candidate(
             "inertia_mismatch",
             _single(  # scales of the rig file's a, b, c, d (Model.rig_constants)
                 ("arm_inertia_scale", "pendulum_inertia_scale", "coupling_scale", "gravity_scale"),
@@ -612,6 +704,11 @@ def rig_effects(rig) -> dict[str, Effect]:
         where = f"effects.{name}"
         if name not in CANDIDATES:
             raise ConfigError(f"{where}: unknown effect {name!r} (the vocabulary: {', '.join(CANDIDATES)})")
+        if name in DRIVE_KEYS:
+            raise ConfigError(
+                f"{where}: a drive's {' and '.join(DRIVE_KEYS[name])} are keys of the rig file's drive: section "
+                f"(drive.{', drive.'.join(DRIVE_KEYS[name])}), beside its gear_ratio and rotor_inertia"
+            )
         if not isinstance(params, dict):
             raise ConfigError(f"{where}: expected a mapping of parameter names to values")
         candidate = CANDIDATES[name]
