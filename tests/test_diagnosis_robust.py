@@ -24,7 +24,7 @@ pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves 
 DURATION = 1.5  # [s] per log: a train and a held-out hanging run
 
 
-@settings(max_examples=16, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(
     rig_name=st.sampled_from(SUITE_RIGS),
     effects=st.lists(st.sampled_from(VOCABULARY + (OUTSIDE_VOCABULARY,)), max_size=3, unique=True),
