@@ -290,9 +290,10 @@ def test_two_models_at_the_floor_are_told_apart_by_the_residual_below_it():
 def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model():
     from benchmarks.suite import VOCABULARY
 
-    assert set(CANDIDATES) == set(VOCABULARY)
-    model = Model.from_rig(RIGS["qube_servo2"]())
+    assert {name for name, candidate in CANDIDATES.items() if not candidate.drive} == set(VOCABULARY)
+    assert {name for name, candidate in CANDIDATES.items() if candidate.drive} == {"drive_backlash", "drive_compliance"}
     for name, candidate in CANDIDATES.items():
+        model = Model.from_rig(RIGS["geared" if candidate.drive else "qube_servo2"]())
         for form in candidate.forms:
             low, high = form.bounds(_scales(model))
             changed = apply_effects(model, {name: Effect(form.name, [0.5 * (lo + hi) for lo, hi in zip(low, high)])})
@@ -308,6 +309,7 @@ def _scales(model):
         arm_inertia=model.arm_inertia_total,
         pendulum_inertia=model.pendulum_inertia_total,
         period=2e-3,
+        drive_inertia=model.rotor_share * (1.0 - model.rotor_share) * model.arm_inertia_total,
     )
 
 

@@ -9,7 +9,6 @@ import re
 
 import numpy as np
 import pytest
-from conftest import REPO
 
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
@@ -163,13 +162,14 @@ def test_check_gives_the_drives_reflected_inertia_and_resonance(tmp_path, capsys
     assert f"logging above {2 * w / (2 * math.pi):.4g} Hz samples the ringing" in capsys.readouterr().out
 
 
-def test_diagnose_refuses_a_rig_file_whose_drive_is_not_rigid(tmp_path, capsys):
+def test_the_diagnosis_reads_a_drive_with_backlash_and_compliance_from_the_rig_file(tmp_path):
+    from furuta_drake.effects.vocabulary import rig_model
+
     rig = RIGS["geared"]()
+    drive = dataclasses.replace(rig.drive, backlash=0.01, stiffness=2.0, damping=0.01)
     path = tmp_path / "rig.yaml"
-    path.write_text(rig_template(rig.replace(drive=dataclasses.replace(rig.drive, backlash=0.01)), "test"))
-    log = REPO / "tests" / "bad_inputs" / "good_torque.csv"
-    assert main(["diagnose", "--rig", str(path), "--train", str(log), "--out", str(tmp_path / "out")]) == 2
-    err = capsys.readouterr().err.strip()
-    line = path.read_text().splitlines().index("  backlash: 0.01") + 1
-    assert err.startswith(f"furuta-drake diagnose: error: {path}:{line}: drive.backlash: the diagnosis models a rigid")
-    assert not (tmp_path / "out").exists()
+    path.write_text(rig_template(rig.replace(drive=drive), "test"))
+    model = rig_model(load_rig(path))
+    assert model.has_drive
+    assert (model.drive_backlash, model.drive_stiffness, model.drive_damping) == (0.01, 2.0, 0.01)
+    assert 0.0 < model.rotor_share < 1.0  # the rotor is a body of its own beside the arm
