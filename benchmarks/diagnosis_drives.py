@@ -58,7 +58,7 @@ import numpy as np
 
 from benchmarks import diagnosis_independent as di
 from benchmarks.suite import _with_actuator, _with_arm_friction
-from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
+from furuta_drake.config import SimulationConfig, open_loop_config
 from furuta_drake.diagnosis.log_writers import write_log
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import RigParameters, geared_rig
@@ -141,16 +141,7 @@ def step_command(rig: RigParameters, seed: int, duration: float) -> np.ndarray:
 def true_config(case: DriveCase, rig: RigParameters, seed: int, duration: float) -> SimulationConfig:
     """The truth's run: the rig with the case's drive (or effect), open loop from hanging under the step command."""
     truth = rig.replace(drive=dataclasses.replace(rig.drive, **case.drive)) if case.drive else rig
-    base = SimulationConfig.from_rig(truth)
-    config = dataclasses.replace(
-        base,
-        duration=duration,
-        seed=seed,
-        initial_state=[math.pi, 0.0, 0.0, 0.0],
-        controller=dataclasses.replace(base.controller, mode="open_loop"),
-        excitation=ExcitationConfig(command=step_command(rig, seed, duration).tolist()),
-        monitor=MonitorConfig(theta_bound=None),
-    )
+    config = open_loop_config(truth, step_command(rig, seed, duration), duration=duration, seed=seed)
     if "coulomb" in case.config:
         level = case.config["coulomb"]
         friction = JointFrictionParameters(model="dahl", coulomb_pos=level, coulomb_neg=level, sigma0=level / 1e-3)

@@ -22,7 +22,6 @@ and the reports; a case already diagnosed there is read back, not rerun.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import time
 from pathlib import Path
@@ -30,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.suite import SUITE_RIGS, VOCABULARY, CaseSpec, verdict_is_right, with_effect
-from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
+from furuta_drake.config import SimulationConfig, open_loop_config
 from furuta_drake.diagnosis.log_writers import write_log
 from furuta_drake.rig import RIGS, RigParameters
 from furuta_drake.simulate import simulate
@@ -66,16 +65,7 @@ def bang_bang(rig: RigParameters, seed: int, duration: float, period: float) -> 
 
 def run_config(rig: RigParameters, case: CaseSpec, seed: int, duration: float) -> SimulationConfig:
     """An open-loop run from the hanging pendulum under the bang-bang command, with the case's effects."""
-    base = SimulationConfig.from_rig(rig)
-    config = dataclasses.replace(
-        base,
-        duration=duration,
-        seed=seed,
-        initial_state=[np.pi, 0.0, 0.0, 0.0],
-        controller=dataclasses.replace(base.controller, mode="open_loop"),
-        excitation=ExcitationConfig(command=bang_bang(rig, seed, duration, rig.sample_period).tolist()),
-        monitor=MonitorConfig(theta_bound=None),
-    )
+    config = open_loop_config(rig, bang_bang(rig, seed, duration, rig.sample_period), duration=duration, seed=seed)
     for effect in case.effects:
         config = with_effect(config, effect, case.level)
     return config

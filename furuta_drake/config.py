@@ -363,6 +363,30 @@ def swingup_config(
     )
 
 
+def open_loop_config(
+    config_or_rig: SimulationConfig | RigParameters | str,
+    command,
+    *,
+    duration: float,
+    seed: int = 0,
+    theta0: float = math.pi,
+) -> SimulationConfig:
+    """``config_or_rig`` (a config, a RigParameters or a shipped rig's name) driven open loop by ``command`` (the
+    torque [N m] of each control period, an :class:`ExcitationConfig` field) from rest at ``theta0`` [rad] (hanging:
+    pi) for ``duration`` [s]: an identification run as a lab records one, with no theta bound in the envelope
+    monitor."""
+    config = config_or_rig if isinstance(config_or_rig, SimulationConfig) else SimulationConfig.from_rig(config_or_rig)
+    return dataclasses.replace(
+        config,
+        duration=duration,
+        seed=seed,
+        initial_state=[theta0, 0.0, 0.0, 0.0],
+        controller=dataclasses.replace(config.controller, mode="open_loop"),
+        excitation=ExcitationConfig(command=[float(u) for u in command]),
+        monitor=dataclasses.replace(config.monitor, theta_bound=None),
+    )
+
+
 def quanser_swingup_config(
     config_or_rig: SimulationConfig | RigParameters | str,
     *,

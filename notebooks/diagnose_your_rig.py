@@ -231,9 +231,8 @@ print("held out whole:", [log.name for log in heldout_trials])
 
 # %%
 import dataclasses
-import math
 
-from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
+from furuta_drake.config import SimulationConfig, open_loop_config
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import geared_rig
 from furuta_drake.simulate import simulate
@@ -252,16 +251,7 @@ def step_run(seed: int, duration: float) -> SimulationConfig:
     times = np.arange(int(round(duration / built_rig.sample_period))) * built_rig.sample_period
     volts_to_torque = built_rig.motor.torque_constant / built_rig.motor.resistance
     command = volts_to_torque * (-1.0) ** np.searchsorted(switches, times, side="right")
-    base = SimulationConfig.from_rig(truth)
-    return dataclasses.replace(
-        base,
-        duration=duration,
-        seed=seed,
-        initial_state=[math.pi, 0.0, 0.0, 0.0],
-        controller=dataclasses.replace(base.controller, mode="open_loop"),
-        excitation=ExcitationConfig(command=command.tolist()),
-        monitor=MonitorConfig(theta_bound=None),
-    )
+    return open_loop_config(truth, command, duration=duration, seed=seed)
 
 
 duration = 3.0 if SMALL else 8.0
