@@ -1,10 +1,13 @@
-"""The bad-input corpus (``tests/bad_inputs/manifest.yaml``) through the real command line.
+"""The bad-input corpus (``tests/bad_inputs/manifest.yaml``) through the command line.
 
-Each case runs ``python -m furuta_drake.cli`` in a subprocess on its own copy of the corpus (the cases run at
-once, a process per core) and must end with the manifest's exit code (2), exactly one stderr line starting with
-"furuta-drake" that contains every expected fragment, no traceback, and nothing written or overwritten anywhere
-in the run's directory tree. Property tests feed the CSV log loader random variations of a valid log: it
-returns a checked log or raises LogError.
+Each case runs the command line's ``main`` in a process of its own, forked from this one after the commands'
+modules are imported (a fresh interpreter per case would pay those imports 73 times), in its own copy of the
+corpus (the cases run at once, a process per core), with its own working directory and its stdout and stderr
+on files; the process's exit status is ``main``'s return value, argparse's exit, or 1 after a traceback, as
+``python -m furuta_drake.cli`` would give (one case runs that way too). Each must end with the manifest's exit
+code (2), exactly one stderr line starting with "furuta-drake" that contains every expected fragment, no
+traceback, and nothing written or overwritten anywhere in the run's directory tree. Property tests feed the CSV
+log loader random variations of a valid log: it returns a checked log or raises LogError.
 """
 
 from __future__ import annotations
@@ -14,7 +17,8 @@ import re
 import shutil
 import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
+import time
+import traceback
 from pathlib import Path
 from typing import NamedTuple
 
@@ -25,6 +29,13 @@ from conftest import REPO
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import furuta_drake.design.pipeline  # noqa: F401  (the commands' modules, imported before the cases fork)
+import furuta_drake.diagnosis.pipeline  # noqa: F401
+import furuta_drake.paper.report  # noqa: F401
+import furuta_drake.real_rig.report  # noqa: F401
+import furuta_drake.simulate  # noqa: F401
+import furuta_drake.sweep  # noqa: F401
+from furuta_drake.cli import main
 from furuta_drake.diagnosis.logs import load_log
 from furuta_drake.errors import LogError
 from furuta_drake.rig import lund_rig
@@ -62,15 +73,81 @@ def prepare(case: dict, root: Path) -> tuple[list[str], Path]:
     return argv, work
 
 
-def run_cli(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
+TIMEOUT = 120.0  # [s] a case's process is killed after this
+
+
+class Result(NamedTuple):
+    """A finished case: its exit status and what it printed."""
+
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def run_cli(argv: list[str], cwd: Path) -> Result:
+    """``python -m furuta_drake.cli`` with ``argv`` in ``cwd``, in a fresh interpreter."""
     env = dict(
         os.environ,
         MPLBACKEND="Agg",
         PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
     )
-    return subprocess.run(
-        [sys.executable, "-m", "furuta_drake.cli", *argv], cwd=cwd, env=env, capture_output=True, text=True, timeout=120
+    done = subprocess.run(
+        [sys.executable, "-m", "furuta_drake.cli", *argv],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
     )
+    return Result(done.returncode, done.stdout, done.stderr)
+
+
+def _child(argv: list[str], cwd: Path, stdout: Path, stderr: Path) -> None:
+    """In the forked process: ``main(argv)`` in ``cwd``, stdout and stderr on files; exits with its status."""
+    code = 1
+    try:
+        os.chdir(cwd)
+        for stream, path in ((1, stdout), (2, stderr)):
+            os.dup2(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC), stream)
+        # Python's streams on those descriptors (pytest's capture had replaced them with its own).
+        sys.stdout, sys.stderr = (open(stream, "w", closefd=False) for stream in (1, 2))  # noqa: SIM115
+        code = main(argv)
+    except SystemExit as exit_:  # argparse's exit, as the interpreter would turn it into a status
+        code = exit_.code if isinstance(exit_.code, int) else (0 if exit_.code is None else 1)
+    except BaseException:  # an uncaught exception: its traceback and status 1, as the interpreter gives
+        traceback.print_exc()
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+
+
+class CaseProcess(NamedTuple):
+    """A forked case: its pid, the files of its output streams and when it started."""
+
+    pid: int
+    streams: Path
+    started: float
+
+    @classmethod
+    def start(cls, argv: list[str], cwd: Path, streams: Path) -> CaseProcess:
+        """Fork a process running ``main(argv)`` in ``cwd``, its output on files in ``streams``."""
+        pid = os.fork()
+        if pid == 0:
+            _child(argv, cwd, streams / "stdout", streams / "stderr")
+        return cls(pid, streams, time.monotonic())
+
+    def poll(self) -> Result | TimeoutError | None:
+        """Its :class:`Result` once it has ended (a TimeoutError once killed after :data:`TIMEOUT`), else None."""
+        done, status = os.waitpid(self.pid, os.WNOHANG)
+        if not done:
+            if time.monotonic() - self.started <= TIMEOUT:
+                return None
+            os.kill(self.pid, 9)
+            os.waitpid(self.pid, 0)
+            return TimeoutError(f"the case ran longer than {TIMEOUT} s")
+        read = lambda name: (self.streams / name).read_text(errors="replace")  # noqa: E731
+        return Result(os.waitstatus_to_exitcode(status), read("stdout"), read("stderr"))
 
 
 def test_manifest_is_well_formed_and_uses_every_corpus_file():
@@ -99,20 +176,9 @@ class Run(NamedTuple):
     the run."""
 
     argv: list[str]
-    result: subprocess.CompletedProcess | subprocess.TimeoutExpired
+    result: Result | TimeoutError
     before: dict[str, bytes | None]
     after: dict[str, bytes | None]
-
-
-def run_case(case: dict, root: Path) -> Run:
-    """``case`` run in ``root``, on its own copy of the corpus and its output setup."""
-    argv, work = prepare(case, root)
-    before = snapshot(root)
-    try:
-        result = run_cli(argv, work)
-    except subprocess.TimeoutExpired as timeout:  # the case's own test fails on it, not the others
-        result = timeout
-    return Run(argv, result, before, snapshot(root))
 
 
 CASE_TEST = "test_bad_input_exits_2_with_one_clear_line_and_writes_nothing"
@@ -120,23 +186,36 @@ CASE_TEST = "test_bad_input_exits_2_with_one_clear_line_and_writes_nothing"
 
 @pytest.fixture(scope="module")
 def runs(request, tmp_path_factory) -> dict[str, Run]:
-    """The selected cases run at once, a process per core: each in a directory tree of its own, sharing
-    nothing with the others, so each gives what it gives run alone."""
+    """The selected cases, a process per core at a time: each in a directory tree of its own, sharing nothing
+    with the others, so each gives what it gives run alone."""
     selected = {
         item.callspec.params["case"]["id"]
         for item in request.session.items
         if item.module is request.module and item.originalname == CASE_TEST
     }
-    cases = [case for case in MANIFEST if case["id"] in selected]
-    roots = [tmp_path_factory.mktemp("case") for _ in cases]
-    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as threads:
-        return {case["id"]: run for case, run in zip(cases, threads.map(run_case, cases, roots))}
+    pending = [case for case in MANIFEST if case["id"] in selected]
+    running, out = {}, {}
+    while pending or running:
+        while pending and len(running) < (os.cpu_count() or 1):
+            case = pending.pop(0)
+            root = tmp_path_factory.mktemp("case")
+            argv, work = prepare(case, root)
+            before = snapshot(root)
+            process = CaseProcess.start(argv, work, tmp_path_factory.mktemp("streams"))
+            running[case["id"]] = (argv, root, before, process)
+        for case_id, (argv, root, before, process) in list(running.items()):
+            result = process.poll()
+            if result is not None:
+                out[case_id] = Run(argv, result, before, snapshot(root))
+                del running[case_id]
+        time.sleep(0.01)
+    return out
 
 
 @pytest.mark.parametrize("case", MANIFEST, ids=[case["id"] for case in MANIFEST])
 def test_bad_input_exits_2_with_one_clear_line_and_writes_nothing(case, runs):
     argv, result, before, after = runs[case["id"]]
-    if isinstance(result, subprocess.TimeoutExpired):
+    if isinstance(result, TimeoutError):
         raise result
     shown = f"\n$ furuta-drake {' '.join(argv)}\nexit {result.returncode}\nstderr:\n{result.stderr}"
     assert "Traceback" not in result.stderr + result.stdout, shown
@@ -146,6 +225,21 @@ def test_bad_input_exits_2_with_one_clear_line_and_writes_nothing(case, runs):
         assert fragment in lines[0], f"missing {fragment!r}" + shown
     assert result.returncode == case["exit"], shown
     assert after == before, "the run wrote or changed files" + shown
+
+
+@pytest.mark.parametrize("case_id", ["log_empty", "config_gain_not_stabilising"])
+def test_the_interpreter_gives_what_the_forked_process_gives(case_id, tmp_path):
+    """``python -m furuta_drake.cli`` in a fresh interpreter: the same status and stderr as the forked run."""
+    (case,) = [case for case in MANIFEST if case["id"] == case_id]
+    fresh_argv, fresh_work = prepare(case, tmp_path / "fresh")
+    fresh = run_cli(fresh_argv, fresh_work)
+    forked_argv, forked_work = prepare(case, tmp_path / "forked")
+    process = CaseProcess.start(forked_argv, forked_work, tmp_path)
+    while (forked := process.poll()) is None:
+        time.sleep(0.01)
+    assert fresh.returncode == forked.returncode == case["exit"]
+    normalise = lambda text, root: text.replace(str(root), "ROOT")  # noqa: E731
+    assert normalise(fresh.stderr, tmp_path / "fresh") == normalise(forked.stderr, tmp_path / "forked")
 
 
 # --- The CSV log loader on random variations of a valid log (in-process, hypothesis) -----------------------
