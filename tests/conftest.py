@@ -137,12 +137,16 @@ def pytest_sessionfinish(session, exitstatus) -> None:
 
 @pytest.fixture
 def fast_cli_diagnoses(monkeypatch):
-    """``furuta-drake diagnose`` (the CLI's own parsing, loading and writing) run with the FAST sizes: for the
-    tests that compare two diagnoses of the same data given in two ways, whose reports must agree whatever the
-    sizes. Every stage still runs and enters the report (the fits, the bootstrap, the Drake replay, the detection
-    limits), briefly."""
+    """``furuta-drake diagnose`` (the CLI's own parsing, loading and writing) run with the FAST sizes and two
+    candidate effects (a friction law and a delay): for the tests that compare two diagnoses of the same data
+    given in two ways, whose reports must agree whatever the sizes and the candidates tried. Every stage still
+    runs and enters the report (the fits, the bootstrap, the Drake replay, the detection limits), briefly."""
     from furuta_drake.diagnosis import pipeline
     from furuta_drake.diagnosis.settings import FAST
 
     settings = dataclasses.replace(FAST, detection_limits=True)
-    monkeypatch.setattr(pipeline, "diagnose", functools.partial(pipeline.diagnose, settings=settings))
+    monkeypatch.setattr(
+        pipeline,
+        "diagnose",
+        functools.partial(pipeline.diagnose, settings=settings, candidates=["arm_coulomb_friction", "input_delay"]),
+    )
