@@ -65,6 +65,10 @@ def test_the_observer_scale_slows_every_pole_by_its_factor():
     _, _, vfe = observer_for(rate, period, DahlObserverParameters())
     _, _, slow_vfe = observer_for(rate, period, DahlObserverParameters(), scale=2.0)
     np.testing.assert_allclose(slow_vfe.eigenvalues, np.asarray(vfe.eigenvalues) / 2.0)
+    # With arm friction the HG is there on request, with the HG's own scaling; the VFE needs the Dahl observer.
+    assert observer_for(rate, period, DahlObserverParameters(), scale=2.0, kind="hg")[:2] == ("hg", slow)
+    with pytest.raises(ConfigError, match="'vfe' with arm friction"):
+        observer_for(rate, period, None, kind="vfe")
 
 
 class MadeUpProblem(Problem):
@@ -129,7 +133,7 @@ def test_the_nominal_design_is_kept_when_no_member_is_better_over_the_intervals(
 def test_a_member_better_in_both_figures_everywhere_is_chosen():
     problem = MadeUpProblem(SETTINGS, made_up(better_slow_observer=0.8))
     outcome, rows, _ = chosen(problem)
-    assert outcome.member == Member((1.0, 1.0, 1.0), 2.0, 0.0)
+    assert outcome.member == Member((1.0, 1.0, 1.0), 2.0, 0.0, "hg")
     assert outcome.prediction.figures == pytest.approx(figures(0.8 * NOMINAL[0], 0.8 * NOMINAL[1]))
     assert [row for row in rows if row.get("chosen")] == [rows[-1]]  # the slow observer ran last, in round 2
     assert problem.made <= run_budget(SETTINGS, friction=False, effects=1)
@@ -205,3 +209,24 @@ def test_behind_quansers_swing_up_a_design_balances_with_its_gain_in_volts():
     expected = [-k * motor.resistance / motor.torque_constant for k in K]
     np.testing.assert_allclose(config.controller.quanser_swingup.balance_gains, expected)
     assert config.controller.quanser_swingup.balance_angle == params.balance_angle  # the same window
+
+
+def test_with_arm_friction_the_hg_competes_with_the_vfe_and_wins_where_it_predicts_better():
+    """A model with arm friction: round 1 runs the VFE; round 2 also runs the HG at every scale. Where the HG's
+    made-up figures are the better ones, the HG is chosen, its Dahl observer kept for the compensation."""
+    settings = dataclasses.replace(SETTINGS, compensation_gains=(0.0,))
+    problem = MadeUpProblem(
+        settings,
+        lambda c, label: (
+            NOMINAL
+            if c.model is not None
+            else ((0.8 * NOMINAL[0], 0.8 * NOMINAL[1]) if c.observer == "hg" else (1.1 * NOMINAL[0], 1.1 * NOMINAL[1]))
+        ),
+    )
+    problem.dahl = DahlObserverParameters(coulomb_pos=0.01, coulomb_neg=0.01, sigma0=10.0)
+    outcome, rows, _ = chosen(problem)
+    kinds = {(row.get("observer_kind"), row.get("observer_scale")) for row in rows if "observer_kind" in row}
+    assert {("vfe", 1.0), ("vfe", 2.0), ("hg", 1.0), ("hg", 2.0)} <= kinds
+    assert outcome.member.kind == "hg" and outcome.controller.observer == "hg"
+    assert outcome.controller.dahl is problem.dahl
+    assert problem.made <= run_budget(settings, friction=True, effects=1)

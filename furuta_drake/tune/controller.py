@@ -13,7 +13,9 @@ friction observer's model and the initial K_sigma of the compensation, and the t
   Coulomb levels and a bristle stiffness from the fitted presliding displacement, sigma0 = max(Fc+, Fc-) / z_ss
   (one encoder count for a smooth law, which has none); the compensation's K_sigma adapts by Eq. 18 at the
   paper's rate gamma Fc^2 (``ADAPTATION_RATE``). Without arm friction, the HG observer with its error poles
-  ``HG_SPEED`` times faster (the high-gain separation of Eq. 4-6), eps at least ``HG_PERIODS`` sample periods.
+  ``HG_SPEED`` times faster (the high-gain separation of Eq. 4-6), eps at least ``HG_PERIODS`` sample periods;
+  with arm friction the HG is the alternative the search also tries (its Dahl observer then reads the HG's
+  arm velocity), since the VFE's estimate leans on the fitted friction law and the HG's does not.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import numpy as np
 
 from furuta_drake.config import ObserverConfig, SimulationConfig
 from furuta_drake.controllers.lqr import LqrParameters
+from furuta_drake.errors import ConfigError
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.observers.dahl import DahlAdaptation, DahlObserverParameters
 from furuta_drake.observers.hg import HighGainParameters
@@ -62,8 +65,9 @@ class Controller:
     def observer_dict(self) -> dict:
         """The observer's settings as ``tune.json`` states them."""
         if self.observer == "hg":
-            return {"kind": "hg", "eps_theta": self.hg.eps_theta, "eps_phi": self.hg.eps_phi}
-        out = {"kind": "vfe", "eigenvalues": list(self.vfe.eigenvalues)}
+            out = {"kind": "hg", "eps_theta": self.hg.eps_theta, "eps_phi": self.hg.eps_phi}
+        else:
+            out = {"kind": "vfe", "eigenvalues": list(self.vfe.eigenvalues)}
         if self.dahl is not None:
             out["dahl"] = {
                 "coulomb_pos": self.dahl.coulomb_pos,
@@ -106,13 +110,16 @@ def arm_friction_observer(friction: JointFrictionParameters, count: float) -> Da
 
 
 def observer_for(
-    rate: float, period: float, dahl: DahlObserverParameters | None, scale: float = 1.0
+    rate: float, period: float, dahl: DahlObserverParameters | None, scale: float = 1.0, kind: str | None = None
 ) -> tuple[str, HighGainParameters, VfeParameters]:
     """(velocity source, HG gains, VFE gains) of a tuned controller on a model whose upright pole is ``rate``
     [1/s] (module docstring), its time scale ``scale`` times the default's (2: every pole half as fast; the HG's
-    eps stays at least ``HG_PERIODS`` sample periods)."""
+    eps stays at least ``HG_PERIODS`` sample periods). ``kind`` 'hg' or 'vfe' (the VFE needs the Dahl observer
+    ``dahl``); None: the VFE with arm friction in the model, else the HG."""
+    if kind not in (None, "hg", "vfe") or (kind == "vfe" and dahl is None):
+        raise ConfigError(f"observer kind {kind!r}: 'hg', or 'vfe' with arm friction in the model")
     slowest = max(2.0 * rate, SLOWEST_OBSERVER) / scale
-    if dahl is not None:
+    if (kind or ("vfe" if dahl is not None else "hg")) == "vfe":
         return "vfe", HighGainParameters(), VfeParameters(eigenvalues=[-slowest * k for k in VFE_SPREAD])
     eps = max(1.0 / (HG_SPEED * slowest), HG_PERIODS * period)
     return "hg", HighGainParameters(eps_theta=eps, eps_phi=eps), VfeParameters()

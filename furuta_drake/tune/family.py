@@ -14,7 +14,8 @@ better only when it is better in both), their sum breaking ties. The search, wit
    intervals; a set that does not is out before any run;
 1. round 1 runs each remaining weight set with the default observer and the first compensation gain (none without
    arm friction in the model) on the corrected model at the fit; round 2 the best member so far with each other
-   observer scale; round 3, when the model has arm friction, the best so far with each other compensation gain;
+   observer scale, and with arm friction in the model each scale of the other observer (the HG beside the VFE);
+   round 3, when the model has arm friction, the best so far with each other compensation gain;
 2. the ``finalists`` best members at the fit are run at every effect extreme (each accepted effect's parameters at
    the lower, then the upper ends of their 95 % intervals); one that falls there is out;
 3. the tuned design is the finalist of the smallest **robust score**: the score of each figure's worst over the fit
@@ -54,11 +55,13 @@ FLOOR_COUNTS = 0.5  # a reference figure below half an encoder count is taken as
 @dataclass(frozen=True)
 class Member:
     """A design recipe: ``weights`` (scales of Q_theta, Q_phi and R over the package's LQ weights), ``observer``
-    (the observer's time scale over the default) and ``compensation`` (the initial K_sigma; 0: none)."""
+    (the observer's time scale over the default), ``compensation`` (the initial K_sigma; 0: none) and
+    ``kind`` (the observer, 'hg' or 'vfe'; None: :func:`~.controller.observer_for`'s default for the model)."""
 
     weights: tuple[float, float, float] = (1.0, 1.0, 1.0)
     observer: float = 1.0
     compensation: float = 0.0
+    kind: str | None = None
 
     def as_dict(self) -> dict:
         theta, phi, r = self.weights
@@ -66,6 +69,7 @@ class Member:
             "theta_weight_scale": theta,
             "phi_weight_scale": phi,
             "input_weight_scale": r,
+            "observer_kind": self.kind,
             "observer_scale": self.observer,
             "compensation_gain": self.compensation,
         }
@@ -193,10 +197,16 @@ def score(figures: dict | None, reference: dict | None, count: float) -> tuple[f
     return (max(ratios), sum(ratios))
 
 
+def observer_kinds(friction: bool) -> tuple[str, ...]:
+    """The observers the search tries: the VFE and the HG with arm friction in the model, else the HG."""
+    return ("vfe", "hg") if friction else ("hg",)
+
+
 def run_budget(settings, friction: bool, effects: int) -> int:
     """The most Drake runs the search makes (module docstring), the nominal design's fit and extremes included."""
     compensation = len(settings.compensation_gains) - 1 if friction else 0
-    fit = len(settings.weight_sets) + len(settings.observer_scales) + compensation
+    observers = len(observer_kinds(friction)) * (1 + len(settings.observer_scales)) - 1
+    fit = len(settings.weight_sets) + observers + compensation
     extremes = 2 * effects
     return fit + settings.finalists * extremes + 1 + extremes
 
@@ -211,7 +221,7 @@ def member_gain(problem: Problem, member: Member) -> np.ndarray:
 def member_controller(problem: Problem, member: Member, K) -> Controller:
     """``member``'s controller with the gain ``K``: its observer on the corrected model, its compensation."""
     nominal = problem.nominal
-    source, hg, vfe = observer_for(upright_rate(problem.A), problem.period, problem.dahl, member.observer)
+    source, hg, vfe = observer_for(upright_rate(problem.A), problem.period, problem.dahl, member.observer, member.kind)
     gain = tuple(float(k) for k in np.ravel(K))
     base = Controller(gain, source, nominal.torque_limit, member.lqr(nominal.lqr), hg, vfe, problem.dahl)
     return with_compensation(base, member.compensation)
@@ -270,14 +280,24 @@ def search(problem: Problem, nominal: DesignOutcome, say: Callable[[str], None])
     friction = problem.dahl is not None
     gains = settings.compensation_gains if friction else (0.0,)
     say(f"round 1: {len(found.gains)} weight set(s) on the corrected model")
-    found.run([Member(weights, 1.0, gains[0]) for weights in settings.weight_sets])
-    for label, variants in (("observer scales", settings.observer_scales), ("compensation gains", gains[1:])):
+    kinds = observer_kinds(friction)
+    found.run([Member(weights, 1.0, gains[0], kinds[0]) for weights in settings.weight_sets])
+    observers = [(kind, scale) for kind in kinds for scale in (1.0, *settings.observer_scales)]
+    for label, variants in (("observers", observers), ("compensation gains", gains[1:])):
         best = found.best()
-        if best is None or not variants:
+        if best is None:
             continue
-        say(f"the best so far with {len(variants)} other {label}")
-        key = "observer" if label == "observer scales" else "compensation"
-        found.run([dataclasses.replace(best, **{key: value}) for value in variants])
+        if label == "observers":
+            others = [
+                dataclasses.replace(best, kind=k, observer=s)
+                for k, s in variants
+                if (k, s) != (best.kind, best.observer)
+            ]
+        else:
+            others = [dataclasses.replace(best, compensation=value) for value in variants]
+        if others:
+            say(f"the best so far with {len(others)} other {label}")
+            found.run(others)
     balanced = sorted((m for m, run in found.runs.items() if run.balanced), key=found.fit_score)
     finalists = balanced[: settings.finalists]
     reference = worst(nominal.runs()) if nominal.robust else None
@@ -344,6 +364,6 @@ def _finalist(problem: Problem, found: _Search, member: Member) -> DesignOutcome
 def _label(member: Member) -> str:
     theta, phi, r = member.weights
     return (
-        f"Q_theta x {theta:g}, Q_phi x {phi:g}, R x {r:g}, observer x {member.observer:g}, "
-        f"K_sigma {member.compensation:g}"
+        f"Q_theta x {theta:g}, Q_phi x {phi:g}, R x {r:g}, {(member.kind or 'default').upper()} observer x "
+        f"{member.observer:g}, K_sigma {member.compensation:g}"
     )

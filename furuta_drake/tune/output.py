@@ -206,8 +206,9 @@ def _ms(seconds) -> str:
 
 def _observer_text(observer: dict) -> str:
     if observer["kind"] == "hg":
-        return f"HG, eps {_ms(observer['eps_theta'])} ms (theta), {_ms(observer['eps_phi'])} ms (phi)"
-    text = "VFE, eigenvalues " + ", ".join(f"{v:.3g}" for v in observer["eigenvalues"]) + " rad/s"
+        text = f"HG, eps {_ms(observer['eps_theta'])} ms (theta), {_ms(observer['eps_phi'])} ms (phi)"
+    else:
+        text = "VFE, eigenvalues " + ", ".join(f"{v:.3g}" for v in observer["eigenvalues"]) + " rad/s"
     dahl = observer.get("dahl")
     if dahl:
         text += (
@@ -406,7 +407,7 @@ def _evidence_blocks(document: dict) -> list[tuple]:
             "table",
             [
                 "Q_theta, Q_phi, R scales",
-                "observer scale",
+                "observer, scale",
                 "K_sigma",
                 "limit cycle at the fit [rad]",
                 "theta RMS at the fit [rad]",
@@ -435,7 +436,7 @@ def _candidate_row(c: dict) -> list[str]:
     predicted, worst = c.get("predicted") or {}, c.get("worst_over_intervals") or {}
     return [
         f"{c['theta_weight_scale']:g}, {c['phi_weight_scale']:g}, {c['input_weight_scale']:g}",
-        _number(c["observer_scale"]),
+        f"{(c.get('observer_kind') or '-').upper()}, {_number(c['observer_scale'])}",
         _number(c["compensation_gain"]),
         _number(predicted.get("limit_cycle_amplitude")),
         _number(predicted.get("theta_rms")),
