@@ -6,8 +6,9 @@ command as a zero-order-hold ``TrajectorySource``; a pure input delay of an open
 of that source, a jittering one its expectation (piecewise linear). Each window starts from the initial state the
 surrogate refined for this model, with a fresh integrator (Drake's error-controlled third-order Runge-Kutta at
 accuracy 1e-5: a gap near the sensor floor is a square root, so the integration error must stay far below a count,
-as it does here against a 1e-9 reference), which stops at every jump of the applied command so that no step straddles one; the residuals give the same gap as
-:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
+as it does here against a 1e-9 reference), which stops at every jump of the applied command so that no step
+straddles one; the residuals give the same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks
+the two agree).
 """
 
 from __future__ import annotations
