@@ -19,6 +19,11 @@ Dahl is passive: with the bristle energy sigma0 z^2 / 2, d/dt (E + sigma0 z^2 / 
 - b v^2 <= 0. For LuGre the same storage is non-increasing whenever |v| <= 4 g(v) (sigma1 + sigma2) / sigma1^2
 (a sufficient condition; Barabanov and Ortega 2000, the paper's [5], give the necessary and sufficient one).
 
+The simulations' friction is :class:`JointFrictionSystem`, these laws as symbolic expressions evaluated in C++ (no
+Python call at an integrator stage); :class:`JointFriction` evaluates the same laws in Python, for float and
+AutoDiffXd: Drake's ``Linearize`` differentiates it (a symbolic derivative of a law that branches on the direction of
+v is undefined at v = 0, where the linearizations are taken).
+
 The bristle state is stiff (rate sigma0 |v| / Fc: about 800 |v| 1/s with the paper's sigma0 = 10 N m/rad and
 Fc = 0.012 N m): :func:`dahl_exact_step` is its exact step at frozen velocity, stable at any step size, and
 :func:`held_input_gain` what a constant input adds over that step, for discrete-time users (the friction
@@ -33,7 +38,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake import symbolic
 from pydrake.autodiffutils import AutoDiffXd
-from pydrake.systems.framework import LeafSystem_
+from pydrake.symbolic import Expression, MakeVectorVariable
+from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem_
+from pydrake.systems.primitives import MatrixGain, SymbolicVectorSystem
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from furuta_drake.errors import ConfigError
@@ -144,7 +151,10 @@ def _functions(v):
 
 
 def _by_direction(v, positive, negative):
-    """``positive`` where v > 0, ``negative`` elsewhere."""
+    """``positive`` where v > 0, ``negative`` elsewhere (either when they are equal: no branch on v, whose
+    symbolic derivative would be undefined at v = 0)."""
+    if isinstance(positive, float) and isinstance(negative, float) and positive == negative:
+        return positive
     if isinstance(v, np.ndarray):
         return np.where(v > 0, positive, negative)
     return where(v > 0, positive, negative)
@@ -186,9 +196,7 @@ def project_bristle(z, bound: float):
     rate sigma0 |v| z / Fc and the torque sigma0 z feed each other (the torque accelerates the joint, whose speed
     scales the rate) and overflow within one rejected trial step. Evaluated on the projected state the law is
     bounded, so error control sees a large error and shrinks the step instead."""
-    if z > bound:
-        return bound
-    return -bound if z < -bound else z
+    return where(z > bound, bound, where(z < -bound, -bound, z))
 
 
 def joint_friction_torque(v, z, p: JointFrictionParameters):
@@ -350,3 +358,46 @@ def JointFriction_(T):
 
 
 JointFriction = JointFriction_[None]
+
+
+class JointFrictionSystem(Diagram):
+    """:class:`JointFriction`'s laws evaluated in C++: a ``SymbolicVectorSystem`` of the same expressions (the laws
+    above on symbolic variables) and a ``MatrixGain`` to the plant's velocity order. Same ports, same continuous
+    state (the bristles, pendulum before arm) and the same torques to rounding; float only (``Linearize`` takes
+    :class:`JointFriction`).
+
+    Input ``plant_state``; outputs ``generalized_force_Nm`` (plant velocity order) and ``friction_torque_Nm`` =
+    [F_theta, F_phi] (Eq. 3 order). A law without bristles has no state: its block's dynamics are a placeholder
+    0 of size zero (a stateless ``SymbolicVectorSystem`` refuses to give time derivatives, which a continuous
+    diagram asks of every block)."""
+
+    def __init__(self, plant, params: FrictionParameters):
+        Diagram.__init__(self)
+        params.validate()
+        layout = _PlantLayout.of(plant)
+        joints = _friction_joints(layout, params)
+        bristle_joints = tuple(j for j in joints if j[3] is not None)
+        bounds = tuple(p.bristle_bound for _, _, p, _ in bristle_joints)
+        x_vars = list(MakeVectorVariable(layout.num_positions + layout.num_velocities, "x"))
+        z_vars = list(MakeVectorVariable(len(bristle_joints), "z")) if bristle_joints else []
+        x, z = ([Expression(v) for v in variables] for variables in (x_vars, z_vars))
+        torques = _joint_torques(joints, bounds, x, z)
+        rates = _bristle_rates(bristle_joints, bounds, x, z) if bristle_joints else [Expression(0.0)]
+        law = SymbolicVectorSystem(
+            state=z_vars,
+            input=x_vars,
+            dynamics=rates,
+            output=torques,
+        )
+        to_generalized = np.zeros((layout.num_velocities, 2))
+        for row, (_, index, _, _) in enumerate(joints):
+            to_generalized[index, row] = 1.0
+        builder = DiagramBuilder()
+        law = builder.AddNamedSystem("law", law)
+        force = builder.AddNamedSystem("to_generalized_force", MatrixGain(to_generalized))
+        builder.Connect(law.get_output_port(), force.get_input_port())
+        builder.ExportInput(law.get_input_port(), "plant_state")
+        builder.ExportOutput(force.get_output_port(), "generalized_force_Nm")
+        builder.ExportOutput(law.get_output_port(), "friction_torque_Nm")
+        builder.BuildInto(self)
+        self.params = params

@@ -32,7 +32,7 @@ from furuta_drake.actuator import (
     add_arm_disturbance,
 )
 from furuta_drake.drive import add_drive
-from furuta_drake.friction import FrictionParameters, JointFriction
+from furuta_drake.friction import FrictionParameters, JointFriction, JointFrictionSystem
 from furuta_drake.plant import ARM_JOINT, add_furuta_plant, plant_to_paper_permutation
 from furuta_drake.rig import RigParameters
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
@@ -46,7 +46,7 @@ class FurutaWorld:
     commanded arm torque [N m], the actuator chain's input; ``friction_torque``: [F_theta, F_phi] [N m], the
     torques friction exerts on the joints; ``encoder_state``: what the encoders read, the true state with the arm's
     angle and rate replaced by the drive's rotor's when the arm's encoder sits on the motor; ``friction``: the
-    JointFriction system (its context holds the bristle states), None when both joints are frictionless;
+    friction system (its context holds the bristle states), None when both joints are frictionless;
     ``drive``: the drive's rotor (its context holds the rotor's state [psi, psi_dot], its output port is that
     state), None without a drive of its own state;
     ``to_paper``: P with x_paper = P x_plant.
@@ -54,7 +54,7 @@ class FurutaWorld:
 
     plant: MultibodyPlant
     scene_graph: object
-    friction: JointFriction | None
+    friction: JointFrictionSystem | JointFriction | None
     true_state: OutputPort
     arm_torque_input: InputPort
     friction_torque: OutputPort
@@ -82,6 +82,7 @@ def add_furuta_world(
     back_emf_damping: float | None = None,
     unmodelled_torque: UnmodelledTorqueParameters | None = None,
     with_scene_graph: bool = False,
+    linearizable: bool = False,
 ) -> FurutaWorld:
     """Add the continuous Furuta plant of ``rig`` with ``friction`` on its joints, the arm ``disturbance``
     (spring, cogging), the back-EMF damping torque -``back_emf_damping`` phi_dot [N m s/rad] (None: kt ke / R of
@@ -90,7 +91,9 @@ def add_furuta_world(
     ``control_period`` [s]) and ``rig.drive`` (a rigid one as its rotor's inertia on the arm, one with backlash or
     elasticity as :func:`~furuta_drake.drive.add_drive` between the actuator chain and the arm, the back-EMF
     on its rotor); absent sections add nothing. ``with_scene_graph``: a SceneGraph for visualisation. The friction
-    in ``rig`` itself (``arm_coulomb`` ...) is not read: friction comes as ``friction``.
+    in ``rig`` itself (``arm_coulomb`` ...) is not read: friction comes as ``friction``, in C++
+    (:class:`~furuta_drake.friction.JointFrictionSystem`), or with ``linearizable`` as the Python
+    :class:`~furuta_drake.friction.JointFriction` that Drake's ``Linearize`` differentiates.
     """
     friction = friction or FrictionParameters()
     if back_emf_damping is None:
@@ -106,11 +109,12 @@ def add_furuta_world(
 
     forces = []
     if friction.arm.model == "none" and friction.pendulum.model == "none":
-        # No friction: a constant zero rather than a Python system evaluated at every integrator stage.
+        # No friction: a constant zero rather than a system evaluated at every integrator stage.
         joint_friction = None
         friction_torque = builder.AddNamedSystem("friction", ConstantVectorSource(np.zeros(2))).get_output_port()
     else:
-        joint_friction = builder.AddNamedSystem("friction", JointFriction(plant, friction))
+        law = JointFriction if linearizable else JointFrictionSystem
+        joint_friction = builder.AddNamedSystem("friction", law(plant, friction))
         builder.Connect(plant.get_state_output_port(), joint_friction.get_input_port())
         forces.append(joint_friction.GetOutputPort("generalized_force_Nm"))
         friction_torque = joint_friction.GetOutputPort("friction_torque_Nm")
@@ -210,6 +214,7 @@ def linearized_world(
         actuator=actuator,
         disturbance=disturbance,
         control_period=control_period,
+        linearizable=True,
     )
     builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
     diagram = builder.Build()

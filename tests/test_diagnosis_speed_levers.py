@@ -155,8 +155,8 @@ def test_folds_run_at_once_give_each_fold_selection(tmp_path):
     assert "input_delay" in alone  # the injected delay is found on at least one fold
 
 
-def test_a_zero_static_friction_law_replays_bitwise_without_its_python_system(monkeypatch):
-    """A diagnosis model of a frictionless rig holds a static law of zero levels: the replay leaves its Python
+def test_a_zero_static_friction_law_replays_bitwise_without_its_friction_system(monkeypatch):
+    """A diagnosis model of a frictionless rig holds a static law of zero levels: the replay leaves its friction
     system out (a constant zero instead) and integrates every window to the same last bit as with it."""
     from furuta_drake.diagnosis import replay
 

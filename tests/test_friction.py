@@ -18,6 +18,7 @@ from furuta_drake.friction import (
     FrictionParameters,
     JointFriction,
     JointFrictionParameters,
+    JointFrictionSystem,
     bristle_derivative,
     bristle_friction_torque,
     dahl_exact_step,
@@ -33,12 +34,13 @@ ENERGY_SCALE = RIG.gravity_torque  # m g l [J]
 
 
 class Furuta:
-    """The Lund plant with JointFriction wired to its applied-generalized-force input, zero motor torque."""
+    """The Lund plant with a friction system (``law``: the simulations' C++ JointFrictionSystem by default) wired to
+    its applied-generalized-force input, zero motor torque."""
 
-    def __init__(self, friction: FrictionParameters):
+    def __init__(self, friction: FrictionParameters, law=JointFrictionSystem):
         builder = DiagramBuilder()
         self.plant, _ = add_furuta_plant(builder, "lund", with_scene_graph=False)
-        self.friction = builder.AddSystem(JointFriction(self.plant, friction))
+        self.friction = builder.AddSystem(law(self.plant, friction))
         builder.Connect(self.plant.get_state_output_port(), self.friction.get_input_port())
         builder.Connect(
             self.friction.GetOutputPort("generalized_force_Nm"), self.plant.get_applied_generalized_force_input_port()
@@ -286,7 +288,7 @@ def test_dahl_needs_positive_coulomb_levels_but_static_friction_may_be_purely_vi
 def linearize_upright(friction: FrictionParameters):
     """A and the arm-torque B of plant + JointFriction at the upright at rest, plant states in paper order
     first (the friction's bristle states after them, unpermuted)."""
-    furuta = Furuta(friction)
+    furuta = Furuta(friction, law=JointFriction)
     context = furuta.diagram.CreateDefaultContext()
     furuta.diagram.get_input_port(0).FixValue(context, [0.0])
     linear = Linearize(furuta.diagram, context)
@@ -484,30 +486,29 @@ def test_lugre_friction_never_injects_energy_within_its_velocity_bound(
         assert worst > 0.0
 
 
+@pytest.mark.parametrize("law", [JointFrictionSystem, JointFriction])
 @pytest.mark.parametrize("presliding", [1e-4, 3e-5])
-def test_a_stiff_bristle_reversing_under_a_coarse_first_step_stays_in_its_range(presliding):
+def test_a_stiff_bristle_reversing_under_a_coarse_first_step_stays_in_its_range(presliding, law):
     """A Dahl arm whose presliding displacement Fc / sigma0 is a tenth of a milliradian, moving at 2 rad/s with
     its bristle at the opposite bound: the bristle rate sigma0 |v| / Fc is 2e4 1/s, so an explicit integrator's
-    first trial step of 1 ms is 20 time constants long. The error-controlled RK5 must reject it and go on (the
-    law is evaluated on the bristle's physical range |z| <= Fc / sigma0), and the bristle then saturates at
-    +Fc / sigma0: the exerted torque is -Fc."""
-    from pydrake.systems.analysis import ApplySimulatorConfig, SimulatorConfig
+    first trial step of 1 ms is 20 time constants long. The error-controlled integrator of the replays must reject
+    it and go on (the law is evaluated on the bristle's physical range |z| <= Fc / sigma0), and the bristle then
+    saturates at +Fc / sigma0: the exerted torque is -Fc."""
+    from pydrake.systems.analysis import ApplySimulatorConfig
+
+    from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR
 
     builder = DiagramBuilder()
     plant, _ = add_furuta_plant(builder, "qube_servo2", with_scene_graph=False)
     level = 1.5e-3
     friction = builder.AddSystem(
-        JointFriction(
-            plant, FrictionParameters(arm=JointFrictionParameters.dahl(level, level, sigma0=level / presliding))
-        )
+        law(plant, FrictionParameters(arm=JointFrictionParameters.dahl(level, level, sigma0=level / presliding)))
     )
     builder.Connect(plant.get_state_output_port(), friction.get_input_port())
     builder.Connect(friction.GetOutputPort("generalized_force_Nm"), plant.get_applied_generalized_force_input_port())
     diagram = builder.Build()
     simulator = Simulator(diagram)
-    ApplySimulatorConfig(
-        SimulatorConfig(integration_scheme="runge_kutta5", accuracy=1e-6, max_step_size=1e-3), simulator
-    )
+    ApplySimulatorConfig(REPLAY_INTEGRATOR, simulator)
     simulator.get_mutable_integrator().request_initial_step_size_target(1e-3)
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)
@@ -522,3 +523,50 @@ def test_a_stiff_bristle_reversing_under_a_coarse_first_step_stays_in_its_range(
     assert arm.get_angular_rate(plant_context) > 1.0  # 1.5 mN m slows the 2.3e-4 kg m^2 arm by 0.03 rad/s
     torque = friction.GetOutputPort("friction_torque_Nm").Eval(friction_context)[1]
     assert torque == pytest.approx(-level, rel=1e-3)
+
+
+TWO_SYSTEM_LAWS = [
+    FrictionParameters(arm=JointFrictionParameters.coulomb(0.012, 1e-4)),
+    FrictionParameters(
+        arm=JointFrictionParameters(
+            model="static", coulomb_pos=0.01, coulomb_neg=0.014, static_pos=0.02, static_neg=0.03, viscous=1e-4
+        ),
+        pendulum=JointFrictionParameters.coulomb(5e-4, 1e-6),
+    ),
+    FrictionParameters(arm=JointFrictionParameters.dahl(0.012, 0.010, 10.0, 1e-4)),
+    FrictionParameters(
+        arm=JointFrictionParameters(
+            model="lugre", coulomb_pos=0.01, coulomb_neg=0.01, static_pos=0.02, static_neg=0.02, sigma1=0.01
+        ),
+        pendulum=JointFrictionParameters.dahl(1e-3, 1e-3, 5.0),
+    ),
+]
+
+
+@pytest.mark.parametrize("params", TWO_SYSTEM_LAWS, ids=["coulomb", "asymmetric_stribeck", "dahl", "lugre_and_dahl"])
+def test_the_cpp_system_gives_the_python_systems_torques_and_bristle_rates(params):
+    """JointFrictionSystem (the laws as C++ expressions) and JointFriction (the same laws in Python) at random
+    plant states and bristles, beyond the bristles' range too (a trial stage's): the same outputs and bristle rates
+    to rounding, and the same number of states."""
+    plant = make_furuta_plant("lund")
+    python, cpp = JointFriction(plant, params), JointFrictionSystem(plant, params)
+    contexts = python.CreateDefaultContext(), cpp.CreateDefaultContext()
+    assert contexts[0].num_continuous_states() == contexts[1].num_continuous_states()
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        x = rng.normal(size=4) * [1.0, 1.0, 0.01, 0.01]
+        z = rng.normal(size=contexts[0].num_continuous_states()) * 0.003
+        values = []
+        for system, context in zip((python, cpp), contexts):
+            system.get_input_port().FixValue(context, x)
+            context.SetContinuousState(z)
+            values.append(
+                np.concatenate(
+                    [
+                        system.GetOutputPort("generalized_force_Nm").Eval(context),
+                        system.GetOutputPort("friction_torque_Nm").Eval(context),
+                        system.EvalTimeDerivatives(context).CopyToVector(),
+                    ]
+                )
+            )
+        np.testing.assert_allclose(values[1], values[0], rtol=1e-12, atol=1e-15)

@@ -38,7 +38,7 @@ REPLAY_INTEGRATOR = SimulatorConfig(integration_scheme="runge_kutta3", accuracy=
 def drake_friction(p: JointFrictionParameters) -> JointFrictionParameters:
     """``p``, or no friction where ``p`` is a static law of zero levels and zero viscosity (a diagnosis model of a
     frictionless rig file holds one): its torque is exactly zero, so the world's constant zero in place of a
-    Python system evaluated at every integrator stage replays the windows to the last bit."""
+    friction system evaluated at every integrator stage replays the windows to the last bit."""
     zero = p.model == "static" and p.viscous == 0.0 and max(p.coulomb_pos, p.coulomb_neg, *p.static_levels) == 0.0
     return JointFrictionParameters() if zero else p
 
