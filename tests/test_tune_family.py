@@ -139,6 +139,18 @@ def test_a_member_better_in_both_figures_everywhere_is_chosen():
     assert problem.made <= run_budget(SETTINGS, friction=False, effects=1)
 
 
+def test_a_member_predicted_better_by_less_than_the_least_gain_leaves_the_nominal_design():
+    """2 % better in both figures everywhere is within what seeds alone move a balancing figure: the nominal design
+    stays and the finalist says why; 10 % better replaces it."""
+    problem = MadeUpProblem(SETTINGS, made_up(better_slow_observer=0.98))
+    outcome, rows, nominal = chosen(problem)
+    assert outcome is nominal
+    slow = next(row for row in rows if row.get("observer_scale") == 2.0)
+    assert "less than 5%" in slow["rejected"] and slow["robust_score"][0] == pytest.approx(0.98)
+    outcome, _, _ = chosen(MadeUpProblem(SETTINGS, made_up(better_slow_observer=0.9)))
+    assert outcome.member is not None and outcome.member.observer == 2.0
+
+
 def test_a_member_that_falls_at_an_effect_extreme_is_passed_over():
     problem = MadeUpProblem(SETTINGS, made_up(better_slow_observer=0.8, falls_at="effect high"))
     outcome, rows, nominal = chosen(problem)
