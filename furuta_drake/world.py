@@ -107,18 +107,8 @@ def add_furuta_world(
     builder.Connect(plant.get_state_output_port(), to_paper_order.get_input_port())
     true_state = to_paper_order.get_output_port()
 
-    forces = []
-    if friction.arm.model == "none" and friction.pendulum.model == "none":
-        # No friction: a constant zero rather than a system evaluated at every integrator stage.
-        joint_friction = None
-        friction_torque = builder.AddNamedSystem("friction", ConstantVectorSource(np.zeros(2))).get_output_port()
-    else:
-        law = JointFriction if linearizable else JointFrictionSystem
-        joint_friction = builder.AddNamedSystem("friction", law(plant, friction))
-        builder.Connect(plant.get_state_output_port(), joint_friction.get_input_port())
-        forces.append(joint_friction.GetOutputPort("generalized_force_Nm"))
-        friction_torque = joint_friction.GetOutputPort("friction_torque_Nm")
-
+    joint_friction, friction_torque = _add_friction(builder, plant, friction, linearizable)
+    forces = [] if joint_friction is None else [joint_friction.GetOutputPort("generalized_force_Nm")]
     arm = np.zeros((plant.num_velocities(), 1))  # an arm torque as generalized forces
     arm[plant.GetJointByName(ARM_JOINT).velocity_start(), 0] = 1.0
     arm_torque = add_arm_disturbance(builder, disturbance or DisturbanceParameters(), true_state)
@@ -155,6 +145,18 @@ def add_furuta_world(
     return FurutaWorld(
         plant, scene_graph, joint_friction, true_state, actuator_input, friction_torque, encoder_state, rotor, P
     )
+
+
+def _add_friction(builder: DiagramBuilder, plant, friction: FrictionParameters, linearizable: bool):
+    """(the friction system, None without friction on either joint; its [F_theta, F_phi] [N m] output port) of
+    :func:`add_furuta_world`, its input wired to ``plant``'s state."""
+    if friction.arm.model == "none" and friction.pendulum.model == "none":
+        # No friction: a constant zero rather than a system evaluated at every integrator stage.
+        return None, builder.AddNamedSystem("friction", ConstantVectorSource(np.zeros(2))).get_output_port()
+    law = JointFriction if linearizable else JointFrictionSystem
+    joint_friction = builder.AddNamedSystem("friction", law(plant, friction))
+    builder.Connect(plant.get_state_output_port(), joint_friction.get_input_port())
+    return joint_friction, joint_friction.GetOutputPort("friction_torque_Nm")
 
 
 def _add_drive(

@@ -150,3 +150,21 @@ def fast_cli_diagnoses(monkeypatch):
         "diagnose",
         functools.partial(pipeline.diagnose, settings=settings, candidates=["arm_coulomb_friction", "input_delay"]),
     )
+
+
+def run_notebook(path: Path, tmp_path: Path, monkeypatch) -> None:
+    """Run the notebook ``path`` (a jupytext percent script) top to bottom headless in ``tmp_path``, in its small
+    size (``FURUTA_NOTEBOOK_SMALL``); nbclient's CellExecutionError, with the cell and traceback, when a cell fails."""
+    import jupytext
+    import nbclient
+
+    monkeypatch.setenv("FURUTA_NOTEBOOK_SMALL", "1")
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.chdir(tmp_path)
+    notebook = jupytext.read(path)
+    client = nbclient.NotebookClient(
+        notebook, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    )
+    client.execute()
+    executed = [cell for cell in notebook.cells if cell.cell_type == "code"]
+    assert executed and all(cell.get("execution_count") for cell in executed)

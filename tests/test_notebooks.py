@@ -1,13 +1,13 @@
-"""Every notebook in notebooks/ (jupytext percent scripts) runs top to bottom headless, in its small size."""
+"""Every notebook in notebooks/ (jupytext percent scripts) but the diagnosis ones runs top to bottom headless, in its
+small size (the diagnosis notebooks: ``test_notebooks_diagnosis.py``, a file of their own so that the two halves
+run on two cores)."""
 
-import jupytext
-import nbclient
 import pytest
-from conftest import REPO
+from conftest import REPO, run_notebook
 
 pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
 
-NOTEBOOKS = sorted((REPO / "notebooks").glob("*.py"))
+NOTEBOOKS = sorted(p for p in (REPO / "notebooks").glob("*.py") if not p.stem.startswith("diagnose_"))
 
 
 def test_there_are_notebooks():
@@ -16,13 +16,4 @@ def test_there_are_notebooks():
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs_headless(path, tmp_path, monkeypatch):
-    monkeypatch.setenv("FURUTA_NOTEBOOK_SMALL", "1")
-    monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.chdir(tmp_path)
-    notebook = jupytext.read(path)
-    client = nbclient.NotebookClient(
-        notebook, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
-    )
-    client.execute()  # raises CellExecutionError, with the cell and traceback, when any cell fails
-    executed = [cell for cell in notebook.cells if cell.cell_type == "code"]
-    assert executed and all(cell.get("execution_count") for cell in executed)
+    run_notebook(path, tmp_path, monkeypatch)
