@@ -400,4 +400,3 @@ class JointFrictionSystem(Diagram):
         builder.ExportOutput(force.get_output_port(), "generalized_force_Nm")
         builder.ExportOutput(law.get_output_port(), "friction_torque_Nm")
         builder.BuildInto(self)
-        self.params = params
