@@ -9,11 +9,13 @@ from pydrake.systems.framework import DiagramBuilder
 from scipy.optimize import least_squares
 
 from benchmarks.suite import run_configs, with_effect
+from furuta_drake.diagnosis.fit import _best_start
 from furuta_drake.diagnosis.gap import make_windows, projected_residuals, substeps_for
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR, WindowReplayer
 from furuta_drake.effects.surrogate import REGULARIZATION_VELOCITY, Model, _accelerations, predict_windows
 from furuta_drake.effects.surrogate_kernel import bristle_step, pack_friction
+from furuta_drake.effects.vocabulary import Effect, apply_effects
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters, bristle_friction_torque
 from furuta_drake.rig import RIGS
 from furuta_drake.simulate import simulate
@@ -71,6 +73,58 @@ def test_levenberg_marquardt_reaches_the_least_squares_minimum_of_every_window(h
         assert np.sum(window_residuals(start) ** 2) > 1.5 * ours  # the refinement had work to do
         assert ours == pytest.approx(2 * scipy.cost, rel=1e-8)
         np.testing.assert_allclose(states[0][:, w], scipy.x, rtol=0, atol=1e-5)
+
+
+@pytest.fixture(scope="module")
+def all_hanging_windows():
+    """Every window of the viscous-friction hanging run of ``hanging_windows``."""
+    config = with_effect(run_configs(LUND, 3, 2.0)["hanging"], "arm_viscous_friction", 2)
+    result = simulate(config)
+    log = RunLog(
+        name="hanging.csv",
+        path="",
+        time=result.time,
+        theta=result.measured[:, 0],
+        phi=result.measured[:, 1],
+        input_kind="torque",
+        input=result.torque,
+        sample_period=1e-3,
+    )
+    return make_windows([log], LUND), config.friction.arm.viscous
+
+
+def test_one_levenberg_marquardt_step_takes_almost_all_the_smoothed_states_error_off(all_hanging_windows):
+    """What lets a fit's starts be ranked after a single step of the windows' initial states: on every window of
+    a model that misses the arm's viscous friction, one step leaves at most 1 % of the smoothed states' excess
+    cost over the converged one (eight steps), and further steps never raise the cost (a step is kept only where
+    the re-simulated residual falls)."""
+    windows, _ = all_hanging_windows
+    model = Model.from_rig(LUND)
+
+    def cost(steps):
+        r = projected_residuals(model, windows, LUND.counts_per_rev, sensitivities=False, steps=steps)[0][0]
+        return np.sum(r**2, axis=(0, 1))
+
+    smoothed, one, three, converged = (cost(steps) for steps in (0, 1, 3, 8))
+    assert np.all(smoothed > 1.5 * converged)  # the smoothed states are far from each window's best
+    assert np.all(one - converged <= 0.01 * (smoothed - converged))
+    assert np.all(converged <= three) and np.all(three <= one) and np.all(one <= smoothed)
+
+
+def test_the_one_step_screen_ranks_a_fits_starts_as_the_refined_windows_do(all_hanging_windows):
+    """Among starts of the arm's viscous coefficient at none, the simulated one and four times it, the screen of
+    ``SCREEN_STEPS`` per window picks the simulated coefficient, as a screen of the full refinement
+    does."""
+    windows, viscous = all_hanging_windows
+    nominal = Model.from_rig(LUND)
+
+    def model_at(x):
+        return apply_effects(nominal, {"arm_viscous_friction": Effect("", (float(x[0]),))})
+
+    starts, low, high = [[0.0], [viscous], [4.0 * viscous]], np.array([0.0]), np.array([10.0 * viscous])
+    assert _best_start(starts, low, high, model_at, windows, LUND.counts_per_rev)[0] == pytest.approx(viscous)
+    full = [np.sum(projected_residuals(model_at(x), windows, LUND.counts_per_rev)[0][0] ** 2) for x in starts]
+    assert int(np.argmin(full)) == 1
 
 
 def test_rk4_error_falls_sixteenfold_when_the_step_halves():

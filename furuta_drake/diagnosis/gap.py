@@ -339,13 +339,15 @@ def _state_jacobian(model, x, torque, batch: Batch, substeps: int, count: float)
     return angles, slopes / count
 
 
-def projected_residuals(model: Model, windows: Windows, nominal_counts: int, sensitivities: bool = True):
+def projected_residuals(
+    model: Model, windows: Windows, nominal_counts: int, sensitivities: bool = True, steps: int = GAUSS_NEWTON_STEPS
+):
     """:func:`residuals`, per log the refined initial states (4, W), or (5, W) with the arm's bristle state for a
     Dahl or LuGre arm (near a stick the bristle is a hidden state like the velocities: its value read from the
     arm path is only the start), and per log the residuals' sensitivities to them (h, 2, W, 4 or 5) [counts per
     unit of state] at the refined states (None per log without ``sensitivities``).
 
-    Each window takes ``GAUSS_NEWTON_STEPS`` Levenberg-Marquardt steps with its own damping: a step is kept only
+    Each window takes ``steps`` Levenberg-Marquardt steps with its own damping: a step is kept only
     where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
     overshoot), and the window's damping shrinks 3x after a kept step and grows 10x, to at least 1 (about half
     the Gauss-Newton step), after a refused one. The sensitivities are simulated for the kept steps alone (each
@@ -356,7 +358,7 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int, sen
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
     for batch in windows.batches():
         substeps = substeps_for(batch.period)
-        x, r, J = _refined(model, window_states(model, windows, batch), batch, substeps, count, sensitivities)
+        x, r, J = _refined(model, window_states(model, windows, batch), batch, substeps, count, sensitivities, steps)
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
             out[i], states[i] = r[:, :, part], x[:, part]
@@ -364,9 +366,9 @@ def projected_residuals(model: Model, windows: Windows, nominal_counts: int, sen
     return out, states, jacobians
 
 
-def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: float, sensitivities: bool):
-    """:func:`projected_residuals` of one batch from the initial states x (n, W): the refined states, their
-    residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
+def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: float, sensitivities: bool, steps: int):
+    """:func:`projected_residuals` of one batch from the initial states x (n, W) with ``steps`` steps: the refined
+    states, their residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
     n, W = x.shape
     prior = np.zeros(n)
     bristles = model.arm_friction.has_bristles
@@ -382,7 +384,7 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
     r = (batch.measured - angles) / count
     cost = np.nansum(r**2, axis=(0, 1))
     damping = np.full(W, LM_DAMPING)
-    for step in range(GAUSS_NEWTON_STEPS):
+    for step in range(steps):
         Jw = J.transpose(2, 0, 1, 3).reshape(W, -1, n)
         normal = np.einsum("wki,wkj->wij", Jw, Jw)
         diagonal = np.einsum("wii->wi", normal)
@@ -396,7 +398,7 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         cost_trial = np.nansum(r_trial**2, axis=(0, 1))
         better = cost_trial < cost
         kept = np.flatnonzero(better)
-        if kept.size and (sensitivities or step < GAUSS_NEWTON_STEPS - 1):
+        if kept.size and (sensitivities or step < steps - 1):
             J = J.copy()
             J[:, :, kept] = _state_jacobian(model, trial[:, kept], torque[:, kept], batch, substeps, count)[1]
         x, r = np.where(better, trial, x), np.where(better, r_trial, r)
