@@ -18,15 +18,16 @@ from furuta_drake.diagnosis.gap import (
     make_windows,
     parameter_slopes_of,
     projected_residuals,
+    state_jacobians,
 )
 from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects import surrogate_tangent as tangent
 from furuta_drake.effects.surrogate import HISTORY, Model, predict_windows, same_branches
-from furuta_drake.effects.vocabulary import Effect, apply_effects
+from furuta_drake.effects.vocabulary import Effect, apply_effects, rig_model
 from furuta_drake.friction import JointFrictionParameters
-from furuta_drake.rig import qube_servo2_rig
+from furuta_drake.rig import geared_rig, qube_servo2_rig
 
 ARMS = {
     "none": JointFrictionParameters(),
@@ -321,6 +322,27 @@ def test_the_fits_exact_columns_are_the_residuals_central_differences(law):
             differenced = (8.0 * (near[0][log] - near[1][log]) - (far[0][log] - far[1][log])) / (12.0 * step)
             exact = (forward[i][log] + backward[i][log]) / 2.0
             _compare(exact, (differenced, 1e-13 * np.max(np.abs(near[0][log])) / step), rtol=1e-5)
+
+
+@pytest.mark.parametrize("law", ["none", *sorted(ARM_FORMS), "drive"])
+def test_the_states_sensitivities_simulated_apart_are_the_refinements_to_the_last_bit(law):
+    """A fit simulates the windows' state sensitivities only where it forms a Jacobian: at the refined states of
+    two logs at different rates, those equal what the refinement returns with its sensitivities, bit for bit, for
+    every arm friction law and for a geared drive's backlash (its twist differenced)."""
+    if law == "drive":
+        rig = geared_rig()
+        model = apply_effects(rig_model(rig), {"drive_backlash": Effect("", (0.02,))})
+    else:
+        rig = qube_servo2_rig()
+        model = Model.from_rig(rig) if law == "none" else apply_effects(Model.from_rig(rig), dict([ARM_FORMS[law]]))
+    logs = [_log(model, 0), _log(model, 1, period=1e-3, duration=1.0)]
+    windows = make_windows(logs, rig).subset(12)
+    _, states, refined = projected_residuals(model, windows, rig.counts_per_rev)
+    apart = state_jacobians(model, windows, states, rig.counts_per_rev)
+    assert len(apart) == len(logs)
+    for together, alone in zip(refined, apart):
+        assert together.shape == alone.shape and together.shape[3] == states[0].shape[0]
+        assert np.array_equal(together, alone)
 
 
 def test_a_threshold_dead_zone_or_a_change_of_friction_law_is_no_direction_to_differentiate():

@@ -30,6 +30,7 @@ from furuta_drake.diagnosis.gap import (
     parameter_slopes_of,
     project_out_states,
     projected_residuals,
+    state_jacobians,
 )
 from furuta_drake.diagnosis.jitter_fit import heldout_jitter, spread_by_likelihood
 from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
@@ -284,22 +285,25 @@ class Residuals:
     """A fit's residuals on ``windows`` as a function of its parameters (the initial states' share projected out,
     :func:`~furuta_drake.diagnosis.gap.projected_residuals`) and their Jacobian (:func:`_columns`), for
     ``scipy.optimize.least_squares``. ``last`` keeps the last evaluation (residuals, states, ``x``),
-    ``linearised`` the last Jacobian's with its columns (the bootstrap at the fit reuses them)."""
+    ``linearised`` the last Jacobian's with its columns and the states' sensitivities (the bootstrap at the fit
+    reuses them). The states' sensitivities are simulated for the Jacobian alone: a trial step the solver refuses,
+    and a line search's evaluation, never need them."""
 
     def __init__(self, model_at, windows: Windows, counts: int, span, high):
         self.model_at, self.windows, self.counts, self.span, self.high = model_at, windows, counts, span, high
         self.last, self.linearised = {}, {}
 
     def cost(self, x) -> np.ndarray:
-        raw = projected_residuals(self.model_at(x), self.windows, self.counts)
-        self.last.update(zip(("raw", "states", "state_jacobians"), raw))
-        self.last["x"] = np.array(x)
-        return _flat(self.last["raw"])
+        raw, states, _ = projected_residuals(self.model_at(x), self.windows, self.counts, sensitivities=False)
+        self.last.clear()
+        self.last.update(raw=raw, states=states, x=np.array(x))
+        return _flat(raw)
 
     def jacobian(self, x) -> np.ndarray:
         last = self.last
         if "x" not in last or not np.array_equal(last["x"], x):
             self.cost(x)
+        last["state_jacobians"] = state_jacobians(self.model_at(x), self.windows, last["states"], self.counts)
         last["columns"] = _columns(self.model_at, x, self.windows, last, self.counts, self.span, self.high)
         self.linearised.clear()
         self.linearised.update(last)

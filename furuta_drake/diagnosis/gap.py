@@ -366,6 +366,23 @@ def projected_residuals(
     return out, states, jacobians
 
 
+def state_jacobians(model: Model, windows: Windows, states: list[np.ndarray], nominal_counts: int) -> list[np.ndarray]:
+    """Per log the residuals' sensitivities (h, 2, W, n) [counts per unit of state] at the windows' initial
+    ``states`` (per log (n, W), laid out for ``model``): at the refined states of :func:`projected_residuals`,
+    what it returns with ``sensitivities``, to the last bit (each window's column depends on its own state and
+    command alone), for a caller that needs them at some of its evaluations only."""
+    count = encoder_resolution(nominal_counts)
+    out = [None] * len(windows.logs)
+    for batch in windows.batches():
+        x = np.concatenate([states[i] for i in batch.members], axis=1)
+        substeps = substeps_for(batch.period)
+        torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+        J = _state_jacobian(model, x, torque, batch, substeps, count)[1]
+        for j, i in enumerate(batch.members):
+            out[i] = J[:, :, batch.bounds[j] : batch.bounds[j + 1]]
+    return out
+
+
 def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: float, sensitivities: bool, steps: int):
     """:func:`projected_residuals` of one batch from the initial states x (n, W) with ``steps`` steps: the refined
     states, their residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
