@@ -398,8 +398,9 @@ def bootstrap_samples(
     for i, raw in enumerate(last["raw"]):  # per log: the windows' normal equations
         J = np.stack([np.nan_to_num(column[i][1:]) for column in columns], axis=-1)  # (h - 1, 2, W, n)
         r = np.nan_to_num(raw[1:], nan=1e6)
-        normal.append(np.einsum("hswi,hswj->wij", J, J))
-        gradient.append(np.einsum("hswi,hsw->wi", J, r))
+        Jw = J.transpose(2, 0, 1, 3).reshape(J.shape[2], -1, J.shape[3])  # (W, (h - 1) 2, n)
+        normal.append(Jw.transpose(0, 2, 1) @ Jw)
+        gradient.append((Jw.transpose(0, 2, 1) @ r.transpose(2, 0, 1).reshape(r.shape[2], -1, 1))[..., 0])
     normal, gradient = np.concatenate(normal), np.concatenate(gradient)
     W = normal.shape[0]
     rng = np.random.default_rng(settings.seed)

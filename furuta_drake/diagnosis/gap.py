@@ -403,10 +403,10 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
     damping = np.full(W, LM_DAMPING)
     for step in range(steps):
         Jw = J.transpose(2, 0, 1, 3).reshape(W, -1, n)
-        normal = np.einsum("wki,wkj->wij", Jw, Jw)
+        normal = Jw.transpose(0, 2, 1) @ Jw
         diagonal = np.einsum("wii->wi", normal)
         normal = normal + (damping[:, None] * diagonal + prior + 1e-9)[:, :, None] * np.eye(n)
-        gradient = np.einsum("wki,wk->wi", Jw, np.nan_to_num(r.transpose(2, 0, 1).reshape(W, -1)))
+        gradient = (Jw.transpose(0, 2, 1) @ np.nan_to_num(r.transpose(2, 0, 1).reshape(W, -1, 1)))[..., 0]
         trial = x + np.linalg.solve(normal, gradient[..., None])[..., 0].T
         if bristles:
             trial[4] = np.clip(trial[4], -bound, bound)
@@ -456,15 +456,14 @@ def project_out_states(change: np.ndarray, state_jacobian: np.ndarray) -> np.nda
     degenerate (a stuck arm's velocities and bristle can move the angles along one direction only)."""
     h, _, W, n = state_jacobian.shape
     Jw = state_jacobian.transpose(2, 0, 1, 3).reshape(W, -1, n)
-    gram = np.einsum("wki,wkj->wij", Jw, Jw)
+    gram = Jw.transpose(0, 2, 1) @ Jw
     normal = gram + 1e-9 * (np.einsum("wii->w", gram) / n + 1.0)[:, None, None] * np.eye(n)
     if change.ndim == 4:
         cw = change.transpose(3, 0, 1, 2).reshape(W, -1, change.shape[2])
-        fitted = np.einsum("wki,wic->wkc", Jw, np.linalg.solve(normal, np.einsum("wki,wkc->wic", Jw, cw)))
+        fitted = Jw @ np.linalg.solve(normal, Jw.transpose(0, 2, 1) @ cw)
         return change - fitted.reshape(W, h, 2, -1).transpose(1, 2, 3, 0)
     cw = change.transpose(2, 0, 1).reshape(W, -1)
-    coef = np.linalg.solve(normal, np.einsum("wki,wk->wi", Jw, cw)[..., None])[..., 0]
-    fitted = np.einsum("wki,wi->wk", Jw, coef)
+    fitted = (Jw @ np.linalg.solve(normal, Jw.transpose(0, 2, 1) @ cw[..., None]))[..., 0]
     return change - fitted.reshape(W, h, 2).transpose(1, 2, 0)
 
 
