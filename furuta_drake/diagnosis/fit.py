@@ -43,6 +43,7 @@ from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_ef
 JACOBIAN_STEP = 1e-3  # relative finite-difference step of the parameter sensitivities
 BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a bound is "at" it
 INTERVAL = (2.5, 97.5)  # percentiles of the 95 % parameter intervals
+COST_TOLERANCE = 1e-4  # a fit stops when a step lowers its cost by less than this share (scipy's ftol)
 SCREEN_STEPS = 1  # Levenberg-Marquardt steps of the windows' initial states when a fit's starts are ranked
 
 
@@ -213,6 +214,7 @@ def _least_squares(task: FitTask, new_form: dict[str, str]):
         bounds=(low, high),
         x_scale=np.maximum(span, 1e-12) / 10.0,
         max_nfev=settings.max_nfev,
+        ftol=COST_TOLERANCE,
         method="trf",
     )
     x, total, profiles = result.x, float(2.0 * result.cost), {}
