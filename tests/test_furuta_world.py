@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import TrajectorySource
+from pydrake.systems.primitives import TrajectorySource, ZeroOrderHold
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.config import ExcitationConfig
@@ -88,6 +88,7 @@ def test_the_replay_and_the_simulate_diagram_have_the_same_dynamics(seed):
     replayer = WindowReplayer(model, RIG, time, np.full(time.size, command))
     replayed = replayer.context
     replayed.SetTime(0.01)
+    replayer.diagram.get_input_port().FixValue(replayed, [command])  # the held command, as the replay holds it
     replayed.get_mutable_continuous_state_vector().SetFromVector(np.concatenate([replayer.P.T @ x, [z, lag]]))
 
     expected = built.diagram.EvalTimeDerivatives(simulated).CopyToVector()
@@ -99,7 +100,8 @@ def test_the_replay_and_the_simulate_diagram_have_the_same_dynamics(seed):
 def test_the_replay_follows_the_simulate_world_on_the_same_torque_sequence():
     """From the same initial state (arm bristle and lag filter included), driven by the same held torque
     sequence and integrated alike, the replay's plant states agree with the world the simulate diagram builds
-    from the fitted config to 1e-12 over a quarter second of swinging with stick-slip friction."""
+    from the fitted config, its command held by Drake's discrete ZeroOrderHold (as the simulate diagram holds
+    it), to 1e-12 over a quarter second of swinging with stick-slip friction."""
     model = model_with_every_effect()
     config = simulate_world_config(model)
     rng = np.random.default_rng(7)
@@ -120,14 +122,16 @@ def test_the_replay_follows_the_simulate_world_on_the_same_torque_sequence():
         disturbance=config.disturbance,
         control_period=config.control_period,
     )
-    source = builder.AddSystem(
+    source = builder.AddSystem(  # command k from half a period before its sample on: sampled well inside
         TrajectorySource(
             PiecewisePolynomial.ZeroOrderHold(
-                np.append(time, time[-1] + PERIOD), np.append(command, command[-1]).reshape(1, -1)
+                np.append(time - PERIOD / 2, time[-1] + PERIOD), np.append(command, command[-1]).reshape(1, -1)
             )
         )
     )
-    builder.Connect(source.get_output_port(), world.arm_torque_input)
+    hold = builder.AddSystem(ZeroOrderHold(PERIOD, 1))
+    builder.Connect(source.get_output_port(), hold.get_input_port())
+    builder.Connect(hold.get_output_port(), world.arm_torque_input)
     diagram = builder.Build()
     simulator = Simulator(diagram)
     ApplySimulatorConfig(REPLAY_INTEGRATOR, simulator)
@@ -137,6 +141,7 @@ def test_the_replay_follows_the_simulate_world_on_the_same_torque_sequence():
     diagram.GetSubsystemByName("actuator_lag").GetMyMutableContextFromRoot(
         context
     ).get_mutable_continuous_state_vector().SetFromVector([command[0]])
+    hold.GetMyMutableContextFromRoot(context).SetDiscreteState([command[0]])
     plant_context = world.plant.GetMyContextFromRoot(context)
     simulated = [x0[:2]]
     for t in time[1:]:

@@ -1,14 +1,16 @@
 """Held-out figures from Drake: the windows replayed through a diagram of the project's own systems.
 
 The diagram is the model's Furuta world (:func:`~furuta_drake.world.add_furuta_world`: the MultibodyPlant of
-the model's rig, its friction, spring, back-EMF and unmodelled torques, and its actuator chain) fed by the logged
-command as a zero-order-hold ``TrajectorySource``; a pure input delay of an open-loop replay is exactly a time shift
-of that source, a jittering one its expectation (piecewise linear). Each window starts from the initial state the
-surrogate refined for this model, with a fresh integrator (Drake's error-controlled third-order Runge-Kutta at
-accuracy 1e-5: a gap near the sensor floor is a square root, so the integration error must stay far below a count,
-as it does here against a 1e-9 reference), which stops at every jump of the applied command so that no step
-straddles one; the residuals give the same gap as :func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks
-the two agree).
+the model's rig, its friction, spring, back-EMF and unmodelled torques, and its actuator chain) driven by the logged
+command. A held command (shifted by a pure input delay: an open-loop replay's delay is exactly a time shift) is the
+diagram's input, fixed over each interval between the integrator's stops, so that every stage of a step, the one at
+the step's end included, reads the value the drive holds there, as the simulate diagram's discrete hold gives it; a
+jittering delay's expected command is continuous (piecewise linear) and comes from a ``TrajectorySource``. Each
+window starts from the initial state the surrogate refined for this model, with a fresh integrator (Drake's
+error-controlled third-order Runge-Kutta at accuracy 1e-5: a gap near the sensor floor is a square root, so the
+integration error must stay far below a count, as it does here against a 1e-9 reference), which stops at every
+sample and at every jump of the applied command so that no step straddles one; the residuals give the same gap as
+:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
 """
 
 from __future__ import annotations
@@ -73,16 +75,24 @@ class WindowReplayer:
         )
         self.world, self.plant, self.P, self.friction = world, world.plant, world.to_paper, world.friction
         applied = _applied_command(model, time, command, period)
-        # The applied command jumps (or kinks) at its breaks; the integrator stops there, so that no error-controlled
-        # step straddles one (a break a fraction of a microsecond after a sample would otherwise go unresolved).
-        self.breaks = _between_samples(np.asarray(applied.get_segment_times()), time, period)
-        source = builder.AddSystem(TrajectorySource(applied))
-        builder.Connect(source.get_output_port(), world.arm_torque_input)
+        # The integrator stops at every sample and at every jump (or kink) of the applied command between samples,
+        # so that no error-controlled step straddles one (a break a fraction of a microsecond after a sample would
+        # otherwise go unresolved).
+        self.stops = np.union1d(time, _between_samples(np.asarray(applied.get_segment_times()), time, period))
+        if model.delay_spread > 0:  # the expected command is continuous: a source of it evaluated at every stage
+            source = builder.AddSystem(TrajectorySource(applied))
+            builder.Connect(source.get_output_port(), world.arm_torque_input)
+            self.held = None
+        else:  # a held command, as the rig's drive holds it: each interval's value fixed while the interval runs,
+            # its last stage included (a source read there would give the next sample's value)
+            builder.ExportInput(world.arm_torque_input, "arm_torque_Nm")
+            self.held = applied.vector_values(0.5 * (self.stops[:-1] + self.stops[1:]))[0]
         self.diagram = builder.Build()
         self.simulator = Simulator(self.diagram)
         self.integrator = REPLAY_INTEGRATOR  # the integrator every window starts afresh with
         ApplySimulatorConfig(self.integrator, self.simulator)
         self.context = self.simulator.get_mutable_context()
+        self.command = None if self.held is None else self.diagram.get_input_port().FixValue(self.context, [0.0])
         self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
         self.encoders = world.encoder_state  # [theta, phi or the rotor's psi, rates]
         self.encoders_context = self.encoders.get_system().GetMyContextFromRoot(self.context)
@@ -115,15 +125,24 @@ class WindowReplayer:
                 [bristle]
             )
         self.world.set_state(self.context, x0, twist)
+        first, last = np.searchsorted(self.stops, [times[0], times[-1]])
+        self._hold(first)
         self.simulator.Initialize()
         out = np.empty((times.size, 2))
         out[0] = self.encoders.Eval(self.encoders_context)[:2]
-        for k, t in enumerate(times[1:], start=1):
-            for stop in self.breaks[np.searchsorted(self.breaks, times[k - 1]) : np.searchsorted(self.breaks, t)]:
-                self.simulator.AdvanceTo(stop)
-            self.simulator.AdvanceTo(t)
-            out[k] = self.encoders.Eval(self.encoders_context)[:2]
+        sample = 1
+        for i in range(first + 1, last + 1):
+            self.simulator.AdvanceTo(self.stops[i])
+            if self.stops[i] == times[sample]:
+                out[sample] = self.encoders.Eval(self.encoders_context)[:2]
+                sample += 1
+            self._hold(i)
         return out
+
+    def _hold(self, i: int) -> None:
+        """Fix a held command's value over the interval from stop ``i`` to the next."""
+        if self.command is not None and i < self.held.size:
+            self.command.GetMutableData().get_mutable_value().SetAtIndex(0, self.held[i])
 
 
 def _between_samples(breaks: np.ndarray, time: np.ndarray, period: float) -> np.ndarray:
