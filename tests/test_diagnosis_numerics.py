@@ -221,6 +221,25 @@ def test_surrogate_windows_converge_to_the_multibody_plant_with_friction_and_mot
     assert errors[-1] < errors[0] / 100 and all(fine <= 1.2 * coarse for coarse, fine in zip(errors, errors[1:]))
 
 
+def test_a_replay_read_between_the_samples_holds_each_samples_command():
+    """Angles asked for between the samples as well (the integrator stops there too) are those of the replay read
+    at the samples alone, to a thousandth of a count: each interval still holds its sample's command, whatever
+    stops fall inside it (a delayed command jumps between the samples)."""
+    model = friction_and_motor(QUBE).replace(delay=0.4 * QUBE.sample_period)
+    period = QUBE.sample_period
+    time = period * np.arange(300)
+    command = 0.6 * QUBE.gravity_torque * np.sign(np.sin(2 * np.pi * 7.0 * time))
+    replayer = WindowReplayer(model, QUBE, time, command)
+    x0 = np.array([2.9, 0.1, 1.0, -0.5])
+    samples = time[20:120]
+    finer = np.sort(np.concatenate([samples, samples[:-1] + 0.3 * period]))
+    alone = replayer.replay(samples[0], x0, command[20], samples, 0.0)
+    between = replayer.replay(samples[0], x0, command[20], finer, 0.0)
+    count = 2 * np.pi / QUBE.counts_per_rev
+    assert np.ptp(alone[:, 1]) > 20 * count  # the arm moves under the square wave
+    np.testing.assert_allclose(between[np.isin(finer, samples)], alone, rtol=0, atol=1e-3 * count)
+
+
 def test_the_replay_integrator_stays_far_below_a_count_of_a_tight_reference():
     """The held-out replays' own integrator (error-controlled, :data:`REPLAY_INTEGRATOR`) on large QUBE swings
     with stick-slip, a Dahl arm, Coulomb pendulum friction and back-EMF: within a hundredth of a count of the same

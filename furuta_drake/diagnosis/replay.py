@@ -125,23 +125,24 @@ class WindowReplayer:
                 [bristle]
             )
         self.world.set_state(self.context, x0, twist)
-        first, last = np.searchsorted(self.stops, [times[0], times[-1]])
-        self._hold(first)
+        stops = np.union1d(times, self.stops[(self.stops > times[0]) & (self.stops < times[-1])])
+        self._hold(stops[0])
         self.simulator.Initialize()
         out = np.empty((times.size, 2))
         out[0] = self.encoders.Eval(self.encoders_context)[:2]
         sample = 1
-        for i in range(first + 1, last + 1):
-            self.simulator.AdvanceTo(self.stops[i])
-            if self.stops[i] == times[sample]:
+        for stop in stops[1:]:
+            self.simulator.AdvanceTo(stop)
+            if stop == times[sample]:
                 out[sample] = self.encoders.Eval(self.encoders_context)[:2]
                 sample += 1
-            self._hold(i)
+            self._hold(stop)
         return out
 
-    def _hold(self, i: int) -> None:
-        """Fix a held command's value over the interval from stop ``i`` to the next."""
-        if self.command is not None and i < self.held.size:
+    def _hold(self, t: float) -> None:
+        """Fix a held command's value over the interval of stops that starts at ``t`` [s]."""
+        if self.command is not None:
+            i = min(max(int(np.searchsorted(self.stops, t, side="right")) - 1, 0), self.held.size - 1)
             self.command.GetMutableData().get_mutable_value().SetAtIndex(0, self.held[i])
 
 
