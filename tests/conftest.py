@@ -24,6 +24,7 @@ from pathlib import Path
 import pytest
 
 from furuta_drake.data import QUBE_REAL_DIR
+from furuta_drake.diagnosis.logs import RunLog
 
 REPO = Path(__file__).resolve().parent.parent
 QUBE_DATA = QUBE_REAL_DIR
@@ -168,3 +169,31 @@ def run_notebook(path: Path, tmp_path: Path, monkeypatch) -> None:
     client.execute()
     executed = [cell for cell in notebook.cells if cell.cell_type == "code"]
     assert executed and all(cell.get("execution_count") for cell in executed)
+
+
+def suite_log(run: str, seed: int, effect: str | None = None, level: int = 2, duration: float = 3.0, rig="lund"):
+    """The benchmark suite's ``run`` ("hanging": an open-loop multisine; "balance": LQR with the suite's
+    excitation) on ``rig``, simulated in Drake with ``effect`` at ``level`` added, as a diagnosis log."""
+    from benchmarks.suite import run_configs, with_effect  # Drake is imported by the tests that simulate only
+    from furuta_drake.rig import RIGS
+    from furuta_drake.simulate import simulate
+
+    config = run_configs(RIGS[rig](), seed, duration)[run]
+    if effect is not None:
+        config = with_effect(config, effect, level)
+    result = simulate(config)
+    return RunLog(
+        name=f"{run}_{seed}.csv",
+        path="",
+        time=result.time,
+        theta=result.measured[:, 0],
+        phi=result.measured[:, 1],
+        input_kind="torque",
+        input=result.torque,
+        sample_period=config.control_period,
+    )
+
+
+def hanging_log(seed: int, effect: str | None = None, level: int = 2, duration: float = 3.0) -> RunLog:
+    """A Lund hanging run under an open-loop multisine (:func:`suite_log`)."""
+    return suite_log("hanging", seed, effect, level, duration)

@@ -5,10 +5,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import hanging_log, suite_log
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from benchmarks.suite import run_configs, with_effect
+from benchmarks.suite import with_effect
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagnosis.fit import FitTask, fit_task
 from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
@@ -58,25 +59,6 @@ def test_model_rig_reproduces_the_lumped_constants():
         [back.arm_inertia_total, back.pendulum_inertia_total, back.coupling, back.gravity_torque],
         [0.004, 0.0035, 0.0026, 0.09],
         rtol=1e-12,
-    )
-
-
-def hanging_log(seed: int, effect: str | None = None, level: int = 2, duration: float = 3.0) -> RunLog:
-    """A Lund hanging run under an open-loop multisine, simulated in Drake, as a diagnosis log."""
-    rig = RIGS["lund"]()
-    config = run_configs(rig, seed, duration)["hanging"]
-    if effect is not None:
-        config = with_effect(config, effect, level)
-    result = simulate(config)
-    return RunLog(
-        name=f"hanging_{seed}.csv",
-        path="",
-        time=result.time,
-        theta=result.measured[:, 0],
-        phi=result.measured[:, 1],
-        input_kind="torque",
-        input=result.torque,
-        sample_period=1e-3,
     )
 
 
@@ -239,22 +221,6 @@ def test_laws_apart_by_less_than_the_floor_resolves_are_confusable_off_the_floor
     assert "below the floor's resolution" in confusable_why(pairs[0])
 
 
-def balancing_log(rig_name: str, seed: int, effect: str, level: int, duration: float) -> RunLog:
-    """A balancing run under LQR with the suite's excitation and one hidden effect, as a diagnosis log."""
-    config = with_effect(run_configs(RIGS[rig_name](), seed, duration)["balance"], effect, level)
-    result = simulate(config)
-    return RunLog(
-        name=f"balance_{seed}.csv",
-        path="",
-        time=result.time,
-        theta=result.measured[:, 0],
-        phi=result.measured[:, 1],
-        input_kind="torque",
-        input=result.torque,
-        sample_period=config.control_period,
-    )
-
-
 @pytest.mark.parametrize(
     "rig_name, effect, law", [("lund", "arm_stribeck", "arm"), ("qube_servo2", "pendulum_friction", "pendulum")]
 )
@@ -265,7 +231,7 @@ def test_the_true_model_of_a_balancing_run_with_stiction_predicts_it(rig_name, e
     (with a near-Gauss-Newton second step it predicted worse: 0.45 counts against the nominal 0.15)."""
     rig = RIGS[rig_name]()
     truth = getattr(with_effect(SimulationConfig.from_rig(rig), effect, 2).friction, law)
-    windows = make_windows([balancing_log(rig_name, 11, effect, 2, 8.0)], rig)
+    windows = make_windows([suite_log("balance", 11, effect, 2, 8.0, rig_name)], rig)
     nominal = Model.from_rig(rig)
     if effect == "arm_stribeck":
         params = Effect(

@@ -4,6 +4,7 @@ dynamics with friction and the DC motor against Drake's MultibodyPlant world."""
 
 import numpy as np
 import pytest
+from conftest import hanging_log
 from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from scipy.optimize import least_squares
@@ -11,36 +12,30 @@ from scipy.optimize import least_squares
 from benchmarks.suite import run_configs, with_effect
 from furuta_drake.diagnosis.fit import _best_start
 from furuta_drake.diagnosis.gap import make_windows, projected_residuals, substeps_for
-from furuta_drake.diagnosis.logs import RunLog
 from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR, WindowReplayer
 from furuta_drake.effects.surrogate import REGULARIZATION_VELOCITY, Model, _accelerations, predict_windows
 from furuta_drake.effects.surrogate_kernel import bristle_step, pack_friction
 from furuta_drake.effects.vocabulary import Effect, apply_effects
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters, bristle_friction_torque
 from furuta_drake.rig import RIGS
-from furuta_drake.simulate import simulate
 from furuta_drake.world import add_furuta_world
 
 LUND, QUBE = RIGS["lund"](), RIGS["qube_servo2"]()
 
 
 @pytest.fixture(scope="module")
-def hanging_windows():
-    """Four 217 ms windows of a 2 s Lund hanging run with viscous arm friction (the frictionless nominal model does
-    not explain it, so each window's residual is well away from zero)."""
+def all_hanging_windows():
+    """Every 217 ms window of a 2 s Lund hanging run with viscous arm friction (the frictionless nominal model does
+    not explain it, so each window's residual is well away from zero), and the simulated viscous coefficient."""
     config = with_effect(run_configs(LUND, 3, 2.0)["hanging"], "arm_viscous_friction", 2)
-    result = simulate(config)
-    log = RunLog(
-        name="hanging.csv",
-        path="",
-        time=result.time,
-        theta=result.measured[:, 0],
-        phi=result.measured[:, 1],
-        input_kind="torque",
-        input=result.torque,
-        sample_period=1e-3,
-    )
-    return make_windows([log], LUND).subset(4, seed=1)
+    log = hanging_log(3, "arm_viscous_friction", level=2, duration=2.0)
+    return make_windows([log], LUND), config.friction.arm.viscous
+
+
+@pytest.fixture(scope="module")
+def hanging_windows(all_hanging_windows):
+    """Four of those windows."""
+    return all_hanging_windows[0].subset(4, seed=1)
 
 
 def test_levenberg_marquardt_reaches_the_least_squares_minimum_of_every_window(hanging_windows):
@@ -73,24 +68,6 @@ def test_levenberg_marquardt_reaches_the_least_squares_minimum_of_every_window(h
         assert np.sum(window_residuals(start) ** 2) > 1.5 * ours  # the refinement had work to do
         assert ours == pytest.approx(2 * scipy.cost, rel=1e-8)
         np.testing.assert_allclose(states[0][:, w], scipy.x, rtol=0, atol=1e-5)
-
-
-@pytest.fixture(scope="module")
-def all_hanging_windows():
-    """Every window of the viscous-friction hanging run of ``hanging_windows``."""
-    config = with_effect(run_configs(LUND, 3, 2.0)["hanging"], "arm_viscous_friction", 2)
-    result = simulate(config)
-    log = RunLog(
-        name="hanging.csv",
-        path="",
-        time=result.time,
-        theta=result.measured[:, 0],
-        phi=result.measured[:, 1],
-        input_kind="torque",
-        input=result.torque,
-        sample_period=1e-3,
-    )
-    return make_windows([log], LUND), config.friction.arm.viscous
 
 
 def test_one_levenberg_marquardt_step_takes_almost_all_the_smoothed_states_error_off(all_hanging_windows):
