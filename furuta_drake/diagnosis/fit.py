@@ -5,6 +5,8 @@ several starts where the cost is multimodal, once per form of the new effect; th
 is kept. The cost re-projects the windows' initial states for every parameter vector (variable projection); its
 Jacobian is Kaufman's approximation (the residuals' change at the projected states, with the part the states
 could absorb projected out), its columns from the integration's exact forward sensitivities (:func:`_columns`).
+A screen (:func:`screen_task`) is the same least squares from the best start, stopped after a few evaluations on
+the windows that rank the starts: a step fits fully only the candidates whose screen comes near the best one's.
 
 Parameter intervals come from a block bootstrap over the train windows, linearised at the fit: each resample of
 windows (a window is a block: its residuals are correlated) takes one Gauss-Newton step from the fit with the
@@ -17,6 +19,7 @@ read from the data and judged by their own rule (:mod:`~furuta_drake.diagnosis.s
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,6 +48,7 @@ BOUND_TOLERANCE = 1e-3  # a parameter within this fraction of its range from a b
 INTERVAL = (2.5, 97.5)  # percentiles of the 95 % parameter intervals
 COST_TOLERANCE = 1e-4  # a fit stops when a step lowers its cost by less than this share (scipy's ftol)
 SCREEN_STEPS = 1  # Levenberg-Marquardt steps of the windows' initial states when a fit's starts are ranked
+SCREEN_EVALUATIONS = 4  # cost evaluations of a candidate's screen on the start windows (:func:`screen_task`)
 
 
 @dataclass
@@ -60,13 +64,14 @@ class FitResult:
     failure: str = ""  # why the fit or its held-out prediction failed ("" when it did not)
     train_excess: float = float("nan")  # mean excess squared residual on the train windows before the gap's clip
     # [counts^2]: orders fits that both reach the floor (a gap of 0)
+    screened: str = ""  # why the candidate was screened out: its values are a screen's, not a fit's ("": fitted)
 
 
 @dataclass(frozen=True)
 class FitTask:
     """What one fit needs; ``fixed``: effects the model already holds (fitted again from their values, or kept
     as they are when ``frozen``), then ``new``: the effect to add (from ``start`` when given, in its form, else
-    from every form's own starts)."""
+    in every form from ``starts``' start of that form when it holds one, else from the form's own starts)."""
 
     new: str
     fixed: dict[str, Effect]
@@ -79,6 +84,7 @@ class FitTask:
     fixed_samples: dict[str, np.ndarray] = field(default_factory=dict)  # the fixed effects' earlier bootstrap
     frozen: bool = False
     start: Effect | None = None
+    starts: dict[str, list[float]] = field(default_factory=dict)  # form -> the start a screen found best
     regressed: dict = field(default_factory=dict)  # the train logs' equation-error starts (Scales.regressed)
 
     @property
@@ -108,16 +114,55 @@ def scales_of(logs, model: Model, regressed: dict | None = None) -> Scales:
 def fit_task(task: FitTask) -> FitResult:
     """Fit ``task.fixed`` with ``task.new`` added on the train windows (every form of the new effect, the best
     kept), evaluate the result on the held-out windows, and bootstrap its parameters."""
-    counts = task.nominal_counts
-    candidate = CANDIDATES[task.new]
-    if not candidate.fit:
-        raise ValueError(f"{task.new} is a sensor effect: it is read from the data, not fitted")
-    forms = [task.start.form] if task.start is not None else [form.name for form in candidate.forms]
+    forms = [task.start.form] if task.start is not None else [form.name for form in _fitted(task.new).forms]
     fits = {form: _least_squares(task, {task.new: form}) for form in forms}
     effects, at_bound, samples, _ = _named_fit(task, fits)
+    return _evaluated(task, effects, samples, at_bound)
+
+
+@dataclass(frozen=True)
+class Screen:
+    """A candidate's screen (:func:`screen_task`)."""
+
+    effects: dict[str, Effect]  # the model's effects at the screen's end, the new one in its best form
+    starts: dict[str, list[float]]  # form -> its best start (a full fit goes on from there: ``FitTask.starts``)
+    excess: float  # the start windows' mean excess squared residual at the screen's end [counts^2]
+
+
+def screen_task(task: FitTask) -> Screen:
+    """A cheap first fit of ``task.new``: in each form, its best start (as :func:`fit_task` ranks them) and
+    ``SCREEN_EVALUATIONS`` cost evaluations of the least squares on the start windows from there; the form with
+    the least excess is the screen's. The selection fits fully only the candidates whose screen comes within reach
+    of the best one's (:meth:`~furuta_drake.diagnosis.stepwise.Stepwise.screened_fits`); the others keep their
+    screen (:func:`after_screen`), its values no fit's and without intervals."""
+    screens = {form.name: _screened(task, {task.new: form.name}) for form in _fitted(task.new).forms}
+    best = min(screens, key=lambda form: screens[form][2])
+    return Screen(screens[best][1], {form: screen[0] for form, screen in screens.items()}, screens[best][2])
+
+
+def after_screen(job: tuple[FitTask, Screen | None, bool]) -> FitResult:
+    """A screened candidate (``task``, its ``screen``, whether to ``fit`` it fully): its full fit from the starts
+    its screen ranked (from every start without a screen), else the screen's effects on the train and held-out
+    windows."""
+    task, screen, fit = job
+    if fit:
+        return fit_task(task if screen is None else dataclasses.replace(task, starts=screen.starts))
+    return _evaluated(task, screen.effects, {}, [])
+
+
+def _fitted(name: str):
+    """The candidate ``name``, which must be one the least squares fit."""
+    candidate = CANDIDATES[name]
+    if not candidate.fit:
+        raise ValueError(f"{name} is a sensor effect: it is read from the data, not fitted")
+    return candidate
+
+
+def _evaluated(task: FitTask, effects: dict[str, Effect], samples: dict, at_bound: list[str]) -> FitResult:
+    """The FitResult of ``task``'s model with ``effects``: its gaps on the train and held-out windows."""
     model = apply_effects(task.model, effects)
-    train = evaluate_gap(model, task.train, counts)
-    heldout = None if task.heldout is None else evaluate_gap(model, task.heldout, counts)
+    train = evaluate_gap(model, task.train, task.nominal_counts)
+    heldout = None if task.heldout is None else evaluate_gap(model, task.heldout, task.nominal_counts)
     if heldout is not None and not np.isfinite(heldout.gap):
         raise FloatingPointError(f"{task.name}: the fitted model's prediction diverged on held-out windows")
     names = (*task.fixed, task.new)
@@ -181,76 +226,115 @@ def _credited_heldout(task: FitTask, effects: dict[str, Effect], spread: float) 
     return heldout_jitter(model, task.train, task.heldout, task.nominal_counts, bootstrap, settings.seed).credited
 
 
+class _Problem:
+    """The least squares of every fitted parameter of ``task.model`` with ``task.fixed`` (from their values) and the
+    new effect in the form ``new_form``: the stacked parameters' names, sizes, bounds and starts, the effects and
+    the model at a parameter vector, and the fit and start windows."""
+
+    def __init__(self, task: FitTask, new_form: dict[str, str]):
+        settings = task.settings
+        self.task, self.new_form = task, new_form
+        self.scales = scales_of(task.logs, task.model, task.regressed)
+        self.forms, self.sensors = _forms(task, new_form, self.scales)
+        self.names, self.sizes, self.low, self.high, self.starts = _stacked(self.forms, self.scales)
+        self.span = self.high - self.low
+        self.base = apply_effects(task.model, self.sensors)
+        self.windows = task.train.subset(settings.fit_windows, settings.seed)
+        self.start_windows = self.windows.subset(settings.start_windows, seed=settings.seed + 1)
+
+    def effects_at(self, x) -> dict[str, Effect]:
+        out, i = {}, 0
+        for name, size in zip(self.names, self.sizes):
+            out[name] = Effect(self.forms[name][0], tuple(x[i : i + size]))
+            i += size
+        return out
+
+    def model_at(self, x) -> Model:
+        return apply_effects(self.base, self.effects_at(x))
+
+    def best_start(self) -> np.ndarray:
+        counts = self.task.nominal_counts
+        return _best_start(self.starts, self.low, self.high, self.model_at, self.start_windows, counts)
+
+    def residuals(self, windows: Windows) -> Residuals:
+        return Residuals(self.model_at, windows, self.task.nominal_counts, self.span, self.high)
+
+    def solve(self, residuals: Residuals, start: np.ndarray, max_nfev: int):
+        """``scipy.optimize.least_squares`` of ``residuals`` from ``start`` (trust region reflective, in the bounds)."""
+        return least_squares(
+            residuals.cost,
+            start,
+            jac=residuals.jacobian,
+            bounds=(self.low, self.high),
+            x_scale=np.maximum(self.span, 1e-12) / 10.0,
+            max_nfev=max_nfev,
+            ftol=COST_TOLERANCE,
+            method="trf",
+        )
+
+
 def _least_squares(task: FitTask, new_form: dict[str, str]):
     """Least squares of every fitted parameter of ``task.model`` with ``task.fixed`` (started from their values)
     and the new effect in the form ``new_form`` (from the best of its starts); returns (effects, at_bounds,
     bootstrap samples per effect, the mean squared residual [counts^2])."""
     settings, counts = task.settings, task.nominal_counts
-    scales = scales_of(task.logs, task.model, task.regressed)
-    forms, sensors = _forms(task, new_form, scales)
-    names, sizes, low, high, starts = _stacked(forms, scales)
-    span = high - low
-    base = apply_effects(task.model, sensors)
-
-    def effects_at(x) -> dict[str, Effect]:
-        out, i = {}, 0
-        for name, size in zip(names, sizes):
-            out[name] = Effect(forms[name][0], tuple(x[i : i + size]))
-            i += size
-        return out
-
-    def model_at(x):
-        return apply_effects(base, effects_at(x))
-
-    subset = task.train.subset(settings.fit_windows, settings.seed)
-    residuals = Residuals(model_at, subset, counts, span, high)
-    cost, jacobian, last, linearised = residuals.cost, residuals.jacobian, residuals.last, residuals.linearised
-
-    screen = subset.subset(settings.start_windows, seed=settings.seed + 1)
-    result = least_squares(
-        cost,
-        _best_start(starts, low, high, model_at, screen, counts),
-        jac=jacobian,
-        bounds=(low, high),
-        x_scale=np.maximum(span, 1e-12) / 10.0,
-        max_nfev=settings.max_nfev,
-        ftol=COST_TOLERANCE,
-        method="trf",
-    )
+    problem = _Problem(task, new_form)
+    names, sizes, low, high, span = problem.names, problem.sizes, problem.low, problem.high, problem.span
+    residuals = problem.residuals(problem.windows)
+    result = problem.solve(residuals, problem.best_start(), settings.max_nfev)
     x, total, profiles = result.x, float(2.0 * result.cost), {}
-    if not task.frozen:  # a screen beside frozen earlier effects only ranks the candidate; its refit searches
-        x, total, profiles = _search_jumps(cost, result, new_form, names, sizes, (low, high), scales.command_levels)
+    if not task.frozen:  # a fit beside frozen earlier effects only ranks the candidate; its refit searches
+        x, total, profiles = _search_jumps(
+            residuals.cost, result, new_form, names, sizes, (low, high), problem.scales.command_levels
+        )
+    linearised = residuals.linearised
     at_fit = linearised if "x" in linearised and np.array_equal(linearised["x"], x) else None
     samples = _jump_samples(
-        bootstrap_samples(model_at, x, subset, counts, span, low, high, settings, at_fit), profiles, last, settings
+        bootstrap_samples(problem.model_at, x, problem.windows, counts, span, low, high, settings, at_fit),
+        profiles,
+        residuals.last,
+        settings,
     )
-    split, i = {name: task.fixed_samples[name] for name in sensors if name in task.fixed_samples}, 0
+    split, i = {name: task.fixed_samples[name] for name in problem.sensors if name in task.fixed_samples}, 0
     for name, size in zip(names, sizes):
         split[name] = samples[:, i : i + size]
         i += size
     return (
-        {**sensors, **effects_at(x)},
-        at_bounds(names, [forms[n][0] for n in names], x, low, high),
+        {**problem.sensors, **problem.effects_at(x)},
+        at_bounds(names, [problem.forms[n][0] for n in names], x, low, high),
         split,
         total / result.fun.size,  # the mean squared residual [counts^2]
     )
 
 
+def _screened(task: FitTask, new_form: dict[str, str]) -> tuple[list[float], dict[str, Effect], float]:
+    """The screen of the new effect in the form ``new_form`` (:func:`screen_task`): its best start, the effects
+    after ``SCREEN_EVALUATIONS`` cost evaluations on the start windows from there, and the start windows' mean
+    excess squared residual [counts^2] with them."""
+    problem = _Problem(task, new_form)
+    start = problem.best_start()
+    result = problem.solve(problem.residuals(problem.start_windows), start, SCREEN_EVALUATIONS)
+    excess = evaluate_gap(problem.model_at(result.x), problem.start_windows, task.nominal_counts).per_window.mean()
+    return list(start), {**problem.sensors, **problem.effects_at(result.x)}, float(excess)
+
+
 def _forms(task: FitTask, new_form: dict[str, str], scales: Scales) -> tuple[dict, dict]:
-    """Per fitted effect its form and starts (a fixed effect from its values, the new one from ``task.start`` or
-    its form's starts), and the effects held as they are (sensor effects, or every fixed one when frozen)."""
+    """Per fitted effect its form and starts (a fixed effect from its values, the new one from ``task.start``, a
+    screen's start of its form in ``task.starts``, or its form's starts), and the effects held as they are (sensor
+    effects, or every fixed one when frozen)."""
     forms = (
         {}
         if task.frozen
         else {name: (effect.form, [list(effect.values)]) for name, effect in task.fixed.items() if CANDIDATES[name].fit}
     )
     for name, form_name in new_form.items():
-        forms[name] = (
-            form_name,
-            [list(task.start.values)]
-            if task.start is not None
-            else form_starts(name, CANDIDATES[name].form(form_name), scales),
-        )
+        if task.start is not None:
+            starts = [list(task.start.values)]
+        elif form_name in task.starts:
+            starts = [list(task.starts[form_name])]
+        else:
+            starts = form_starts(name, CANDIDATES[name].form(form_name), scales)
+        forms[name] = (form_name, starts)
     sensors = {name: effect for name, effect in task.fixed.items() if task.frozen or not CANDIDATES[name].fit}
     return forms, sensors
 
@@ -267,20 +351,20 @@ def _stacked(forms: dict, scales: Scales):
     return names, sizes, np.array(lows), np.array(highs), starts
 
 
-def _best_start(starts: list, low: np.ndarray, high: np.ndarray, model_at, screen: Windows, counts: int) -> np.ndarray:
-    """The start (clipped inside the bounds) of least squared residual on the ``screen`` windows, each window's
+def _best_start(starts: list, low: np.ndarray, high: np.ndarray, model_at, windows: Windows, counts: int) -> np.ndarray:
+    """The start (clipped inside the bounds) of least squared residual on the start ``windows``, each window's
     initial state refined by ``SCREEN_STEPS`` Levenberg-Marquardt steps (the first step takes the smoothed states'
-    error off, the later ones polish a ranking they rarely change); the only one without a screen."""
+    error off, the later ones polish a ranking they rarely change); the only one without a ranking."""
     span = high - low
     candidates = [np.clip(np.array(start, dtype=float), low + 1e-9 * span, high - 1e-9 * span) for start in starts]
     if len(candidates) == 1:
         return candidates[0]
 
-    def screened(x) -> float:
-        r = projected_residuals(model_at(x), screen, counts, sensitivities=False, steps=SCREEN_STEPS)[0]
+    def ranked(x) -> float:
+        r = projected_residuals(model_at(x), windows, counts, sensitivities=False, steps=SCREEN_STEPS)[0]
         return float(np.sum(_flat(r) ** 2))
 
-    return min(candidates, key=screened)
+    return min(candidates, key=ranked)
 
 
 class Residuals:

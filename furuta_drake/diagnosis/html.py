@@ -210,7 +210,7 @@ def _steps(report: dict) -> str:
 
 
 def _ranking(report: dict) -> str:
-    (header, shown), (_, folded), failed = tables.ranking_tables(report)
+    (header, shown), (_, folded), failed, screened = tables.ranking_tables(report)
     text = (
         '<h3 id="ranking">Candidates tried</h3><p class="muted">'
         f"The best {tables.TOP_PER_STEP} of each step; each row names the effect its step added to the earlier "
@@ -221,6 +221,9 @@ def _ranking(report: dict) -> str:
     if failed:
         items = "".join(f"<li>{_text(line)}</li>" for line in failed)
         text += f"<details><summary>{len(failed)} failed candidates (left out)</summary><ul>{items}</ul></details>"
+    if screened:
+        items = "".join(f"<li>{_text(line)}</li>" for line in screened)
+        text += f"<details><summary>{len(screened)} candidates screened out</summary><ul>{items}</ul></details>"
     return text
 
 

@@ -102,9 +102,10 @@ def _sensor_params(finding: SensorFinding, nominal: Model) -> tuple[dict, dict]:
 
 
 def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
-    """Every model tried, best first by its held-out reduction over the nominal model; failed ones last; then the
-    sensor effects read beside the final model (their predictions are the final model's: what they claim is their
-    ``sensor_share``, judged by their ``score_gain``)."""
+    """Every model tried, best first by its held-out reduction over the nominal model; those a step
+    screened out (their values a screen's) after the fitted ones, failed ones last; then the sensor effects read
+    beside the final model (their predictions are the final model's: what they claim is their ``sensor_share``,
+    judged by their ``score_gain``)."""
     rows = []
     for step, result in selection.tried:
         if result.failure:
@@ -129,14 +130,18 @@ def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
                 train_gap=result.train_gap,
                 at_bounds=result.at_bounds,
                 at_bound=at_bound,
+                status="screened" if result.screened else "ok",
+                reason=result.screened,
             )
         )
-    ok = [row for row in rows if row.status == "ok"]
     excess = {
         result.name: selection.over_nominal[result.name].excess for _, result in selection.tried if not result.failure
     }
-    ok.sort(key=lambda row: (-row.heldout_reduction, excess[row.effect], row.step, row.effect))
-    return ok + [row for row in rows if row.status != "ok"] + _sensor_rows(selection, nominal)
+    ordered = sorted(
+        (row for row in rows if row.status != "failed"),
+        key=lambda row: (row.status != "ok", -row.heldout_reduction, excess[row.effect], row.step, row.effect),
+    )
+    return ordered + [row for row in rows if row.status == "failed"] + _sensor_rows(selection, nominal)
 
 
 def _sensor_rows(selection: Selection, nominal: Model) -> list[RankedCandidate]:

@@ -231,12 +231,13 @@ def _evidence_markdown(report: dict, figures: dict[str, str]) -> list[str]:
     if "windows.svg" in figures:
         lines += ["", f"![{figures['windows.svg']}](windows.svg)"]
     lines += _table_markdown("Steps", *tables.steps_table(report), level="###")
-    (header, shown), (_, folded), failed = tables.ranking_tables(report)
+    (header, shown), (_, folded), failed, screened = tables.ranking_tables(report)
     lines += _table_markdown(f"Candidates tried (the best {tables.TOP_PER_STEP} of each step)", header, shown, "###")
     if folded:
         lines += ["", "<details><summary>The other candidates</summary>"] + _table_markdown("", header, folded)
         lines += ["", "</details>"]
     lines += ["", "Failed candidates (left out):", ""] + [f"- {line}" for line in failed] if failed else []
+    lines += ["", "Screened out (not fitted further):", ""] + [f"- {line}" for line in screened] if screened else []
     lines += ["", "### Where the gap is", "", narrative.where_sentence(report["localization"]), ""]
     lines += ["![Where the gap is](localization.svg)"] + _localization_markdown(report["localization"])
     lines += ["", "### More figures", ""]

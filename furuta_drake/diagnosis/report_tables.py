@@ -83,15 +83,19 @@ RANKING_HEADER = [
 ]
 
 
-def ranking_tables(report: dict) -> tuple[Table, Table, list[str]]:
-    """(the best ``TOP_PER_STEP`` candidates of each step, the others, the failed ones as "effect: reason")."""
+def ranking_tables(report: dict) -> tuple[Table, Table, list[str], list[str]]:
+    """(the best ``TOP_PER_STEP`` candidates of each step, the others, the failed ones and those a step's screen
+    left behind, each as "effect: reason")."""
     shown, folded = [], []
     for entry in (e for e in report.get("ranking", []) if e.get("status", "ok") == "ok"):
         same_step = sum(e.get("step", 1) == entry.get("step", 1) for e in shown)
         (shown if same_step < TOP_PER_STEP else folded).append(entry)
-    failed = [f"{e['effect']}: {e.get('reason', '')}" for e in report.get("ranking", []) if e.get("status") == "failed"]
+    failed, screened = (
+        [f"{e['effect']}: {e.get('reason', '')}" for e in report.get("ranking", []) if e.get("status") == status]
+        for status in ("failed", "screened")
+    )
     rows = [_ranking_row(e) for e in shown], [_ranking_row(e) for e in folded]
-    return (RANKING_HEADER, rows[0]), (RANKING_HEADER, rows[1]), failed
+    return (RANKING_HEADER, rows[0]), (RANKING_HEADER, rows[1]), failed, screened
 
 
 def _ranking_row(entry: dict) -> list[str]:

@@ -44,7 +44,9 @@ class RankedCandidate:
     """One candidate model tried: a single effect, or the effects of a step joined by '+' (the earlier accepted
     ones first). ``heldout_reduction`` and ``evidence`` (its 5 % bootstrap lower bound) are over the nominal
     model; ``*_over_previous`` over the model holding the earlier effects, which the acceptance rule reads.
-    ``status`` is ``failed`` when the fit or its prediction failed (``reason`` says why)."""
+    ``status`` is ``failed`` when the fit or its prediction failed, ``screened`` when its step's screen left it
+    too far behind the best to fit it further (its values are the screen's, without intervals); ``reason`` says
+    why."""
 
     effect: str
     params: dict[str, Any]

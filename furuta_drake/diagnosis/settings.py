@@ -25,6 +25,8 @@ class DiagnosisSettings:
         rig file may need four or five at once; each further step must still bring held-out evidence).
     detection_limits : whether to find the detection limit of every effect not accepted.
     replay : whether the headline held-out figures are replayed in Drake (else: the surrogate's).
+    screen : whether each forward step screens its candidates and fits fully only those within reach of the best
+        (else every candidate is fitted fully).
     seed : seed of every random draw (windows, resamples).
     """
 
@@ -36,6 +38,7 @@ class DiagnosisSettings:
     max_effects: int = MAX_EFFECTS
     detection_limits: bool = True
     replay: bool = True
+    screen: bool = True
     seed: int = 0
 
     def validate(self) -> None:

@@ -1,10 +1,11 @@
-"""The selection of effects (stage 4 of the diagnosis): forward, one effect at a time, each fitted together with
-the earlier ones and entering on the held-out rule's lenient bound; then backward, each kept only while the model
-without it is worse by the rule's margin; then exchanges, each kept effect replaced by a runner-up of the step it
-entered at when that explains the held-out data significantly better (:mod:`furuta_drake.diagnosis.rule` holds
-the rule). These are the effects that change the predictions; the sensor effects are then read beside the final
-model and judged on their own signature (:mod:`furuta_drake.diagnosis.sensor`), and a named jittering delay's
-draws are credited with the variance they add (:mod:`furuta_drake.diagnosis.jitter_fit`)."""
+"""The selection of effects (stage 4 of the diagnosis): forward, one effect at a time, each fitted together with the
+earlier ones (every candidate screened first, those the screen leaves far behind not fitted further) and entering on
+the held-out rule's lenient bound; then backward, each kept only while the model without it is worse by the rule's
+margin; then exchanges, each kept effect replaced by a runner-up of the step it entered at when that explains the
+held-out data significantly better (:mod:`furuta_drake.diagnosis.rule` holds the rule). These are the effects that
+change the predictions; the sensor effects are then read beside the final model and judged on their own signature
+(:mod:`furuta_drake.diagnosis.sensor`), and a named jittering delay's draws are credited with the variance they add
+(:mod:`furuta_drake.diagnosis.jitter_fit`)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from furuta_drake.diagnosis.equation_error import equation_error_starts
-from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task, scales_of
+from furuta_drake.diagnosis.fit import FitResult, FitTask, after_screen, fit_task, scales_of, screen_task
+from furuta_drake.diagnosis.formatting import percent
 from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
 from furuta_drake.diagnosis.jitter_fit import HeldoutJitter, heldout_jitter
 from furuta_drake.diagnosis.logs import RunLog
@@ -47,6 +49,8 @@ FRESH_STARTS_FROM = 3  # from this step, those refits also start from the new ef
 PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together
 EXCHANGE_RUNNERS_UP = 2  # per kept effect, the runners-up of its entry step tried in its place
 MAX_EXCHANGES = 2  # exchanges made at the most (each followed by the backward pass)
+SCREEN_REACH = 0.3  # a step's candidate whose screen reduces the gap the earlier effects leave by this much less
+# than the best screen (as shares of that gap on the start windows) is not fitted further
 
 
 @dataclass
@@ -136,8 +140,8 @@ class Selection:
         return verdict(dynamic, [finding.name for finding in sensors], self.shares, self.quiet or self.negligible)
 
     def nearest(self) -> FitResult | None:
-        """The single candidate that reduces the nominal held-out gap the most (None when none was fitted)."""
-        singles = [r for step, r in self.tried if step == 1 and not r.failure and "+" not in r.name]
+        """The single candidate fitted that reduces the nominal held-out gap the most (None when none was)."""
+        singles = [r for step, r in self.tried if step == 1 and not (r.failure or r.screened) and "+" not in r.name]
         return max(singles, key=lambda r: self.over_nominal[r.name].reduction, default=None)
 
     @property
@@ -198,6 +202,7 @@ class Stepwise:
             quiet=self.bootstrap.within_noise(self.nominal_gap.per_window),
             regressed=equation_error_starts(self.logs, nominal),
         )
+        self.screens: dict[str, tuple] = {}  # model name -> (its task, its screen): a candidate the screen left behind
 
     def select(self, names: list[str]) -> Selection:
         """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges, among the
@@ -243,12 +248,63 @@ class Stepwise:
 
     def fit(self, tasks: list[FitTask], step: int, previous) -> list[FitResult]:
         """The ``tasks`` fitted (a failed one as a FitResult with its reason), tried at ``step`` and recorded."""
-        results = [_as_fit(task, result) for task, result in zip(tasks, self.run(fit_task, tasks))]
+        return self.tried(tasks, self.run(fit_task, tasks), step, previous)
+
+    def tried(self, tasks: list[FitTask], results: list, step: int, previous) -> list[FitResult]:
+        """The ``results`` of ``tasks`` (a failed one as a FitResult with its reason), tried at ``step`` and
+        recorded."""
+        results = [_as_fit(task, result) for task, result in zip(tasks, results)]
         for result in results:
             self.selection.tried.append((step, result))
             if not result.failure:
                 self.record(result, previous)
         return results
+
+    def screened_fits(self, tasks: list[FitTask], step: int, previous) -> list[FitResult]:
+        """A step's candidates (``tasks``, beside the same earlier effects): each screened
+        (:func:`~furuta_drake.diagnosis.fit.screen_task`); fitted fully from the screen's starts when its screen's
+        reduction of the gap the earlier effects leave on the start windows comes within ``SCREEN_REACH`` of the
+        best screen's, or the screen failed (the fit says why); else kept as its screen, ``screened`` and why.
+        Recorded at ``step``. A candidate the screen leaves that far behind does not come near the best one once
+        both are fitted: it can neither enter nor be confused with the one that does."""
+        screens = [None if isinstance(s, Failure) else s for s in self.run(screen_task, tasks)]
+        before = self.start_excess(tasks[0].fixed) if tasks else 0.0
+        reduction = [
+            None if screen is None or before <= 0.0 else 1.0 - np.sqrt(max(screen.excess, 0.0) / before)
+            for screen in screens
+        ]
+        best = max((r for r in reduction if r is not None), default=None)
+        behind = [best is not None and r is not None and r < best - SCREEN_REACH for r in reduction]
+        results = self.run(after_screen, [(t, s, not left) for t, s, left in zip(tasks, screens, behind)])
+        gap = "the nominal gap" if step == 1 else "the gap the earlier effects leave"
+        for i, task in enumerate(tasks):
+            if behind[i] and not isinstance(results[i], Failure):
+                share = percent(round(reduction[i], 2) + 0.0)  # (no "-0 %")
+                reason = f"its screen reduced {gap} on the start windows by {share}, the best screen by {percent(best)}"
+                results[i] = dataclasses.replace(results[i], screened=reason + ": not fitted further")
+                self.screens[task.name] = (task, screens[i])
+        return self.tried(tasks, results, step, previous)
+
+    def start_excess(self, effects: dict) -> float:
+        """The mean excess squared residual [counts^2] on the start windows of the nominal model with ``effects``."""
+        settings = self.settings
+        windows = self.train.subset(settings.fit_windows, settings.seed)
+        windows = windows.subset(settings.start_windows, seed=settings.seed + 1)
+        return float(evaluate_gap(apply_effects(self.nominal, effects), windows, self.counts).per_window.mean())
+
+    def fit_screened_out(self, fitted: dict[str, FitResult], previous) -> dict[str, FitResult]:
+        """``fitted`` with every candidate the screen left behind fitted fully from its screen's starts, each in its
+        screen's place among the models tried."""
+        out = [name for name, result in fitted.items() if result.screened]
+        jobs = [(*self.screens[name], True) for name in out]
+        results = [_as_fit(job[0], result) for job, result in zip(jobs, self.run(after_screen, jobs))]
+        replaced = {id(fitted[name]): result for name, result in zip(out, results)}
+        self.selection.tried = [(s, replaced.get(id(r), r)) for s, r in self.selection.tried]
+        for result in results:
+            if not result.failure:
+                self.record(result, previous)
+        kept = {name: result for name, result in fitted.items() if name not in out}
+        return kept | {name: result for name, result in zip(out, results) if not result.failure}
 
     def best_form(self, result: FitResult, result_task: FitTask, previous) -> FitResult:
         """``result``, or its refit with another form of its earlier effects when that fits the train windows
@@ -284,21 +340,25 @@ class Stepwise:
         if step > 1 and at_floor(previous):
             return False
         pool = [name for name in names if not law_of(name) & set(selection.accepted)]
-        fitted = {
-            r.name: r
-            for r in self.fit([self.task(name, held, frozen=step > 1) for name in pool], step, previous)
-            if not r.failure
-        }
+        tasks = [self.task(name, held, frozen=step > 1) for name in pool]
+        screened = self.settings.screen
+        results = self.screened_fits(tasks, step, previous) if screened else self.fit(tasks, step, previous)
+        fitted = {r.name: r for r in results if not r.failure}
         if at_floor(self.nominal_gap.per_window):
             return False
         if step > 1:
             self.joint_refits(fitted, held, step, previous)
-        fitted = {name: result for name, result in fitted.items() if not _null(result, self.scales)}
+        pairs = step == 1 and not selection.quiet and self.settings.max_effects > 1
+        kept, chosen = self.choice(fitted, previous)
+        if any(result.screened for result in fitted.values()) and (
+            kept[chosen].screened if chosen is not None else pairs
+        ):  # the rule chose a screen, or none enters alone and the pairs start from every candidate's fit
+            kept, chosen = self.choice(self.fit_screened_out(fitted, previous), previous)
+        fitted = kept
         evidence = {name: selection.over_previous[name] for name in fitted}
         added = {name: name.split("+")[-1] for name in fitted}
         per_window = {name: result.heldout.per_window for name, result in fitted.items()}
-        chosen = choose(evidence, added, ENTRY, previous, per_window, self.bootstrap)
-        if chosen is None and step == 1 and not selection.quiet and self.settings.max_effects > 1:
+        if chosen is None and pairs:
             pair = _enter_pair(
                 fitted, self.task, lambda tasks, before=previous: self.fit(tasks, 2, before), selection, self.scales
             )
@@ -317,12 +377,20 @@ class Stepwise:
         selection.accepted.append(added[chosen])
         return True
 
+    def choice(self, fitted: dict[str, FitResult], previous) -> tuple[dict[str, FitResult], str | None]:
+        """(``fitted`` less the candidates at zero size, the rule's choice among them over ``previous`` or None)."""
+        fitted = {name: result for name, result in fitted.items() if not _null(result, self.scales)}
+        evidence = {name: self.selection.over_previous[name] for name in fitted}
+        added = {name: name.split("+")[-1] for name in fitted}
+        per_window = {name: result.heldout.per_window for name, result in fitted.items()}
+        return fitted, choose(evidence, added, ENTRY, previous, per_window, self.bootstrap)
+
     def joint_refits(self, fitted: dict[str, FitResult], held: FitResult, step: int, previous) -> None:
-        """The ``JOINT_REFITS`` most promising screened candidates fitted again together with the earlier effects,
-        from the screen; beside two or more earlier effects also from the new effect's own starts in each of its
-        forms (the screen fits it beside earlier effects that stood in for it, so its value there can sit in
+        """The ``JOINT_REFITS`` most promising candidates fitted again together with the earlier effects, from their
+        fits beside the earlier effects held; beside two or more earlier effects also from the new effect's own
+        starts in each of its forms (fitted beside earlier effects that stood in for it, its value there can sit in
         another basin of the joint cost: a delay beside friction and an inertia error). The best fit on the train
-        windows (its excess before the gap's clip at the floor) replaces the screen in ``fitted``."""
+        windows (its excess before the gap's clip at the floor) replaces the held fit in ``fitted``."""
         selection = self.selection
         best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
         tasks = [self.task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]]) for name in best]
