@@ -197,7 +197,7 @@ def _named_fit(task: FitTask, fits: dict) -> tuple:
     effects = {**effects, task.new: Effect(form.name, (delay, min(spread, causal_spread(delay))))}
     evidence = spread_by_likelihood(
         apply_effects(task.model, effects),
-        task.train.subset(settings.fit_windows, settings.seed),
+        fit_windows(task.train, settings)[0],
         task.nominal_counts,
         (low, high),
         samples[task.new].shape[0],
@@ -226,21 +226,25 @@ def _credited_heldout(task: FitTask, effects: dict[str, Effect], spread: float) 
     return heldout_jitter(model, task.train, task.heldout, task.nominal_counts, bootstrap, settings.seed).credited
 
 
+def fit_windows(train: Windows, settings: DiagnosisSettings) -> tuple[Windows, Windows]:
+    """(the train windows a fit uses, drawn seeded; of those, the windows that rank its starts and carry a screen)."""
+    windows = train.subset(settings.fit_windows, settings.seed)
+    return windows, windows.subset(settings.start_windows, seed=settings.seed + 1)
+
+
 class _Problem:
     """The least squares of every fitted parameter of ``task.model`` with ``task.fixed`` (from their values) and the
     new effect in the form ``new_form``: the stacked parameters' names, sizes, bounds and starts, the effects and
     the model at a parameter vector, and the fit and start windows."""
 
     def __init__(self, task: FitTask, new_form: dict[str, str]):
-        settings = task.settings
         self.task, self.new_form = task, new_form
         self.scales = scales_of(task.logs, task.model, task.regressed)
         self.forms, self.sensors = _forms(task, new_form, self.scales)
         self.names, self.sizes, self.low, self.high, self.starts = _stacked(self.forms, self.scales)
         self.span = self.high - self.low
         self.base = apply_effects(task.model, self.sensors)
-        self.windows = task.train.subset(settings.fit_windows, settings.seed)
-        self.start_windows = self.windows.subset(settings.start_windows, seed=settings.seed + 1)
+        self.windows, self.start_windows = fit_windows(task.train, task.settings)
 
     def effects_at(self, x) -> dict[str, Effect]:
         out, i = {}, 0

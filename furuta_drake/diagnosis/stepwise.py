@@ -16,7 +16,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from furuta_drake.diagnosis.equation_error import equation_error_starts
-from furuta_drake.diagnosis.fit import FitResult, FitTask, after_screen, fit_task, scales_of, screen_task
+from furuta_drake.diagnosis.fit import (
+    FitResult,
+    FitTask,
+    after_screen,
+    fit_task,
+    fit_windows,
+    scales_of,
+    screen_task,
+)
 from furuta_drake.diagnosis.formatting import percent
 from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
 from furuta_drake.diagnosis.jitter_fit import HeldoutJitter, heldout_jitter
@@ -264,15 +272,15 @@ class Stepwise:
         """A step's candidates (``tasks``, beside the same earlier effects): each screened
         (:func:`~furuta_drake.diagnosis.fit.screen_task`); fitted fully from the screen's starts when its screen's
         reduction of the gap the earlier effects leave on the start windows comes within ``SCREEN_REACH`` of the
-        best screen's, or the screen failed (the fit says why); else kept as its screen, ``screened`` and why.
-        Recorded at ``step``. A candidate the screen leaves that far behind does not come near the best one once
+        best screen's, or the screen failed (the fit says why); else kept as its screen, ``screened`` and why. Every
+        candidate is fitted when the earlier effects leave no excess over the floor on the start windows. Recorded
+        at ``step``. A candidate the screen leaves that far behind does not come near the best one once
         both are fitted: it can neither enter nor be confused with the one that does."""
-        screens = [None if isinstance(s, Failure) else s for s in self.run(screen_task, tasks)]
         before = self.start_excess(tasks[0].fixed) if tasks else 0.0
-        reduction = [
-            None if screen is None or before <= 0.0 else 1.0 - np.sqrt(max(screen.excess, 0.0) / before)
-            for screen in screens
-        ]
+        if before <= 0.0:  # the start windows sit at the floor already: no screen tells the candidates apart
+            return self.fit(tasks, step, previous)
+        screens = [None if isinstance(s, Failure) else s for s in self.run(screen_task, tasks)]
+        reduction = [None if s is None else 1.0 - np.sqrt(max(s.excess, 0.0) / before) for s in screens]
         best = max((r for r in reduction if r is not None), default=None)
         behind = [best is not None and r is not None and r < best - SCREEN_REACH for r in reduction]
         results = self.run(after_screen, [(t, s, not left) for t, s, left in zip(tasks, screens, behind)])
@@ -287,9 +295,7 @@ class Stepwise:
 
     def start_excess(self, effects: dict) -> float:
         """The mean excess squared residual [counts^2] on the start windows of the nominal model with ``effects``."""
-        settings = self.settings
-        windows = self.train.subset(settings.fit_windows, settings.seed)
-        windows = windows.subset(settings.start_windows, seed=settings.seed + 1)
+        windows = fit_windows(self.train, self.settings)[1]
         return float(evaluate_gap(apply_effects(self.nominal, effects), windows, self.counts).per_window.mean())
 
     def fit_screened_out(self, fitted: dict[str, FitResult], previous) -> dict[str, FitResult]:
@@ -355,9 +361,7 @@ class Stepwise:
         ):  # the rule chose a screen, or none enters alone and the pairs start from every candidate's fit
             kept, chosen = self.choice(self.fit_screened_out(fitted, previous), previous)
         fitted = kept
-        evidence = {name: selection.over_previous[name] for name in fitted}
-        added = {name: name.split("+")[-1] for name in fitted}
-        per_window = {name: result.heldout.per_window for name, result in fitted.items()}
+        evidence, added, per_window = self.rule_inputs(fitted)
         if chosen is None and pairs:
             pair = _enter_pair(
                 fitted, self.task, lambda tasks, before=previous: self.fit(tasks, 2, before), selection, self.scales
@@ -380,10 +384,15 @@ class Stepwise:
     def choice(self, fitted: dict[str, FitResult], previous) -> tuple[dict[str, FitResult], str | None]:
         """(``fitted`` less the candidates at zero size, the rule's choice among them over ``previous`` or None)."""
         fitted = {name: result for name, result in fitted.items() if not _null(result, self.scales)}
+        evidence, added, per_window = self.rule_inputs(fitted)
+        return fitted, choose(evidence, added, ENTRY, previous, per_window, self.bootstrap)
+
+    def rule_inputs(self, fitted: dict[str, FitResult]) -> tuple[dict, dict, dict]:
+        """Per model in ``fitted``: its evidence over the model it was built on, the effect it adds, and its
+        held-out excess per window: what the rule reads."""
         evidence = {name: self.selection.over_previous[name] for name in fitted}
         added = {name: name.split("+")[-1] for name in fitted}
-        per_window = {name: result.heldout.per_window for name, result in fitted.items()}
-        return fitted, choose(evidence, added, ENTRY, previous, per_window, self.bootstrap)
+        return evidence, added, {name: result.heldout.per_window for name, result in fitted.items()}
 
     def joint_refits(self, fitted: dict[str, FitResult], held: FitResult, step: int, previous) -> None:
         """The ``JOINT_REFITS`` most promising candidates fitted again together with the earlier effects, from their
