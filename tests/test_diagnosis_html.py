@@ -12,7 +12,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis.html import report_html
-from furuta_drake.diagnosis.report import report_json
+from furuta_drake.diagnosis.report import report_json, report_markdown
 
 
 class Page(HTMLParser):
@@ -164,6 +164,20 @@ def test_optional_keys_are_shown_when_present(tmp_path):
     assert "One row per accepted step" in page.headings
     assert "<b>Intervals.</b> bootstrap over windows." in text
     assert "with the accepted effects" in text[text.index('id="localization"') :]  # the after bars' legend
+
+
+def test_a_screened_candidate_is_listed_apart_from_the_fitted_ones(tmp_path):
+    """A candidate its step's screen left behind has a screen's values, not a fit's: the page and report.md list it
+    with the reason, outside the table of fitted candidates."""
+    report = small_report()
+    reason = "its screen reduced the nominal gap on the start windows by 4 %, the best screen by 90 %: not fitted"
+    report["ranking"][1].update(status="screened", reason=reason)
+    text = report_html(report, tmp_path, {})
+    assert "delay = 4 ms" not in Page(text).cells and "coulomb = 15.1 mN m" in Page(text).cells
+    assert "1 candidates screened out" in text and f"input_delay: {reason}" in text
+    markdown = report_markdown(report, {})
+    assert f"Screened out (not fitted further):\n\n- input_delay: {reason}" in markdown
+    assert "delay = 4 ms" not in markdown
 
 
 def test_a_report_with_only_the_required_keys_renders(tmp_path):
