@@ -5,6 +5,8 @@ and the parsimony rule at the floor."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from furuta_drake.diagnosis.fit import FitResult
@@ -254,3 +256,15 @@ def test_no_exchange_brings_in_an_effect_at_zero_size():
         selection, bootstrap, _gap(NOMINAL), task, null_lag, lambda result, task, before: result, SCALES
     )
     assert selection.accepted == ["input_delay", "arm_coulomb_friction"]
+
+
+def test_a_screen_is_no_model_the_backward_pass_or_an_exchange_compares_with():
+    """A candidate its step's screen left behind holds the screen's values, not a fit's: asked for the model
+    holding its effects, the selection has none (the backward pass then refits it), while a fit of the same
+    effects is found."""
+    screened = dataclasses.replace(_single("input_delay", 1.7), screened="left behind by its screen")
+    selection = Selection(_gap(NOMINAL), [(1, screened)])
+    assert selection.model(["input_delay"]) is None
+    fitted = _single("input_delay", 1.6)
+    selection.tried.append((1, fitted))
+    assert selection.model(["input_delay"]) is fitted

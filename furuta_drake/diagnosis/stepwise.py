@@ -87,8 +87,11 @@ class Selection:
     jitter: HeldoutJitter | None = None  # the final model's jittering delay judged on the held-out windows
 
     def model(self, effects) -> FitResult | None:
-        """The fitted model holding exactly ``effects`` (in any order), or None."""
-        return next((r for _, r in self.tried if not r.failure and set(r.effects) == set(effects)), None)
+        """The fitted model holding exactly ``effects`` (in any order), or None (a screen is no fit: a model the
+        backward pass or an exchange compares with must be one)."""
+        return next(
+            (r for _, r in self.tried if not (r.failure or r.screened) and set(r.effects) == set(effects)), None
+        )
 
     @property
     def step_models(self) -> list[FitResult]:
