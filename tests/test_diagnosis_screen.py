@@ -68,6 +68,8 @@ def test_the_screen_keeps_the_decision_and_leaves_behind_only_what_cannot_come_n
     full = _select(rig, logs, dataclasses.replace(SETTINGS, screen=False))
     assert screened.accepted == full.accepted and screened.accepted[0] == "arm_viscous_friction"
     assert screened.final.effects == full.final.effects  # the model that entered was fitted as without a screen
+    models = [frozenset(result.effects) for _, result in screened.tried if not result.failure]
+    assert len(models) == len(set(models))  # one row per model: a later fit takes the place of its screen
     left = {result.name: result for step, result in screened.tried if step == 1 and result.screened}
     assert left, "a strong viscous friction leaves some candidate far behind on the screen"
     assert "arm_viscous_friction" not in left

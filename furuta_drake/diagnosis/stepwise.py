@@ -263,10 +263,17 @@ class Stepwise:
 
     def tried(self, tasks: list[FitTask], results: list, step: int, previous) -> list[FitResult]:
         """The ``results`` of ``tasks`` (a failed one as a FitResult with its reason), tried at ``step`` and
-        recorded."""
+        recorded; a fit takes the place of a screen of the same model among the models tried."""
         results = [_as_fit(task, result) for task, result in zip(tasks, results)]
+        tried = self.selection.tried
         for result in results:
-            self.selection.tried.append((step, result))
+            screen = next(
+                (i for i, (_, r) in enumerate(tried) if r.screened and set(r.effects) == set(result.effects)), None
+            )
+            if screen is None or result.failure:
+                tried.append((step, result))
+            else:
+                tried[screen] = (step, result)
             if not result.failure:
                 self.record(result, previous)
         return results
@@ -301,17 +308,12 @@ class Stepwise:
         windows = fit_windows(self.train, self.settings)[1]
         return float(evaluate_gap(apply_effects(self.nominal, effects), windows, self.counts).per_window.mean())
 
-    def fit_screened_out(self, fitted: dict[str, FitResult], previous) -> dict[str, FitResult]:
+    def fit_screened_out(self, fitted: dict[str, FitResult], step: int, previous) -> dict[str, FitResult]:
         """``fitted`` with every candidate the screen left behind fitted fully from its screen's starts, each in its
         screen's place among the models tried."""
         out = [name for name, result in fitted.items() if result.screened]
         jobs = [(*self.screens[name], True) for name in out]
-        results = [_as_fit(job[0], result) for job, result in zip(jobs, self.run(after_screen, jobs))]
-        replaced = {id(fitted[name]): result for name, result in zip(out, results)}
-        self.selection.tried = [(s, replaced.get(id(r), r)) for s, r in self.selection.tried]
-        for result in results:
-            if not result.failure:
-                self.record(result, previous)
+        results = self.tried([job[0] for job in jobs], self.run(after_screen, jobs), step, previous)
         kept = {name: result for name, result in fitted.items() if name not in out}
         return kept | {name: result for name, result in zip(out, results) if not result.failure}
 
@@ -362,7 +364,7 @@ class Stepwise:
         if any(result.screened for result in fitted.values()) and (
             kept[chosen].screened if chosen is not None else pairs
         ):  # the rule chose a screen, or none enters alone and the pairs start from every candidate's fit
-            kept, chosen = self.choice(self.fit_screened_out(fitted, previous), previous)
+            kept, chosen = self.choice(self.fit_screened_out(fitted, step, previous), previous)
         fitted = kept
         evidence, added, per_window = self.rule_inputs(fitted)
         if chosen is None and pairs:
@@ -402,7 +404,8 @@ class Stepwise:
         fits beside the earlier effects held; beside two or more earlier effects also from the new effect's own
         starts in each of its forms (fitted beside earlier effects that stood in for it, its value there can sit in
         another basin of the joint cost: a delay beside friction and an inertia error). The best fit on the train
-        windows (its excess before the gap's clip at the floor) replaces the held fit in ``fitted``."""
+        windows (its excess before the gap's clip at the floor; any refit over a screen) replaces the held fit in
+        ``fitted``."""
         selection = self.selection
         best = sorted(fitted, key=lambda name: -selection.over_previous[name].reduction)[:JOINT_REFITS]
         tasks = [self.task(name.split("+")[-1], held, start=fitted[name].effects[name.split("+")[-1]]) for name in best]
@@ -410,7 +413,8 @@ class Stepwise:
             tasks += [self.task(name.split("+")[-1], held) for name in best]
         results = self.fit(tasks, step, previous)
         for i, name in enumerate(best):
-            options = [fitted[name]] + [r for r in results[i :: len(best)] if not r.failure]
+            refits = [r for r in results[i :: len(best)] if not r.failure]
+            options = refits if refits and fitted[name].screened else [fitted[name], *refits]  # a screen is no fit
             kept = min(options, key=lambda r: r.train_excess)
             dropped = [r for r in [fitted[name], *results[i :: len(best)]] if r is not kept]
             selection.tried = [(s, r) for s, r in selection.tried if not any(r is d for d in dropped)]
