@@ -441,16 +441,22 @@ def _run_diagnose(args) -> int:
     for note in diagnosis.notes:
         print(note)
     write_report(args.out, diagnosis, force=args.force, protect=protect)
+    print(diagnosis_summary(diagnosis, args.out))
+    return 0
+
+
+def diagnosis_summary(diagnosis, out) -> str:
+    """The line ``diagnose`` ends on: the verdict, the held-out gap before and after, the failed candidates' count
+    (a candidate its step's screen left behind did not fail) and where the report is."""
     gap = diagnosis.gap
-    failed = [entry.effect for entry in diagnosis.ranking if entry.status != "ok"]
-    print(
+    failed = [entry.effect for entry in diagnosis.ranking if entry.status == "failed"]
+    return (
         f"verdict: {diagnosis.verdict} (effects: {', '.join(diagnosis.effects) or '-'}); held-out gap "
         f"{gap.nominal['heldout']:.3g} -> {gap.with_effects['heldout']:.3g} counts "
         f"({gap.heldout_reduction:.0%} reduction)"
         + (f"; {len(failed)} candidate(s) failed, listed in the report" if failed else "")
-        + f"; report in {args.out}"
+        + f"; report in {out}"
     )
-    return 0
 
 
 def _run_design(args) -> int:

@@ -1,12 +1,13 @@
 """``furuta-drake diagnose`` end to end on short Drake-simulated logs with no hidden effect."""
 
 import json
+from types import SimpleNamespace
 
 import pytest
 
 from benchmarks.suite import VOCABULARY, run_configs
-from furuta_drake.cli import main
-from furuta_drake.diagnosis.result import SPEC_KEYS
+from furuta_drake.cli import diagnosis_summary, main
+from furuta_drake.diagnosis.result import SPEC_KEYS, RankedCandidate
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig
 from furuta_drake.simulate import simulate
@@ -97,3 +98,21 @@ def test_ctrl_c_leaves_no_output_and_says_so(tmp_path):
     assert process.returncode == 130
     assert "interrupted; no result was written" in stderr and "Traceback" not in stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rig.yaml", "train.csv"]
+
+
+def test_the_closing_line_counts_failed_candidates_and_not_screened_ones():
+    """A candidate its step's screen left behind was not fitted further; it did not fail."""
+
+    def row(effect, status):
+        return RankedCandidate(effect, {}, 2.0, 0.1, 0.0, status=status, reason="why")
+
+    gap = SimpleNamespace(nominal={"heldout": 3.43}, with_effects={"heldout": 1.13}, heldout_reduction=0.67)
+    ranking = [row("inertia_mismatch", "ok"), row("arm_spring", "screened"), row("actuator_lag", "screened")]
+    diagnosis = SimpleNamespace(verdict="inertia_mismatch", effects=["inertia_mismatch"], gap=gap, ranking=ranking)
+    line = diagnosis_summary(diagnosis, "out")
+    assert line == (
+        "verdict: inertia_mismatch (effects: inertia_mismatch); held-out gap 3.43 -> 1.13 counts (67% reduction); "
+        "report in out"
+    )
+    diagnosis.ranking = [*ranking, row("input_delay", "failed")]
+    assert "; 1 candidate(s) failed, listed in the report;" in diagnosis_summary(diagnosis, "out")
