@@ -34,6 +34,7 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
     state_jacobians,
+    window_excess,
 )
 from furuta_drake.diagnosis.jitter_fit import heldout_jitter, spread_by_likelihood
 from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
@@ -238,7 +239,7 @@ class _Problem:
     the model at a parameter vector, and the fit and start windows."""
 
     def __init__(self, task: FitTask, new_form: dict[str, str]):
-        self.task, self.new_form = task, new_form
+        self.task = task
         self.scales = scales_of(task.logs, task.model, task.regressed)
         self.forms, self.sensors = _forms(task, new_form, self.scales)
         self.names, self.sizes, self.low, self.high, self.starts = _stacked(self.forms, self.scales)
@@ -317,8 +318,11 @@ def _screened(task: FitTask, new_form: dict[str, str]) -> tuple[list[float], dic
     excess squared residual [counts^2] with them."""
     problem = _Problem(task, new_form)
     start = problem.best_start()
-    result = problem.solve(problem.residuals(problem.start_windows), start, SCREEN_EVALUATIONS)
-    excess = evaluate_gap(problem.model_at(result.x), problem.start_windows, task.nominal_counts).per_window.mean()
+    residuals = problem.residuals(problem.start_windows)
+    result = problem.solve(residuals, start, SCREEN_EVALUATIONS)
+    if not np.array_equal(residuals.last["x"], result.x):  # the solver's last evaluation was a refused step
+        residuals.cost(result.x)
+    excess = window_excess(residuals.last["raw"], problem.start_windows.floor).mean()
     return list(start), {**problem.sensors, **problem.effects_at(result.x)}, float(excess)
 
 

@@ -102,10 +102,10 @@ def _sensor_params(finding: SensorFinding, nominal: Model) -> tuple[dict, dict]:
 
 
 def ranking(selection: Selection, nominal: Model) -> list[RankedCandidate]:
-    """Every model tried, best first by its held-out reduction over the nominal model; those a step
-    screened out (their values a screen's) after the fitted ones, failed ones last; then the sensor effects read
-    beside the final model (their predictions are the final model's: what they claim is their ``sensor_share``,
-    judged by their ``score_gain``)."""
+    """Every model tried, best first by its held-out reduction over the nominal model; those a step screened out
+    (their values a screen's) after the fitted ones, failed ones last; then the sensor effects read beside the final
+    model (their predictions are the final model's: what they claim is their ``sensor_share``, judged by their
+    ``score_gain``)."""
     rows = []
     for step, result in selection.tried:
         if result.failure:
