@@ -350,8 +350,9 @@ def projected_residuals(
     Each window takes ``steps`` Levenberg-Marquardt steps with its own damping: a step is kept only
     where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
     overshoot), and the window's damping shrinks 3x after a kept step and grows 10x, to at least 1 (about half
-    the Gauss-Newton step), after a refused one. The sensitivities are simulated for the kept steps alone (each
-    window's prediction depends on its own state and command alone), and the input chain once per batch. The
+    the Gauss-Newton step), after a refused one. Where a kept step's sensitivities are read afterwards, every trial
+    is simulated with them, in the one pass that gives its angles (most steps are kept; each window's prediction
+    depends on its own state and command alone), and the input chain once per batch. The
     steps are written here because scipy's least-squares solvers take one problem at a time: batched over
     windows, every window's step costs one surrogate call for all of them."""
     count = encoder_resolution(nominal_counts)
@@ -410,14 +411,16 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         trial = x + np.linalg.solve(normal, gradient[..., None])[..., 0].T
         if bristles:
             trial[4] = np.clip(trial[4], -bound, bound)
-        angles = _angles(model, trial, torque, batch, substeps)
+        needed = sensitivities or step < steps - 1  # a kept trial's sensitivities are read after this step
+        if needed:
+            angles, J_trial = _state_jacobian(model, trial, torque, batch, substeps, count)
+        else:
+            angles = _angles(model, trial, torque, batch, substeps)
         r_trial = (batch.measured - angles) / count
         cost_trial = np.nansum(r_trial**2, axis=(0, 1))
         better = cost_trial < cost
-        kept = np.flatnonzero(better)
-        if kept.size and (sensitivities or step < steps - 1):
-            J = J.copy()
-            J[:, :, kept] = _state_jacobian(model, trial[:, kept], torque[:, kept], batch, substeps, count)[1]
+        if needed:
+            J = np.where(better[None, None, :, None], J_trial, J)
         x, r = np.where(better, trial, x), np.where(better, r_trial, r)
         cost = np.where(better, cost_trial, cost)
         damping = np.where(better, damping / 3.0, np.maximum(damping * 10.0, 1.0))
