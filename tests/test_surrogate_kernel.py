@@ -3,6 +3,8 @@
 solution, and the lag filter against the first-order lag's closed form."""
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -143,3 +145,17 @@ def test_integrate_raises_at_a_division_by_zero_as_the_checked_kernel():
     arm = JointFrictionParameters(model="static", coulomb_pos=1e-3, coulomb_neg=1e-3, regularization_velocity=0.0)
     with pytest.raises(ZeroDivisionError):
         kernel.integrate(x0, z0, torque, 1e-3, 1, *_rows(arm))
+
+
+def test_load_kernel_leaves_every_variant_the_fits_call_in_the_process():
+    """A fresh process that called load_kernel holds the kernels compiled, their checked variants (a diverging
+    window runs checked) included, so that worker processes forked from it compile nothing mid-run."""
+    script = (
+        "from furuta_drake.effects import surrogate, surrogate_kernel, surrogate_tangent\n"
+        "surrogate.load_kernel()\n"
+        "kernels = (surrogate_kernel._unchecked, surrogate_kernel._checked, surrogate_tangent._unchecked,\n"
+        "           surrogate_tangent._checked, surrogate_kernel.bristle_path)\n"
+        "print([len(kernel.overloads) for kernel in kernels])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True).stdout
+    assert out.split("\n")[-2] == "[1, 1, 1, 1, 1]"

@@ -399,12 +399,15 @@ def same_branches(model: Model, other: Model) -> bool:
 def load_kernel() -> None:
     """Compile the kernel's functions for the argument types of :func:`predict_windows` and
     :func:`state_sensitivities` in this process (or load them from numba's cache), e.g. before worker processes
-    are forked, which then inherit them instead of each compiling or loading its own."""
+    are forked, which then inherit them instead of each compiling or loading its own. Their checked variants too
+    (a window from a non-finite state runs checked): a fit whose prediction diverges needs them, and a worker that
+    compiled one itself would do so mid-run, in every worker that meets such a fit."""
     model = Model(
         1e-3, 1e-4, 5e-5, 1e-2, JointFrictionParameters.dahl(1e-3, 1e-3, sigma0=1.0), JointFrictionParameters()
     )
     command, starts = np.zeros(HISTORY + 8), np.array([HISTORY])
     bristle_path(command, model.arm_friction, 1e-3)
-    predict_windows(model.replace(lag=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1, np.zeros(1))
-    state_sensitivities(model, np.zeros((4, 1)), np.zeros((2, 1)), 1e-3, 1, np.zeros(1))
+    for x0 in (np.zeros((4, 1)), np.full((4, 1), np.nan)):
+        predict_windows(model.replace(lag=1e-3), x0, command, starts, 3, 1e-3, 1, np.zeros(1))
+        state_sensitivities(model, x0, np.zeros((2, 1)), 1e-3, 1, np.zeros(1))
     predict_windows(model.replace(rotor_share=0.5, drive_backlash=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1)
