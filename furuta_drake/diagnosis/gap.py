@@ -350,10 +350,10 @@ def projected_residuals(
     Each window takes ``steps`` Levenberg-Marquardt steps with its own damping: a step is kept only
     where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
     overshoot), and the window's damping shrinks 3x after a kept step and grows 10x, to at least 1 (about half
-    the Gauss-Newton step), after a refused one. Where a kept step's sensitivities are read afterwards, every trial
-    is simulated with them, in the one pass that gives its angles (most steps are kept; each window's prediction
-    depends on its own state and command alone), and the input chain once per batch. The
-    steps are written here because scipy's least-squares solvers take one problem at a time: batched over
+    the Gauss-Newton step), after a refused one. A trial whose sensitivities a later step or the caller would read
+    if it is kept is simulated with them, in the one pass that gives its angles (most trials are kept; each
+    window's prediction depends on its own state and command alone); the input chain once per batch. The steps
+    are written here because scipy's least-squares solvers take one problem at a time: batched over
     windows, every window's step costs one surrogate call for all of them."""
     count = encoder_resolution(nominal_counts)
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
