@@ -18,6 +18,12 @@ most cumulative time are printed. ``--reports DIR`` writes every case's report (
 versions of the code: ``--compare DIR`` prints, per case, whether the verdict, effects and every parameter
 printed in ``report.md`` are identical to those of the reports in DIR).
 
+A machine's speed can drift by more than a lever's gain within the hour a suite takes, so two suites run one
+after the other do not compare. ``--reference DIR`` (another checkout of this repository, e.g. ``git worktree add
+DIR <commit>``, its numba cache warmed by one small case) interleaves instead: every case runs with the code of
+DIR, then with this code, each in a process of its own, and the table prints both times and their CPU ratio.
+The drift then falls on both alike.
+
 Run from the repository root, e.g.
 ``PYTHONPATH=. python benchmarks/diagnosis_speed.py --suite own runs/own/suite/cases/* --workers 2``.
 """
@@ -30,8 +36,10 @@ import inspect
 import json
 import os
 import pstats
+import re
 import resource
 import statistics
+import subprocess
 import sys
 import time
 from collections import defaultdict
@@ -225,6 +233,40 @@ def print_table(suite: str, rows: list[dict]) -> None:
     print(f"\nload average {os.getloadavg()} ({os.cpu_count()} cores)")
 
 
+def run_elsewhere(checkout: Path, folder: Path, workers: int, folds: int | None, reports: Path | None) -> dict:
+    """Wall and CPU time [s] of ``folder`` diagnosed by the code of ``checkout`` (a checkout of this repository),
+    in a process of its own: this script there, on that one case."""
+    command = [sys.executable, "benchmarks/diagnosis_speed.py", "--suite", "one", str(folder.resolve())]
+    command += ["--workers", str(workers)] + (["--folds", str(folds)] if folds else [])
+    command += ["--reports", str(reports.resolve())] if reports is not None else []
+    environment = {**os.environ, "PYTHONPATH": str(checkout.resolve())}
+    done = subprocess.run(command, cwd=checkout, env=environment, capture_output=True, text=True)
+    timed = re.search(rf"^{re.escape(folder.name)}: ([\d.]+) s wall, ([\d.]+) s CPU$", done.stderr, re.MULTILINE)
+    if done.returncode != 0 or timed is None:
+        raise RuntimeError(f"{checkout}: {folder.name} was not timed:\n{done.stderr[-2000:]}")
+    return {"case": folder.name, "wall": float(timed[1]), "cpu": float(timed[2])}
+
+
+def print_pairs(suite: str, reference: Path, pairs: list[tuple[dict, dict]]) -> None:
+    """The interleaved runs' table: per case the reference code's and this code's times, and their CPU ratio."""
+    print(f"\n## {suite}: {len(pairs)} cases, interleaved with the code of {reference}\n")
+    print("| case | reference: wall / CPU [s] | this code: wall / CPU [s] | CPU ratio |\n|---|---:|---:|---:|")
+    for before, after in pairs:
+        print(
+            f"| {before['case']} | {before['wall']:.1f} / {before['cpu']:.1f} | {after['wall']:.1f} / "
+            f"{after['cpu']:.1f} | {after['cpu'] / before['cpu']:.2f} |"
+        )
+    for key, label in (("wall", "wall"), ("cpu", "CPU")):
+        before, after = ([pair[i][key] for pair in pairs] for i in (0, 1))
+        print(
+            f"\n{label}: median {statistics.median(before):.1f} -> {statistics.median(after):.1f} s, "
+            f"worst {max(before):.1f} -> {max(after):.1f} s",
+            end="",
+        )
+    ratios = [after["cpu"] / before["cpu"] for before, after in pairs]
+    print(f"\nCPU ratio: median {statistics.median(ratios):.2f}, from {min(ratios):.2f} to {max(ratios):.2f}")
+
+
 def _fingerprint(report: dict) -> dict:
     """What must not change: the verdict, the effects, and every model's parameters as report.md prints them."""
     ranking = {row["effect"]: row.get("params") for row in report.get("ranking", [])}
@@ -253,11 +295,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--profile", action="store_true", help="cProfile each case in this process (one worker)")
     parser.add_argument("--reports", type=Path, help="write every case's report here")
     parser.add_argument("--compare", type=Path, help="compare the reports with those written earlier here")
+    parser.add_argument("--reference", type=Path, help="interleave every case with the code of this checkout")
     args = parser.parse_args(argv)
     if args.write_trials:
         write_trials(Path(args.write_trials[0]), int(args.write_trials[1]), args.workers)
         return 0
+    here = Path(__file__).resolve().parent.parent
     for suite, *folders in args.suite or []:
+        if args.reference is not None:
+            pairs = [
+                (
+                    run_elsewhere(args.reference, folder, args.workers, args.folds, None),
+                    run_elsewhere(here, folder, args.workers, args.folds, args.reports),
+                )
+                for folder in map(Path, folders)
+            ]
+            print_pairs(suite, args.reference, pairs)
+            if args.compare and args.reports:
+                compare(args.reports, args.compare, [Path(folder).name for folder in folders])
+            continue
         rows = []
         for folder in map(Path, folders):
             profiler = cProfile.Profile() if args.profile else None
