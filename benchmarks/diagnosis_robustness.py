@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
                 finished=True,
                 verdict=diagnosis.verdict,
                 effects=diagnosis.effects,
-                failed=[(entry.effect, entry.reason) for entry in diagnosis.ranking if entry.status == "failed"],
+                failed=[(entry.effect, entry.reason) for entry in diagnosis.failed],
             )
         except Exception as err:  # noqa: BLE001 - the benchmark counts what the diagnosis did not contain
             row.update(finished=False, error=traceback.format_exception_only(err)[-1].strip())

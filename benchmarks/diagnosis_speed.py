@@ -297,6 +297,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--compare", type=Path, help="compare the reports with those written earlier here")
     parser.add_argument("--reference", type=Path, help="interleave every case with the code of this checkout")
     args = parser.parse_args(argv)
+    if args.reference is not None and args.profile:
+        parser.error("--profile runs the cases in this process; --reference runs them in processes of their own")
     if args.write_trials:
         write_trials(Path(args.write_trials[0]), int(args.write_trials[1]), args.workers)
         return 0

@@ -449,7 +449,7 @@ def diagnosis_summary(diagnosis, out) -> str:
     """The line ``diagnose`` ends on: the verdict, the held-out gap before and after, the failed candidates' count
     (a candidate its step's screen left behind did not fail) and where the report is."""
     gap = diagnosis.gap
-    failed = [entry.effect for entry in diagnosis.ranking if entry.status == "failed"]
+    failed = diagnosis.failed
     return (
         f"verdict: {diagnosis.verdict} (effects: {', '.join(diagnosis.effects) or '-'}); held-out gap "
         f"{gap.nominal['heldout']:.3g} -> {gap.with_effects['heldout']:.3g} counts "

@@ -7,7 +7,7 @@ import pytest
 
 from benchmarks.suite import VOCABULARY, run_configs
 from furuta_drake.cli import diagnosis_summary, main
-from furuta_drake.diagnosis.result import SPEC_KEYS, RankedCandidate
+from furuta_drake.diagnosis.result import SPEC_KEYS, Diagnosis, RankedCandidate
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig
 from furuta_drake.simulate import simulate
@@ -108,7 +108,7 @@ def test_the_closing_line_counts_failed_candidates_and_not_screened_ones():
 
     gap = SimpleNamespace(nominal={"heldout": 3.43}, with_effects={"heldout": 1.13}, heldout_reduction=0.67)
     ranking = [row("inertia_mismatch", "ok"), row("arm_spring", "screened"), row("actuator_lag", "screened")]
-    diagnosis = SimpleNamespace(verdict="inertia_mismatch", effects=["inertia_mismatch"], gap=gap, ranking=ranking)
+    diagnosis = Diagnosis("inertia_mismatch", ["inertia_mismatch"], gap, ranking, localization={})
     line = diagnosis_summary(diagnosis, "out")
     assert line == (
         "verdict: inertia_mismatch (effects: inertia_mismatch); held-out gap 3.43 -> 1.13 counts (67% reduction); "

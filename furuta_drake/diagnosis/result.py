@@ -134,6 +134,11 @@ class Diagnosis:
     beside_torque: dict = field(default_factory=dict)  # the listed effects kept beside that torque
     artifacts: Artifacts | None = field(default=None, repr=False, compare=False)  # not in report.json
 
+    @property
+    def failed(self) -> list[RankedCandidate]:
+        """The ranked candidates whose fit failed (a candidate its step's screen left behind did not fail)."""
+        return [entry for entry in self.ranking if entry.status == "failed"]
+
     def to_json(self) -> dict:
         """The ``report.json`` object (plain dicts and lists; optional keys without content left out)."""
         out = {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "artifacts"}
