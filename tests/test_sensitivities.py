@@ -41,6 +41,8 @@ ARMS = {
         viscous=1e-4,
         regularization_velocity=0.02,
     ),
+    # a static law without a level (the nominal rig's): viscous alone, its levels' slopes still wanted by a fit
+    "viscous alone": JointFrictionParameters(model="static", viscous=1e-4, regularization_velocity=0.02),
     "dahl": JointFrictionParameters.dahl(1.5e-3, 1.1e-3, sigma0=1.5, viscous=1e-4),
     "lugre": JointFrictionParameters(
         model="lugre",

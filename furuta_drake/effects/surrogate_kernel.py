@@ -94,7 +94,13 @@ def stribeck_level(v, f):
 @njit(cache=True, inline="always")
 def static_torque(v, f):
     """:func:`furuta_drake.friction.static_friction_torque` [N m]."""
-    return -(stribeck_level(v, f) * math.tanh(v / f[F_VREG]) + f[F_VISCOUS] * v)
+    return static_torque_at(v, f, math.tanh(v / f[F_VREG]))
+
+
+@njit(cache=True, inline="always")
+def static_torque_at(v, f, bend):
+    """:func:`static_torque` with its tanh(v / v_reg) given as ``bend``."""
+    return -(stribeck_level(v, f) * bend + f[F_VISCOUS] * v)
 
 
 @njit(cache=True, inline="always")
@@ -128,22 +134,48 @@ def spring_torque(phi, stiffness, cubic, equilibrium):
 
 
 @njit(cache=True, inline="always")
+def has_level(f):
+    """Whether the friction row ``f`` has a Coulomb or static level: a static law without one is its viscous term
+    alone, and its tanh(v / v_reg) scales nothing."""
+    return f[F_FC_POS] != 0.0 or f[F_FC_NEG] != 0.0 or f[F_FS_POS] != 0.0 or f[F_FS_NEG] != 0.0
+
+
+@njit(cache=True, inline="always")
+def stage_functions(theta, theta_dot, phi_dot, arm, pendulum, arm_bends, pendulum_bends):
+    """The transcendental values a stage's laws read: (sin theta, cos theta, the tanh(v / v_reg) of the arm's and of
+    the pendulum's static friction law where ``arm_bends``, ``pendulum_bends``, else 0). The tangent model reads
+    them too."""
+    arm_bend = math.tanh(phi_dot / arm[F_VREG]) if arm_bends else 0.0
+    pendulum_bend = math.tanh(theta_dot / pendulum[F_VREG]) if pendulum_bends else 0.0
+    return math.sin(theta), math.cos(theta), arm_bend, pendulum_bend
+
+
+@njit(cache=True, inline="always")
 def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum, terms):
     """x' of the Furuta model (:mod:`~furuta_drake.effects.surrogate`) under the arm torque ``tau`` [N m]; a
     joint's static friction law acts where its row is static (a bristle's torque comes in ``tau``); the unmodelled
     torque's ``terms`` add to each joint's generalised force."""
+    arm_bends = arm[F_KIND] == STATIC and has_level(arm)
+    pendulum_bends = pendulum[F_KIND] == STATIC and has_level(pendulum)
+    functions = stage_functions(theta, theta_dot, phi_dot, arm, pendulum, arm_bends, pendulum_bends)
+    return derivative_at(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum, terms, functions)
+
+
+@njit(cache=True, inline="always")
+def derivative_at(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum, terms, functions):
+    """:func:`derivative` with the stage's :func:`stage_functions` given."""
     a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
-    s, co = math.sin(theta), math.cos(theta)
+    s, co, arm_bend, pendulum_bend = functions
     sc = s * co
     tau_phi = tau
     if arm[F_KIND] == STATIC:
-        tau_phi += static_torque(phi_dot, arm)
+        tau_phi += static_torque_at(phi_dot, arm, arm_bend)
     tau_phi -= rigid[4] * phi_dot
     tau_phi += spring_torque(phi, rigid[5], rigid[6], rigid[7])
     m12, m22 = c * co, a + b * s * s
     r1 = d * s + b * sc * phi_dot * phi_dot
     if pendulum[F_KIND] == STATIC:
-        r1 += static_torque(theta_dot, pendulum)
+        r1 += static_torque_at(theta_dot, pendulum, pendulum_bend)
     for j in range(terms.shape[0]):
         value = terms[j, 2] * term_value(int(terms[j, 1]), theta, phi, theta_dot, phi_dot)
         if terms[j, 0] == 0.0:

@@ -42,11 +42,12 @@ from furuta_drake.effects.surrogate_kernel import (
     STATIC,
     _compiled_unchecked,
     _values,
-    bristle_step,
     bristle_torque,
-    derivative,
+    derivative_at,
     divisor_is_zero,
+    has_level,
     pack,
+    stage_functions,
     stribeck_level,
 )
 from furuta_drake.effects.torque_library import term_slopes, term_value
@@ -137,14 +138,14 @@ def _resting_levels(f):
 
 
 @njit(cache=True, inline="always")
-def _static_slopes(v, f):
-    """(d/dv of :func:`~.surrogate_kernel.static_torque`, at v = 0 the mean of its two sides'; its row slopes)."""
+def _static_slopes(v, f, t):
+    """(d/dv of :func:`~.surrogate_kernel.static_torque` at v, whose tanh(v / v_reg) is ``t``, at v = 0 the mean of
+    its two sides'; its row slopes)."""
     g, g_v, coulomb, g_c, static, g_s, g_vs = _level_slopes(v, f)
     if v == 0.0:
         up, down = _resting_levels(f)
         g = 0.5 * (up + down)
     vreg = f[F_VREG]
-    t = math.tanh(v / vreg)
     bend = (1.0 - t * t) / vreg
     row = _level_row(-t, (coulomb, g_c, static, g_s, g_vs), g * bend * v / vreg, -v)
     return -(g_v * t + g * bend + f[F_VISCOUS]), row
@@ -201,9 +202,10 @@ def _bristle_torque_slopes(z, v, f):
 
 
 @njit(cache=True, inline="always")
-def _arm_slopes(x1, x3, phi_start, z, bristles, f):
-    """The bristle's torque at a stage (0 without bristles: a static law acts inside the derivative), the arm
-    friction torque's slopes (in phi, phi', the substep's start phi, z) and its row slopes."""
+def _arm_slopes(x1, x3, phi_start, z, bristles, f, bend):
+    """The bristle's torque at a stage (0 without bristles: a static law acts inside the derivative, ``bend`` its
+    tanh(phi' / v_reg)), the arm friction torque's slopes (in phi, phi', the substep's start phi, z) and its row
+    slopes."""
     if bristles:
         displacement = x1 - phi_start
         zs, s_z, s_d, s_v, step_row = _step_slopes(z, displacement, x3, f)
@@ -211,23 +213,27 @@ def _arm_slopes(x1, x3, phi_start, z, bristles, f):
         row = _combined(step_row, t_z, torque_row)
         return bristle_torque(zs, x3, f), t_z * s_d, t_z * s_v + t_v, -t_z * s_d, t_z * s_z, row
     if f[F_KIND] == STATIC:
-        rate, row = _static_slopes(x3, f)
+        rate, row = _static_slopes(x3, f, bend)
         return 0.0, 0.0, rate, 0.0, 0.0, row
     return 0.0, 0.0, 0.0, 0.0, 0.0, NO_SLOPES
 
 
 @njit(cache=True, inline="always")
-def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms):
+def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms, functions):
     """The partial derivatives of a stage (:func:`~.surrogate_kernel.derivative` at (theta, phi, theta', phi'),
-    whose accelerations are q1, q2, the arm friction's slopes ``arm_slopes`` of :func:`_arm_slopes`) as
+    whose accelerations are q1, q2, its :func:`~.surrogate_kernel.stage_functions` ``functions``, the arm
+    friction's slopes ``arm_slopes`` of :func:`_arm_slopes`) as
     e = dr - dM q'': (e of the pendulum's row in the stage's state (4); e of the arm's row in the stage's state,
     the substep's start phi and z (6), the applied torque's is (0, 1); the mass matrix' (m12, m22, 1 / det), m11 =
     b; the pendulum friction's row slopes)."""
     a, b, c, d = rigid[0], rigid[1], rigid[2], rigid[3]
-    s, co = math.sin(x0), math.cos(x0)
+    s, co, _, pendulum_bend = functions
     sc, double = s * co, co * co - s * s
     m12, m22 = c * co, a + b * s * s
-    fp_rate, pendulum_row = _static_slopes(x2, pendulum) if pendulum[F_KIND] == STATIC else (0.0, NO_SLOPES)
+    if pendulum[F_KIND] == STATIC:
+        fp_rate, pendulum_row = _static_slopes(x2, pendulum, pendulum_bend)
+    else:
+        fp_rate, pendulum_row = 0.0, NO_SLOPES
     stretch = x1 - rigid[7]
     spring = -(rigid[5] + 3.0 * rigid[6] * stretch * stretch)
     p0, p1, p2, p3 = d * co + b * double * x3 * x3 + c * s * q2, 0.0, fp_rate, 2.0 * b * sc * x3
@@ -246,11 +252,10 @@ def _stage_slopes(x0, x1, x2, x3, q1, q2, arm_slopes, rigid, pendulum, terms):
 
 
 @njit(cache=True, inline="always")
-def _flat_slopes(e_flat, x0, x1, x2, x3, q1, q2, rigid, terms, arm_row, pendulum_row):
+def _flat_slopes(e_flat, x0, x1, x2, x3, q1, q2, rigid, terms, arm_row, pendulum_row, s, co):
     """e = dr - dM q'' of a stage per flat parameter (:func:`flat`), written to ``e_flat`` (2, P): the ``rigid``
     row's (a, b, c, d, back-EMF damping, spring k, k3, phi_0), the friction rows' (``arm_row``, ``pendulum_row``
-    of the stage's slopes), the unmodelled terms' coefficients'."""
-    s, co = math.sin(x0), math.cos(x0)
+    of the stage's slopes), the unmodelled terms' coefficients'; ``s``, ``co`` the sine and cosine of theta."""
     sc, stretch = s * co, x1 - rigid[7]
     e_flat[0, 0], e_flat[1, 0] = 0.0, -q2
     e_flat[0, 1], e_flat[1, 1] = sc * x3 * x3 - q1, -2.0 * sc * x2 * x3 - s * s * q2
@@ -271,10 +276,11 @@ def _flat_slopes(e_flat, x0, x1, x2, x3, q1, q2, rigid, terms, arm_row, pendulum
 @njit(cache=True, inline="always")
 def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, active, directions):
     """Every direction's state tangent (K, 5) over the substep from its stages' slopes (4, K, 4): RK4's sum, and
-    the bristle's exact step over the arm's move ``moved`` [rad] from ``z`` (a Dahl or LuGre arm)."""
+    the bristle's exact step over the arm's move ``moved`` [rad] from ``z`` (a Dahl or LuGre arm); returns the
+    bristle after the step (:func:`~.surrogate_kernel.bristle_step`)."""
     s_z, s_move, row = 0.0, 0.0, NO_SLOPES
     if bristles:
-        _, s_z, s_d, s_v, row = _step_slopes(z, moved, moved / dt, arm)
+        z, s_z, s_d, s_v, row = _step_slopes(z, moved, moved / dt, arm)
         s_move = s_d + s_v / dt
     for k in range(tangent.shape[0]):
         for i in range(4):
@@ -288,6 +294,7 @@ def _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, active, direct
                 if ARM <= active[j] < PENDULUM:
                     dz += _row_slope(row, active[j] - ARM) * directions[k, j]
             tangent[k, 4] = dz
+    return z
 
 
 @njit(cache=True, inline="always")
@@ -299,7 +306,7 @@ def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, a
     ``values`` (4, 4) and summed as the kernel sums them; each stage's directions are a few multiply-adds on its
     partial derivatives (:func:`_stage_slopes`), the applied torque's change and the flat parameters' (``e_flat``
     at the entries ``active``)."""
-    bristles, rigid, arm, pendulum = model
+    bristles, rigid, arm, pendulum, arm_bends, pendulum_bends = model
     e_flat, active, directions, tangent, stages, torque, values = work
     full, b, h = active.size > 0, rigid[1], 0.5 * dt
     row, substep = 0, 0
@@ -310,13 +317,16 @@ def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, a
             torque[j] = 0.0 if torque_of[j] < 0 else changes[torque_of[j], i]
         x0, x1, x2, x3 = t, p, td, pd
         for n in range(4):
-            arm_slopes = _arm_slopes(x1, x3, p, z, bristles, arm)
-            q = derivative(x0, x1, x2, x3, tau + arm_slopes[0] if bristles else tau, rigid, arm, pendulum, terms)
+            functions = stage_functions(x0, x2, x3, arm, pendulum, arm_bends, pendulum_bends)
+            arm_slopes = _arm_slopes(x1, x3, p, z, bristles, arm, functions[2])
+            stage_tau = tau + arm_slopes[0] if bristles else tau
+            q = derivative_at(x0, x1, x2, x3, stage_tau, rigid, arm, pendulum, terms, functions)
             e, f, (m12, m22, inverse), pendulum_row = _stage_slopes(
-                x0, x1, x2, x3, q[2], q[3], arm_slopes, rigid, pendulum, terms
+                x0, x1, x2, x3, q[2], q[3], arm_slopes, rigid, pendulum, terms, functions
             )
             if full:
-                _flat_slopes(e_flat, x0, x1, x2, x3, q[2], q[3], rigid, terms, arm_slopes[5], pendulum_row)
+                s, co = functions[0], functions[1]
+                _flat_slopes(e_flat, x0, x1, x2, x3, q[2], q[3], rigid, terms, arm_slopes[5], pendulum_row, s, co)
             weight = dt if n == 3 else h  # of the previous stage's slopes in this one's state
             for k in range(tangent.shape[0]):
                 dx0, dx1, dx2, dx3 = tangent[k, 0], tangent[k, 1], tangent[k, 2], tangent[k, 3]
@@ -342,9 +352,7 @@ def _tangent_window(t, p, td, pd, z, column, changes, torque_of, dt, substeps, a
         td += sixth * (values[0, 2] + 2.0 * values[1, 2] + 2.0 * values[2, 2] + values[3, 2])
         pd += sixth * (values[0, 3] + 2.0 * values[1, 3] + 2.0 * values[2, 3] + values[3, 3])
         moved = p_next - p
-        _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, active, directions)
-        if bristles:
-            z = bristle_step(z, moved, moved / dt, arm)
+        z = _advance(tangent, stages, sixth, bristles, z, moved, dt, arm, active, directions)
         p = p_next
         substep += 1
         if substep == substeps:
@@ -359,6 +367,13 @@ def _record(angles, slopes, row, w, t, p, tangent):
         slopes[row, 0, w, k], slopes[row, 1, w, k] = tangent[k, 0], tangent[k, 1]
 
 
+@njit(cache=True, inline="always")
+def _bends(f, active, first, end):
+    """Whether the stages take the tanh(v / v_reg) of the friction row ``f`` (the flat entries first to end): a
+    static law's, where it scales a level or a direction moves the row (the levels' slopes read it)."""
+    return f[F_KIND] == STATIC and (has_level(f) or np.any((active >= first) & (active < end)))
+
+
 def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms, seeds, directions, active, torque_of):
     """:func:`tangents` of one model's packed rows (``rigid`` (8,), ``arm`` and ``pendulum`` (11,), ``terms``
     (T, 3)); ``directions`` (K, A) the directions' changes of the flat entries ``active``; ``changes`` (C, W, steps)
@@ -370,7 +385,8 @@ def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms
     columns = np.ascontiguousarray(torque.T)
     rigid_v, arm_v, pendulum_v = _values(rigid, 8), _values(arm, 11), _values(pendulum, 11)
     bristles = arm_v[F_KIND] == DAHL or arm_v[F_KIND] == LUGRE
-    model = (bristles, rigid_v, arm_v, pendulum_v)
+    bends = _bends(arm_v, active, ARM, PENDULUM), _bends(pendulum_v, active, PENDULUM, TERMS)
+    model = (bristles, rigid_v, arm_v, pendulum_v) + bends
     work = (
         np.zeros((2, TERMS + terms.shape[0])),  # the stage's slopes in the flat parameters
         active,
