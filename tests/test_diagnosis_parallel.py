@@ -4,6 +4,8 @@ the other tasks' results come back in order, whatever the number of workers."""
 import os
 
 import pytest
+import scipy.linalg  # noqa: F401 - its BLAS loaded before the runner's first limit, as in a diagnosis
+from threadpoolctl import threadpool_info
 
 from furuta_drake.diagnosis.parallel import Failure, run_tasks
 
@@ -23,6 +25,20 @@ def test_a_raising_task_is_a_one_line_failure_and_the_others_finish(workers):
     results = run_tasks(_task, [1, "raise", 3], workers=workers)
     assert results[0] == 2 and results[2] == 6
     assert results[1] == Failure("FloatingPointError: prediction diverged")
+
+
+def _blas_threads(_=None) -> list[int]:
+    return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_every_task_runs_its_blas_on_one_thread_and_the_caller_keeps_its_own(workers):
+    """The parallelism is across tasks: a task's BLAS threads would only spin on the cores the other tasks use.
+    The caller's own BLAS threads are as they were after the tasks."""
+    before = _blas_threads()
+    results = run_tasks(_blas_threads, [0, 1], workers=workers)
+    assert all(threads and set(threads) == {1} for threads in results)
+    assert _blas_threads() == before
 
 
 def test_a_task_whose_worker_dies_fails_alone():

@@ -28,7 +28,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 from sklearn.linear_model import OrthogonalMatchingPursuit
-from threadpoolctl import threadpool_limits
 
 from furuta_drake.diagnosis.fit import Residuals, bootstrap_samples, interval
 from furuta_drake.diagnosis.gap import (
@@ -39,6 +38,7 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
+from furuta_drake.diagnosis.parallel import one_blas_thread
 from furuta_drake.diagnosis.rule import IMPLAUSIBLE_SCALE, Bootstrap, Comparison, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
@@ -176,7 +176,7 @@ def sparse_coefficients(X: np.ndarray, y: np.ndarray, groups: np.ndarray, seed: 
     def error(c, gram):  # the held-out fold's squared residual, relative to that of no torque
         return float(c @ gram[0] @ c - 2.0 * c @ gram[1] + gram[2]) / max(gram[2], 1e-300)
 
-    with threadpool_limits(1):  # small dense solves: threads only contend
+    with one_blas_thread():  # small dense solves
         errors = np.array(
             [[error(fit(k, [a - b for a, b in zip(total, g)]), g) for g in grams] for k in range(MAX_TERMS + 1)]
         )

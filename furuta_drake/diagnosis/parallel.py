@@ -8,6 +8,9 @@ process, and becomes a :class:`Failure` if that one dies too. Tasks are pure fun
 results do not depend on the number of workers or on where a task ran. An interrupt (Ctrl-C) is not contained:
 it ends the run.
 
+Every task, and the diagnosis' own process, runs its BLAS on one thread (:func:`one_blas_thread`): the parallelism
+is across tasks.
+
 A :class:`TaskPool` keeps the worker processes for a whole diagnosis, shared by the threads that run its
 selections at once (the main one and each fold's of ``--folds``): a batch of a few fits leaves a core idle that
 another selection's fits fill.
@@ -24,6 +27,7 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 
 @dataclass(frozen=True)
@@ -39,9 +43,22 @@ def one_line(err: BaseException) -> str:
     return f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
 
 
+_pools: ThreadpoolController | None = None  # this process' native thread pools, found when first limited
+
+
+def one_blas_thread():
+    """A context in which this process' BLAS libraries run on one thread. A diagnosis' linear algebra is small (a
+    fit's Jacobian of a few columns, stacks of 4 x 4 normal matrices): a BLAS thread beside the caller's finishes
+    nothing sooner, and between calls it spins, on the core another task's process needs."""
+    global _pools
+    if _pools is None:  # after the task's function is unpickled: the libraries its modules load are loaded
+        _pools = ThreadpoolController()
+    return _pools.limit(limits=1, user_api="blas")
+
+
 def _contained(task):
     function, argument = task
-    with np.errstate(all="ignore"):  # a diverging candidate is reported as failed, not as warnings
+    with np.errstate(all="ignore"), one_blas_thread():  # a diverging candidate is reported as failed, not as warnings
         try:
             return function(argument)
         except Exception as err:  # noqa: BLE001 - any error of one task is that task's outcome

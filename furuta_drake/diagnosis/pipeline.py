@@ -31,7 +31,7 @@ from furuta_drake.diagnosis.localize import localize
 from furuta_drake.diagnosis.log_format import LogFormat
 from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs
 from furuta_drake.diagnosis.missing_torque import beyond_vocabulary
-from furuta_drake.diagnosis.parallel import TaskPool, run_tasks
+from furuta_drake.diagnosis.parallel import TaskPool, one_blas_thread, run_tasks
 from furuta_drake.diagnosis.per_log import heldout_rms_per_log
 from furuta_drake.diagnosis.record_text import choice_text, confusable_why, consistency_judgement, rule_text
 from furuta_drake.diagnosis.replay import replay_gaps
@@ -206,7 +206,11 @@ def diagnose(
     settings.validate()
     inputs = _inputs(Path(rig), train, heldout, candidates, log_format)
     load_kernel()  # before the workers fork: they inherit the compiled kernel
-    with ThreadPoolExecutor(max_workers=2) as background, TaskPool(1 if scheduler else workers) as pool:
+    with (
+        one_blas_thread(),
+        ThreadPoolExecutor(max_workers=2) as background,
+        TaskPool(1 if scheduler else workers) as pool,
+    ):
         return _diagnose(
             inputs=inputs,
             train=train,
