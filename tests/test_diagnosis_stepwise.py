@@ -12,6 +12,7 @@ import numpy as np
 from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.gap import GapResult
 from furuta_drake.diagnosis.rule import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
+from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.diagnosis.stepwise import Selection, _enter_pair, _exchange
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales
 
@@ -268,3 +269,38 @@ def test_a_screen_is_no_model_the_backward_pass_or_an_exchange_compares_with():
     fitted = _single("input_delay", 1.6)
     selection.tried.append((1, fitted))
     assert selection.model(["input_delay"]) is fitted
+
+
+def test_after_the_backward_pass_drops_an_effect_the_forward_steps_resume_without_it(monkeypatch):
+    """Beside Coulomb friction an actuator lag wins step 2 by a hair over the true input delay, and is dropped
+    beside the friction: the forward steps resume from the friction without the lag, and the delay enters. The
+    resumed step's fits take the first pass's place; the lag's model stays among those tried."""
+    from furuta_drake.diagnosis import stepwise
+
+    def step(self, pool):  # a fake forward step: the best candidate beside the kept effects enters
+        accepted = self.selection.accepted
+        if len(accepted) == 2:
+            return False
+        order = ["arm_coulomb_friction"] if not accepted else [n for n in ("actuator_lag", "input_delay") if n in pool]
+        for name in order:
+            self.selection.tried.append((len(accepted) + 1, _model([*accepted, name], 0.3, len(self.selection.tried))))
+        accepted.append(order[0])
+        return True
+
+    def backward(selection, *args):  # the lag stood in for the delay: it does not earn its place
+        selection.accepted = [name for name in selection.accepted if name != "actuator_lag"]
+
+    monkeypatch.setattr(stepwise.Stepwise, "step", step)
+    monkeypatch.setattr(stepwise.Stepwise, "read_sensors", lambda self, names: None)
+    monkeypatch.setattr(stepwise, "_backward", backward)
+    monkeypatch.setattr(stepwise, "_exchange", lambda *args: False)
+    selector = object.__new__(stepwise.Stepwise)
+    selector.selection = Selection(_gap(NOMINAL), [])
+    selector.scales, selector.settings = SCALES, dataclasses.replace(DiagnosisSettings(), max_effects=3)
+    selector.bootstrap = selector.nominal_gap = selector.task = selector.fit = None
+    names = ["arm_coulomb_friction", "actuator_lag", "input_delay"]
+    selection = selector.select(names)
+    assert selection.accepted == ["arm_coulomb_friction", "input_delay"]
+    tried = [frozenset(result.effects) for _, result in selection.tried]
+    assert tried.count(frozenset(["arm_coulomb_friction", "input_delay"])) == 1
+    assert frozenset(["arm_coulomb_friction", "actuator_lag"]) in tried

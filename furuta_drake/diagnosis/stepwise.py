@@ -191,8 +191,8 @@ def select_effects(
 ) -> Selection:
     """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.rule`):
     forward, one at a time, each fitted together with the earlier ones and entering when it reduces the gap of
-    the model holding them; then backward, each kept only while the model without it is worse by the rule; then
-    the exchanges (:class:`Stepwise`)."""
+    the model holding them; then backward, each kept only while the model without it is worse by the rule, the
+    forward steps resumed without an effect dropped; then the exchanges (:class:`Stepwise`)."""
     return Stepwise(nominal, logs, train, heldout, counts, settings, run).select(names)
 
 
@@ -216,18 +216,27 @@ class Stepwise:
         self.screens: dict[str, tuple] = {}  # model name -> (its task, its screen): a candidate the screen left behind
 
     def select(self, names: list[str]) -> Selection:
-        """Forward (:meth:`step` until none enters), backward, then at most ``MAX_EXCHANGES`` exchanges, among the
-        effects that change the predictions (on logged commands of one magnitude, a bang-bang, the gain in place of
-        a dead zone or a saturation of the drive, which act on them as a gain); then the sensor effects ``names``
-        holds, read beside the final model (:meth:`read_sensors`)."""
+        """Forward (:meth:`step` until none enters) and backward, the forward steps resumed without the effects the
+        backward pass dropped until it drops none; then at most ``MAX_EXCHANGES`` exchanges, among the effects that
+        change the predictions (on logged commands of one magnitude, a bang-bang, the gain in place of a dead zone
+        or a saturation of the drive, which act on them as a gain); then the sensor effects ``names`` holds, read
+        beside the final model (:meth:`read_sensors`)."""
         dynamic = [name for name in names if CANDIDATES[name].fit]
         levels = self.scales.command_levels
         if levels and levels[0] >= ONE_MAGNITUDE * levels[-1] and "torque_gain_error" in dynamic:
             self.selection.gain_only = [name for name in dynamic if name in COMMAND_MAPS]
             dynamic = [name for name in dynamic if name not in COMMAND_MAPS]
-        while len(self.selection.accepted) < self.settings.max_effects and self.step(dynamic):
-            pass
-        _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.scales)
+        dropped: set[str] = set()
+        while True:
+            pool = [name for name in dynamic if name not in dropped]
+            while len(self.selection.accepted) < self.settings.max_effects and self.step(pool):
+                pass
+            entered = set(self.selection.accepted)
+            _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.scales)
+            if entered <= set(self.selection.accepted):
+                break
+            dropped |= entered - set(self.selection.accepted)
+            self.resume(dropped)
         for _ in range(MAX_EXCHANGES):
             if not _exchange(
                 self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
@@ -236,6 +245,14 @@ class Stepwise:
             _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.scales)
         self.read_sensors([name for name in names if not CANDIDATES[name].fit])
         return self.selection
+
+    def resume(self, dropped: set[str]) -> None:
+        """Forget the fits of the forward steps after the effects kept, save those holding an effect in
+        ``dropped``: the steps resume from the kept effects without those (an effect that stood in for a later
+        one can win its step by a hair and be dropped beside it; the candidate it beat there, the right one,
+        enters then), and their fits are made again, to the same numbers."""
+        resumed = len(self.selection.accepted) + 1
+        self.selection.tried = [(s, r) for s, r in self.selection.tried if s < resumed or set(r.effects) & dropped]
 
     def read_sensors(self, names: list[str]) -> None:
         """The sensor effects among ``names`` read beside the final model and judged on the held-out windows, and
