@@ -250,7 +250,7 @@ class Stepwise:
         """Forget the fits of the forward steps after the effects kept, save those holding an effect in
         ``dropped``: the steps resume from the kept effects without those (an effect that stood in for a later
         one can win its step by a hair and be dropped beside it; the candidate it beat there, the right one,
-        enters then), and their fits are made again, to the same numbers."""
+        enters then), their candidates screened and fitted again without the dropped ones."""
         resumed = len(self.selection.accepted) + 1
         self.selection.tried = [(s, r) for s, r in self.selection.tried if s < resumed or set(r.effects) & dropped]
 
