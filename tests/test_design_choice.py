@@ -118,3 +118,27 @@ def test_a_design_left_to_choose_compares_both_modes_by_their_predicted_limits(t
     document = json.loads((tmp_path / "design" / "design.json").read_text())
     assert [c["mode"] for c in document["choice"]["candidates"]] == ["hanging", "balancing"]
     assert "## Which experiment" in design_markdown(document)
+
+
+def test_a_design_runs_its_blas_on_one_thread_and_leaves_the_callers_as_it_was(tmp_path, monkeypatch):
+    """A design's linear algebra is small: its stages run with one BLAS thread (a second would only spin), and the
+    caller's thread count is restored afterwards."""
+    from threadpoolctl import threadpool_info
+
+    def threads() -> list[int]:
+        return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+    rig = lund_rig()
+    case = tmp_path / "case"
+    case.mkdir()
+    (case / "rig.yaml").write_text(dump_yaml_dataclass(rig))
+    _write_slow_log(case / "train.csv", rig, 1)
+    _write_slow_log(case / "heldout.csv", rig, 2)
+    _write_diagnosis(tmp_path / "diagnosis", case, None)
+    seen = []
+    monkeypatch.setattr(pipeline, "_chosen_design", lambda *args: seen.append(threads()))
+    monkeypatch.setattr(pipeline, "_design_in_mode", lambda *args: seen.append(threads()))
+    before = threads()
+    pipeline.design_experiment(tmp_path / "diagnosis", duration=2.0, settings=pipeline.FAST)
+    assert seen and set(seen[0]) == {1}
+    assert threads() == before

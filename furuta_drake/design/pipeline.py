@@ -38,6 +38,7 @@ from furuta_drake.design.rollout import (
 from furuta_drake.design.torque_hypothesis import apply_hypothesis
 from furuta_drake.diagnosis.fit import scales_of
 from furuta_drake.diagnosis.gap import evaluate_gap, window_samples
+from furuta_drake.diagnosis.parallel import one_blas_thread
 from furuta_drake.effects.vocabulary import Scales
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.simulate import simulate
@@ -148,28 +149,31 @@ def design_experiment(
     """
     settings.validate()
     _check_options(duration, arm_bound)
-    parsed = [parse_target(text) for text in targets]
-    record = read_diagnosis(diagnosis)
-    _check_duration(duration, record.rig)
-    hypotheses = read_hypotheses(record.report, record.rig, record.train, parsed)
-    say = progress or (lambda line: None)
-    say(f"{len(hypotheses.hypotheses)} hypotheses, {len(hypotheses.pairs)} pairs to separate")
-    sizes = target_sizes(hypotheses, parsed, record.report, record.rig)
-    choosing = bool(sizes) and (balancing is None or duration is None)
-    mode = None if choosing and balancing is None else "balancing" if balancing else "hanging"
-    options = {
-        "duration": duration,
-        "mode": mode,
-        "targets": list(targets),
-        "arm_bound": arm_bound,
-        "settings": dataclasses.asdict(settings),
-    }
-    context = _Context(record, hypotheses, scales_of(record.train, hypotheses.nominal), sizes, settings, options, say)
-    if choosing:
-        modes = MODES if mode is None else (mode,)
-        durations = [duration] if duration is not None else [AUTO_DURATION * r for r in LIMIT_REPEATS]
-        return _chosen_design(context, modes, durations)
-    return _design_in_mode(context, mode, duration)
+    with one_blas_thread():  # its linear algebra is small: a second BLAS thread would only spin
+        parsed = [parse_target(text) for text in targets]
+        record = read_diagnosis(diagnosis)
+        _check_duration(duration, record.rig)
+        hypotheses = read_hypotheses(record.report, record.rig, record.train, parsed)
+        say = progress or (lambda line: None)
+        say(f"{len(hypotheses.hypotheses)} hypotheses, {len(hypotheses.pairs)} pairs to separate")
+        sizes = target_sizes(hypotheses, parsed, record.report, record.rig)
+        choosing = bool(sizes) and (balancing is None or duration is None)
+        mode = None if choosing and balancing is None else "balancing" if balancing else "hanging"
+        options = {
+            "duration": duration,
+            "mode": mode,
+            "targets": list(targets),
+            "arm_bound": arm_bound,
+            "settings": dataclasses.asdict(settings),
+        }
+        context = _Context(
+            record, hypotheses, scales_of(record.train, hypotheses.nominal), sizes, settings, options, say
+        )
+        if choosing:
+            modes = MODES if mode is None else (mode,)
+            durations = [duration] if duration is not None else [AUTO_DURATION * r for r in LIMIT_REPEATS]
+            return _chosen_design(context, modes, durations)
+        return _design_in_mode(context, mode, duration)
 
 
 @dataclass(frozen=True)
