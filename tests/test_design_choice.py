@@ -95,10 +95,8 @@ def test_the_record_names_every_candidate_and_what_a_longer_experiment_reaches()
     assert "balancing, 16 s" in record["why"]
 
 
-@pytest.mark.slow
-def test_a_design_left_to_choose_compares_both_modes_by_their_predicted_limits(tmp_path):
-    """Without a mode, a design targeting the delay plays both modes and keeps the one whose predicted limit is
-    lowest; design.json and design.md list both."""
+def _diagnosis(tmp_path):
+    """A diagnosis of slow logs of the Lund rig in ``tmp_path / "diagnosis"``; returns the rig."""
     rig = lund_rig()
     case = tmp_path / "case"
     case.mkdir()
@@ -106,6 +104,14 @@ def test_a_design_left_to_choose_compares_both_modes_by_their_predicted_limits(t
     _write_slow_log(case / "train.csv", rig, 1)
     _write_slow_log(case / "heldout.csv", rig, 2)
     _write_diagnosis(tmp_path / "diagnosis", case, None)
+    return rig
+
+
+@pytest.mark.slow
+def test_a_design_left_to_choose_compares_both_modes_by_their_predicted_limits(tmp_path):
+    """Without a mode, a design targeting the delay plays both modes and keeps the one whose predicted limit is
+    lowest; design.json and design.md list both."""
+    rig = _diagnosis(tmp_path)
     design = pipeline.design_experiment(tmp_path / "diagnosis", duration=2.0, settings=pipeline.FAST)
     size = closed_loop_sizes(rig, nominal_lqr_gain(rig))["input_delay"]
     candidates = design.choice["candidates"]
@@ -128,13 +134,7 @@ def test_a_design_runs_its_blas_on_one_thread_and_leaves_the_callers_as_it_was(t
     def threads() -> list[int]:
         return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
 
-    rig = lund_rig()
-    case = tmp_path / "case"
-    case.mkdir()
-    (case / "rig.yaml").write_text(dump_yaml_dataclass(rig))
-    _write_slow_log(case / "train.csv", rig, 1)
-    _write_slow_log(case / "heldout.csv", rig, 2)
-    _write_diagnosis(tmp_path / "diagnosis", case, None)
+    _diagnosis(tmp_path)
     seen = []
     monkeypatch.setattr(pipeline, "_chosen_design", lambda *args: seen.append(threads()))
     monkeypatch.setattr(pipeline, "_design_in_mode", lambda *args: seen.append(threads()))
