@@ -134,10 +134,11 @@ def spring_torque(phi, stiffness, cubic, equilibrium):
 
 
 @njit(cache=True, inline="always")
-def has_level(f):
-    """Whether the friction row ``f`` has a Coulomb or static level: a static law without one is its viscous term
-    alone, and its tanh(v / v_reg) scales nothing."""
-    return f[F_FC_POS] != 0.0 or f[F_FC_NEG] != 0.0 or f[F_FS_POS] != 0.0 or f[F_FS_NEG] != 0.0
+def bends(f):
+    """Whether a stage takes the tanh(v / v_reg) of the friction row ``f``: a static law's with a Coulomb or static
+    level (without one the law is its viscous term alone, and the tanh scales nothing)."""
+    levels = f[F_FC_POS] != 0.0 or f[F_FC_NEG] != 0.0 or f[F_FS_POS] != 0.0 or f[F_FS_NEG] != 0.0
+    return f[F_KIND] == STATIC and levels
 
 
 @njit(cache=True, inline="always")
@@ -155,9 +156,7 @@ def derivative(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum, terms)
     """x' of the Furuta model (:mod:`~furuta_drake.effects.surrogate`) under the arm torque ``tau`` [N m]; a
     joint's static friction law acts where its row is static (a bristle's torque comes in ``tau``); the unmodelled
     torque's ``terms`` add to each joint's generalised force."""
-    arm_bends = arm[F_KIND] == STATIC and has_level(arm)
-    pendulum_bends = pendulum[F_KIND] == STATIC and has_level(pendulum)
-    functions = stage_functions(theta, theta_dot, phi_dot, arm, pendulum, arm_bends, pendulum_bends)
+    functions = stage_functions(theta, theta_dot, phi_dot, arm, pendulum, bends(arm), bends(pendulum))
     return derivative_at(theta, phi, theta_dot, phi_dot, tau, rigid, arm, pendulum, terms, functions)
 
 

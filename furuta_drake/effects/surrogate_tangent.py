@@ -42,10 +42,10 @@ from furuta_drake.effects.surrogate_kernel import (
     STATIC,
     _compiled_unchecked,
     _values,
+    bends,
     bristle_torque,
     derivative_at,
     divisor_is_zero,
-    has_level,
     pack,
     stage_functions,
     stribeck_level,
@@ -369,9 +369,10 @@ def _record(angles, slopes, row, w, t, p, tangent):
 
 @njit(cache=True, inline="always")
 def _bends(f, active, first, end):
-    """Whether the stages take the tanh(v / v_reg) of the friction row ``f`` (the flat entries first to end): a
-    static law's, where it scales a level or a direction moves the row (the levels' slopes read it)."""
-    return f[F_KIND] == STATIC and (has_level(f) or np.any((active >= first) & (active < end)))
+    """Whether the stages take the tanh(v / v_reg) of the friction row ``f`` (the flat entries first to end): where
+    the kernel does (:func:`~.surrogate_kernel.bends`), and for a static law a direction moves (the levels' slopes
+    read it)."""
+    return bends(f) or (f[F_KIND] == STATIC and np.any((active >= first) & (active < end)))
 
 
 def _tangents(x0, z0, torque, changes, dt, substeps, rigid, arm, pendulum, terms, seeds, directions, active, torque_of):
