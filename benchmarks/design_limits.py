@@ -40,7 +40,7 @@ from benchmarks import diagnosis_independent as indep
 from benchmarks.design_suite import diagnosed
 from furuta_drake.design.output import write_design
 from furuta_drake.design.pipeline import DesignSettings, design_experiment
-from furuta_drake.diagnosis.detection import INJECTIONS
+from furuta_drake.diagnosis.selection.detection import INJECTIONS
 from furuta_drake.errors import FurutaError
 from furuta_drake.outputs import versions
 

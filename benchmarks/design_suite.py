@@ -37,7 +37,7 @@ from furuta_drake.design.output import write_design
 from furuta_drake.design.pipeline import DesignSettings, design_experiment
 from furuta_drake.design.rollout import HANGING
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.errors import FurutaError
 from furuta_drake.outputs import versions
 from furuta_drake.rig import RIGS

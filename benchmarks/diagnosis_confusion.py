@@ -42,7 +42,7 @@ import numpy as np
 from benchmarks.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
 from benchmarks.suite import CaseSpec, default_cases, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.rig import RIGS
 from furuta_drake.sweep import dask_client, map_on_dask
 

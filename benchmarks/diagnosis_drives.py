@@ -59,7 +59,7 @@ import numpy as np
 from benchmarks import diagnosis_independent as di
 from benchmarks.suite import _with_actuator, _with_arm_friction
 from furuta_drake.config import SimulationConfig, open_loop_config
-from furuta_drake.diagnosis.log_writers import write_log
+from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import RigParameters, geared_rig
 from furuta_drake.simulate import simulate
@@ -194,7 +194,7 @@ def record_case(
 def diagnose_case(folder: Path, out: Path, workers: int, candidates=CANDIDATES) -> tuple[dict, float]:
     """The report of the case in ``folder`` (diagnosed blind) and its wall time [s], read back when already there."""
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.report.files import write_report
 
     start = time.perf_counter()
     if not (out / "report.json").exists():

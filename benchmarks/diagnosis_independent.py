@@ -480,7 +480,7 @@ def diagnose_blind(folder: Path, report_dir: Path) -> tuple[dict, float]:
     """``diagnose`` on one case folder (rig.yaml and the four logs; no answer in sight) with one worker process;
     its report.json and the wall time [s]."""
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.report.files import write_report
 
     start = time.perf_counter()
     diagnosis = diagnose(

@@ -30,7 +30,7 @@ import numpy as np
 
 from benchmarks.suite import SUITE_RIGS, VOCABULARY, CaseSpec, verdict_is_right, with_effect
 from furuta_drake.config import SimulationConfig, open_loop_config
-from furuta_drake.diagnosis.log_writers import write_log
+from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.rig import RIGS, RigParameters
 from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import dump_yaml_dataclass

@@ -31,9 +31,9 @@ import tracemalloc
 from pathlib import Path
 
 from furuta_drake.config import ExcitationConfig, SimulationConfig
-from furuta_drake.diagnosis.logs import load_log
+from furuta_drake.diagnosis.logs.load import load_log
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig

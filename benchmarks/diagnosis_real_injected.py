@@ -53,7 +53,7 @@ from scipy.signal import savgol_filter
 
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.effects.vocabulary import law_of
 from furuta_drake.outputs import versions
 from furuta_drake.rig import RigParameters, encoder_resolution

@@ -25,7 +25,7 @@ import numpy as np
 
 from benchmarks.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.errors import SimulationDiverged
 from furuta_drake.outputs import versions
 from furuta_drake.results import write_log_csv

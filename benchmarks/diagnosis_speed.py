@@ -45,8 +45,9 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-from furuta_drake.diagnosis import pipeline, replay
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis import pipeline
+from furuta_drake.diagnosis.gap import replay
+from furuta_drake.diagnosis.report.files import write_report
 
 PHASES = {  # the selection's function that asked for a batch of fits -> the phase it is reported as
     "step": "forward",

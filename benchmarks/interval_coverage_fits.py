@@ -7,8 +7,8 @@ bootstrap intervals are the *own* ones; the rival is the joint fit of A and the 
 [min(lo, lo + d), max(hi, hi + d)]. Then both are inflated about the fitted value by each factor of
 ``INFLATIONS``; the table gives each method's coverage over the known parameters, with its binomial standard
 error sqrt(p (1 - p) / n). As the report does, A is then fitted again on every train window from its fit
-(:func:`~furuta_drake.diagnosis.final_fit.every_window_tasks`, when the logs hold more windows than a fit draws)
-and the refit's value and own interval are checked, the rival's move still measured from the fit on the drawn
+(:func:`~furuta_drake.diagnosis.selection.final_fit.every_window_tasks`, when the logs hold more windows than a fit
+draws) and the refit's value and own interval are checked, the rival's move still measured from the fit on the drawn
 windows; the tables are given for the refit (the report's) and for the drawn windows' fit.
 
 ``PYTHONPATH=. python benchmarks/interval_coverage_fits.py [--seeds 1 2] [--duration 3]``
@@ -27,11 +27,11 @@ import numpy as np
 
 import benchmarks.diagnosis_independent as ind
 from benchmarks.suite import run_configs, true_params, with_effect
-from furuta_drake.diagnosis.final_fit import every_window_tasks, refit
-from furuta_drake.diagnosis.fit import FitTask, fit_task, interval
-from furuta_drake.diagnosis.gap import make_windows
-from furuta_drake.diagnosis.logs import RunLog, load_logs
-from furuta_drake.diagnosis.rival import inflated
+from furuta_drake.diagnosis.gap.metric import make_windows
+from furuta_drake.diagnosis.logs.load import RunLog, load_logs
+from furuta_drake.diagnosis.selection.final_fit import every_window_tasks, refit
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task, interval
+from furuta_drake.diagnosis.selection.rival import inflated
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES

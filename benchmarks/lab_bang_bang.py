@@ -100,7 +100,7 @@ def write_case(folder: Path, world: sim.World, seed: int) -> None:
 
 def diagnose_case(folder: Path, report_dir: Path) -> tuple[dict, float]:
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.report.files import write_report
 
     start = time.perf_counter()
     diagnosis = diagnose(

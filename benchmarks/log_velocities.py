@@ -1,7 +1,7 @@
 """Would a log's velocity columns (the controller's own estimates) help the diagnosis's window start states?
 
 Each window's start state is first read from the angles by a Savitzky-Golay smoother and then refined per model by
-Levenberg-Marquardt steps on the window's residuals (:mod:`furuta_drake.diagnosis.gap`). A logged velocity could
+Levenberg-Marquardt steps on the window's residuals (:mod:`furuta_drake.diagnosis.gap.metric`). A logged velocity could
 only replace the smoother's first guess. This measures what it would change, on the low-rate benchmark's
 recordings (:mod:`diagnosis_low_rate`: open loop from hanging, +-7 V bang-bang, 2048 counts; two 8 s runs to fit,
 one held out) at 125 Hz and 1 kHz, both rigs, with the window start velocities taken from:
@@ -36,9 +36,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from diagnosis_low_rate import RATES, lab_rig, run_config  # noqa: E402
 
 from benchmarks.suite import CaseSpec, true_params  # noqa: E402
-from furuta_drake.diagnosis.fit import FitTask, fit_task  # noqa: E402
-from furuta_drake.diagnosis.gap import Windows, evaluate_gap, make_windows  # noqa: E402
-from furuta_drake.diagnosis.logs import RunLog  # noqa: E402
+from furuta_drake.diagnosis.gap.metric import Windows, evaluate_gap, make_windows  # noqa: E402
+from furuta_drake.diagnosis.logs.load import RunLog  # noqa: E402
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task  # noqa: E402
 from furuta_drake.diagnosis.settings import DiagnosisSettings  # noqa: E402
 from furuta_drake.effects.surrogate import Model  # noqa: E402
 from furuta_drake.rig import RIGS  # noqa: E402

@@ -29,8 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from furuta_drake.diagnosis.html import report_html
-from furuta_drake.diagnosis.report import report_json
+from furuta_drake.diagnosis.report.files import report_json
+from furuta_drake.diagnosis.report.html import report_html
 
 WIDTH, FIRST_SCREEN = 1280, 800
 MAX_BYTES = 3_000_000

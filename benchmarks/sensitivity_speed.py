@@ -23,8 +23,9 @@ from unittest import mock
 
 import numpy as np
 
-from furuta_drake.diagnosis import fit, gap
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.gap import metric as gap
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection import fit
 from furuta_drake.effects.surrogate import HISTORY, Model, integrate_windows, predict_windows
 from furuta_drake.effects.vocabulary import Effect, apply_effects
 from furuta_drake.rig import encoder_resolution, qube_servo2_rig

@@ -34,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from diagnosis_low_rate import RATES, lab_rig, run_config  # noqa: E402
 
 from benchmarks.suite import CaseSpec  # noqa: E402
-from furuta_drake.diagnosis.log_writers import write_log  # noqa: E402
+from furuta_drake.diagnosis.logs.writers import write_log  # noqa: E402
 from furuta_drake.simulate import simulate  # noqa: E402
 from furuta_drake.yamlio import dump_yaml_dataclass  # noqa: E402
 

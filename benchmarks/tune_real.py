@@ -38,7 +38,7 @@ from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.effects.corrected import model_config
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.errors import FurutaError

@@ -175,7 +175,7 @@ def write_case(case: dict, folder: Path, seconds: float) -> np.ndarray:
 
 def diagnose_case(folder: Path, report_dir: Path) -> dict:
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.report.files import write_report
     from furuta_drake.diagnosis.settings import DiagnosisSettings
 
     diagnosis = diagnose(

@@ -413,9 +413,9 @@ def _run_rig(args) -> int:
 def _run_diagnose(args) -> int:
     from tqdm import tqdm
 
-    from furuta_drake.diagnosis.log_format import LogFormat
+    from furuta_drake.diagnosis.logs.format import LogFormat
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.report.files import write_report
     from furuta_drake.outputs import prepare_output_dir
 
     if args.workers is not None and args.workers < 1:

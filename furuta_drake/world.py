@@ -6,7 +6,7 @@ friction on its joints (:class:`~furuta_drake.friction.JointFriction`), the arm'
 (:func:`~furuta_drake.actuator.add_actuator`) and the rig's drive when it has backlash or elasticity
 (:func:`~furuta_drake.drive.add_drive`, between the actuator chain and the arm), and returns the ports a user
 connects: the arm torque command in, the true state, the state the encoders read and the friction torques out.
-The closed loop (:mod:`furuta_drake.diagram`), the diagnosis' Drake replay (:mod:`furuta_drake.diagnosis.replay`)
+The closed loop (:mod:`furuta_drake.diagram`), the diagnosis' Drake replay (:mod:`furuta_drake.diagnosis.gap.replay`)
 and the stability analysis (:mod:`furuta_drake.paper.stability`) all build their plant this way.
 
 Sign convention (paper Eq. 3): the generalized forces on the plant are tau = [F_theta, u + F_phi] plus the arm's

@@ -29,9 +29,9 @@ import matplotlib.pyplot as plt
 
 from furuta_drake.data import QUBE_REAL_DIR as DATA
 from furuta_drake.data import QUBE_REAL_RIG as RIG
-from furuta_drake.diagnosis.logs import load_logs
+from furuta_drake.diagnosis.logs.load import load_logs
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.rig_file import load_rig
 
 SMALL = bool(os.environ.get("FURUTA_NOTEBOOK_SMALL"))

@@ -29,10 +29,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from furuta_drake.data import QUBE_REAL_DIR
-from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.log_writers import write_log
+from furuta_drake.diagnosis.logs.format import LogFormat
+from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
 from furuta_drake.rig import qube_servo2_rig
 from furuta_drake.rig_file import format_rig_check, load_rig, rig_template
@@ -202,8 +202,8 @@ print(sorted(p.name for p in (WORK / "report").iterdir()))
 # `furuta-drake diagnose --rig my_rig.yaml --train trials.csv --run-column trial --columns ... --out report`.
 
 # %%
-from furuta_drake.diagnosis.logs import load_logs
-from furuta_drake.diagnosis.split import split_heldout
+from furuta_drake.diagnosis.gap.split import split_heldout
+from furuta_drake.diagnosis.logs.load import load_logs
 
 pieces = [np.genfromtxt(path, delimiter=",", names=True) for path in train + heldout]
 table = {name: np.concatenate([piece[name] for piece in pieces]) for name in ("t", "vm", "alpha", "theta")}

@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from furuta_drake.data import QUBE_REAL_DIR
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.logs.load import RunLog
 
 REPO = Path(__file__).resolve().parent.parent
 QUBE_DATA = QUBE_REAL_DIR

@@ -36,7 +36,7 @@ import furuta_drake.real_rig.report  # noqa: F401
 import furuta_drake.simulate  # noqa: F401
 import furuta_drake.sweep  # noqa: F401
 from furuta_drake.cli import main
-from furuta_drake.diagnosis.logs import load_log
+from furuta_drake.diagnosis.logs.load import load_log
 from furuta_drake.errors import LogError
 from furuta_drake.rig import lund_rig
 

@@ -15,15 +15,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.fit import FitResult
-from furuta_drake.diagnosis.html import report_html
-from furuta_drake.diagnosis.narrative import next_steps, verdict_sentence
 from furuta_drake.diagnosis.pipeline import _artifacts
-from furuta_drake.diagnosis.report import report_json, report_markdown
+from furuta_drake.diagnosis.report.files import report_json, report_markdown
+from furuta_drake.diagnosis.report.html import report_html
+from furuta_drake.diagnosis.report.narrative import next_steps, verdict_sentence
+from furuta_drake.diagnosis.report.torque import beside_record
 from furuta_drake.diagnosis.result import Diagnosis, GapFigures, RankedCandidate
-from furuta_drake.diagnosis.rule import Comparison
-from furuta_drake.diagnosis.stepwise import Selection
-from furuta_drake.diagnosis.torque_report import beside_record
+from furuta_drake.diagnosis.selection.fit import FitResult
+from furuta_drake.diagnosis.selection.rule import Comparison
+from furuta_drake.diagnosis.selection.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import TERMS
 from furuta_drake.effects.vocabulary import effect_from_params

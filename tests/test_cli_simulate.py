@@ -14,7 +14,7 @@ from pydrake.math import RotationMatrix
 
 from furuta_drake.cli import main
 from furuta_drake.config import load_config
-from furuta_drake.diagnosis.logs import load_log
+from furuta_drake.diagnosis.logs.load import load_log
 from furuta_drake.plant import joint_indices, make_furuta_plant
 from furuta_drake.rig import lund_rig
 from furuta_drake.rig_file import load_rig

@@ -16,7 +16,7 @@ from furuta_drake.design import pipeline
 from furuta_drake.design.criterion import Parametrised, experiment_windows, linearised_noncentrality
 from furuta_drake.design.family import Family
 from furuta_drake.design.rollout import drake_config, surrogate_runs
-from furuta_drake.diagnosis.logs import load_logs
+from furuta_drake.diagnosis.logs.load import load_logs
 from furuta_drake.effects.surrogate import sensor_variance
 from furuta_drake.effects.vocabulary import Effect, Scales, apply_effects, rig_model
 from furuta_drake.results import write_log_csv

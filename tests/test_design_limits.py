@@ -20,9 +20,9 @@ from furuta_drake.design.inputs import read_diagnosis
 from furuta_drake.design.limits import diagnosis_heldout_windows, joined, predicted_limits
 from furuta_drake.design.output import design_json
 from furuta_drake.design.rollout import HANGING, nominal_lqr_gain, surrogate_runs
-from furuta_drake.diagnosis.detection import injected_limits
-from furuta_drake.diagnosis.fit import scales_of
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.selection.detection import injected_limits
+from furuta_drake.diagnosis.selection.fit import scales_of
+from furuta_drake.diagnosis.selection.rule import Bootstrap
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.rig import encoder_resolution, lund_rig
 from furuta_drake.yamlio import dump_yaml_dataclass

@@ -18,7 +18,7 @@ from furuta_drake.design.family import BANDS, Family
 from furuta_drake.design.hypotheses import parse_target, read_hypotheses
 from furuta_drake.design.rollout import surrogate_runs
 from furuta_drake.design.torque_hypothesis import TORQUE, apply_hypothesis, report_torque
-from furuta_drake.diagnosis.logs import load_logs
+from furuta_drake.diagnosis.logs.load import load_logs
 from furuta_drake.effects.surrogate import sensor_variance
 from furuta_drake.effects.torque_library import TERMS
 from furuta_drake.effects.vocabulary import Effect, Scales, rig_model

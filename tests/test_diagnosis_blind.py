@@ -9,7 +9,7 @@ import pytest
 
 from benchmarks.suite import CaseSpec, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 
 pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
 

@@ -11,13 +11,13 @@ from hypothesis import strategies as st
 
 from benchmarks.suite import with_effect
 from furuta_drake.config import SimulationConfig
-from furuta_drake.diagnosis.fit import FitTask, fit_task
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.record_text import confusable_why
-from furuta_drake.diagnosis.replay import replay_gap
-from furuta_drake.diagnosis.rule import FLOOR_COUNTS, MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
-from furuta_drake.diagnosis.sensor import read_sensors
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
+from furuta_drake.diagnosis.gap.replay import replay_gap
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.report.record_text import confusable_why
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task
+from furuta_drake.diagnosis.selection.rule import FLOOR_COUNTS, MARGIN, Bootstrap, at_floor, choose, confusable, is_kept
+from furuta_drake.diagnosis.selection.sensor import read_sensors
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.corrected import model_rig
 from furuta_drake.effects.surrogate import Model, _accelerations
@@ -434,7 +434,7 @@ def test_a_cubic_spring_pulls_back_as_k_x_plus_k3_x_cubed_in_the_surrogate_and_i
 
 
 def test_a_stribeck_fit_without_static_excess_or_an_asymmetry_with_equal_levels_is_named_coulomb_friction():
-    from furuta_drake.diagnosis.stepwise import _vocabulary_name
+    from furuta_drake.diagnosis.selection.stepwise import _vocabulary_name
 
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.0105, 0.1, 1e-3))) == "arm_coulomb_friction"
     assert _vocabulary_name("arm_stribeck", Effect("presliding", (0.01, 0.02, 0.1, 1e-3))) == "arm_stribeck"
@@ -451,7 +451,7 @@ def test_a_stribeck_fit_without_static_excess_or_an_asymmetry_with_equal_levels_
 def test_the_automatic_holdout_partitions_every_log_and_spreads_over_it(duration, period):
     """Without --heldout no sample is lost or used twice, about 30 % is held out, and on a log of three or more
     1 s blocks the held-out part is not just its tail (a swing-up log's tail is only balancing)."""
-    from furuta_drake.diagnosis.split import MIN_BLOCK_S, split_heldout
+    from furuta_drake.diagnosis.gap.split import MIN_BLOCK_S, split_heldout
 
     n = int(duration / period)
     time = np.arange(n) * period
@@ -480,7 +480,7 @@ def test_the_automatic_holdout_partitions_every_log_and_spreads_over_it(duration
 
 
 def test_parameters_fitted_at_a_bound_of_their_range_are_named():
-    from furuta_drake.diagnosis.fit import at_bounds
+    from furuta_drake.diagnosis.selection.fit import at_bounds
 
     low, high = np.array([0.0, 0.0, 0.01, 1e-4]), np.array([0.05, 1.0, 1.0, 0.05])
     x = np.array([0.0, 0.5, 1.0 - 1e-6, 0.01])

@@ -11,8 +11,8 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from furuta_drake.diagnosis.html import report_html
-from furuta_drake.diagnosis.report import report_json, report_markdown
+from furuta_drake.diagnosis.report.files import report_json, report_markdown
+from furuta_drake.diagnosis.report.html import report_html
 
 
 class Page(HTMLParser):

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.localize import REGIMES, band_power, localize
-from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.diagnosis.gap.localize import REGIMES, band_power, localize
+from furuta_drake.diagnosis.logs.load import WindowResiduals
 
 DT = 0.001
 

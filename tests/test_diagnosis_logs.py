@@ -9,7 +9,7 @@ from conftest import QUBE_DATA
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.logs import (
+from furuta_drake.diagnosis.logs.load import (
     check_input_direction,
     check_theta_direction,
     ignored_columns_note,

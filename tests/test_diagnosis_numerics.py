@@ -10,9 +10,9 @@ from pydrake.systems.framework import DiagramBuilder
 from scipy.optimize import least_squares
 
 from benchmarks.suite import run_configs, with_effect
-from furuta_drake.diagnosis.fit import _best_start
-from furuta_drake.diagnosis.gap import make_windows, projected_residuals, substeps_for
-from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR, WindowReplayer
+from furuta_drake.diagnosis.gap.metric import make_windows, projected_residuals, substeps_for
+from furuta_drake.diagnosis.gap.replay import REPLAY_INTEGRATOR, WindowReplayer
+from furuta_drake.diagnosis.selection.fit import _best_start
 from furuta_drake.effects.surrogate import REGULARIZATION_VELOCITY, Model, _accelerations, predict_windows
 from furuta_drake.effects.surrogate_kernel import bristle_step, pack_friction
 from furuta_drake.effects.vocabulary import Effect, apply_effects

@@ -7,7 +7,7 @@ import pytest
 import scipy.linalg  # noqa: F401 - its BLAS loaded before the runner's first limit, as in a diagnosis
 from threadpoolctl import threadpool_info
 
-from furuta_drake.diagnosis.parallel import Failure, run_tasks
+from furuta_drake.parallel import Failure, run_tasks
 
 pytestmark = pytest.mark.slow  # end-to-end runs: `pytest -m "not slow"` leaves them out
 
@@ -58,7 +58,7 @@ def test_a_dask_cluster_gives_the_same_diagnosis_as_one_process(tmp_path):
 
     from benchmarks.suite import run_configs, with_effect
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import report_json
+    from furuta_drake.diagnosis.report.files import report_json
     from furuta_drake.diagnosis.settings import FAST
     from furuta_drake.results import write_log_csv
     from furuta_drake.rig import qube_servo2_rig

@@ -15,11 +15,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from furuta_drake.diagnosis.formatting import PREFIXES, quantity
-from furuta_drake.diagnosis.html import report_html
-from furuta_drake.diagnosis.logs import WindowResiduals
-from furuta_drake.diagnosis.narrative import accepted_effects, rig_line
-from furuta_drake.diagnosis.per_log import heldout_rms_per_log
-from furuta_drake.diagnosis.report import report_json, report_markdown
+from furuta_drake.diagnosis.gap.per_log import heldout_rms_per_log
+from furuta_drake.diagnosis.logs.load import WindowResiduals
+from furuta_drake.diagnosis.report.files import report_json, report_markdown
+from furuta_drake.diagnosis.report.html import report_html
+from furuta_drake.diagnosis.report.narrative import accepted_effects, rig_line
 from furuta_drake.diagnosis.result import DetectionLimit, Diagnosis, GapFigures, RankedCandidate, Step
 
 OLD_REPORT = Path(__file__).parent / "bad_inputs" / "design_old_report" / "report.json"

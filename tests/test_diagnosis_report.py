@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import yaml
 
-import furuta_drake.diagnosis.report as report_module
-from furuta_drake.diagnosis.localize import localize
-from furuta_drake.diagnosis.logs import WindowResiduals
-from furuta_drake.diagnosis.report import (
+import furuta_drake.diagnosis.report.files as report_module
+from furuta_drake.diagnosis.gap.localize import localize
+from furuta_drake.diagnosis.logs.load import WindowResiduals
+from furuta_drake.diagnosis.report.files import (
     check_report,
     effect_curve,
     input_record,

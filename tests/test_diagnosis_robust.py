@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from benchmarks.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import check_report, write_report
+from furuta_drake.diagnosis.report.files import check_report, write_report
 from furuta_drake.diagnosis.settings import FAST
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import RIGS

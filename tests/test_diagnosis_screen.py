@@ -10,12 +10,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from furuta_drake.diagnosis import stepwise
-from furuta_drake.diagnosis.fit import FitTask, fit_task, screen_task
-from furuta_drake.diagnosis.gap import make_windows
-from furuta_drake.diagnosis.rule import PARSIMONY
+from furuta_drake.diagnosis.gap.metric import make_windows
+from furuta_drake.diagnosis.selection import stepwise
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task, screen_task
+from furuta_drake.diagnosis.selection.rule import PARSIMONY
+from furuta_drake.diagnosis.selection.stepwise import select_effects
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.stepwise import select_effects
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES
 from furuta_drake.rig import RIGS

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.parallel import Failure, TaskPool, run_tasks
 from furuta_drake.effects.surrogate import Model, integrate_windows, predict_windows, window_torques
 from furuta_drake.friction import JointFrictionParameters
+from furuta_drake.parallel import Failure, TaskPool, run_tasks
 from furuta_drake.rig import RIGS
 
 QUBE = RIGS["qube_servo2"]()
@@ -118,12 +118,12 @@ def test_folds_run_at_once_give_each_fold_selection(tmp_path):
     """consistency() runs its folds' selections in threads on one pool; each fold's verdict is the one its
     selection gives run alone, in one process."""
     from benchmarks.suite import run_configs, with_effect
-    from furuta_drake.diagnosis.folds import consistency
-    from furuta_drake.diagnosis.gap import make_windows
-    from furuta_drake.diagnosis.logs import load_logs
+    from furuta_drake.diagnosis.gap.metric import make_windows
+    from furuta_drake.diagnosis.gap.split import fold_split
+    from furuta_drake.diagnosis.logs.load import load_logs
+    from furuta_drake.diagnosis.selection.folds import consistency
+    from furuta_drake.diagnosis.selection.stepwise import select_effects
     from furuta_drake.diagnosis.settings import FAST
-    from furuta_drake.diagnosis.split import fold_split
-    from furuta_drake.diagnosis.stepwise import select_effects
     from furuta_drake.results import write_log_csv
     from furuta_drake.simulate import simulate
     from furuta_drake.yamlio import dump_yaml_dataclass
@@ -158,7 +158,7 @@ def test_folds_run_at_once_give_each_fold_selection(tmp_path):
 def test_a_zero_static_friction_law_replays_bitwise_without_its_friction_system(monkeypatch):
     """A diagnosis model of a frictionless rig holds a static law of zero levels: the replay leaves its friction
     system out (a constant zero instead) and integrates every window to the same last bit as with it."""
-    from furuta_drake.diagnosis import replay
+    from furuta_drake.diagnosis.gap import replay
 
     model = Model.from_rig(QUBE).replace(lag=0.004)
     assert model.arm_friction.model == "static" and model.arm_friction.coulomb_pos == 0.0

@@ -9,11 +9,11 @@ import dataclasses
 
 import numpy as np
 
-from furuta_drake.diagnosis.fit import FitResult
-from furuta_drake.diagnosis.gap import GapResult
-from furuta_drake.diagnosis.rule import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
+from furuta_drake.diagnosis.gap.metric import GapResult
+from furuta_drake.diagnosis.selection.fit import FitResult
+from furuta_drake.diagnosis.selection.rule import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
+from furuta_drake.diagnosis.selection.stepwise import Selection, _enter_pair, _exchange
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.stepwise import Selection, _enter_pair, _exchange
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales
 
 WINDOWS = 200
@@ -194,7 +194,7 @@ def test_a_joint_refit_at_the_floor_keeps_the_fit_nearer_the_data():
     """Beside two earlier effects, the screen, its refit and the refit from the new effect's own starts all reach
     a train gap of 0 (the floor clips it); the one with the smallest excess before the clip is kept, the others
     leave the record."""
-    from furuta_drake.diagnosis.stepwise import Stepwise
+    from furuta_drake.diagnosis.selection.stepwise import Stepwise
 
     held = {"arm_coulomb_friction": Effect("smooth", (1.0, 0.01)), "inertia_mismatch": Effect("", (1.1,) * 4)}
     name = "arm_coulomb_friction+inertia_mismatch+input_delay"
@@ -275,7 +275,7 @@ def test_after_the_backward_pass_drops_an_effect_the_forward_steps_resume_withou
     """Beside Coulomb friction an actuator lag wins step 2 by a hair over the true input delay, and is dropped
     beside the friction: the forward steps resume from the friction without the lag, and the delay enters. The
     resumed step's fits take the first pass's place; the lag's model stays among those tried."""
-    from furuta_drake.diagnosis import stepwise
+    from furuta_drake.diagnosis.selection import stepwise
 
     def step(self, pool):  # a fake forward step: the best candidate beside the kept effects enters
         accepted = self.selection.accepted

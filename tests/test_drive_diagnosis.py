@@ -12,7 +12,7 @@ import pytest
 
 from benchmarks.diagnosis_drives import CASES, RATES, record_case
 from furuta_drake.diagnosis.pipeline import diagnose
-from furuta_drake.diagnosis.report import write_report
+from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.rig_file import load_rig
 

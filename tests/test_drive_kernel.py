@@ -18,7 +18,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from furuta_drake.diagnosis.gap import horizon_seconds
+from furuta_drake.diagnosis.gap.metric import horizon_seconds
 from furuta_drake.effects.surrogate import HISTORY, predict_windows
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.rig import geared_rig

@@ -4,8 +4,8 @@ concentrates at the arm's velocity reversals said so."""
 
 from __future__ import annotations
 
-from furuta_drake.diagnosis import narrative
-from furuta_drake.diagnosis.narrative import Accepted
+from furuta_drake.diagnosis.report import narrative
+from furuta_drake.diagnosis.report.narrative import Accepted
 
 
 def report(effects, ranking, verdict="drive_backlash", regimes=(), **more):

@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from furuta_drake.diagnosis.detection import INJECTIONS, _ringing_note
-from furuta_drake.diagnosis.log_writers import write_log
+from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.diagnosis.pipeline import diagnose
+from furuta_drake.diagnosis.selection.detection import INJECTIONS, _ringing_note
 from furuta_drake.effects.corrected import fitted_rig
 from furuta_drake.effects.surrogate import HISTORY, Model, predict_windows
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, rig_effects, rig_model

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_form_starts import _surrogate_measured, nominal_windows  # noqa: F401  (the fixture)
 
-from furuta_drake.diagnosis.fit import FitTask, fit_task
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task
 from furuta_drake.diagnosis.settings import FAST
 from furuta_drake.effects.surrogate import Model, _delayed_command, expected_command, expected_command_points
 from furuta_drake.effects.vocabulary import Effect, apply_effects

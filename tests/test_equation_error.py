@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 
 from benchmarks import independent_sim as sim
 from benchmarks.lab_bang_bang import PERIOD, bang_bang
-from furuta_drake.diagnosis.equation_error import equation_error_starts, tent
-from furuta_drake.diagnosis.logs import load_logs
+from furuta_drake.diagnosis.logs.load import load_logs
+from furuta_drake.diagnosis.selection.equation_error import equation_error_starts, tent
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.rig_file import load_rig
 

@@ -1,4 +1,4 @@
-"""The accepted model is fitted once more on every train window (furuta_drake/diagnosis/final_fit.py): a hard
+"""The accepted model is fitted once more on every train window (furuta_drake/diagnosis/selection/final_fit.py): a hard
 actuator saturation acts only in the windows whose command exceeds its limit. When the seeded draw of fit windows
 holds none of them, the selection's fit cannot see the limit; the refit on every window finds it, and the report's
 final model, its interval and its held-out evidence are the refit's. With no more train windows than the draw
@@ -13,13 +13,13 @@ import pytest
 from test_form_starts import _surrogate_measured
 
 from benchmarks.suite import run_configs
-from furuta_drake.diagnosis.final_fit import refit_final
-from furuta_drake.diagnosis.fit import FitTask, fit_task, interval
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection.final_fit import refit_final
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task, interval
+from furuta_drake.diagnosis.selection.rule import Bootstrap
+from furuta_drake.diagnosis.selection.stepwise import Selection
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import Effect, apply_effects
 from furuta_drake.rig import RIGS

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from benchmarks.suite import run_configs
-from furuta_drake.diagnosis.fit import FitTask, fit_task, interval, scales_of
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows, substeps_for
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.rule import Bootstrap
-from furuta_drake.diagnosis.sensor import read_sensors
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows, substeps_for
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task, interval, scales_of
+from furuta_drake.diagnosis.selection.rule import Bootstrap
+from furuta_drake.diagnosis.selection.sensor import read_sensors
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model, predict_windows
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects

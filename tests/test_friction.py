@@ -496,7 +496,7 @@ def test_a_stiff_bristle_reversing_under_a_coarse_first_step_stays_in_its_range(
     saturates at +Fc / sigma0: the exerted torque is -Fc."""
     from pydrake.systems.analysis import ApplySimulatorConfig
 
-    from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR
+    from furuta_drake.diagnosis.gap.replay import REPLAY_INTEGRATOR
 
     builder = DiagramBuilder()
     plant, _ = add_furuta_plant(builder, "qube_servo2", with_scene_graph=False)

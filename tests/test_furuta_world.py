@@ -11,7 +11,7 @@ from pydrake.systems.primitives import TrajectorySource, ZeroOrderHold
 from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.config import ExcitationConfig
-from furuta_drake.diagnosis.replay import REPLAY_INTEGRATOR, WindowReplayer
+from furuta_drake.diagnosis.gap.replay import REPLAY_INTEGRATOR, WindowReplayer
 from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.effects.corrected import model_config
 from furuta_drake.effects.surrogate import REGULARIZATION_VELOCITY, Model

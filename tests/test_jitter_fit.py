@@ -1,5 +1,5 @@
 """The spread of a jittering input delay read from the residuals' variance by likelihood
-(:mod:`furuta_drake.diagnosis.jitter_fit`): found where delays are drawn anew every sample, refused where the
+(:mod:`furuta_drake.diagnosis.selection.jitter_fit`): found where delays are drawn anew every sample, refused where the
 delay is fixed or the extra variance has no jitter's structure."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import math
 import numpy as np
 from test_form_starts import nominal_windows  # noqa: F401  (the fixture)
 
-from furuta_drake.diagnosis.gap import evaluate_gap
-from furuta_drake.diagnosis.jitter_fit import spread_by_likelihood
-from furuta_drake.diagnosis.rule import FLOOR_COUNTS
+from furuta_drake.diagnosis.gap.metric import evaluate_gap
+from furuta_drake.diagnosis.selection.jitter_fit import spread_by_likelihood
+from furuta_drake.diagnosis.selection.rule import FLOOR_COUNTS
 from furuta_drake.effects.surrogate import Model, _delayed_command, predict_windows
 from furuta_drake.effects.vocabulary import Effect, apply_effects
 from furuta_drake.rig import encoder_resolution

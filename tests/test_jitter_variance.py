@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from test_form_starts import nominal_windows  # noqa: F401  (the fixture)
 
-from furuta_drake.diagnosis.gap import IMPULSES, evaluate_gap, make_windows
-from furuta_drake.diagnosis.jitter_fit import jitter_claim
+from furuta_drake.diagnosis.gap.metric import IMPULSES, evaluate_gap, make_windows
+from furuta_drake.diagnosis.selection.jitter_fit import jitter_claim
 from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import Model, _delayed_command, integrate_windows, predict_windows, window_torques
 from furuta_drake.effects.vocabulary import Effect, apply_effects

@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.jumps import line_search
+from furuta_drake.diagnosis.selection.jumps import line_search
 
 
 def _threshold(u: np.ndarray, width: float) -> np.ndarray:

@@ -13,6 +13,7 @@ LAYERS = [
     ["friction", "encoder", "actuator", "drive", "world", "controllers"],
     ["observers", "linearization", "analysis"],
     ["config", "excitation", "diagram", "lab_controller", "simulate", "sweep", "results", "plotting"],
+    ["parallel"],
     ["effects"],
     ["rig_file"],
     ["diagnosis"],
@@ -23,6 +24,9 @@ LAYERS = [
     ["cli"],
 ]
 LAYER = {name: number for number, names in enumerate(LAYERS) for name in names}
+# The diagnosis' stages, in the same way (its package docstring lists them in this order).
+DIAGNOSIS_LAYERS = [["settings", "formatting"], ["logs"], ["gap", "result"], ["selection"], ["report"], ["pipeline"]]
+DIAGNOSIS_LAYER = {name: number for number, names in enumerate(DIAGNOSIS_LAYERS) for name in names}
 PACKAGE = REPO / "furuta_drake"
 
 
@@ -61,6 +65,28 @@ def test_no_module_imports_from_a_later_layer():
         for name, targets in imports().items()
         for target in targets
         if name != "furuta_drake" and layer(target) > layer(name)
+    ]
+    assert upward == [], "\n".join(upward)
+
+
+def diagnosis_stage(module: str) -> int | None:
+    parts = module.split(".")
+    return DIAGNOSIS_LAYER.get(parts[2]) if len(parts) > 2 and parts[1] == "diagnosis" else None
+
+
+def test_every_diagnosis_module_sits_in_a_stage():
+    modules = [name for name in imports() if name.startswith("furuta_drake.diagnosis.")]
+    assert len(modules) > 30
+    assert [name for name in modules if diagnosis_stage(name) is None] == []
+
+
+def test_no_diagnosis_stage_imports_from_a_later_one():
+    upward = [
+        f"{name} (stage {diagnosis_stage(name)}) imports {target} (stage {diagnosis_stage(target)})"
+        for name, targets in imports().items()
+        if diagnosis_stage(name) is not None
+        for target in targets
+        if diagnosis_stage(target) is not None and diagnosis_stage(target) > diagnosis_stage(name)
     ]
     assert upward == [], "\n".join(upward)
 

@@ -11,9 +11,9 @@ from conftest import QUBE_DATA
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.log_writers import write_log
-from furuta_drake.diagnosis.logs import load_log, load_logs
+from furuta_drake.diagnosis.logs.format import LogFormat
+from furuta_drake.diagnosis.logs.load import load_log, load_logs
+from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.errors import ConfigError, LogError
 from furuta_drake.rig_file import load_rig
 

@@ -9,7 +9,7 @@ import pytest
 
 from benchmarks.diagnosis_low_rate import RATES
 from benchmarks.log_velocities import recorded, velocity_error, with_starts
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
 from furuta_drake.effects.surrogate import Model
 
 

@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 
 from benchmarks.diagnosis_low_rate import RATES, lab_rig, run_config
 from benchmarks.suite import CaseSpec
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.rule import Bootstrap
-from furuta_drake.diagnosis.sensor import NOISE_FLOOR_COUNTS, read_noise, read_sensors, signature_of
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection.rule import Bootstrap
+from furuta_drake.diagnosis.selection.sensor import NOISE_FLOOR_COUNTS, read_noise, read_sensors, signature_of
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.simulate import simulate

@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 from test_unmodelled_torque_diagnosis import NOMINAL, QUBE, SETTINGS, surrogate_log
 
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
-from furuta_drake.diagnosis.missing_torque import find_missing_torque
-from furuta_drake.diagnosis.parallel import run_tasks
-from furuta_drake.diagnosis.reselection import reselect_beside_torque
-from furuta_drake.diagnosis.rule import Bootstrap
-from furuta_drake.diagnosis.stepwise import select_effects
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
+from furuta_drake.diagnosis.selection.missing_torque import find_missing_torque
+from furuta_drake.diagnosis.selection.reselection import reselect_beside_torque
+from furuta_drake.diagnosis.selection.rule import Bootstrap
+from furuta_drake.diagnosis.selection.stepwise import select_effects
 from furuta_drake.effects.surrogate import REGULARIZATION_VELOCITY
 from furuta_drake.effects.torque_library import LISTED_SHAPES, TERMS
 from furuta_drake.effects.vocabulary import apply_effects
 from furuta_drake.friction import JointFrictionParameters
+from furuta_drake.parallel import run_tasks
 
 LEVEL = 0.05 * NOMINAL.gravity_torque  # the arm's Coulomb friction [N m]
 COGGING = (0, TERMS.index("sin(7*phi)"), 0.1 * NOMINAL.gravity_torque)

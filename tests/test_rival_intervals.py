@@ -10,12 +10,12 @@ from conftest import REPO
 from hypothesis import given
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.fit import FitResult
-from furuta_drake.diagnosis.gap import GapResult
+from furuta_drake.diagnosis.gap.metric import GapResult
 from furuta_drake.diagnosis.result import RankedCandidate
-from furuta_drake.diagnosis.rival import inflated, widen
-from furuta_drake.diagnosis.rule import INTERVAL_INFLATION, Bootstrap
-from furuta_drake.diagnosis.stepwise import Selection
+from furuta_drake.diagnosis.selection.fit import FitResult
+from furuta_drake.diagnosis.selection.rival import inflated, widen
+from furuta_drake.diagnosis.selection.rule import INTERVAL_INFLATION, Bootstrap
+from furuta_drake.diagnosis.selection.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import Effect
 from furuta_drake.rig import RIGS

@@ -8,8 +8,8 @@ import re
 import pytest
 from conftest import REPO
 
-from furuta_drake.diagnosis import rule
-from furuta_drake.diagnosis.record_text import rule_text
+from furuta_drake.diagnosis.report.record_text import rule_text
+from furuta_drake.diagnosis.selection import rule
 
 
 def pct(value: float) -> str:

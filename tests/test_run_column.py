@@ -12,10 +12,10 @@ from conftest import QUBE_DATA
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.log_writers import write_log
-from furuta_drake.diagnosis.logs import load_logs, load_runs
-from furuta_drake.diagnosis.split import fold_split, split_heldout
+from furuta_drake.diagnosis.gap.split import fold_split, split_heldout
+from furuta_drake.diagnosis.logs.format import LogFormat
+from furuta_drake.diagnosis.logs.load import load_logs, load_runs
+from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.errors import ConfigError, LogError
 from furuta_drake.rig_file import load_rig
 
@@ -78,7 +78,7 @@ def test_interleaved_rows_are_grouped_by_run_keeping_their_order(tmp_path, rig, 
 @settings(max_examples=25, deadline=None)
 @given(st.lists(st.sampled_from([-2.0, 0.0, 3.0, 1e6, 0.5]), min_size=3, max_size=40))
 def test_every_row_lands_in_its_run_in_file_order(values):
-    from furuta_drake.diagnosis.run_column import split_runs
+    from furuta_drake.diagnosis.logs.run_column import split_runs
 
     run_values = np.array(values)
     data = np.column_stack([np.arange(run_values.size), run_values])

@@ -11,16 +11,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis import fit
-from furuta_drake.diagnosis.fit import FitTask, _least_squares
-from furuta_drake.diagnosis.gap import (
+from furuta_drake.diagnosis.gap.metric import (
     fixed_state_residuals_of,
     make_windows,
     parameter_slopes_of,
     projected_residuals,
     state_jacobians,
 )
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection import fit
+from furuta_drake.diagnosis.selection.fit import FitTask, _least_squares
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects import surrogate_tangent as tangent

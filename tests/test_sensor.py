@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.gap import make_windows
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.rule import Bootstrap
-from furuta_drake.diagnosis.sensor import (
+from furuta_drake.diagnosis.gap.metric import make_windows
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection.rule import Bootstrap
+from furuta_drake.diagnosis.selection.sensor import (
     NOISE_FLOOR_COUNTS,
     NOISE_PLAUSIBLE_COUNTS,
     Hypothesis,

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import benchmarks.independent_sim as sim
-from furuta_drake.diagnosis.gap import make_windows
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.gap.metric import make_windows
+from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.settings import FAST
 from furuta_drake.errors import LogError

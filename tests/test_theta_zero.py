@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import QUBE_DATA
 
-from furuta_drake.diagnosis.logs import check_theta_direction, load_log, load_logs
+from furuta_drake.diagnosis.logs.load import check_theta_direction, load_log, load_logs
 from furuta_drake.errors import ConfigError, LogError
 from furuta_drake.rig_file import load_rig
 

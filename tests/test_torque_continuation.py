@@ -11,9 +11,9 @@ from hypothesis import strategies as st
 from test_unmodelled_torque_diagnosis import NOMINAL, QUBE, missing_torque_of, surrogate_log
 
 from furuta_drake.cli import main
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
-from furuta_drake.diagnosis.missing_torque import with_terms
-from furuta_drake.diagnosis.replay import replay_gap
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
+from furuta_drake.diagnosis.gap.replay import replay_gap
+from furuta_drake.diagnosis.selection.missing_torque import with_terms
 from furuta_drake.effects.torque_library import TERMS, library_terms, torque_parameters_of
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.errors import ConfigError
@@ -116,7 +116,7 @@ def test_a_diagnosis_from_the_fitted_rig_finds_no_further_gap_from_the_torque(tm
     from benchmarks.suite import run_configs
     from furuta_drake.config import SimulationConfig
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.report.files import write_report
     from furuta_drake.diagnosis.settings import FAST
     from furuta_drake.results import write_log_csv
     from furuta_drake.rig import lund_rig

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from furuta_drake.diagnosis.missing_torque import MissingTorque, copies
+from furuta_drake.diagnosis.selection.missing_torque import MissingTorque, copies
 from furuta_drake.effects.torque_library import TERMS, copied_effect, term_values
 
 
@@ -54,12 +54,12 @@ def test_a_selection_run_again_beside_a_torque_gives_every_model_its_evidence(mo
     """The selection over the torque's base, made one over the rig file's model (:func:`rebased`): every model it
     holds, the models without one kept effect included, has its evidence over the model it was built on, so the
     ranking lists them (real logs with a position-periodic torque written in once ended in a KeyError there)."""
-    from furuta_drake.diagnosis import reselection
-    from furuta_drake.diagnosis.fit import FitResult
-    from furuta_drake.diagnosis.gap import GapResult
+    from furuta_drake.diagnosis.gap.metric import GapResult
     from furuta_drake.diagnosis.pipeline import ranking
-    from furuta_drake.diagnosis.rule import Bootstrap
-    from furuta_drake.diagnosis.stepwise import Selection
+    from furuta_drake.diagnosis.selection import reselection
+    from furuta_drake.diagnosis.selection.fit import FitResult
+    from furuta_drake.diagnosis.selection.rule import Bootstrap
+    from furuta_drake.diagnosis.selection.stepwise import Selection
     from furuta_drake.effects.surrogate import Model
     from furuta_drake.effects.vocabulary import Effect
     from furuta_drake.rig import RIGS

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from furuta_drake.config import ExcitationConfig, SimulationConfig
-from furuta_drake.diagnosis.replay import WindowReplayer
+from furuta_drake.diagnosis.gap.replay import WindowReplayer
 from furuta_drake.diagram import build_furuta_diagram
 from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model

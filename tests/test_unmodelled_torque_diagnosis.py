@@ -10,14 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.gap import evaluate_gap, make_windows
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.missing_torque import find_missing_torque, stand_ins
-from furuta_drake.diagnosis.report_tables import unmodelled_sentence
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.report.tables import unmodelled_sentence
+from furuta_drake.diagnosis.report.torque import torque_record
 from furuta_drake.diagnosis.result import Diagnosis
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.selection.missing_torque import find_missing_torque, stand_ins
+from furuta_drake.diagnosis.selection.rule import Bootstrap
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.torque_report import torque_record
 from furuta_drake.effects.surrogate import HISTORY, REGULARIZATION_VELOCITY, Model, predict_windows
 from furuta_drake.effects.torque_library import TERMS, term_value, term_values
 from furuta_drake.friction import JointFrictionParameters
@@ -128,7 +128,7 @@ def test_on_a_coulomb_only_rig_nothing_is_claimed_beyond_the_friction():
 
 
 def test_an_inertia_three_times_the_rig_files_is_a_stand_in():
-    from furuta_drake.diagnosis.fit import FitResult
+    from furuta_drake.diagnosis.selection.fit import FitResult
     from furuta_drake.effects.vocabulary import Effect
 
     heavy = FitResult("inertia_mismatch", {"inertia_mismatch": Effect("", (3.0, 1.0, 1.0, 1.0))}, 1.0, None)
@@ -162,7 +162,7 @@ def test_a_drake_rig_with_cogging_is_diagnosed_with_it_and_the_fitted_model_carr
     from benchmarks.suite import run_configs
     from furuta_drake.config import SimulationConfig
     from furuta_drake.diagnosis.pipeline import diagnose
-    from furuta_drake.diagnosis.report import write_report
+    from furuta_drake.diagnosis.report.files import write_report
     from furuta_drake.diagnosis.settings import FAST
     from furuta_drake.results import write_log_csv
     from furuta_drake.rig import lund_rig

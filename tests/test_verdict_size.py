@@ -8,11 +8,11 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from furuta_drake.diagnosis.fit import FitResult
-from furuta_drake.diagnosis.gap import GapResult
-from furuta_drake.diagnosis.record_text import choice_text
-from furuta_drake.diagnosis.rule import NEGLIGIBLE_COUNTS, Bootstrap
-from furuta_drake.diagnosis.stepwise import Selection
+from furuta_drake.diagnosis.gap.metric import GapResult
+from furuta_drake.diagnosis.report.record_text import choice_text
+from furuta_drake.diagnosis.selection.fit import FitResult
+from furuta_drake.diagnosis.selection.rule import NEGLIGIBLE_COUNTS, Bootstrap
+from furuta_drake.diagnosis.selection.stepwise import Selection
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect
 
 WINDOWS = 100

@@ -1,11 +1,11 @@
 """How well an experiment separates two hypotheses, measured the way the diagnosis measures the gap.
 
 The experiment's log under the true hypothesis T is cut into a train half and a held-out half, and each half into
-the diagnosis' k-step windows (:func:`~furuta_drake.diagnosis.gap.make_windows`). The rival model R is judged as
+the diagnosis' k-step windows (:func:`~furuta_drake.diagnosis.gap.metric.make_windows`). The rival model R is judged as
 the diagnosis would judge it: its parameters are fitted again on the train half (Gauss-Newton steps of the
 k-step residuals, the initial states of every window re-projected for every parameter vector, Kaufman's
-projected Jacobian as in :mod:`furuta_drake.diagnosis.fit`), and its residuals on the held-out half come from
-states refined per window (:func:`~furuta_drake.diagnosis.gap.projected_residuals`). What a refit or the initial
+projected Jacobian as in :mod:`furuta_drake.diagnosis.selection.fit`), and its residuals on the held-out half come from
+states refined per window (:func:`~furuta_drake.diagnosis.gap.metric.projected_residuals`). What a refit or the initial
 states can absorb is no evidence and counts for nothing.
 
 The criterion is the expected log-likelihood ratio of the held-out half under the truth's own sensor noise (its
@@ -26,14 +26,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from furuta_drake.design.torque_hypothesis import TORQUE, apply_hypothesis, torque_bounds
-from furuta_drake.diagnosis.gap import (
+from furuta_drake.diagnosis.gap.metric import (
     Windows,
     fixed_state_residuals,
     make_windows,
     project_out_states,
     projected_residuals,
 )
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.effects.surrogate import Model, sensor_variance
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales
 from furuta_drake.rig import RigParameters

@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 from furuta_drake.design.closed_loop import CLOSED_LOOP_SHARE, closed_loop_sizes, limited_targets
 from furuta_drake.design.rollout import nominal_lqr_gain
 from furuta_drake.design.torque_hypothesis import TORQUE, apply_hypothesis, report_torque, scaled_torque
-from furuta_drake.diagnosis.detection import INJECTIONS
-from furuta_drake.diagnosis.fit import scales_of
-from furuta_drake.diagnosis.rule import NEAR
+from furuta_drake.diagnosis.selection.detection import INJECTIONS
+from furuta_drake.diagnosis.selection.fit import scales_of
+from furuta_drake.diagnosis.selection.rule import NEAR
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, law_of, rig_model
 from furuta_drake.errors import ConfigError

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import yaml
 
-from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.logs import RunLog, load_logs
+from furuta_drake.diagnosis.logs.format import LogFormat
+from furuta_drake.diagnosis.logs.load import RunLog, load_logs
 from furuta_drake.errors import ConfigError, FurutaError
 from furuta_drake.rig import RigParameters
 from furuta_drake.rig_file import load_rig

@@ -1,8 +1,8 @@
 """The detection limits a designed experiment is predicted to reach, for the effects it targets.
 
 A diagnosis states, for every effect it did not accept, the smallest size its held-out windows would have
-detected (:mod:`furuta_drake.diagnosis.detection`: the effect injected into the accepted model's prediction and
-judged by the acceptance rule's bootstrap). The prediction applies the same machinery to the held-out windows
+detected (:mod:`furuta_drake.diagnosis.selection.detection`: the effect injected into the accepted model's prediction
+and judged by the acceptance rule's bootstrap). The prediction applies the same machinery to the held-out windows
 the diagnosis would judge once the experiment's log joins its logs: its own held-out windows and the held-out
 half of the experiment as the accepted model plays it in Drake, read through the accepted model's encoder
 (rounding to its counts and its white noise, seeded). A target's size is the one that changes the rig's closed
@@ -19,9 +19,9 @@ from furuta_drake.design.criterion import experiment_windows
 from furuta_drake.design.hypotheses import Hypotheses
 from furuta_drake.design.inputs import DiagnosisRecord
 from furuta_drake.design.rollout import nominal_lqr_gain
-from furuta_drake.diagnosis.detection import INJECTIONS, injected_limits
-from furuta_drake.diagnosis.gap import Windows, make_windows
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.gap.metric import Windows, make_windows
+from furuta_drake.diagnosis.selection.detection import INJECTIONS, injected_limits
+from furuta_drake.diagnosis.selection.rule import Bootstrap
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import UNITS, Scales
 from furuta_drake.rig import encoder_resolution
@@ -30,7 +30,7 @@ from furuta_drake.rig import encoder_resolution
 def diagnosis_heldout_windows(record: DiagnosisRecord) -> Windows:
     """The held-out windows the diagnosis judged: its ``--heldout`` logs, or the blocks it held out of its train
     logs."""
-    from furuta_drake.diagnosis.split import split_heldout
+    from furuta_drake.diagnosis.gap.split import split_heldout
 
     return make_windows(record.heldout if record.heldout else split_heldout(record.train)[1], record.rig)
 

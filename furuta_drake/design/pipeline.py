@@ -36,11 +36,11 @@ from furuta_drake.design.rollout import (
     surrogate_runs,
 )
 from furuta_drake.design.torque_hypothesis import apply_hypothesis
-from furuta_drake.diagnosis.fit import scales_of
-from furuta_drake.diagnosis.gap import evaluate_gap, window_samples
-from furuta_drake.diagnosis.parallel import one_blas_thread
+from furuta_drake.diagnosis.gap.metric import evaluate_gap, window_samples
+from furuta_drake.diagnosis.selection.fit import scales_of
 from furuta_drake.effects.vocabulary import Scales
 from furuta_drake.errors import ConfigError, SimulationDiverged
+from furuta_drake.parallel import one_blas_thread
 from furuta_drake.simulate import simulate
 
 PENDULUM_BOUND = {"hanging": 0.5, "balancing": 0.2}  # [rad] from hanging or from the upright

@@ -7,7 +7,7 @@ judged against) are refit on the experiment's train half and give noise-free res
 noise (the rounding of its encoder, uniform over a count, and its white noise), with what each model's
 re-projected initial states absorb of it projected out, appends the per-window excess of the diagnosis' own
 held-out windows (the new log joins them, it does not replace them), and applies the rule of
-:mod:`furuta_drake.diagnosis.rule` with its bootstrap:
+:mod:`furuta_drake.diagnosis.selection.rule` with its bootstrap:
 
 - a nested pair (the truth is the rival plus one effect): detected when the truth's reduction over the rival
   has a 5 % lower bound above the margin, so the effect is kept (and, for a first effect, closes the gap; the
@@ -28,8 +28,8 @@ import numpy as np
 
 from furuta_drake.design.criterion import Refit
 from furuta_drake.design.torque_hypothesis import TORQUE
-from furuta_drake.diagnosis.gap import project_out_states
-from furuta_drake.diagnosis.rule import ENTRY, Bootstrap, at_floor, choose, decide, gap_of, is_kept
+from furuta_drake.diagnosis.gap.metric import project_out_states
+from furuta_drake.diagnosis.selection.rule import ENTRY, Bootstrap, at_floor, choose, decide, gap_of, is_kept
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import law_of
 from furuta_drake.rig import encoder_resolution

@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
-from furuta_drake.diagnosis.gap import COMMAND_PAD, substeps_for
+from furuta_drake.diagnosis.gap.metric import COMMAND_PAD, substeps_for
 from furuta_drake.effects.surrogate import Model, predict_windows
 from furuta_drake.rig import RigParameters, encoder_resolution
 

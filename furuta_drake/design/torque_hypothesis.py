@@ -3,8 +3,8 @@
 Among a hypothesis' effects the torque is the entry ``TORQUE``: an :class:`~furuta_drake.effects.vocabulary.Effect`
 whose form names its library terms (``"joint:term index"`` joined by ``;``) and whose values are their
 coefficients [N m]. Applied, its terms are added to the model's own
-(:func:`~furuta_drake.diagnosis.missing_torque.with_terms`); refit, its coefficients move within ``SPAN`` times
-their size either way. ``--target unmodelled_torque=SIZE`` scales the torque found to a size: SIZE is its RMS
+(:func:`~furuta_drake.diagnosis.selection.missing_torque.with_terms`); refit, its coefficients move within ``SPAN``
+times their size either way. ``--target unmodelled_torque=SIZE`` scales the torque found to a size: SIZE is its RMS
 [N m] along the diagnosis' train logs (both joints' torques, the rates by central differences of the logged
 angles).
 """
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from furuta_drake.diagnosis.missing_torque import with_terms
+from furuta_drake.diagnosis.selection.missing_torque import with_terms
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import JOINTS, TERMS, expression, term_values
 from furuta_drake.effects.vocabulary import Effect, apply_effects, describe
@@ -59,7 +59,7 @@ def torque_bounds(effect: Effect) -> tuple[list[float], list[float]]:
 
 
 def torque_rms(effect: Effect, logs) -> float:
-    """The torque's RMS [N m] along ``logs`` (:class:`~furuta_drake.diagnosis.logs.RunLog`): the root of the mean
+    """The torque's RMS [N m] along ``logs`` (:class:`~furuta_drake.diagnosis.logs.load.RunLog`): the root of the mean
     over their samples of the arm's and the pendulum's torque squared, summed."""
     total, samples = 0.0, 0
     for log in logs:

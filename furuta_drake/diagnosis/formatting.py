@@ -1,7 +1,7 @@
 """How the report writes numbers: significant digits, percentages, quantities with an SI prefix, intervals.
 
 One set of helpers for ``report.md`` and ``report.html`` (and the sentences of
-:mod:`~furuta_drake.diagnosis.narrative`), so both say the same figure the same way. ``None`` (a figure that
+:mod:`~furuta_drake.diagnosis.report.narrative`), so both say the same figure the same way. ``None`` (a figure that
 was not finite) is written ``n/a``.
 """
 

@@ -1,6 +1,6 @@
 """``furuta-drake diagnose`` as one function, :func:`diagnose`: load -> split into train and held-out data ->
 windows -> select effects (fit on train, the held-out rule) -> detection limits -> replay in Drake -> localise,
-returning a :class:`~furuta_drake.diagnosis.result.Diagnosis` (:func:`~furuta_drake.diagnosis.report.write_report`
+returning a :class:`~furuta_drake.diagnosis.result.Diagnosis` (:func:`~furuta_drake.diagnosis.report.files.write_report`
 writes it; ``docs/diagnose.md`` explains every figure).
 """
 
@@ -15,11 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from furuta_drake.diagnosis.detection import detection_limits
-from furuta_drake.diagnosis.final_fit import refit_final
-from furuta_drake.diagnosis.fit import FitResult, interval, scales_of
-from furuta_drake.diagnosis.folds import consistency
-from furuta_drake.diagnosis.gap import (
+from furuta_drake.diagnosis.gap.localize import localize
+from furuta_drake.diagnosis.gap.metric import (
     Windows,
     evaluate_gap,
     gap_metric_definition,
@@ -27,29 +24,32 @@ from furuta_drake.diagnosis.gap import (
     make_windows,
     window_residuals,
 )
-from furuta_drake.diagnosis.localize import localize
-from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.logs import RunLog, ignored_columns_note, load_logs
-from furuta_drake.diagnosis.missing_torque import beyond_vocabulary
-from furuta_drake.diagnosis.parallel import TaskPool, one_blas_thread, run_tasks
-from furuta_drake.diagnosis.per_log import heldout_rms_per_log
-from furuta_drake.diagnosis.record_text import choice_text, confusable_why, consistency_judgement, rule_text
-from furuta_drake.diagnosis.replay import replay_gaps
-from furuta_drake.diagnosis.report import effect_curve, input_record
-from furuta_drake.diagnosis.reselection import reselect_beside_torque
+from furuta_drake.diagnosis.gap.per_log import heldout_rms_per_log
+from furuta_drake.diagnosis.gap.replay import replay_gaps
+from furuta_drake.diagnosis.gap.split import split_heldout
+from furuta_drake.diagnosis.logs.format import LogFormat
+from furuta_drake.diagnosis.logs.load import RunLog, ignored_columns_note, load_logs
+from furuta_drake.diagnosis.report.files import effect_curve, input_record
+from furuta_drake.diagnosis.report.record_text import choice_text, confusable_why, consistency_judgement, rule_text
+from furuta_drake.diagnosis.report.torque import beside_record, torque_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
-from furuta_drake.diagnosis.rival import widen
-from furuta_drake.diagnosis.rule import Bootstrap
-from furuta_drake.diagnosis.sensor import SensorFinding
+from furuta_drake.diagnosis.selection.detection import detection_limits
+from furuta_drake.diagnosis.selection.final_fit import refit_final
+from furuta_drake.diagnosis.selection.fit import FitResult, interval, scales_of
+from furuta_drake.diagnosis.selection.folds import consistency
+from furuta_drake.diagnosis.selection.missing_torque import beyond_vocabulary
+from furuta_drake.diagnosis.selection.reselection import reselect_beside_torque
+from furuta_drake.diagnosis.selection.rival import widen
+from furuta_drake.diagnosis.selection.rule import Bootstrap
+from furuta_drake.diagnosis.selection.sensor import SensorFinding
+from furuta_drake.diagnosis.selection.stepwise import Selection, select_effects
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.split import split_heldout
-from furuta_drake.diagnosis.stepwise import Selection, select_effects
-from furuta_drake.diagnosis.torque_report import beside_record, torque_record
 from furuta_drake.effects.corrected import fitted_rig, model_config
 from furuta_drake.effects.surrogate import Model, load_kernel
 from furuta_drake.effects.torque_library import library_terms, merged, torque_parameters_of
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
 from furuta_drake.errors import ConfigError
+from furuta_drake.parallel import TaskPool, one_blas_thread, run_tasks
 from furuta_drake.rig import RigParameters
 from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import locate_in_file

@@ -14,7 +14,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
-from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.diagnosis.logs.load import WindowResiduals
 
 Number = float | None  # None: not finite (e.g. a diverged candidate's gap)
 
@@ -55,7 +55,7 @@ class RankedCandidate:
     evidence: Number
     params_ci: dict[str, list[float]] = field(default_factory=dict)
     params_ci_if_complete: dict[str, list[float]] = field(default_factory=dict)  # the final model's own
-    # bootstrap intervals before the widening by a rival effect (furuta_drake.diagnosis.rival)
+    # bootstrap intervals before the widening by a rival effect (furuta_drake.diagnosis.selection.rival)
     step: int = 1
     reduction_over_previous: Number = None
     evidence_over_previous: Number = None

@@ -11,7 +11,7 @@ c = m l r, d = m g l (q = [theta, phi], theta = 0 upright):
 
 (a test checks it against Drake's MultibodyPlant). Friction uses the laws of :mod:`furuta_drake.friction`
 (static model with a regularisation velocity of ``REGULARIZATION_VELOCITY``, the same in the Drake replay).
-The held-out figures of a report come from the Drake diagram (:mod:`furuta_drake.diagnosis.replay`), not
+The held-out figures of a report come from the Drake diagram (:mod:`furuta_drake.diagnosis.gap.replay`), not
 from here.
 """
 

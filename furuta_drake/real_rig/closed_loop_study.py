@@ -37,7 +37,7 @@ from scipy.signal import welch
 from furuta_drake.config import SimulationConfig, quanser_swingup_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.controllers.swingup import catch_time, wrap_angle
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.observers.filtered_derivative import FilteredDerivativeParameters, filtered_derivative
 from furuta_drake.paper import reproduce
 from furuta_drake.real_rig.runs import (

@@ -24,7 +24,7 @@ import numpy as np
 
 from furuta_drake.config import SimulationConfig, dump_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
-from furuta_drake.diagnosis.report import write_report_files
+from furuta_drake.diagnosis.report.files import write_report_files
 from furuta_drake.observers.filtered_derivative import filtered_derivative
 from furuta_drake.paper.reproduce import PAPER_TABLE2, report_progress
 from furuta_drake.plotting import (

@@ -1,5 +1,5 @@
 """The real QUBE-Servo 2 runs as the real-rig studies use them (``data/qube-servo2-real``, loaded and sign-checked by
-:func:`furuta_drake.diagnosis.logs.load_logs`): which run plays which part, a run seen as a simulation tape, its
+:func:`furuta_drake.diagnosis.logs.load.load_logs`): which run plays which part, a run seen as a simulation tape, its
 balancing and hanging segments, the paper's reference velocity, and the diagnosis that gives the corrected model.
 
 Parts. One swing-up run trains (the diagnosis fits on it, the observers are tuned on its balancing part, the
@@ -31,11 +31,11 @@ from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, balancing
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
-from furuta_drake.diagnosis.log_writers import write_log
-from furuta_drake.diagnosis.logs import RunLog, load_logs
+from furuta_drake.diagnosis.gap.split import split_heldout
+from furuta_drake.diagnosis.logs.load import RunLog, load_logs
+from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
-from furuta_drake.diagnosis.split import split_heldout
 from furuta_drake.effects.corrected import model_config
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.linearization import equilibrium_angle
@@ -132,7 +132,7 @@ def hanging_samples(log: RunLog) -> slice:
 
 def chirp_blocks(log: RunLog) -> tuple[np.ndarray, np.ndarray]:
     """(train, held-out) sample masks of ``log``: its hanging segment cut into blocks by
-    :func:`~furuta_drake.diagnosis.split.split_heldout`; the rest of the log (large swings) is in neither."""
+    :func:`~furuta_drake.diagnosis.gap.split.split_heldout`; the rest of the log (large swings) is in neither."""
     segment = hanging_samples(log)
     part = dataclasses.replace(
         log, time=log.time[segment], theta=log.theta[segment], phi=log.phi[segment], input=log.input[segment]

@@ -41,8 +41,8 @@ from pydrake.systems.controllers import DiscreteTimeLinearQuadraticRegulator
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import LqrParameters, zero_order_hold
-from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.errors import ConfigError
+from furuta_drake.parallel import Failure, run_tasks
 from furuta_drake.tune.controller import Controller, observer_for, upright_rate, with_compensation
 from furuta_drake.tune.design import DesignModel, output_lqr
 from furuta_drake.tune.inputs import TuneInputs

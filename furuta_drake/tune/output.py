@@ -18,7 +18,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from furuta_drake.config import dump_config
-from furuta_drake.diagnosis.html import STYLE
+from furuta_drake.diagnosis.report.html import STYLE
 from furuta_drake.outputs import atomic_output_dir, versions
 from furuta_drake.results import write_json
 from furuta_drake.tune.controller import closed_loop, finite, torque_per_volt, volts_gain

@@ -12,7 +12,7 @@
 4. With a swing-up configured (``TuneSettings.swingup``), each design's catch time behind it (:mod:`.swingup`).
 
 Every run starts from the same seeded disturbance and encoder noise (common random numbers: the designs differ
-only by their design). Runs go to worker processes (:func:`~furuta_drake.diagnosis.parallel.run_tasks`).
+only by their design). Runs go to worker processes (:func:`~furuta_drake.parallel.run_tasks`).
 """
 
 from __future__ import annotations

@@ -28,9 +28,9 @@ from pathlib import Path
 from furuta_drake.config import SimulationConfig, load_config, quanser_swingup_config, swingup_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters
 from furuta_drake.controllers.swingup import SwingUpParameters, catch_time
-from furuta_drake.diagnosis.parallel import Failure, run_tasks
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.observers.filtered_derivative import FilteredDerivativeParameters
+from furuta_drake.parallel import Failure, run_tasks
 from furuta_drake.simulate import simulate
 from furuta_drake.tune.controller import Controller, volts_gain
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from furuta_drake.data import QUBE_REAL_DIR as QUBE_DATA
-from furuta_drake.diagnosis.log_writers import write_log
+from furuta_drake.diagnosis.logs.writers import write_log
 
 HERE = Path(__file__).resolve().parent
 QUBE_RIG_TEXT = (QUBE_DATA / "rig.yaml").read_text()

@@ -54,8 +54,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import brentq
 
-from furuta_drake.diagnosis.gap import Windows, projected_residuals
-from furuta_drake.diagnosis.rule import LOWER_BOUND_QUANTILE
+from furuta_drake.diagnosis.gap.metric import Windows, projected_residuals
+from furuta_drake.diagnosis.selection.rule import LOWER_BOUND_QUANTILE
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import Effect
 from furuta_drake.rig import encoder_resolution

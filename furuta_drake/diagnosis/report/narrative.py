@@ -12,7 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 from furuta_drake.diagnosis.formatting import ends, number, percent, quantity
-from furuta_drake.diagnosis.torque_report import torque_words
+from furuta_drake.diagnosis.report.torque import torque_words
 from furuta_drake.effects.corrected import rig_entry
 from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, UNITS
 

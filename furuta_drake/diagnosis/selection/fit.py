@@ -14,7 +14,7 @@ resampled windows' normal equations, and the 2.5-97.5 % range of the steps, take
 windows, is the 95 % interval.
 
 The sensor effects (a coarser encoder, measurement noise) change no prediction and are not fitted here: they are
-read from the data and judged by their own rule (:mod:`~furuta_drake.diagnosis.sensor`).
+read from the data and judged by their own rule (:mod:`~furuta_drake.diagnosis.selection.sensor`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from furuta_drake.diagnosis.gap import (
+from furuta_drake.diagnosis.gap.metric import (
     GapResult,
     Windows,
     evaluate_gap,
@@ -36,10 +36,10 @@ from furuta_drake.diagnosis.gap import (
     state_jacobians,
     window_excess,
 )
-from furuta_drake.diagnosis.jitter_fit import heldout_jitter, spread_by_likelihood
-from furuta_drake.diagnosis.jumps import bootstrap_argmin, line_search
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.rule import Bootstrap, beyond_resolution
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection.jitter_fit import heldout_jitter, spread_by_likelihood
+from furuta_drake.diagnosis.selection.jumps import bootstrap_argmin, line_search
+from furuta_drake.diagnosis.selection.rule import Bootstrap, beyond_resolution
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model, same_branches
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, apply_effects, causal_spread, form_starts
@@ -134,7 +134,7 @@ def screen_task(task: FitTask) -> Screen:
     """A cheap first fit of ``task.new``: in each form, its best start (as :func:`fit_task` ranks them) and
     ``SCREEN_EVALUATIONS`` cost evaluations of the least squares on the start windows from there; the form with
     the least excess is the screen's. The selection fits fully only the candidates whose screen comes within reach
-    of the best one's (:meth:`~furuta_drake.diagnosis.stepwise.Stepwise.screened_fits`); the others keep their
+    of the best one's (:meth:`~furuta_drake.diagnosis.selection.stepwise.Stepwise.screened_fits`); the others keep their
     screen (:func:`after_screen`), its values no fit's and without intervals."""
     screens = {form.name: _screened(task, {task.new: form.name}) for form in _fitted(task.new).forms}
     best = min(screens, key=lambda form: screens[form][2])
@@ -184,9 +184,10 @@ def _named_fit(task: FitTask, fits: dict) -> tuple:
     jitter's expected command is a moving average of the command, which a lag or a filter also gives: what tells a
     jitter is the variance its draws add, so its spread is the one of largest likelihood below the causal limit
     (:func:`~furuta_drake.effects.vocabulary.causal_spread`), and it is named when that spread is credited
-    (:mod:`~furuta_drake.diagnosis.jitter_fit`). Where the least squares show the spread too (its 95 % interval
-    off the bound, more removed than the floor resolves, :func:`~furuta_drake.diagnosis.rule.beyond_resolution`:
-    a fine encoder sees the expected command's smoothing), their spread is reported, the sharper reading."""
+    (:mod:`~furuta_drake.diagnosis.selection.jitter_fit`). Where the least squares show the spread too (its 95 %
+    interval off the bound, more removed than the floor resolves,
+    :func:`~furuta_drake.diagnosis.selection.rule.beyond_resolution`: a fine encoder sees the expected command's
+    smoothing), their spread is reported, the sharper reading."""
     nesting = [name for name in fits if CANDIDATES[task.new].form(name).simpler in fits]
     if not nesting:
         return fits[min(fits, key=lambda form: fits[form][3])]
@@ -217,7 +218,7 @@ def _named_fit(task: FitTask, fits: dict) -> tuple:
 
 def _credited_heldout(task: FitTask, effects: dict[str, Effect], spread: float) -> bool:
     """Whether the jittering delay of ``effects`` with ``spread`` beats a constant variance on the held-out windows
-    (:func:`~furuta_drake.diagnosis.jitter_fit.heldout_jitter`); True when the task has none."""
+    (:func:`~furuta_drake.diagnosis.selection.jitter_fit.heldout_jitter`); True when the task has none."""
     if task.heldout is None:
         return True
     delay = effects[task.new].values[0]
@@ -377,7 +378,7 @@ def _best_start(starts: list, low: np.ndarray, high: np.ndarray, model_at, windo
 
 class Residuals:
     """A fit's residuals on ``windows`` as a function of its parameters (the initial states' share projected out,
-    :func:`~furuta_drake.diagnosis.gap.projected_residuals`) and their Jacobian (:func:`_columns`), for
+    :func:`~furuta_drake.diagnosis.gap.metric.projected_residuals`) and their Jacobian (:func:`_columns`), for
     ``scipy.optimize.least_squares``. ``last`` keeps the last evaluation (residuals, states, ``x``),
     ``linearised`` the last Jacobian's with its columns and the states' sensitivities (the bootstrap at the fit
     reuses them). The states' sensitivities are simulated for the Jacobian alone: a trial step the solver refuses,
@@ -406,7 +407,7 @@ class Residuals:
 
 def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bounds, levels):
     """The least-squares ``result``'s parameters and cost, with the parameter of a new form at which the cost jumps
-    found by :func:`~furuta_drake.diagnosis.jumps.line_search` from there; and per such parameter's index, the
+    found by :func:`~furuta_drake.diagnosis.selection.jumps.line_search` from there; and per such parameter's index, the
     search's profile of residuals."""
     x, total, profiles = result.x, float(2.0 * result.cost), {}
     for name, form in new_form.items():
@@ -419,7 +420,7 @@ def _search_jumps(cost, result, new_form: dict, names: tuple, sizes: list, bound
 
 def _jump_samples(samples: np.ndarray, profiles: dict, last: dict, settings: DiagnosisSettings) -> np.ndarray:
     """``samples`` with the bootstrap of every searched parameter replaced by the block bootstrap of its search
-    (:func:`~furuta_drake.diagnosis.jumps.bootstrap_argmin`; the linearised step cannot move it)."""
+    (:func:`~furuta_drake.diagnosis.selection.jumps.bootstrap_argmin`; the linearised step cannot move it)."""
     if not profiles:
         return samples
     shapes = [raw.shape for raw in last["raw"]]  # (horizon, 2, W) per log, as the flat residuals hold them
@@ -444,13 +445,13 @@ def _jump_samples(samples: np.ndarray, profiles: dict, last: dict, settings: Dia
 def _columns(model_at, x, windows: Windows, last: dict, counts: int, span, high) -> list[list[np.ndarray]]:
     """Per parameter, the per-log residual change (horizon, 2, W) per unit of the parameter, at the initial
     states of ``last``, with what the states could absorb projected out (Kaufman). A column is exact where the
-    surrogate is differentiable along the parameter's step (:func:`~furuta_drake.diagnosis.gap.parameter_slopes_of`:
-    the packed parameters' and the arm torque's changes over the step carried through the integration's forward
-    sensitivities, every such column in one surrogate pass), else a finite difference of the residuals (every such
-    column's model in one surrogate call): a threshold dead zone's width, whose cost jumps where it crosses a
-    command, and a step that changes the kernel's branches (:func:`~furuta_drake.effects.surrogate.same_branches`:
-    a friction kind, a Stribeck curve, LuGre's bristle damping). Every column is projected in one solve per
-    window."""
+    surrogate is differentiable along the parameter's step
+    (:func:`~furuta_drake.diagnosis.gap.metric.parameter_slopes_of`: the packed parameters' and the arm torque's changes
+    over the step carried through the integration's forward sensitivities, every such column in one surrogate pass),
+    else a finite difference of the residuals (every such column's model in one surrogate call): a threshold dead zone's
+    width, whose cost jumps where it crosses a command, and a step that changes the kernel's branches
+    (:func:`~furuta_drake.effects.surrogate.same_branches`: a friction kind, a Stribeck curve, LuGre's bristle damping).
+    Every column is projected in one solve per window."""
     steps, models = [], []
     for i in range(x.size):
         step = JACOBIAN_STEP * max(abs(x[i]), span[i] * 1e-3)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.diagnosis.logs.load import WindowResiduals
 
 SIGNALS = ("theta", "phi")
 

@@ -2,11 +2,11 @@
 
 An effect outside the vocabulary can distort a listed one in the selection: beside cogging, Coulomb friction
 never enters, or enters at a wrong size, and the torque found afterwards takes a friction-like share of it. Once a
-torque is kept, the selection (:class:`~furuta_drake.diagnosis.stepwise.Stepwise`) runs again with the torque's
-terms outside the listed effects' shapes in the model as fixed terms, so that listed effects are fitted beside
+torque is kept, the selection (:class:`~furuta_drake.diagnosis.selection.stepwise.Stepwise`) runs again with the
+torque's terms outside the listed effects' shapes in the model as fixed terms, so that listed effects are fitted beside
 the outside effect; the torque is then found again beside the effects kept there
-(:func:`~furuta_drake.diagnosis.missing_torque.find_missing_torque`, judged by the same rule). This repeats while
-the kept effects or the torque's terms change, at most ``RESELECTIONS`` times.
+(:func:`~furuta_drake.diagnosis.selection.missing_torque.find_missing_torque`, judged by the same rule). This repeats
+while the kept effects or the torque's terms change, at most ``RESELECTIONS`` times.
 
 The report's selection stays one over the rig file's model: the effects kept beside the torque, at the values
 fitted there, are judged without it against the nominal model (their held-out gaps evaluated again), so the verdict
@@ -18,10 +18,10 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-from furuta_drake.diagnosis.gap import Windows, evaluate_gap
-from furuta_drake.diagnosis.missing_torque import MissingTorque, find_missing_torque, with_terms
-from furuta_drake.diagnosis.rule import Bootstrap, is_kept
-from furuta_drake.diagnosis.stepwise import Selection
+from furuta_drake.diagnosis.gap.metric import Windows, evaluate_gap
+from furuta_drake.diagnosis.selection.missing_torque import MissingTorque, find_missing_torque, with_terms
+from furuta_drake.diagnosis.selection.rule import Bootstrap, is_kept
+from furuta_drake.diagnosis.selection.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import JOINTS, LISTED_SHAPES, TERMS, copied_effect, term_values
 from furuta_drake.effects.vocabulary import apply_effects

@@ -29,14 +29,13 @@ import yaml
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from furuta_drake.diagnosis import narrative
-from furuta_drake.diagnosis import report_tables as tables
 from furuta_drake.diagnosis.formatting import number, percent
-from furuta_drake.diagnosis.localize import band_power
-from furuta_drake.diagnosis.logs import WindowResiduals
-from furuta_drake.diagnosis.report_charts import chart_svgs, svg, windows_chart
+from furuta_drake.diagnosis.gap.localize import band_power
+from furuta_drake.diagnosis.logs.load import WindowResiduals
+from furuta_drake.diagnosis.report import narrative, tables
+from furuta_drake.diagnosis.report.charts import chart_svgs, svg, windows_chart
+from furuta_drake.diagnosis.report.torque import plot_torque, torque_sentence
 from furuta_drake.diagnosis.result import SPEC_KEYS
-from furuta_drake.diagnosis.torque_report import plot_torque, torque_sentence
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects.surrogate import Model, applied_torque, spring_torque
 from furuta_drake.effects.vocabulary import UNITS, apply_effects, effect_from_params, rig_model
@@ -145,7 +144,7 @@ def write_report(out_dir: str | Path, diagnosis, *, force: bool = False, protect
 def write_report_files(directory: Path, diagnosis) -> list[str]:
     """Write report.json, the plots, report.md, report.html, config.yaml, fitted_model.yaml and fitted_rig.yaml
     into an existing directory; return the written file names."""
-    from furuta_drake.diagnosis.html import report_html
+    from furuta_drake.diagnosis.report.html import report_html
 
     directory = Path(directory)
     artifacts = diagnosis.artifacts

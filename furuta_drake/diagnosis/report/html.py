@@ -4,7 +4,7 @@ The page holds everything inline: CSS in a ``<style>`` element, the charts as in
 as a ``data:image/png;base64`` URI, with no script, no external stylesheet, font or image, and no link except
 in-page ``#anchors``, so it opens offline and can be mailed as one file.
 
-Its order answers first: the verdict sentence (:func:`~furuta_drake.diagnosis.narrative.verdict_sentence`), the
+Its order answers first: the verdict sentence (:func:`~furuta_drake.diagnosis.report.narrative.verdict_sentence`), the
 held-out error before and after per log and signal beside what to do next and how far to trust the answer; the
 accepted effects as physical statements with their intervals and rig-file lines; what the logs could not see
 (the detection limits as a chart); the unmodelled torque when the report has one. Then the evidence: measured
@@ -19,10 +19,9 @@ import html
 import re
 from pathlib import Path
 
-from furuta_drake.diagnosis import narrative
-from furuta_drake.diagnosis import report_tables as tables
 from furuta_drake.diagnosis.formatting import number, percent
-from furuta_drake.diagnosis.report_charts import chart_svgs
+from furuta_drake.diagnosis.report import narrative, tables
+from furuta_drake.diagnosis.report.charts import chart_svgs
 
 STYLE = """
 body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1200px; padding: 12px 20px; color: #222;

@@ -6,15 +6,15 @@ synthetic data are the measured angles plus the change the effect at size s make
 the model's refined initial states, with the part the initial states can absorb projected out (the residuals are
 re-projected for every model, so a state-like change is no evidence). The model is then judged on the synthetic
 data against the model holding the injected effect at its true size, which explains them exactly, with the
-acceptance rule's bootstrap (:mod:`furuta_drake.diagnosis.rule`): detected when the model is not at the floor
+acceptance rule's bootstrap (:mod:`furuta_drake.diagnosis.selection.rule`): detected when the model is not at the floor
 on them and the lower bound of the reduction exceeds the margin (and, for a first effect, the reduction reaches
 the level that closes a gap). The smallest detected size is found by bisection on a log scale. A real fit must
 also find the parameters, so a real detection needs somewhat more than this limit.
 
-Sensor effects are injected into the data and judged by their own rule (:mod:`~furuta_drake.diagnosis.sensor`): white
-noise added to the residuals, judged by the log score of its third differences (and never below the size the
-noise reading names), and a coarser encoder by re-quantising the measured angles, judged by the grid the held-out
-increments lie on.
+Sensor effects are injected into the data and judged by their own rule
+(:mod:`~furuta_drake.diagnosis.selection.sensor`): white noise added to the residuals, judged by the log score of its
+third differences (and never below the size the noise reading names), and a coarser encoder by re-quantising the
+measured angles, judged by the grid the held-out increments lie on.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.gap import (
+from furuta_drake.diagnosis.gap.metric import (
     Windows,
     fixed_state_residuals,
     project_out_states,
@@ -32,8 +32,8 @@ from furuta_drake.diagnosis.gap import (
     window_excess,
 )
 from furuta_drake.diagnosis.result import DetectionLimit
-from furuta_drake.diagnosis.rule import Bootstrap, at_floor, decide
-from furuta_drake.diagnosis.sensor import (
+from furuta_drake.diagnosis.selection.rule import Bootstrap, at_floor, decide
+from furuta_drake.diagnosis.selection.sensor import (
     GRID_MIN_STEPS,
     MAX_GRID,
     NOISE_FLOOR_COUNTS,

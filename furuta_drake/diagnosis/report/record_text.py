@@ -1,13 +1,13 @@
 """The text keys of ``report.json``, written from the diagnosis' data: the held-out rule (``rule``, from the rule's
 own constants), why the verdict (``choice``), why two effects are confusable (``confusable[].why``), how consistent
 the folds were (``consistency.judgement``). The computing stages return numbers; these functions put them into
-words (the reports' own sentences are :mod:`~furuta_drake.diagnosis.narrative`'s)."""
+words (the reports' own sentences are :mod:`~furuta_drake.diagnosis.report.narrative`'s)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from furuta_drake.diagnosis.rule import (
+from furuta_drake.diagnosis.selection.rule import (
     CLOSES,
     CONFUSABLE_LEVEL,
     ENTRY,
@@ -18,7 +18,7 @@ from furuta_drake.diagnosis.rule import (
     NOISE_STANDARD_ERRORS,
     PARSIMONY,
 )
-from furuta_drake.diagnosis.stepwise import EXCHANGE_RUNNERS_UP, PAIR_ENTRY, Selection
+from furuta_drake.diagnosis.selection.stepwise import EXCHANGE_RUNNERS_UP, PAIR_ENTRY, Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, UNITS
 
@@ -59,7 +59,8 @@ def rule_text(bootstrap: int, seed: int, max_effects: int) -> str:
 
 
 def confusable_why(pair: dict) -> str:
-    """Why two effects are confusable (:func:`furuta_drake.diagnosis.rule.confusable`'s ``pair``), in one clause."""
+    """Why two effects are confusable (:func:`furuta_drake.diagnosis.selection.rule.confusable`'s ``pair``), in one
+    clause."""
     (first, second), (r_first, r_second) = pair["effects"], pair["reductions"]
     low, high = pair["difference"]
     if pair["by_excess"]:

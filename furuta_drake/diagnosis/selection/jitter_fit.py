@@ -28,14 +28,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.diagnosis.gap import (
+from furuta_drake.diagnosis.gap.metric import (
     Windows,
     jitter_energy,
     jitter_variances,
     projected_residuals,
     squared_excess,
 )
-from furuta_drake.diagnosis.rule import LOWER_BOUND_QUANTILE
+from furuta_drake.diagnosis.selection.rule import LOWER_BOUND_QUANTILE
 from furuta_drake.effects.surrogate import Model, sensor_variance
 from furuta_drake.effects.vocabulary import causal_spread
 

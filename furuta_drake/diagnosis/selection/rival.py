@@ -2,8 +2,8 @@
 the fitted value by ``rule.INTERVAL_INFLATION``, then widened by how far its parameters move when the strongest
 candidate not accepted is fitted beside it.
 
-The block bootstrap of :mod:`~furuta_drake.diagnosis.fit` states the spread of a fit *given* its model. An effect
-below the detection limits may still act on the logs, and the accepted effects then absorb part of it: their
+The block bootstrap of :mod:`~furuta_drake.diagnosis.selection.fit` states the spread of a fit *given* its model. An
+effect below the detection limits may still act on the logs, and the accepted effects then absorb part of it: their
 values are biased by an amount the bootstrap cannot see. Each interval [lo, hi] of a fitted value x first becomes
 [x - k (x - lo), x + k (hi - x)] with k = ``INTERVAL_INFLATION`` (never below 0 for a parameter that cannot be
 negative), the factor calibrated on the suites with and without a small hidden second effect
@@ -13,17 +13,17 @@ the backward pass dropped an effect); the one that reduces the final model's hel
 *rival*. A parameter whose value moves by d in the rival then spans [min(lo, lo + d), max(hi, hi + d)] of the
 inflated interval: it holds whether or not the rival is present. The move is measured from the final model as the
 selection fitted it (the rival's fit windows), also when the report's final model is its refit on every train
-window (:mod:`~furuta_drake.diagnosis.final_fit`).
+window (:mod:`~furuta_drake.diagnosis.selection.final_fit`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 
-from furuta_drake.diagnosis.fit import FitResult
 from furuta_drake.diagnosis.result import RankedCandidate
-from furuta_drake.diagnosis.rule import INTERVAL_INFLATION, Bootstrap
-from furuta_drake.diagnosis.stepwise import Selection
+from furuta_drake.diagnosis.selection.fit import FitResult
+from furuta_drake.diagnosis.selection.rule import INTERVAL_INFLATION, Bootstrap
+from furuta_drake.diagnosis.selection.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import SIGNED, describe
 

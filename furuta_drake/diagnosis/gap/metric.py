@@ -19,9 +19,9 @@ where sigma_0^2 is the variance the rig file's own sensor adds (``Windows.floor`
 rounding, and a noise the rig file states). The gap measures what a model *predicts*: the same floor is taken off
 for every model, so a model lowers the gap only by predicting the angles better. Variance a model claims (a
 coarser encoder, measurement noise, a jittering delay's draws) is never taken off; it is judged on its own
-signature (:mod:`~furuta_drake.diagnosis.sensor`, :mod:`~furuta_drake.diagnosis.jitter_fit`). A jittering delay's
-variance of each sample, sigma_j^2(n) = sum_k g_nk^2 v_k (the window's impulse responses g_nk and the command's
-variance v_k over the delay, :mod:`~furuta_drake.effects.jitter`), is computed here for that judgement.
+signature (:mod:`~furuta_drake.diagnosis.selection.sensor`, :mod:`~furuta_drake.diagnosis.selection.jitter_fit`). A
+jittering delay's variance of each sample, sigma_j^2(n) = sum_k g_nk^2 v_k (the window's impulse responses g_nk and the
+command's variance v_k over the delay, :mod:`~furuta_drake.effects.jitter`), is computed here for that judgement.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import savgol_filter
 
-from furuta_drake.diagnosis.logs import RunLog, WindowResiduals
+from furuta_drake.diagnosis.logs.load import RunLog, WindowResiduals
 from furuta_drake.effects.drive_kernel import D_BACKLASH, D_INERTIA, D_STIFFNESS, pack_drive
 from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import (

@@ -1,4 +1,4 @@
-"""Read the columns of one run log from CSV, Parquet or MCAP; :mod:`furuta_drake.diagnosis.logs` checks them.
+"""Read the columns of one run log from CSV, Parquet or MCAP; :mod:`furuta_drake.diagnosis.logs.load` checks them.
 
 The reader is picked by the file's extension: ``.parquet`` (pyarrow; one run per file, numeric columns),
 ``.mcap`` (the ``mcap`` package; one run per file, the messages of one channel, JSON-encoded, each message one

@@ -1,5 +1,5 @@
 """Write a run log's columns as CSV, Parquet or MCAP (by extension), in the layouts
-:mod:`~furuta_drake.diagnosis.log_readers` reads: for converting a lab's logs and for tests of the readers."""
+:mod:`~furuta_drake.diagnosis.logs.readers` reads: for converting a lab's logs and for tests of the readers."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The unmodelled torque in the report: the ``report.json`` entry, its words for report.md, its plot, and the
-expressions ``fitted_model.yaml`` and ``fitted_rig.yaml`` carry (:mod:`~furuta_drake.diagnosis.missing_torque`
+expressions ``fitted_model.yaml`` and ``fitted_rig.yaml`` carry (:mod:`~furuta_drake.diagnosis.selection.missing_torque`
 finds it)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from furuta_drake.diagnosis.missing_torque import MissingTorque
+from furuta_drake.diagnosis.selection.missing_torque import MissingTorque
 from furuta_drake.effects.torque_library import JOINTS, TERMS, carrier, closest_effect, term_values
 from furuta_drake.unmodelled import TORQUE_VARIABLES
 

@@ -4,10 +4,10 @@ windows and the rule's constants. Each function returns ``(header, rows)``; the 
 
 from __future__ import annotations
 
-from furuta_drake.diagnosis import narrative
 from furuta_drake.diagnosis.formatting import interval_text, number, percent, quantity, seconds_range
-from furuta_drake.diagnosis.rule import THRESHOLDS
-from furuta_drake.diagnosis.torque_report import torque_sentence
+from furuta_drake.diagnosis.report import narrative
+from furuta_drake.diagnosis.report.torque import torque_sentence
+from furuta_drake.diagnosis.selection.rule import THRESHOLDS
 from furuta_drake.effects.vocabulary import UNITS
 
 TOP_PER_STEP = 3  # ranking entries shown per step; the rest are folded

@@ -8,7 +8,7 @@ regression on the coefficients. Each term is scaled by its RMS along the train w
 term's RMS torque [N m]. The sparse regression is orthogonal matching pursuit (scikit-learn), its number of terms
 chosen by cross-validation over the train windows (folds of whole windows). Its strongest new term is added, all
 kept terms are fitted again by the fit's nonlinear least squares (variable projection,
-:mod:`~furuta_drake.diagnosis.fit`), and the pursuit runs again on the residual there, until cross-validation
+:mod:`~furuta_drake.diagnosis.selection.fit`), and the pursuit runs again on the residual there, until cross-validation
 wants no further term: a large torque's effect on the angles is not linear, and a term fitted at its own size
 leaves no remainder for spare terms to chase. The 95 % intervals come from the fit's block bootstrap over windows.
 Thresholded least squares (PySINDy's STLSQ) is no use here: over the arm's range on a balancing run the library's
@@ -17,7 +17,7 @@ has huge cancelling coefficients and keeps most of the library at every threshol
 terms together unless each earns its place.
 
 Judgement. The torque is kept only when the final model with it passes the rule an effect must pass against the
-model holding all the others (:func:`~furuta_drake.diagnosis.rule.is_kept`, bootstrapped over the held-out
+model holding all the others (:func:`~furuta_drake.diagnosis.selection.rule.is_kept`, bootstrapped over the held-out
 windows), so that it never claims what a listed effect explains.
 """
 
@@ -29,8 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.linear_model import OrthogonalMatchingPursuit
 
-from furuta_drake.diagnosis.fit import Residuals, bootstrap_samples, interval
-from furuta_drake.diagnosis.gap import (
+from furuta_drake.diagnosis.gap.metric import (
     GapResult,
     Windows,
     evaluate_gap,
@@ -38,12 +37,13 @@ from furuta_drake.diagnosis.gap import (
     project_out_states,
     projected_residuals,
 )
-from furuta_drake.diagnosis.parallel import one_blas_thread
-from furuta_drake.diagnosis.rule import IMPLAUSIBLE_SCALE, Bootstrap, Comparison, is_kept
+from furuta_drake.diagnosis.selection.fit import Residuals, bootstrap_samples, interval
+from furuta_drake.diagnosis.selection.rule import IMPLAUSIBLE_SCALE, Bootstrap, Comparison, is_kept
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import JOINTS, TERMS, closest_effect, expression, term_values
 from furuta_drake.effects.vocabulary import CANDIDATES, apply_effects
+from furuta_drake.parallel import one_blas_thread
 
 TORQUE_WINDOWS = 200  # train windows the regression uses at the most (evenly drawn, seeded)
 FOLDS = 5  # cross-validation folds of whole windows
@@ -75,7 +75,7 @@ class MissingTorque:
 
 def bound_labels(result) -> list[tuple[str, str, str]]:
     """(effect, parameter, "lower" | "upper") of every parameter of a fitted model (a
-    :class:`~furuta_drake.diagnosis.fit.FitResult`) fitted at an end of its search range."""
+    :class:`~furuta_drake.diagnosis.selection.fit.FitResult`) fitted at an end of its search range."""
     out = []
     for label in result.at_bounds:
         where, end = label.rsplit(" ", 1)
@@ -85,7 +85,7 @@ def bound_labels(result) -> list[tuple[str, str, str]]:
 
 
 def stand_ins(result) -> list[str]:
-    """The effects of a fitted model (a :class:`~furuta_drake.diagnosis.fit.FitResult`) that may stand in for
+    """The effects of a fitted model (a :class:`~furuta_drake.diagnosis.selection.fit.FitResult`) that may stand in for
     something outside the vocabulary: a parameter fitted at its search bound where the law is not a simpler one of
     the vocabulary there (:meth:`~furuta_drake.effects.vocabulary.Candidate.nested_law`: presliding at zero is a
     Coulomb law that sticks, no stand-in), or an inertia scale beyond ``IMPLAUSIBLE_SCALE`` either way."""
@@ -283,8 +283,8 @@ def _ragged(parts: list[np.ndarray]) -> np.ndarray:
 
 
 def beyond_vocabulary(selection, nominal: Model, train, heldout, counts, bootstrap, settings):
-    """The torque beyond the effects a selection (:class:`~furuta_drake.diagnosis.stepwise.Selection`) kept, or
-    None when none passes the rule; and the notes for the report. An effect that may be a stand-in
+    """The torque beyond the effects a selection (:class:`~furuta_drake.diagnosis.selection.stepwise.Selection`) kept,
+    or None when none passes the rule; and the notes for the report. An effect that may be a stand-in
     (:func:`stand_ins`) is first replaced by the torque beside the other kept effects when that model passes the
     rule against them, explains the held-out data at least as well as the model holding the stand-in and does not
     take the stand-in's own shape (a torque never displaces a listed effect it copies). A torque that takes the

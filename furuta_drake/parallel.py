@@ -1,5 +1,5 @@
-"""The diagnosis' task runner: candidates' fits and Drake replays on all cores, in worker processes or on an
-existing Dask cluster, with every task contained.
+"""The task runner of the diagnosis (candidates' fits, Drake replays), ``design`` and ``tune``: tasks on all
+cores, in worker processes or on an existing Dask cluster, with every task contained.
 
 A candidate fitted to arbitrary real data can be one whose parameters make a prediction blow up, and a worker
 process can die; both are ordinary outcomes of a diagnosis, not its end. A task that raises comes back as a

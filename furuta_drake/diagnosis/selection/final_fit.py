@@ -15,14 +15,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-from furuta_drake.diagnosis.fit import FitResult, FitTask, fit_task
-from furuta_drake.diagnosis.gap import Windows
-from furuta_drake.diagnosis.parallel import Failure
-from furuta_drake.diagnosis.rule import Bootstrap
+from furuta_drake.diagnosis.gap.metric import Windows
+from furuta_drake.diagnosis.selection.fit import FitResult, FitTask, fit_task
+from furuta_drake.diagnosis.selection.rule import Bootstrap
+from furuta_drake.diagnosis.selection.stepwise import Selection
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.stepwise import Selection
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES
+from furuta_drake.parallel import Failure
 
 
 def every_window_tasks(

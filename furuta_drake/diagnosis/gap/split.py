@@ -7,8 +7,8 @@ import dataclasses
 
 import numpy as np
 
-from furuta_drake.diagnosis.gap import window_samples
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.gap.metric import window_samples
+from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.rig import RigParameters
 
 HOLDOUT_FRACTION = 0.3

@@ -10,7 +10,7 @@ window starts from the initial state the surrogate refined for this model, with 
 error-controlled third-order Runge-Kutta at accuracy 1e-5: a gap near the sensor floor is a square root, so the
 integration error must stay far below a count, as it does here against a 1e-9 reference), which stops at every
 sample and at every jump of the applied command so that no step straddles one; the residuals give the same gap as
-:func:`furuta_drake.diagnosis.gap.evaluate_gap` (a test checks the two agree).
+:func:`furuta_drake.diagnosis.gap.metric.evaluate_gap` (a test checks the two agree).
 """
 
 from __future__ import annotations
@@ -24,12 +24,12 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from furuta_drake.diagnosis.gap import GapResult, Windows, gap_from_residuals, substeps_for
-from furuta_drake.diagnosis.parallel import Failure, run_tasks
+from furuta_drake.diagnosis.gap.metric import GapResult, Windows, gap_from_residuals, substeps_for
 from furuta_drake.effects.corrected import model_actuator, model_disturbance, model_rig
 from furuta_drake.effects.surrogate import Model, expected_command_points, lag_states, split_states
 from furuta_drake.effects.torque_library import torque_parameters_of
 from furuta_drake.friction import FrictionParameters, JointFrictionParameters
+from furuta_drake.parallel import Failure, run_tasks
 from furuta_drake.rig import RigParameters, encoder_resolution
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.world import add_furuta_world

@@ -2,10 +2,10 @@
 earlier ones (every candidate screened first, those the screen leaves far behind not fitted further) and entering on
 the held-out rule's lenient bound; then backward, each kept only while the model without it is worse by the rule's
 margin; then exchanges, each kept effect replaced by a runner-up of the step it entered at when that explains the
-held-out data significantly better (:mod:`furuta_drake.diagnosis.rule` holds the rule). These are the effects that
-change the predictions; the sensor effects are then read beside the final model and judged on their own signature
-(:mod:`furuta_drake.diagnosis.sensor`), and a named jittering delay's draws are credited with the variance they add
-(:mod:`furuta_drake.diagnosis.jitter_fit`)."""
+held-out data significantly better (:mod:`furuta_drake.diagnosis.selection.rule` holds the rule). These are the effects
+that change the predictions; the sensor effects are then read beside the final model and judged on their own signature
+(:mod:`furuta_drake.diagnosis.selection.sensor`), and a named jittering delay's draws are credited with the variance
+they add (:mod:`furuta_drake.diagnosis.selection.jitter_fit`)."""
 
 from __future__ import annotations
 
@@ -15,8 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from furuta_drake.diagnosis.equation_error import equation_error_starts
-from furuta_drake.diagnosis.fit import (
+from furuta_drake.diagnosis.formatting import percent
+from furuta_drake.diagnosis.gap.metric import GapResult, evaluate_gap
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection.equation_error import equation_error_starts
+from furuta_drake.diagnosis.selection.fit import (
     FitResult,
     FitTask,
     after_screen,
@@ -25,12 +28,8 @@ from furuta_drake.diagnosis.fit import (
     scales_of,
     screen_task,
 )
-from furuta_drake.diagnosis.formatting import percent
-from furuta_drake.diagnosis.gap import GapResult, evaluate_gap
-from furuta_drake.diagnosis.jitter_fit import HeldoutJitter, heldout_jitter
-from furuta_drake.diagnosis.logs import RunLog
-from furuta_drake.diagnosis.parallel import Failure
-from furuta_drake.diagnosis.rule import (
+from furuta_drake.diagnosis.selection.jitter_fit import HeldoutJitter, heldout_jitter
+from furuta_drake.diagnosis.selection.rule import (
     CLOSES,
     ENTRY,
     LEVEL_EXCESS,
@@ -45,10 +44,11 @@ from furuta_drake.diagnosis.rule import (
     order,
     verdict,
 )
-from furuta_drake.diagnosis.sensor import SensorFinding, read_sensors
+from furuta_drake.diagnosis.selection.sensor import SensorFinding, read_sensors
 from furuta_drake.diagnosis.settings import DiagnosisSettings
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, law_of
+from furuta_drake.parallel import Failure
 
 COMMAND_MAPS = ("actuator_deadzone", "actuator_saturation")  # static maps of the command beside the gain
 ONE_MAGNITUDE = 0.99  # logged |commands| whose 10 % quantile is within this of their 97 % take one magnitude
@@ -79,7 +79,7 @@ class Selection:
     # laws' candidates at its entry step, best first, with their fits there
     exchanges: list[dict] = field(default_factory=list)  # {"out", "in", "evidence"}: the exchanges made
     subset_fit: FitResult | None = None  # the final model as the selection fitted it, on its fit windows, when
-    # ``final`` is its refit on every train window (:mod:`~furuta_drake.diagnosis.final_fit`)
+    # ``final`` is its refit on every train window (:mod:`~furuta_drake.diagnosis.selection.final_fit`)
     regressed: dict = field(default_factory=dict)  # the train logs' equation-error starts (every fit's)
     gain_only: list[str] = field(default_factory=list)  # command maps not tried: on commands of one magnitude
     # (bang-bang) a dead zone or a saturation of the drive acts as a gain
@@ -140,7 +140,7 @@ class Selection:
     @property
     def negligible(self) -> bool:
         """No effect closes the nominal held-out gap, and that gap is too small to matter
-        (:func:`~furuta_drake.diagnosis.rule.negligible`)."""
+        (:func:`~furuta_drake.diagnosis.selection.rule.negligible`)."""
         return not self.closes and negligible(self.nominal.gap)
 
     @property
@@ -189,10 +189,11 @@ def select_effects(
     settings: DiagnosisSettings,
     run: Callable,
 ) -> Selection:
-    """Select up to ``settings.max_effects`` effects under the held-out rule (:mod:`furuta_drake.diagnosis.rule`):
-    forward, one at a time, each fitted together with the earlier ones and entering when it reduces the gap of
-    the model holding them; then backward, each kept only while the model without it is worse by the rule, the
-    forward steps resumed without an effect dropped; then the exchanges (:class:`Stepwise`)."""
+    """Select up to ``settings.max_effects`` effects under the held-out rule
+    (:mod:`furuta_drake.diagnosis.selection.rule`): forward, one at a time, each fitted together with the earlier ones
+    and entering when it reduces the gap of the model holding them; then backward, each kept only while the model
+    without it is worse by the rule, the forward steps resumed without an effect dropped; then the exchanges
+    (:class:`Stepwise`)."""
     return Stepwise(nominal, logs, train, heldout, counts, settings, run).select(names)
 
 
@@ -297,9 +298,9 @@ class Stepwise:
 
     def screened_fits(self, tasks: list[FitTask], step: int, previous) -> list[FitResult]:
         """A step's candidates (``tasks``, beside the same earlier effects): each screened
-        (:func:`~furuta_drake.diagnosis.fit.screen_task`); fitted fully from the screen's starts when its screen's
-        reduction of the gap the earlier effects leave on the start windows comes within ``SCREEN_REACH`` of the
-        best screen's, or the screen failed (the fit says why); else kept as its screen, ``screened`` and why. Every
+        (:func:`~furuta_drake.diagnosis.selection.fit.screen_task`); fitted fully from the screen's starts when its
+        screen's reduction of the gap the earlier effects leave on the start windows comes within ``SCREEN_REACH`` of
+        the best screen's, or the screen failed (the fit says why); else kept as its screen, ``screened`` and why. Every
         candidate is fitted when the earlier effects leave no excess over the floor on the start windows. Recorded
         at ``step``. A candidate the screen leaves that far behind does not come near the best one once
         both are fitted: it can neither enter nor be confused with the one that does."""
@@ -549,8 +550,8 @@ def _backward(
     scales=None,
 ) -> None:
     """Drop, one at a time, the kept effect whose removal costs the least while that cost's lower bound is not
-    enough (:func:`~furuta_drake.diagnosis.rule.decide`): every effect finally kept reduces the held-out gap of
-    the model holding all the others by the rule's margin (an effect that entered beside a stronger one it
+    enough (:func:`~furuta_drake.diagnosis.selection.rule.decide`): every effect finally kept reduces the held-out gap
+    of the model holding all the others by the rule's margin (an effect that entered beside a stronger one it
     masked must earn its place). An effect that later refits shrank to zero size (a lag that stood in for effects
     entered after it) is dropped first: it removes nothing. The model without an effect is the others refitted
     together, from the final model's values, when the selection did not fit it on the way."""

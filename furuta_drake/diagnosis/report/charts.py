@@ -2,7 +2,7 @@
 detection limits, where the gap is, and measured against nominal against corrected predictions on held-out windows.
 
 Every chart but the last reads only a ``report.json`` object, so an old report's page still gets them; the last
-reads the residual windows (:class:`~furuta_drake.diagnosis.logs.WindowResiduals`). The SVG keeps its text as
+reads the residual windows (:class:`~furuta_drake.diagnosis.logs.load.WindowResiduals`). The SVG keeps its text as
 text and its element ids seeded, so the same report gives the same bytes; it is inlined in ``report.html`` and
 written beside ``report.md``.
 """
@@ -18,8 +18,8 @@ from matplotlib.backends.backend_svg import FigureCanvasSVG
 from matplotlib.figure import Figure
 
 from furuta_drake.diagnosis.formatting import number, scale_of
-from furuta_drake.diagnosis.localize import SENSOR_VARIANCE
-from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.diagnosis.gap.localize import SENSOR_VARIANCE
+from furuta_drake.diagnosis.logs.load import WindowResiduals
 
 NOMINAL, CORRECTED, MEASURED = "#9a9a9a", "#1f6fb4", "#111111"
 SIGNALS = ("theta", "phi")

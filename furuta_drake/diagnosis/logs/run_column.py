@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from furuta_drake.diagnosis.log_readers import Where
+from furuta_drake.diagnosis.logs.readers import Where
 
 Run = tuple[str, int, int]  # (run label, first row, end row) of the grouped table
 

@@ -1,5 +1,5 @@
 """Is the verdict stable across data? ``--folds K`` repeats the selection on K splits of all the logs
-(:func:`~furuta_drake.diagnosis.split.fold_split`) and judges how often the verdict and each effect came back and
+(:func:`~furuta_drake.diagnosis.gap.split.fold_split`) and judges how often the verdict and each effect came back and
 how far the accepted effects' parameters spread."""
 
 from __future__ import annotations
@@ -7,12 +7,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
-from furuta_drake.diagnosis.gap import make_windows
-from furuta_drake.diagnosis.logs import RunLog
+from furuta_drake.diagnosis.gap.metric import make_windows
+from furuta_drake.diagnosis.gap.split import fold_split
+from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.diagnosis.result import Consistency
+from furuta_drake.diagnosis.selection.stepwise import select_effects
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.diagnosis.split import fold_split
-from furuta_drake.diagnosis.stepwise import select_effects
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.vocabulary import describe
 from furuta_drake.rig import RigParameters
@@ -29,7 +29,7 @@ def consistency(
 ) -> Consistency:
     """The selection repeated on ``folds`` splits of all the logs (:func:`fold_split`): each fold's verdict and
     effects, the range of each accepted effect's parameters over the folds that accepted it (its judgement in words is
-    :func:`furuta_drake.diagnosis.record_text.consistency_judgement`'s).
+    :func:`furuta_drake.diagnosis.report.record_text.consistency_judgement`'s).
     The folds' selections run at once, each in a thread handing its fits to ``run`` (a shared worker pool then
     stays busy between one selection's small batches)."""
 

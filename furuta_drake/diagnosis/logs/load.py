@@ -3,8 +3,8 @@ diagnosis), and the two types the stages share: :class:`RunLog` (a checked log) 
 stage's
 per-window residuals that the localisation reads).
 
-A log is CSV, Parquet or MCAP (:mod:`~furuta_drake.diagnosis.log_readers` produces its columns; a
-:class:`~furuta_drake.diagnosis.log_format.LogFormat` maps a lab's column names and angle unit); one code path
+A log is CSV, Parquet or MCAP (:mod:`~furuta_drake.diagnosis.logs.readers` produces its columns; a
+:class:`~furuta_drake.diagnosis.logs.format.LogFormat` maps a lab's column names and angle unit); one code path
 here checks them, whatever the format. Every bad input raises :class:`~furuta_drake.errors.LogError` (a log) or
 :class:`~furuta_drake.errors.ConfigError` (the rig file) with one line naming the file, the row (for a CSV the
 1-based line, the header is line 1) and the column, so the command line can print it and exit 2. Unknown extra
@@ -40,9 +40,9 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import savgol_filter
 
-from furuta_drake.diagnosis.log_format import LogFormat
-from furuta_drake.diagnosis.log_readers import LOG_TIME, Where, open_log
-from furuta_drake.diagnosis.run_column import split_runs
+from furuta_drake.diagnosis.logs.format import LogFormat
+from furuta_drake.diagnosis.logs.readers import LOG_TIME, Where, open_log
+from furuta_drake.diagnosis.logs.run_column import split_runs
 from furuta_drake.errors import LogError
 from furuta_drake.rig import THETA_ZEROS, RigParameters
 
@@ -101,7 +101,7 @@ def load_log(
     path: str | Path, rig: RigParameters, rig_path: str | Path = "the rig file", log_format: LogFormat = LogFormat()
 ) -> RunLog:
     """Read and check one log holding one run (CSV, Parquet or MCAP by its extension; see
-    :mod:`~furuta_drake.diagnosis.log_readers`).
+    :mod:`~furuta_drake.diagnosis.logs.readers`).
 
     Parameters
     ----------

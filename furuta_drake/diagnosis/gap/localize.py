@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from furuta_drake.diagnosis.logs import WindowResiduals
+from furuta_drake.diagnosis.logs.load import WindowResiduals
 
 BAND_EDGES_HZ = (0.0, 1.0, 3.0, 10.0, 30.0)  # the last band runs to the Nyquist frequency
 REVERSAL_WINDOW_S = 0.05  # a sample is "at a reversal" within this time of a sign change of phi_dot [s]
