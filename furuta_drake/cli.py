@@ -265,9 +265,10 @@ def _simulate_config(args):
     elif args.rig is None or args.rig in ("lund", "qube_servo2", "geared"):
         config = SimulationConfig.from_rig(args.rig or "lund")
     else:
+        from furuta_drake.effects.corrected import rig_config
         from furuta_drake.rig_file import load_rig
 
-        config = SimulationConfig.from_rig(load_rig(args.rig))
+        config = rig_config(load_rig(args.rig))
     overrides = {}
     if args.duration is not None:
         overrides["duration"] = args.duration

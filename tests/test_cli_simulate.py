@@ -119,3 +119,28 @@ def test_html_recording_is_self_contained_replays_the_logged_run_and_leaves_the_
         x, y, z, w = quaternion["value"]  # three.js order
         relative = RotationMatrix(Quaternion(w, x, y, z)).InvertAndCompose(expected.rotation())
         assert AngleAxis(relative.matrix()).angle() <= tolerance_angle
+
+
+def test_a_rig_file_simulates_with_the_effects_it_states(tmp_path):
+    """A rig file's ``effects:`` section (as ``fitted_rig.yaml`` writes it) is part of the model ``simulate --rig``
+    runs: the delay, the lag and the spring reach the world's actuator and disturbance, the rest unchanged."""
+    rig_path = tmp_path / "rig.yaml"
+    effects = {
+        "input_delay": {"form": "fixed", "delay": 0.004},
+        "actuator_lag": {"time_constant": 0.01},
+        "arm_spring": {"form": "linear", "stiffness": 0.02, "equilibrium": 0.1},
+    }
+    rig_path.write_text(dump_yaml_dataclass(lund_rig().replace(effects=effects)))
+    assert main(["simulate", "--rig", str(rig_path), "--out", str(tmp_path / "with"), "--duration", "0.5"]) == 0
+    config = load_config(tmp_path / "with" / "config.yaml")
+    assert config.actuator.delay == pytest.approx(0.004)
+    assert config.actuator.lag_time_constant == pytest.approx(0.01)
+    assert config.disturbance.arm_spring_stiffness == pytest.approx(0.02)
+    assert config.disturbance.arm_spring_equilibrium == pytest.approx(0.1)
+    assert config.rig.arm_inertia == pytest.approx(lund_rig().arm_inertia, rel=1e-12)
+    # Without the section, the same file is the nominal model: no delay, no lag, no spring.
+    rig_path.write_text(dump_yaml_dataclass(lund_rig()))
+    assert main(["simulate", "--rig", str(rig_path), "--out", str(tmp_path / "without"), "--duration", "0.5"]) == 0
+    nominal = load_config(tmp_path / "without" / "config.yaml")
+    assert nominal.actuator.delay == 0.0 and nominal.actuator.lag_time_constant == 0.0
+    assert nominal.disturbance.arm_spring_stiffness == 0.0

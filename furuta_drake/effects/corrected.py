@@ -1,6 +1,8 @@
-"""A diagnosis model as the world's parameters: its rigid body, actuator and spring for the Drake world
-(:func:`~furuta_drake.world.add_furuta_world`), the whole model as a simulate config, and a rig file with the
-accepted effects (what ``fitted_model.yaml`` and ``fitted_rig.yaml`` hold)."""
+"""The corrected model: a diagnosis model as the world's parameters (its rigid body, actuator and spring for the
+Drake world, :func:`~furuta_drake.world.add_furuta_world`), the whole model as a simulate config
+(:func:`model_config`; :func:`rig_config` for the model a rig file states, effects included, the one conversion
+``simulate``, ``tune``, ``design`` and the diagnosis share), and a rig file with the accepted effects (what
+``fitted_model.yaml`` and ``fitted_rig.yaml`` hold)."""
 
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ from furuta_drake.actuator import ActuatorParameters, DisturbanceParameters
 from furuta_drake.config import SimulationConfig
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import torque_parameters_of
-from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, Effect, describe, effect_from_params
+from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, Effect, describe, effect_from_params, rig_model
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
@@ -94,6 +96,13 @@ def model_config(
         disturbance=model_disturbance(model),
         encoder=dataclasses.replace(config.encoder, counts_per_rev=model.counts_per_rev, noise_std=model.noise_std),
     )
+
+
+def rig_config(rig: RigParameters) -> SimulationConfig:
+    """The model a rig file states as an open-loop simulate config: its bodies, friction, motor and drive, the
+    effects of its ``effects:`` section and its torque beyond the vocabulary (:func:`model_config` of the rig's
+    model). A ``fitted_rig.yaml`` gives the corrected model of its diagnosis."""
+    return model_config(rig, rig_model(rig))
 
 
 def rig_entry(name: str, params: dict) -> dict:

@@ -25,6 +25,7 @@ import numpy as np
 from furuta_drake.config import SimulationConfig, dump_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, quanser_command
 from furuta_drake.diagnosis.report.files import write_report_files
+from furuta_drake.effects.corrected import rig_config
 from furuta_drake.observers.filtered_derivative import filtered_derivative
 from furuta_drake.paper.reproduce import PAPER_TABLE2, report_progress
 from furuta_drake.plotting import (
@@ -46,7 +47,6 @@ from furuta_drake.real_rig.runs import (
     RealRuns,
     diagnose_corrected_model,
     load_real_runs,
-    nominal_model_config,
     reference_properties,
     reference_velocity,
 )
@@ -83,7 +83,7 @@ def run_real_rig(folder: Path, small: bool = False, progress=None) -> RealRigOut
     runs = load_real_runs()
     corrected, train, heldout = diagnose_corrected_model(runs, folder / "segments", small)
     report_progress(progress, f"diagnosis of the nominal model: {corrected.verdict}")
-    models = {"nominal": nominal_model_config(runs), "fitted": corrected.artifacts.fitted_config}
+    models = {"nominal": rig_config(runs.rig), "fitted": corrected.artifacts.fitted_config}
     observers = real_observers_study.study(runs, models, small=small, progress=progress)
     params = QuanserSwingUpParameters()
     closed = real_closed_loop_study.study(

@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 
-from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters, balancing
 from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
@@ -36,8 +35,6 @@ from furuta_drake.diagnosis.logs.load import RunLog, load_logs
 from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.settings import FAST, DiagnosisSettings
-from furuta_drake.effects.corrected import model_config
-from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.linearization import equilibrium_angle
 from furuta_drake.paper.metrics import butterworth_velocity_reference
 from furuta_drake.rig import RigParameters
@@ -175,11 +172,6 @@ def reference_properties(
     }
 
 
-def nominal_model_config(runs: RealRuns) -> SimulationConfig:
-    """The rig file's nominal model as a simulate config (the diagnosis' own conversion, open loop)."""
-    return model_config(runs.rig, rig_model(runs.rig))
-
-
 def write_segment(path: Path, log: RunLog, samples: slice, rig: RigParameters) -> Path:
     """``samples`` of ``log`` as a log file in the rig's own convention (theta times ``theta_direction`` again, so
     that the diagnosis reads it as it reads the original), time from 0."""
@@ -248,7 +240,6 @@ __all__ = [
     "chirp_blocks",
     "reference_velocity",
     "reference_properties",
-    "nominal_model_config",
     "write_segment",
     "runs_of",
     "diagnose_corrected_model",

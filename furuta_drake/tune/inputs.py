@@ -17,9 +17,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from furuta_drake.config import SimulationConfig
-from furuta_drake.effects.corrected import model_config
-from furuta_drake.effects.vocabulary import CANDIDATES, POSITIVE, SIGNED, Effect, rig_effects, rig_model
+from furuta_drake.effects.vocabulary import CANDIDATES, POSITIVE, SIGNED, Effect, rig_effects
 from furuta_drake.errors import ConfigError
 from furuta_drake.rig import RigParameters
 from furuta_drake.rig_file import load_rig
@@ -169,9 +167,3 @@ def corner_rig(inputs: TuneInputs, corner: dict[tuple[str, str], float]) -> RigP
             entry["form"] = effect.form
         effects[name] = entry
     return inputs.rig.replace(effects=effects)
-
-
-def world_config(rig: RigParameters) -> SimulationConfig:
-    """The model of a rig file with its effects as an open-loop simulate config (the diagnosis' own conversion,
-    :func:`~furuta_drake.effects.corrected.model_config`)."""
-    return model_config(rig, rig_model(rig))

@@ -25,12 +25,13 @@ from pathlib import Path
 
 from furuta_drake.config import SimulationConfig
 from furuta_drake.controllers.lqr import LqrParameters, design_lqr
+from furuta_drake.effects.corrected import rig_config
 from furuta_drake.errors import ConfigError
 from furuta_drake.plant import make_furuta_plant
 from furuta_drake.tune.controller import Controller, arm_friction_observer
 from furuta_drake.tune.design import DesignModel, design_model, upright_model
 from furuta_drake.tune.family import DesignOutcome, Problem, run_budget, search, shortfall
-from furuta_drake.tune.inputs import TuneInputs, corner_rig, read_diagnosis, world_config
+from furuta_drake.tune.inputs import TuneInputs, corner_rig, read_diagnosis
 from furuta_drake.tune.robustness import effect_extremes, linear_corners
 from furuta_drake.tune.swingup import SwingUpCheck, catch_times
 
@@ -117,7 +118,7 @@ def tune(
     settings.validate()
     say = progress or (lambda line: None)
     inputs = read_diagnosis(directory)
-    world = world_config(inputs.rig)
+    world = rig_config(inputs.rig)
     A, B = upright_model(world)
     problem = Problem(
         inputs,
@@ -125,8 +126,8 @@ def tune(
         design_model(world),
         A,
         B,
-        [(label, design_model(world_config(corner_rig(inputs, c)))) for label, c in linear_corners(inputs)],
-        [(label, world_config(corner_rig(inputs, c))) for label, c in effect_extremes(inputs)],
+        [(label, design_model(rig_config(corner_rig(inputs, c)))) for label, c in linear_corners(inputs)],
+        [(label, rig_config(corner_rig(inputs, c))) for label, c in effect_extremes(inputs)],
         arm_friction_observer(world.friction.arm, world.encoder.encoder_resolution),
         nominal_controller(inputs),
         settings,
