@@ -313,6 +313,109 @@ def integrate_windows(
     return kernel.integrate(x, z, torque, period / substeps, substeps, *kernel.pack_rows(models))[0]
 
 
+@dataclass(frozen=True)
+class WindowInputs:
+    """What a batch of windows feeds the surrogate besides their states: the command every window reads [N m]
+    (held over each sample, ``HISTORY`` samples of it before every start), the windows' starts (W,) in it, their
+    samples, the sample period [s] and the RK4 substeps per sample."""
+
+    command: np.ndarray
+    starts: np.ndarray
+    horizon: int
+    period: float
+    substeps: int
+
+    def torque(self, model: Model, change: np.ndarray | None = None) -> np.ndarray:
+        """:func:`window_torques` of ``model``'s input chain on these windows (steps, W) [N m]."""
+        return window_torques(model, self.command, self.starts, self.horizon, self.period, self.substeps, change)
+
+
+@dataclass(frozen=True)
+class BatchPrediction:
+    """A batch of windows predicted: their angles, the arm torque they were integrated under and, when asked for,
+    the angles' derivatives in the windows' initial states or along parameter directions."""
+
+    angles: np.ndarray  # (horizon, 2, W) [rad]
+    torque: np.ndarray  # (steps, W) [N m] at every substep
+    slopes: np.ndarray | None = None  # (horizon, 2, W, n) per unit of state, or (horizon, 2, W, K) per direction
+
+
+def predict_batch(
+    models: Model | list[Model],
+    x: np.ndarray,
+    inputs: WindowInputs,
+    torque: np.ndarray | None = None,
+    states: bool = False,
+    directions: tuple[np.ndarray, list] | None = None,
+) -> BatchPrediction:
+    """The windows of ``inputs`` predicted from their whole states ``x`` (4 + :attr:`Model.hidden_states`, M W),
+    model m from its m-th block of W columns (one model: all of them), in one kernel call: under ``torque``
+    (steps, M W) [N m], else under each model's input chain (evaluated once per distinct chain, ``INPUT_CHAIN``:
+    the models of a finite-difference Jacobian's columns mostly differ in their dynamics alone). With ``states``
+    (one model): the angles' derivatives in x (:func:`state_sensitivities`); with ``directions`` = (rows,
+    torques) (one model): along parameter directions (:func:`parameter_sensitivities`)."""
+    models = [models] if isinstance(models, Model) else list(models)
+    if torque is None:
+        torques: dict[tuple, np.ndarray] = {}
+        chains = [tuple(getattr(model, name) for name in INPUT_CHAIN) for model in models]
+        for model, chain in zip(models, chains):
+            if chain not in torques:
+                torques[chain] = inputs.torque(model)
+        torque = torques[chains[0]] if len(models) == 1 else np.concatenate([torques[c] for c in chains], axis=1)
+    _, bristle, twist = split_states(models[0], x)
+    period, substeps = inputs.period, inputs.substeps
+    if directions is not None:
+        rows, changes = directions
+        angles, slopes = parameter_sensitivities(models[0], x[:4], torque, period, substeps, bristle, rows, changes)
+    elif states:
+        angles, slopes = state_sensitivities(models[0], x[:4], torque, period, substeps, bristle, twist)
+    else:
+        angles, slopes = integrate_windows(models, x[:4], torque, period, substeps, bristle, twist), None
+    return BatchPrediction(angles, torque, slopes)
+
+
+def initial_states(
+    model: Model, smoothed: np.ndarray, arm_path: np.ndarray, command: np.ndarray, period: float, starts: np.ndarray
+) -> np.ndarray:
+    """A log's window states for ``model`` (4 + :attr:`Model.hidden_states`, W): the smoothed [theta, phi, theta',
+    phi'] (4, W) at the window ``starts``, then the hidden states :func:`hidden_starts` reads from the log (with the
+    encoder on the motor the smoothed arm angle and rate are the rotor's, the arm's those less the twist's)."""
+    bristle, twist = hidden_starts(model, arm_path, command, period, starts)
+    x = smoothed
+    if bristle is not None:
+        x = np.vstack([x, bristle])
+    if twist is not None:
+        if model.drive_encoder == "motor":
+            x = x.copy()
+            x[[1, 3]] -= twist
+        x = np.vstack([x, twist])
+    return x
+
+
+def hidden_starts(
+    model: Model, arm_path: np.ndarray, command: np.ndarray, period: float, starts: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(the arm's bristle state [rad] (W,) or None; the drive's twist [delta, delta'] [rad, rad/s] (2, W) or None)
+    at the window ``starts`` of a log, read from its smoothed arm angle ``arm_path`` [rad] and its ``command``
+    [N m] (one sample every ``period`` [s]); None for a state the model does not have.
+
+    The Dahl law is rate independent, so the bristle depends on the path of phi alone (LuGre's also on its
+    speed). With the rotor following the arm, the coupling passes T = u - d phi' - J phi'' (u the applied command,
+    d the back-EMF damping, J the rotor's inertia), so the twist is T / k beyond the backlash on the side T pushes,
+    b sign(T) + T / k (k the drive's or the tooth contact's stiffness), and its rate the path's of that twist. The
+    windows refine both (hidden states)."""
+    bristle = bristle_path(arm_path, model.arm_friction, period)[starts] if model.arm_friction.has_bristles else None
+    if not model.has_drive:
+        return bristle, None
+    row = drive_kernel.pack_drive(model)
+    rotor, backlash = row[drive_kernel.D_INERTIA], row[drive_kernel.D_BACKLASH]
+    stiffness = row[drive_kernel.D_STIFFNESS]
+    rate = np.gradient(arm_path, period)
+    passed = applied_torque(model, command) - model.back_emf_damping * rate - rotor * np.gradient(rate, period)
+    twist = backlash * np.sign(passed) + passed / stiffness
+    return bristle, np.vstack([twist, np.gradient(twist, period)])[:, starts]
+
+
 STATE_STEPS = (1e-6, 1e-6, 1e-4, 1e-4)  # finite-difference steps of the states theta, phi [rad], their rates [rad/s]
 TWIST_STEPS = (1e-6, 1e-4)  # of the twist [rad] and its rate [rad/s]
 

@@ -3,7 +3,7 @@
 Each log is cut into consecutive windows of ``horizon`` samples (multiple shooting). A window's initial state is
 first estimated from the measured angles by a centred Savitzky-Golay smoother (angle and derivative), with a
 Dahl or LuGre arm's bristle state integrated along the smoothed arm path and a drive's twist read from the command
-and that path (:func:`initial_twists`), then refined for each model by
+and that path (:func:`~furuta_drake.effects.surrogate.hidden_starts`), then refined for each model by
 Levenberg-Marquardt steps on the window's residuals (a step is kept only where the re-simulated residual
 falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
 or integrator. The model then predicts the angles over the window from the logged command (held over each sample).
@@ -26,26 +26,23 @@ command's variance v_k over the delay, :mod:`~furuta_drake.effects.jitter`), is 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import savgol_filter
 
 from furuta_drake.diagnosis.logs.load import RunLog, WindowResiduals
-from furuta_drake.effects.drive_kernel import D_BACKLASH, D_INERTIA, D_STIFFNESS, pack_drive
 from furuta_drake.effects.jitter import command_variance, impulse_energy, response_variance
 from furuta_drake.effects.surrogate import (
     HISTORY,
     INPUT_CHAIN,
     Model,
-    applied_torque,
-    bristle_path,
-    integrate_windows,
-    parameter_sensitivities,
+    WindowInputs,
+    hidden_starts,
+    initial_states,
+    predict_batch,
     sensor_variance,
-    split_states,
-    state_sensitivities,
-    window_torques,
 )
 from furuta_drake.effects.surrogate_tangent import flat
 from furuta_drake.effects.vocabulary import rig_model
@@ -178,6 +175,11 @@ class Batch:
     measured: np.ndarray  # (horizon, 2, W)
     bounds: np.ndarray  # member j's windows are [bounds[j], bounds[j + 1])
 
+    @property
+    def inputs(self) -> WindowInputs:
+        """The batch as the surrogate reads it (:func:`~furuta_drake.effects.surrogate.predict_batch`)."""
+        return WindowInputs(self.command, self.starts, self.horizon, self.period, substeps_for(self.period))
+
 
 def window_samples(period: float, rig: RigParameters) -> tuple[int, int]:
     """(samples per window, samples of the smoothing filter) of a log sampled every ``period`` [s]; a log needs
@@ -213,80 +215,40 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
     return Windows(logs, horizons, starts, states, measured, paths, sensor_variance(rig_model(rig), rig.counts_per_rev))
 
 
-def initial_bristles(model: Model, windows: Windows) -> list[np.ndarray | None]:
-    """Per log, the arm's bristle state [rad] at each window start, read from the smoothed arm path (the Dahl
-    law is rate independent, so z depends on the path of phi alone; LuGre's also on its speed); None per log
-    without a Dahl or LuGre arm."""
-    if not model.arm_friction.has_bristles:
-        return [None] * len(windows.logs)
-    return [
-        bristle_path(path, model.arm_friction, log.sample_period)[starts]
-        for log, path, starts in zip(windows.logs, windows.arm_paths, windows.starts)
-    ]
-
-
-def _batch_bristles(bristles: list[np.ndarray | None], batch: Batch) -> np.ndarray | None:
-    parts = [bristles[i] for i in batch.members]
-    return None if parts[0] is None else np.concatenate(parts)
-
-
-def initial_twists(model: Model, windows: Windows) -> list[np.ndarray | None]:
-    """Per log, the drive's twist [delta, delta'] [rad, rad/s] (2, W) at each window start that the command and the
-    smoothed arm path suggest: the rotor following the arm, the coupling passes T = u - d phi' - J phi'' (u the
-    applied command, d the back-EMF damping, J the rotor's inertia), so the twist is T / k beyond the backlash on
-    the side T pushes, b sign(T) + T / k (k the drive's or the tooth contact's stiffness), and its rate the path's
-    of that twist; None per log without a drive of its own state. The windows refine both (hidden states)."""
-    if not model.has_drive:
-        return [None] * len(windows.logs)
-    row = pack_drive(model)
-    rotor, backlash, stiffness = row[D_INERTIA], row[D_BACKLASH], row[D_STIFFNESS]
-    out = []
-    for log, path, starts in zip(windows.logs, windows.arm_paths, windows.starts):
-        rate = np.gradient(path, log.sample_period)
-        passed = (
-            applied_torque(model, log.torque_command)
-            - model.back_emf_damping * rate
-            - rotor * np.gradient(rate, log.sample_period)
-        )
-        twist = backlash * np.sign(passed) + passed / stiffness
-        out.append(np.vstack([twist, np.gradient(twist, log.sample_period)])[:, starts])
-    return out
-
-
 def with_hidden_states(model: Model, windows: Windows, batch: Batch, x: np.ndarray) -> np.ndarray:
     """The batch's window states ``x`` (4, W and any hidden rows: 4 + 1 with a bristle, + 2 with a twist) laid out
     for ``model`` (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): rows it lacks start at zero (the
-    bristle) or from :func:`initial_twists` (the twist), rows it has no use for are dropped."""
+    bristle) or from the log (the twist, :func:`~furuta_drake.effects.surrogate.hidden_starts`), rows it has no
+    use for are dropped."""
     if x.shape[0] == 4 + model.hidden_states:
         return x
     rows = [x[:4]]
     if model.arm_friction.has_bristles:
         rows.append(x[4:5] if x.shape[0] in (5, 7) else np.zeros((1, x.shape[1])))
     if model.has_drive:
-        rows.append(x[-2:] if x.shape[0] >= 6 else _batch_twists(model, windows, batch))
+        rows.append(x[-2:] if x.shape[0] >= 6 else _member_states(model, windows, batch, hidden=True))
     return np.vstack(rows)
-
-
-def _batch_twists(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
-    return np.concatenate([initial_twists(model, windows)[i] for i in batch.members], axis=1)
 
 
 def window_states(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
     """The batch's windows' initial states for ``model``: the smoothed ones (4, W), then its hidden states
-    (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): the arm's bristle read from the arm path
-    (:func:`initial_bristles`) and the drive's twist (:func:`initial_twists`; with the encoder on the motor the
-    smoothed arm angle and rate are the rotor's, the arm's those less the twist's)."""
-    x = batch.initial_states
-    z0 = _batch_bristles(initial_bristles(model, windows), batch)
-    if z0 is not None:
-        x = np.vstack([x, z0])
-    if model.has_drive:
-        twist = _batch_twists(model, windows, batch)
-        if model.drive_encoder == "motor":
-            x = x.copy()
-            x[[1, 3]] -= twist
-        x = np.vstack([x, twist])
-    return x
+    (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`) read from each log
+    (:func:`~furuta_drake.effects.surrogate.initial_states`)."""
+    return _member_states(model, windows, batch, hidden=False)
+
+
+def _member_states(model: Model, windows: Windows, batch: Batch, hidden: bool) -> np.ndarray:
+    """The batch members' window states for ``model`` side by side, or with ``hidden`` their twists (2, W) alone."""
+    parts = []
+    for i in batch.members:
+        log, path, starts = windows.logs[i], windows.arm_paths[i], windows.starts[i]
+        if hidden:
+            parts.append(hidden_starts(model, path, log.torque_command, log.sample_period, starts)[1])
+        else:
+            parts.append(
+                initial_states(model, windows.initial_states[i], path, log.torque_command, log.sample_period, starts)
+            )
+    return np.concatenate(parts, axis=1)
 
 
 def substeps_for(period: float) -> int:
@@ -307,36 +269,12 @@ def residuals(model: Model, windows: Windows, nominal_counts: int) -> list[np.nd
     return projected_residuals(model, windows, nominal_counts, sensitivities=False)[0]
 
 
-def _predict(models: list[Model], x: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
-    """The predicted angles (h, 2, M W) of the batch's windows from initial states (4, M W) or, with the arm's
-    bristle state as a 5th row, (5, M W): model m from its block of W columns, all in one kernel call, the input
-    chain evaluated once per distinct chain (``INPUT_CHAIN``: the models of a finite-difference Jacobian's columns
-    mostly differ in their dynamics alone)."""
-    torques: dict[tuple, np.ndarray] = {}
-    chains = [tuple(getattr(model, name) for name in INPUT_CHAIN) for model in models]
-    for model, chain in zip(models, chains):
-        if chain not in torques:
-            torques[chain] = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
-    torque = np.concatenate([torques[chain] for chain in chains], axis=1)
-    _, bristle, twist = split_states(models[0], x)
-    return integrate_windows(models, x[:4], torque, batch.period, substeps, bristle, twist)
-
-
-def _angles(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int) -> np.ndarray:
-    """The predicted angles (h, 2, k) of windows from their initial states x (n, k) under their arm torques
-    (steps, k) (:func:`~furuta_drake.effects.surrogate.window_torques` of the batch's windows, or a choice of
-    its columns: each window's prediction depends on its own column alone)."""
-    _, bristle, twist = split_states(model, x)
-    return integrate_windows([model], x[:4], torque, batch.period, substeps, bristle, twist)
-
-
-def _state_jacobian(model, x, torque, batch: Batch, substeps: int, count: float):
-    """(the predicted angles (h, 2, k) of :func:`_angles`; the residuals' sensitivities (h, 2, k, n) [counts per
-    unit of state] to the initial states x (n, k)): the integration's exact forward sensitivities, one surrogate
-    pass."""
-    _, bristle, twist = split_states(model, x)
-    angles, slopes = state_sensitivities(model, x[:4], torque, batch.period, substeps, bristle, twist)
-    return angles, slopes / count
+def _state_jacobian(model: Model, x: np.ndarray, torque: np.ndarray, inputs: WindowInputs, count: float):
+    """(the predicted angles (h, 2, W) of windows from their initial states x (n, W) under their arm torque
+    ``torque``; the residuals' sensitivities (h, 2, W, n) [counts per unit of state] to x): the integration's exact
+    forward sensitivities, one surrogate pass."""
+    prediction = predict_batch(model, x, inputs, torque, states=True)
+    return prediction.angles, prediction.slopes / count
 
 
 def projected_residuals(
@@ -358,8 +296,7 @@ def projected_residuals(
     count = encoder_resolution(nominal_counts)
     out, states, jacobians = [None] * len(windows.logs), [None] * len(windows.logs), [None] * len(windows.logs)
     for batch in windows.batches():
-        substeps = substeps_for(batch.period)
-        x, r, J = _refined(model, window_states(model, windows, batch), batch, substeps, count, sensitivities, steps)
+        x, r, J = _refined(model, window_states(model, windows, batch), batch, count, sensitivities, steps)
         for j, i in enumerate(batch.members):
             part = slice(batch.bounds[j], batch.bounds[j + 1])
             out[i], states[i] = r[:, :, part], x[:, part]
@@ -376,15 +313,13 @@ def state_jacobians(model: Model, windows: Windows, states: list[np.ndarray], no
     out = [None] * len(windows.logs)
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
-        substeps = substeps_for(batch.period)
-        torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
-        J = _state_jacobian(model, x, torque, batch, substeps, count)[1]
+        J = predict_batch(model, x, batch.inputs, states=True).slopes / count
         for j, i in enumerate(batch.members):
             out[i] = J[:, :, batch.bounds[j] : batch.bounds[j + 1]]
     return out
 
 
-def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: float, sensitivities: bool, steps: int):
+def _refined(model: Model, x: np.ndarray, batch: Batch, count: float, sensitivities: bool, steps: int):
     """:func:`projected_residuals` of one batch from the initial states x (n, W) with ``steps`` steps: the refined
     states, their residuals (h, 2, W) and, with ``sensitivities``, the residuals' sensitivities (h, 2, W, n)."""
     n, W = x.shape
@@ -395,10 +330,11 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
         prior[4] = 1.0 / bound**2
     if model.has_drive:  # inside the backlash the twist is free of the arm: damp its steps the same way
         prior[-2:] = 1.0 / np.square(TWIST_SCALES)
-    torque = window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    inputs = batch.inputs
+    torque = inputs.torque(model)
     if model.has_drive and model.drive_backlash > 0:
-        x = _screened_twists(model, x, torque, batch, substeps, count)
-    angles, J = _state_jacobian(model, x, torque, batch, substeps, count)
+        x = _screened_twists(model, x, torque, batch, count)
+    angles, J = _state_jacobian(model, x, torque, inputs, count)
     r = (batch.measured - angles) / count
     cost = np.nansum(r**2, axis=(0, 1))
     damping = np.full(W, LM_DAMPING)
@@ -413,9 +349,9 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
             trial[4] = np.clip(trial[4], -bound, bound)
         needed = sensitivities or step < steps - 1  # a kept trial's sensitivities are read after this step
         if needed:
-            angles, J_trial = _state_jacobian(model, trial, torque, batch, substeps, count)
+            angles, J_trial = _state_jacobian(model, trial, torque, inputs, count)
         else:
-            angles = _angles(model, trial, torque, batch, substeps)
+            angles = predict_batch(model, trial, inputs, torque).angles
         r_trial = (batch.measured - angles) / count
         cost_trial = np.nansum(r_trial**2, axis=(0, 1))
         better = cost_trial < cost
@@ -430,7 +366,7 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, substeps: int, count: fl
 TWIST_SCREEN = (-1.0, -0.5, 0.0, 0.5, 1.0)  # twists screened at a window's start, in backlash half-widths
 
 
-def _screened_twists(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, substeps: int, count: float):
+def _screened_twists(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, count: float):
     """``x`` with each window's twist [delta, delta'] the best of its estimate and the twists ``TWIST_SCREEN``
     across the backlash, each at the estimate's rate and at rest against the arm (delta' = 0): inside the play the arm
     does not feel the twist until a flank touches, so the residual is flat in it there and a linearised step cannot
@@ -444,7 +380,7 @@ def _screened_twists(model: Model, x: np.ndarray, torque: np.ndarray, batch: Bat
             trial[-2], trial[-1] = share * model.drive_backlash, rate
             trials.append(trial)
     every = np.hstack(trials)
-    angles = _angles(model, every, np.tile(torque, (1, len(trials))), batch, substeps)
+    angles = predict_batch(model, every, batch.inputs, np.tile(torque, (1, len(trials)))).angles
     r = (np.tile(batch.measured, (1, 1, len(trials))) - angles) / count
     cost = np.nansum(r**2, axis=(0, 1)).reshape(len(trials), W)
     best = np.argmin(cost, axis=0)
@@ -485,18 +421,15 @@ def parameter_slopes_of(
     out = [[None] * len(windows.logs) for _ in shifted]
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
-        substeps = substeps_for(batch.period)
-
-        def torque_of(m, batch=batch, substeps=substeps):
-            return window_torques(m, batch.command, batch.starts, batch.horizon, batch.period, substeps)
-
-        torque = torque_of(model)
+        inputs = batch.inputs
+        torque = inputs.torque(model)
         torques = [
-            None if tuple(getattr(other, name) for name in INPUT_CHAIN) == chain else (torque_of(other) - torque) / step
+            None
+            if tuple(getattr(other, name) for name in INPUT_CHAIN) == chain
+            else (inputs.torque(other) - torque) / step
             for other, step in zip(shifted, steps)
         ]
-        bristle0 = split_states(model, x)[1]
-        slopes = parameter_sensitivities(model, x[:4], torque, batch.period, substeps, bristle0, rows, torques)[1]
+        slopes = predict_batch(model, x, inputs, torque, directions=(rows, torques)).slopes
         for k in range(len(shifted)):
             for j, i in enumerate(batch.members):
                 out[k][i] = -slopes[:, :, batch.bounds[j] : batch.bounds[j + 1], k] / count
@@ -529,10 +462,10 @@ def fixed_state_residuals_of(
     calls = [group[i : i + MODELS_PER_CALL] for group in alike.values() for i in range(0, len(group), MODELS_PER_CALL)]
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
-        W, substeps = x.shape[1], substeps_for(batch.period)
+        W, inputs = x.shape[1], batch.inputs
         for call in calls:
             laid = with_hidden_states(models[call[0]], windows, batch, x)
-            predicted = _predict([models[k] for k in call], np.tile(laid, (1, len(call))), batch, substeps)
+            predicted = predict_batch([models[k] for k in call], np.tile(laid, (1, len(call))), inputs).angles
             for slot, k in enumerate(call):
                 r = (batch.measured - predicted[:, :, slot * W : (slot + 1) * W]) / count
                 for j, i in enumerate(batch.members):
@@ -560,14 +493,13 @@ def jitter_energy(model: Model, windows: Windows, states, jacobians, nominal_cou
     for batch in windows.batches():
         x = np.concatenate([states[i] for i in batch.members], axis=1)
         J = np.concatenate([jacobians[i] for i in batch.members], axis=2)
-        substeps, samples = substeps_for(batch.period), batch.horizon - 1
+        inputs, samples = batch.inputs, batch.horizon - 1
         v = command_variance(batch.command, batch.period, model)[batch.starts[None, :] + np.arange(samples)[:, None]]
         size = float(np.sqrt(np.mean(v))) or 1e-3 * float(np.std(batch.command)) or 1e-9  # the deviation's size
 
-        def predict(part, copies, change, x=x, batch=batch, substeps=substeps):
-            starts = np.tile(batch.starts[part], copies)
-            torque = window_torques(model, batch.command, starts, batch.horizon, batch.period, substeps, change)
-            return _angles(model, np.tile(x[:, part], copies), torque, batch, substeps) / count
+        def predict(part, copies, change, x=x, inputs=inputs):
+            tiled = dataclasses.replace(inputs, starts=np.tile(inputs.starts[part], copies))
+            return predict_batch(model, np.tile(x[:, part], copies), tiled, tiled.torque(model, change)).angles / count
 
         def residual_of(responses, part, J=J):
             return project_out_states(responses, J[:, :, part])
