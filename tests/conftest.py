@@ -174,7 +174,7 @@ def run_notebook(path: Path, tmp_path: Path, monkeypatch) -> None:
 def suite_log(run: str, seed: int, effect: str | None = None, level: int = 2, duration: float = 3.0, rig="lund"):
     """The benchmark suite's ``run`` ("hanging": an open-loop multisine; "balance": LQR with the suite's
     excitation) on ``rig``, simulated in Drake with ``effect`` at ``level`` added, as a diagnosis log."""
-    from benchmarks.suite import run_configs, with_effect  # Drake is imported by the tests that simulate only
+    from benchmarks.diagnosis.suite import run_configs, with_effect  # Drake is imported by the tests that simulate only
     from furuta_drake.rig import RIGS
     from furuta_drake.simulate import simulate
 

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from benchmarks.suite import VOCABULARY, run_configs
+from benchmarks.diagnosis.suite import VOCABULARY, run_configs
 from furuta_drake.cli import diagnosis_summary, main
 from furuta_drake.diagnosis.result import SPEC_KEYS, Diagnosis, RankedCandidate
 from furuta_drake.results import write_log_csv

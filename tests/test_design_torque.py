@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from benchmarks.suite import run_configs
+from benchmarks.diagnosis.suite import run_configs
 from furuta_drake.cli import main
 from furuta_drake.design.criterion import Parametrised, experiment_windows, linearised_noncentrality
 from furuta_drake.design.family import BANDS, Family

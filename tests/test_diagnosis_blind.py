@@ -1,4 +1,4 @@
-"""A small blind subset of the validation suite (benchmarks/diagnosis_confusion.py runs all of it): logs are
+"""A small blind subset of the validation suite (benchmarks/diagnosis/confusion.py runs all of it): logs are
 simulated in Drake with one hidden effect realised by the project's true-world blocks (Dahl friction, a
 DiscreteTimeDelay in the loop, a gain in the actuator), the diagnosis sees only the case folder, and its verdict
 is scored against the answer kept apart."""
@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from benchmarks.suite import CaseSpec, verdict_is_right, write_case
+from benchmarks.diagnosis.suite import CaseSpec, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report.files import write_report
 

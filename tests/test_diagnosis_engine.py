@@ -9,7 +9,7 @@ from conftest import hanging_log, suite_log
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from benchmarks.suite import with_effect
+from benchmarks.diagnosis.suite import with_effect
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
 from furuta_drake.diagnosis.gap.replay import replay_gap
@@ -254,7 +254,7 @@ def test_two_models_at_the_floor_are_told_apart_by_the_residual_below_it():
 
 
 def test_every_vocabulary_effect_is_a_candidate_and_every_form_changes_the_model():
-    from benchmarks.suite import VOCABULARY
+    from benchmarks.diagnosis.suite import VOCABULARY
 
     assert {name for name, candidate in CANDIDATES.items() if not candidate.drive} == set(VOCABULARY)
     assert {name for name, candidate in CANDIDATES.items() if candidate.drive} == {"drive_backlash", "drive_compliance"}

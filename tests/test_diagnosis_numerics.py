@@ -9,7 +9,7 @@ from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from scipy.optimize import least_squares
 
-from benchmarks.suite import run_configs, with_effect
+from benchmarks.diagnosis.suite import run_configs, with_effect
 from furuta_drake.diagnosis.gap.metric import make_windows, projected_residuals, substeps_for
 from furuta_drake.diagnosis.gap.replay import REPLAY_INTEGRATOR, WindowReplayer
 from furuta_drake.diagnosis.selection.fit import _best_start

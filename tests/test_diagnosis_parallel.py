@@ -56,7 +56,7 @@ def test_a_dask_cluster_gives_the_same_diagnosis_as_one_process(tmp_path):
 
     from distributed import LocalCluster
 
-    from benchmarks.suite import run_configs, with_effect
+    from benchmarks.diagnosis.suite import run_configs, with_effect
     from furuta_drake.diagnosis.pipeline import diagnose
     from furuta_drake.diagnosis.report.files import report_json
     from furuta_drake.diagnosis.settings import FAST

@@ -1,5 +1,5 @@
 """``diagnose`` never crashes on valid logs: whatever mix of effects a rig has, a candidate that fails is named
-in the ranking and the diagnosis goes on to a verdict and a written report (benchmarks/diagnosis_robustness.py
+in the ranking and the diagnosis goes on to a verdict and a written report (benchmarks/diagnosis/robustness.py
 runs many more, longer cases)."""
 
 import json
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from benchmarks.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
+from benchmarks.diagnosis.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report.files import check_report, write_report
 from furuta_drake.diagnosis.settings import FAST

@@ -117,7 +117,7 @@ def test_a_pool_shared_by_threads_contains_a_dying_worker_to_its_task():
 def test_folds_run_at_once_give_each_fold_selection(tmp_path):
     """consistency() runs its folds' selections in threads on one pool; each fold's verdict is the one its
     selection gives run alone, in one process."""
-    from benchmarks.suite import run_configs, with_effect
+    from benchmarks.diagnosis.suite import run_configs, with_effect
     from furuta_drake.diagnosis.gap.metric import make_windows
     from furuta_drake.diagnosis.gap.split import fold_split
     from furuta_drake.diagnosis.logs.load import load_logs

@@ -10,7 +10,7 @@ import json
 
 import pytest
 
-from benchmarks.diagnosis_drives import CASES, RATES, record_case
+from benchmarks.diagnosis.drives import CASES, RATES, record_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.diagnosis.settings import DiagnosisSettings

@@ -1,5 +1,5 @@
-"""The Drake drive and the independent simulator's (``benchmarks/independent_sim.py``: its own equations of the rotor
-and the arm, scipy's ``solve_ivp``) agree on the same command: the geared rig, hanging, under a 50 Hz square-wave
+"""The Drake drive and the independent simulator's (``benchmarks/independent/simulator.py``: its own equations of the
+rotor and the arm, scipy's ``solve_ivp``) agree on the same command: the geared rig, hanging, under a 50 Hz square-wave
 voltage of 0.6 V that swings the pendulum through +-1.2 rad, with an elastic coupling, with backlash (the
 simulator's tooth contact set to the package's), and with both, to within half an encoder count over 4 s."""
 
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-import benchmarks.independent_sim as sim
+import benchmarks.independent.simulator as sim
 from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
 from furuta_drake.drive import drive_coupling
 from furuta_drake.rig import geared_rig

@@ -1,4 +1,4 @@
-"""The drives benchmark's truth in the independent simulator (``benchmarks/diagnosis_drives.py --simulator
+"""The drives benchmark's truth in the independent simulator (``benchmarks/diagnosis/drives.py --simulator
 independent``) is stated in the diagnosis' units: the rig file the diagnosis reads is the rig the simulator
 integrates, the belt of a compliance case rings at the frequency the case names, sqrt(k / mu) / 2 pi with mu the
 rotor's and the arm side's reduced inertia, and the play, the friction level and the delay are the truth's."""
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks.diagnosis_drives import CASES, DELAY, FRICTION, independent_world, lab_rig, sim
+from benchmarks.diagnosis.drives import CASES, DELAY, FRICTION, independent_world, lab_rig, sim
 from furuta_drake.rig import geared_rig
 from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import dump_yaml_dataclass

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from benchmarks import independent_sim as sim
-from benchmarks.lab_bang_bang import PERIOD, bang_bang
+from benchmarks.diagnosis.lab_bang_bang import PERIOD, bang_bang
+from benchmarks.independent import simulator as sim
 from furuta_drake.diagnosis.logs.load import load_logs
 from furuta_drake.diagnosis.selection.equation_error import equation_error_starts, tent
 from furuta_drake.effects.vocabulary import rig_model

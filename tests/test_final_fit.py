@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from test_form_starts import _surrogate_measured
 
-from benchmarks.suite import run_configs
+from benchmarks.diagnosis.suite import run_configs
 from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.diagnosis.selection.final_fit import refit_final

@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from benchmarks.suite import run_configs
+from benchmarks.diagnosis.suite import run_configs
 from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows, substeps_for
 from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.diagnosis.selection.fit import FitTask, fit_task, interval, scales_of

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.diagnosis_low_rate import RATES
-from benchmarks.log_velocities import recorded, velocity_error, with_starts
+from benchmarks.diagnosis.log_velocities import recorded, velocity_error, with_starts
+from benchmarks.diagnosis.low_rate import RATES
 from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
 from furuta_drake.effects.surrogate import Model
 

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from benchmarks.diagnosis_low_rate import RATES, lab_rig, run_config
-from benchmarks.suite import CaseSpec
+from benchmarks.diagnosis.low_rate import RATES, lab_rig, run_config
+from benchmarks.diagnosis.suite import CaseSpec
 from furuta_drake.diagnosis.gap.metric import evaluate_gap, make_windows
 from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.diagnosis.selection.rule import Bootstrap

@@ -1,5 +1,5 @@
-"""The validation suites' sharding over Dask (benchmarks/shards.py) on a fake case function: an outcome for every
-case in the cases' order, a raising case is an outcome with its error, progress in the order cases finish; and the
+"""The validation suites' sharding over Dask (benchmarks/diagnosis/shards.py) on a fake case function: an outcome for
+every case in the cases' order, a raising case is an outcome with its error, progress in the order cases finish; and the
 comparison of two verdict tables."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import time
 
 from dask.distributed import Client, LocalCluster
 
-from benchmarks.shards import Outcome, compare, shard, speed_up_line, verdict_row
+from benchmarks.diagnosis.shards import Outcome, compare, shard, speed_up_line, verdict_row
 
 
 def fake_case(case: tuple[str, float, bool]) -> dict:

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-import benchmarks.independent_sim as sim
+import benchmarks.independent.simulator as sim
 from furuta_drake.diagnosis.gap.metric import make_windows
 from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.diagnosis.pipeline import diagnose

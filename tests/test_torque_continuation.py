@@ -113,7 +113,7 @@ def test_a_diagnosis_from_the_fitted_rig_finds_no_further_gap_from_the_torque(tm
     torque can only leave more for the second to find); the second, the claim under test, with the command's."""
     import dataclasses
 
-    from benchmarks.suite import run_configs
+    from benchmarks.diagnosis.suite import run_configs
     from furuta_drake.config import SimulationConfig
     from furuta_drake.diagnosis.pipeline import diagnose
     from furuta_drake.diagnosis.report.files import write_report

@@ -159,7 +159,7 @@ def test_a_drake_rig_with_cogging_is_diagnosed_with_it_and_the_fitted_model_carr
     unmodelled torque): the report gives it back, and fitted_model.yaml and fitted_rig.yaml carry the expression."""
     import dataclasses
 
-    from benchmarks.suite import run_configs
+    from benchmarks.diagnosis.suite import run_configs
     from furuta_drake.config import SimulationConfig
     from furuta_drake.diagnosis.pipeline import diagnose
     from furuta_drake.diagnosis.report.files import write_report

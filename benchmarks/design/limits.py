@@ -1,7 +1,7 @@
 """Does the designed experiment bring a detection limit down? A delay beside strong friction, end to end on the
-independent simulator (benchmarks/independent_sim.py).
+independent simulator (benchmarks/independent/simulator.py).
 
-The cases (:func:`benchmarks.diagnosis_independent.delay_beside_friction_cases`): strong asymmetric arm friction
+The cases (:func:`benchmarks.diagnosis.independent.delay_beside_friction_cases`): strong asymmetric arm friction
 and an input delay of several ms; with ``--all-cases``, the cases of the whole independent suite that ``--only``
 names (a delay the logs cannot tell from an actuator lag, say: the design then separates that confusable pair).
 Each is diagnosed blind with its four 8 s logs (before); ``design`` is run on that diagnosis (with no rival it
@@ -19,7 +19,7 @@ is accepted before and after at what size (its 95 % interval). Writes ``OUT/resu
 ``OUT/config.json``; every stage is kept under ``OUT`` (``suite``, ``before``, ``design``, ``after``) and
 reused when the script is run again with the same ``--out``.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/design_limits.py --out runs/design_limits``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/design/limits.py --out runs/design_limits``
 (``--only WORD ...``: the cases whose name holds a word; ``--all-cases``: the cases from the whole suite;
 ``--duration S``: the experiment's length; ``--balancing``: the design's dither added to its LQR balancing the
 upright, played so on the simulator; ``--hanging``: an open-loop design).
@@ -36,8 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks import diagnosis_independent as indep
-from benchmarks.design_suite import diagnosed
+from benchmarks.design.suite import diagnosed
+from benchmarks.diagnosis import independent as indep
 from furuta_drake.design.output import write_design
 from furuta_drake.design.pipeline import DesignSettings, design_experiment
 from furuta_drake.diagnosis.selection.detection import INJECTIONS

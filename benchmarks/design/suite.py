@@ -1,6 +1,6 @@
 """Does the designed experiment settle what the default logs could not? ``furuta-drake design`` on the suite.
 
-The cases (:mod:`benchmarks.suite`): every combination of :data:`SEVERAL_EFFECTS` at the strong
+The cases (:mod:`benchmarks.diagnosis.suite`): every combination of :data:`SEVERAL_EFFECTS` at the strong
 level and the input delay, actuator lag and arm Coulomb friction alone at both levels, on both rigs, with the
 suite's four 8 s logs. Each case is diagnosed blind with its default logs. For every case whose verdict is wrong
 or names a confusable pair, and for a few right ones (the check that no right verdict is turned wrong), the
@@ -14,7 +14,7 @@ cases, versions). Target: >= 80 % of the targeted cases right after, no right ve
 is kept on disk (``OUT/suite``, ``OUT/before``, ``OUT/design``, ``OUT/after``) and reused when the script is run
 again with the same ``--out``.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/design_suite.py --out runs/design_suite``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/design/suite.py --out runs/design_suite``
 (``--only WORD ...`` keeps the cases whose name holds a word; ``--right-checks N`` sets how many right cases are
 re-run).
 """
@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.suite import SEVERAL_EFFECTS, CaseSpec, verdict_is_right, with_effect, write_case
+from benchmarks.diagnosis.suite import SEVERAL_EFFECTS, CaseSpec, verdict_is_right, with_effect, write_case
 from furuta_drake.config import ExcitationConfig, MonitorConfig, SimulationConfig
 from furuta_drake.design.output import write_design
 from furuta_drake.design.pipeline import DesignSettings, design_experiment
@@ -64,7 +64,7 @@ def diagnosed(out: Path, rig: Path, train: list[Path], heldout: list[Path], work
 
 def play_on_true_rig(case: CaseSpec, experiment: Path, directory: Path) -> tuple[Path, Path]:
     """The designed command played open loop from rest hanging on the case's true rig (its hidden effects, as
-    :func:`~benchmarks.suite.write_case` realises them); its log's halves as train and held-out
+    :func:`~benchmarks.diagnosis.suite.write_case` realises them); its log's halves as train and held-out
     CSVs in the suite's log format."""
     rows = np.loadtxt(experiment, delimiter=",", comments="#", skiprows=2)
     header = experiment.read_text().splitlines()[1].split(",")

@@ -1,27 +1,27 @@
 """Blind validation of ``furuta-drake diagnose``: confusion matrix, accuracy, false alarms on ``none``, median
 held-out gap reduction where right, the coverage of the 95 % parameter intervals, seconds per case.
 
-The suite (:mod:`benchmarks.suite`): each vocabulary effect at two magnitudes on both rigs and the
+The suite (:mod:`benchmarks.diagnosis.suite`): each vocabulary effect at two magnitudes on both rigs and the
 seeds asked for, plus ``none`` cases, an effect outside the vocabulary (cogging torque, expected
 ``unexplained``) and cases with two and three effects acting together (all must be named). Its logs are simulated
 into ``OUT/suite/cases/<case>/`` and the answers go to ``OUT/suite/answers.json``; the diagnosis is then run on each
 case folder alone (rig.yaml, train_*.csv, heldout_*.csv), blind, and scored against the answers afterwards. Both
-run on a Dask cluster, one case per task (:mod:`benchmarks.shards`; each case diagnosed with one worker process):
-``--scheduler ADDRESS`` for an existing cluster (its workers must import this repository and see ``OUT``), else a
-local cluster of ``--workers`` single-threaded processes (default one per core). A line per case is printed as it
+run on a Dask cluster, one case per task (:mod:`benchmarks.diagnosis.shards`; each case diagnosed with one worker
+process): ``--scheduler ADDRESS`` for an existing cluster (its workers must import this repository and see ``OUT``),
+else a local cluster of ``--workers`` single-threaded processes (default one per core). A line per case is printed as it
 finishes; a case that raises is a wrong row naming the error.
 
 Writes, as the cases finish, ``OUT/results.csv`` (one row per case), ``OUT/results.json`` (the figures and every
 row) and ``OUT/verdicts.json`` (the verdict table every suite writes, to compare two runs:
-``python benchmarks/shards.py OLD/verdicts.json NEW/verdicts.json``); and ``OUT/config.json`` (the options, cases
-and versions). Targets: >= 90 % right, no false alarm on ``none``, median held-out reduction >= 50 % where right,
+``python benchmarks/diagnosis/shards.py OLD/verdicts.json NEW/verdicts.json``); and ``OUT/config.json`` (the options,
+cases and versions). Targets: >= 90 % right, no false alarm on ``none``, median held-out reduction >= 50 % where right,
 every effect named in >= 80 % of the cases with several, 85-99 % of the true parameters of right verdicts inside
 their 95 % intervals, <= 60 s of the run's wall time per case of four 8 s logs at 1 kHz on 2 cores
 (``run_seconds_per_case``; ``seconds_per_case`` is a case's own time on its one core). The run ends with the sum
 of the case times over the wall time: its speed-up over one worker, which grows with the workers until each has
-one case left (:mod:`benchmarks.shards`).
+one case left (:mod:`benchmarks.diagnosis.shards`).
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_confusion.py --out runs/confusion``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis/confusion.py --out runs/confusion``
 (``--quick``: a handful of cases with 8 s logs; ``--only WORD ...``: the cases whose name holds a word;
 ``--suite DIR`` reuses logs written earlier).
 """
@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
-from benchmarks.suite import CaseSpec, default_cases, verdict_is_right, write_case
+from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
+from benchmarks.diagnosis.suite import CaseSpec, default_cases, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.rig import RIGS
@@ -262,7 +262,8 @@ def _diagnose_case(task: tuple[dict, Path, Path]) -> tuple[dict, list[str]]:
 
 
 def verdicts(rows: list[dict], effects: list[list[str]]) -> list[dict]:
-    """The rows and their reports' effects as the verdict table every suite writes (:mod:`benchmarks.shards`)."""
+    """The rows and their reports' effects as the verdict table every suite writes
+    (:mod:`benchmarks.diagnosis.shards`)."""
     return [
         verdict_row(
             "confusion",

@@ -10,7 +10,7 @@ a first-order lag, a subtracting dead zone...). An input delay is left out: the 
 to half a control period, coarser than a limit's halving.
 
 Run from the repository root:
-``PYTHONPATH=. python benchmarks/detection_limits.py --out runs/limits --rig qube_servo2``.
+``PYTHONPATH=. python benchmarks/diagnosis/detection_limits.py --out runs/limits --rig qube_servo2``.
 Writes ``OUT/results.json`` (the limits, every run's verdict and the counts) and ``OUT/config.json``.
 """
 
@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from benchmarks.suite import run_configs
+from benchmarks.diagnosis.suite import run_configs
 from furuta_drake.config import SimulationConfig
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.effects.vocabulary import PRESLIDING_STARTS

@@ -15,13 +15,14 @@ drive's two effects, their look-alikes (arm Coulomb friction, a dead zone, an ac
 (``CANDIDATES``; the whole vocabulary takes about ten times as long).
 
 ``--simulator independent`` records the same cases with the project's independent simulator instead
-(:mod:`benchmarks.independent_sim`: its own equations of the rotor and the arm, scipy's ``solve_ivp``), the drive
+(:mod:`benchmarks.independent.simulator`: its own equations of the rotor and the arm, scipy's ``solve_ivp``), the drive
 effects checked blind: its geared rig (``geared_like``, the same gear ratio, rotor, motor, bodies and encoders as the
-rig file the diagnosis reads, which is the same file in both modes) with a :class:`~benchmarks.independent_sim.Backlash`
-or a :class:`~benchmarks.independent_sim.Belt`, Karnopp stick-slip on the arm for the friction case and an
-integer-sample FIFO for the delay, played the same step command (in volts, logged as voltage). The truth's parameters
-map to the diagnosis' as follows, both simulators stating the drive on the arm side (the rotor's angle psi the
-motor's over the gear ratio, its inertia J_r = J_m N^2 = ``rotor_share`` times the arm's J, rotor included):
+rig file the diagnosis reads, which is the same file in both modes) with a
+:class:`~benchmarks.independent.simulator.Backlash` or a :class:`~benchmarks.independent.simulator.Belt`, Karnopp
+stick-slip on the arm for the friction case and an integer-sample FIFO for the delay, played the same step command (in
+volts, logged as voltage). The truth's parameters map to the diagnosis' as follows, both simulators stating the drive on
+the arm side (the rotor's angle psi the motor's over the gear ratio, its inertia J_r = J_m N^2 = ``rotor_share`` times
+the arm's J, rotor included):
 
 - backlash: ``Backlash.half_gap`` [rad, arm side, half the play] is ``drive_backlash.backlash``; the simulator's own
   tooth contact (the rotor ringing at 150 Hz against a held arm, damping ratio 0.3) stays as it is, unknown to the
@@ -36,7 +37,7 @@ motor's over the gear ratio, its inertia J_r = J_m N^2 = ``rotor_share`` times t
 A ``none`` case (no effect) checks that the rig file describes the rig the simulator integrates: its nominal gap is
 at the encoder's floor.
 
-Run from the repository root: ``PYTHONPATH=. nice -n 19 python benchmarks/diagnosis_drives.py --out DIR
+Run from the repository root: ``PYTHONPATH=. nice -n 19 python benchmarks/diagnosis/drives.py --out DIR
 [--simulator drake|independent] [--cases backlash_small ...] [--rates 200Hz 50Hz] [--workers 1]``. ``DIR`` keeps
 the recorded cases and the reports; a case already diagnosed there is read back, not rerun. Writes
 ``DIR/results.json`` (one row per case and rate), ``DIR/table.md`` and ``DIR/config.json`` (argv, simulator, the
@@ -56,8 +57,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks import diagnosis_independent as di
-from benchmarks.suite import _with_actuator, _with_arm_friction
+from benchmarks.diagnosis import independent as di
+from benchmarks.diagnosis.suite import _with_actuator, _with_arm_friction
 from furuta_drake.config import SimulationConfig, open_loop_config
 from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.friction import JointFrictionParameters

@@ -1,5 +1,6 @@
-"""Blind validation of ``furuta-drake diagnose`` on logs from an independent simulator (benchmarks/independent_sim.py:
-numpy/scipy, its own equations of motion, effects in forms the package does not model).
+"""Blind validation of ``furuta-drake diagnose`` on logs from an independent simulator
+(benchmarks/independent/simulator.py: numpy/scipy, its own equations of motion, effects in forms the package does not
+model).
 
 The suite: every vocabulary effect in each of its forms at one realistic size (a few near the limit of
 detectability), two ``none`` cases, two effects outside the vocabulary (cogging, gear backlash: ``unexplained``
@@ -11,23 +12,23 @@ effect being in ``effects``, ``none`` by ``none``, an effect outside the vocabul
 listed effect: Coulomb friction next to cogging, the listed effect named among the effects kept beside the torque
 beyond the vocabulary, never displaced by it).
 
-The cases are written and diagnosed on a Dask cluster, one case per task (:mod:`benchmarks.shards`; each case
-diagnosed with one worker process): ``--scheduler ADDRESS`` for an existing cluster (its workers must import this
-repository and ``benchmarks/``, and see ``OUT``), else a local cluster of ``--workers`` single-threaded processes
-(default one per core). A line per case is printed as it finishes; a case that raises is a wrong row naming the
-error. The run ends with the sum of the case times over the wall time: its speed-up over one worker, which grows
-with the workers until each has one case left (:mod:`benchmarks.shards`).
+The cases are written and diagnosed on a Dask cluster, one case per task (:mod:`benchmarks.diagnosis.shards`; each
+case diagnosed with one worker process): ``--scheduler ADDRESS`` for an existing cluster (its workers must import
+this repository and see ``OUT``), else a local cluster of ``--workers`` single-threaded processes (default one per
+core). A line per case is printed as it finishes; a case that raises is a wrong row naming the error. The run ends
+with the sum of the case times over the wall time: its speed-up over one worker, which grows with the workers until
+each has one case left (:mod:`benchmarks.diagnosis.shards`).
 
 Writes, as the cases finish, ``OUT/results.json`` (one row per case: truth, verdict, effects, confusable pairs,
 fitted parameters of the accepted model next to the truth, or of the true effect fitted alone where it was not
 accepted, the best candidate, held-out reduction, seconds), ``OUT/table.md``, ``OUT/verdicts.json`` (the verdict
-table every suite writes, to compare two runs: ``python benchmarks/shards.py OLD/verdicts.json
+table every suite writes, to compare two runs: ``python benchmarks/diagnosis/shards.py OLD/verdicts.json
 NEW/verdicts.json``) and ``OUT/config.json`` (argv, seeds, workers, versions); the reports go to
 ``OUT/reports/<case>/``. Each case also states its effect's size in the
 train logs, in encoder counts: the RMS of the true angles minus the nominal rig's prediction over 100 ms windows
 restarted from the true state (balancing / hanging), and the sensor error RMS (0.29 for a rounding encoder).
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_independent.py --out runs/indep``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis/independent.py --out runs/indep``
 (``--quick``: 6 cases; ``--only WORD ...``: the cases whose name holds a word; ``--suite DIR``: reuse logs).
 """
 
@@ -46,10 +47,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import independent_sim as sim  # noqa: E402  (the simulator sits next to this file)
-from shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts  # noqa: E402
-
+from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
+from benchmarks.independent import simulator as sim
 from furuta_drake.rig import encoder_resolution
 from furuta_drake.sweep import dask_client
 
@@ -395,7 +394,7 @@ def hidden_second_cases() -> list[Case]:
 def delay_beside_friction_cases() -> list[Case]:
     """Strong asymmetric arm friction beside an input delay of one and two samples (2 and 4 ms on the QUBE-like
     rig): the friction dominates the gap; the logs see the shorter delay only above its true size and take the
-    longer one for an actuator lag (``benchmarks/design_limits.py`` designs the experiment that brings the
+    longer one for an actuator lag (``benchmarks/design/limits.py`` designs the experiment that brings the
     delay's detection limit down)."""
     return [
         make_case("qube", (arm_friction, "tanh", 0.2, {"neg_level": 0.35, "smoothing": 0.02}), (delay, 1), seed=6),
@@ -685,7 +684,7 @@ def versions() -> dict:
         out["drake"] = version("drake")
     except PackageNotFoundError:
         out["drake"] = "unknown"
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parent.parent  # benchmarks/: git finds the repository's commit from there
     commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True)
     out["furuta_drake_commit"] = commit.stdout.strip()
     return out

@@ -1,9 +1,9 @@
 """Coverage of the accepted model's 95 % parameter intervals on the independent simulator's cases
-(benchmarks/diagnosis_independent.py): for every true parameter of an accepted true effect, whether the truth lies
+(benchmarks/diagnosis/independent.py): for every true parameter of an accepted true effect, whether the truth lies
 in the report's interval (``params_ci``: widened by the strongest rival's shift) and in the bootstrap's own
 (``params_ci_if_complete``), split by whether the case holds a hidden second effect below its detection limit.
 
-Run after the benchmark: ``PYTHONPATH=. python benchmarks/interval_coverage.py OUT [OUT ...]`` (its output
+Run after the benchmark: ``PYTHONPATH=. python benchmarks/diagnosis/interval_coverage.py OUT [OUT ...]`` (its output
 directories); prints a table per parameter and the coverage figures.
 """
 
@@ -64,7 +64,7 @@ def checks(out: Path) -> list[dict]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("outs", nargs="+", type=Path, help="output directories of diagnosis_independent.py")
+    parser.add_argument("outs", nargs="+", type=Path, help="output directories of benchmarks/diagnosis/independent.py")
     args = parser.parse_args(argv)
     rows = [row for out in args.outs for row in checks(out)]
     print("| case | parameter | true | fitted | 95 % own | covered | 95 % widened | covered | hidden 2nd |")

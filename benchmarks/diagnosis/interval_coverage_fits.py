@@ -1,6 +1,6 @@
 """Coverage of the 95 % parameter intervals of one accepted effect, at the fit level, on the suite's true-world
-realisations in Drake (benchmarks/suite.py): for each case a rig, an accepted effect A at the suite's level and,
-in half of them, a small second effect below its detection limit (an input delay or an actuator lag of
+realisations in Drake (benchmarks/diagnosis/suite.py): for each case a rig, an accepted effect A at the suite's level
+and, in half of them, a small second effect below its detection limit (an input delay or an actuator lag of
 ``HIDDEN_SECONDS``). A is fitted alone on the case's train runs (the suite's balancing and hanging runs); its
 bootstrap intervals are the *own* ones; the rival is the joint fit of A and the not-accepted candidate of
 ``RIVALS`` that leaves the least train cost, and its move d of each parameter widens [lo, hi] to
@@ -11,7 +11,7 @@ error sqrt(p (1 - p) / n). As the report does, A is then fitted again on every t
 draws) and the refit's value and own interval are checked, the rival's move still measured from the fit on the drawn
 windows; the tables are given for the refit (the report's) and for the drawn windows' fit.
 
-``PYTHONPATH=. python benchmarks/interval_coverage_fits.py [--seeds 1 2] [--duration 3]``
+``PYTHONPATH=. python benchmarks/diagnosis/interval_coverage_fits.py [--seeds 1 2] [--duration 3]``
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-import benchmarks.diagnosis_independent as ind
-from benchmarks.suite import run_configs, true_params, with_effect
+import benchmarks.diagnosis.independent as ind
+from benchmarks.diagnosis.suite import run_configs, true_params, with_effect
 from furuta_drake.diagnosis.gap.metric import make_windows
 from furuta_drake.diagnosis.logs.load import RunLog, load_logs
 from furuta_drake.diagnosis.selection.final_fit import every_window_tasks, refit
@@ -112,7 +112,7 @@ def suite_cases(rigs, seeds, duration: float):
 
 
 def independent_cases(seeds, duration: float):
-    """The same from the independent simulator (benchmarks/independent_sim.py; its logs already hold the
+    """The same from the independent simulator (benchmarks/independent/simulator.py; its logs already hold the
     one-sample computation delay of a digital controller): each clear effect alone and beside a hidden one-sample
     delay or a 2 ms filter lag, read back through the package's log reader."""
     clear = {

@@ -1,6 +1,6 @@
 """A lab's QUBE-Servo 2 far from its rig file: open-loop +-7 V bang-bang trials of 4 s at 125 Hz with 2048-count
 encoders, four or five large effects acting at once, from the project's independent simulator
-(:mod:`independent_sim`: its own equations and effect forms).
+(:mod:`benchmarks.independent.simulator`: its own equations and effect forms).
 
 The effects, as a built or worn rig shows them: a drive gain well below 1 (0.7), viscous damping three times the
 back-EMF's, a restoring torque (a cable of 0.3 m g l per radian), a sample of delay (8 ms) and, in the five-effect
@@ -14,8 +14,8 @@ friction, whose torque at speed they share) and no sensor effect is (the encoder
 case (no effect) must read ``none``. The table gives, per case: the verdict and effects, the share of the held-out
 gap the predictions remove, the sensor's share, and each true parameter against its fit.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/lab_bang_bang.py --out runs/lab`` (``--only WORD``
-keeps the cases whose name holds a word). Writes ``OUT/results.json``, ``OUT/table.md`` and ``OUT/config.json``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis/lab_bang_bang.py --out runs/lab`` (``--only
+WORD`` keeps the cases whose name holds a word). Writes ``OUT/results.json``, ``OUT/table.md`` and ``OUT/config.json``
 (argv, seeds, versions); the reports go to ``OUT/reports/<case>/``.
 """
 
@@ -30,11 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import diagnosis_independent as di  # noqa: E402  (the blind suite's effect makers sit next to this file)
-import independent_sim as sim  # noqa: E402
-
-from furuta_drake.effects.vocabulary import law_of  # noqa: E402
+from benchmarks.diagnosis import independent as di
+from benchmarks.independent import simulator as sim
+from furuta_drake.effects.vocabulary import law_of
 
 PERIOD = 0.008  # [s] 125 Hz
 TRIAL_S = 4.0

@@ -3,8 +3,8 @@
 Each window's start state is first read from the angles by a Savitzky-Golay smoother and then refined per model by
 Levenberg-Marquardt steps on the window's residuals (:mod:`furuta_drake.diagnosis.gap.metric`). A logged velocity could
 only replace the smoother's first guess. This measures what it would change, on the low-rate benchmark's
-recordings (:mod:`diagnosis_low_rate`: open loop from hanging, +-7 V bang-bang, 2048 counts; two 8 s runs to fit,
-one held out) at 125 Hz and 1 kHz, both rigs, with the window start velocities taken from:
+recordings (:mod:`benchmarks.diagnosis.low_rate`: open loop from hanging, +-7 V bang-bang, 2048 counts; two 8 s
+runs to fit, one held out) at 125 Hz and 1 kHz, both rigs, with the window start velocities taken from:
 
 - ``smoothed``: the Savitzky-Golay derivative (what the diagnosis uses);
 - ``true``: the simulator's state (the best any log could hold);
@@ -18,31 +18,27 @@ count above 0 is start-state error), and on the arm-Coulomb-friction case (level
 error against the injected one and the fit's held-out reduction. Sources that give the same refined states, gaps,
 parameters and reductions as ``smoothed`` leave the diagnosis unchanged.
 
-Run from the repository root: ``PYTHONPATH=. nice -n 10 python benchmarks/log_velocities.py [--rigs qube_servo2
-lund] [--rates 125Hz 1kHz]``.
+Run from the repository root: ``PYTHONPATH=. nice -n 10 python benchmarks/diagnosis/log_velocities.py [--rigs
+qube_servo2 lund] [--rates 125Hz 1kHz]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
-from pathlib import Path
 
 import numpy as np
 from scipy.signal import lfilter
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from diagnosis_low_rate import RATES, lab_rig, run_config  # noqa: E402
-
-from benchmarks.suite import CaseSpec, true_params  # noqa: E402
-from furuta_drake.diagnosis.gap.metric import Windows, evaluate_gap, make_windows  # noqa: E402
-from furuta_drake.diagnosis.logs.load import RunLog  # noqa: E402
-from furuta_drake.diagnosis.selection.fit import FitTask, fit_task  # noqa: E402
-from furuta_drake.diagnosis.settings import DiagnosisSettings  # noqa: E402
-from furuta_drake.effects.surrogate import Model  # noqa: E402
-from furuta_drake.rig import RIGS  # noqa: E402
-from furuta_drake.simulate import simulate  # noqa: E402
+from benchmarks.diagnosis.low_rate import RATES, lab_rig, run_config
+from benchmarks.diagnosis.suite import CaseSpec, true_params
+from furuta_drake.diagnosis.gap.metric import Windows, evaluate_gap, make_windows
+from furuta_drake.diagnosis.logs.load import RunLog
+from furuta_drake.diagnosis.selection.fit import FitTask, fit_task
+from furuta_drake.diagnosis.settings import DiagnosisSettings
+from furuta_drake.effects.surrogate import Model
+from furuta_drake.rig import RIGS
+from furuta_drake.simulate import simulate
 
 SEEDS = {"train": (1, 2), "heldout": (501,)}  # command seeds of the runs
 DURATION_S = 8.0

@@ -1,20 +1,20 @@
 """The diagnosis on logs recorded as a lab with a slow controller records them: 125 Hz, 2048-count encoders, no
 velocities, a random bang-bang command, against the same cases recorded at 1 kHz.
 
-Each case of the project's simulator suite (:mod:`benchmarks.suite`: the Drake world with one hidden
+Each case of the project's simulator suite (:mod:`benchmarks.diagnosis.suite`: the Drake world with one hidden
 effect realised by the true-world blocks, at the suite's two sizes, and the null case) is recorded open loop from
 the hanging pendulum under a bang-bang command of +-7 V through the QUBE-Servo 2's motor (+-0.7 of the torque
 limit for the Lund rig, which has no motor) that switches sign after a random dwell of 25-75 ms, so the pendulum
 swings through full turns. Two train and two held-out runs of 8 s per case; the same command (a function of time)
 and the same effect at both rates, only the control and logging period differ (an effect sized in control periods,
 the input delay, scales with it). Each case is diagnosed blind with one worker and scored with the suite's rule
-(:func:`~benchmarks.suite.verdict_is_right`).
+(:func:`~benchmarks.diagnosis.suite.verdict_is_right`).
 
 Printed: per case the verdict at 1 kHz and at 125 Hz and whether each is right, then the rate of right verdicts at
 each rate. Target: the 125 Hz rate within 10 points of the 1 kHz rate and no false alarm on the null case.
 
 Run from the repository root (the whole suite is ~60 cases x 2 rates; on a shared machine take a subset):
-``PYTHONPATH=. nice -n 10 python benchmarks/diagnosis_low_rate.py --out DIR [--rigs lund qube_servo2]
+``PYTHONPATH=. nice -n 10 python benchmarks/diagnosis/low_rate.py --out DIR [--rigs lund qube_servo2]
 [--effects none arm_viscous_friction ...] [--levels 1 2] [--rates 1kHz 125Hz]``. ``DIR`` keeps the recorded cases
 and the reports; a case already diagnosed there is read back, not rerun.
 """
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.suite import SUITE_RIGS, VOCABULARY, CaseSpec, verdict_is_right, with_effect
+from benchmarks.diagnosis.suite import SUITE_RIGS, VOCABULARY, CaseSpec, verdict_is_right, with_effect
 from furuta_drake.config import SimulationConfig, open_loop_config
 from furuta_drake.diagnosis.logs.writers import write_log
 from furuta_drake.rig import RIGS, RigParameters

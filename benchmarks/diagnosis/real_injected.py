@@ -33,7 +33,7 @@ compete with them for the three places (the baseline already needs three) nor be
 by the baseline's delay, a torque gain by its inertia scales). Named there means: in ``effects``; cogging is
 right when the verdict is ``unexplained`` or names no effect.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_real_injected.py --out runs/injected``. Writes
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis/real_injected.py --out runs/injected``. Writes
 ``OUT/results.json`` (one row per case) and ``OUT/config.json``; prints the table. ``--rescore`` scores the
 reports already in ``OUT/reports`` again without diagnosing.
 """

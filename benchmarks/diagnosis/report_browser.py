@@ -14,7 +14,7 @@ rows, rendered with the figures of the first directory), the script
 - saves screenshots of the first screen and of the whole page (``OUT/<name>_first.png``, ``OUT/<name>_full.png``).
 
 Prints one row per report with each check and exits 1 when one fails. Run from the repository root:
-``PYTHONPATH=. python benchmarks/report_browser.py DIAGNOSIS_DIR [MORE_DIRS ...] --out shots --fake-logs 200``
+``PYTHONPATH=. python benchmarks/diagnosis/report_browser.py DIAGNOSIS_DIR [MORE_DIRS ...] --out shots --fake-logs 200``
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ magnitudes (levels 0.2-3 of the validation suite's scale), a balancing run under
 training and the same for held-out, simulated in Drake (a balancing run that falls is replaced by a second
 hanging run: the logs must be valid, the effects may be anything). Seeded: ``--seed`` fixes every draw.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_robustness.py --cases 40 --out runs/robust``.
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis/robustness.py --cases 40 --out runs/robust``.
 Writes ``OUT/results.json`` (figures, one row per case) and ``OUT/config.json``.
 """
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
+from benchmarks.diagnosis.suite import OUTSIDE_VOCABULARY, SUITE_RIGS, VOCABULARY, run_configs, with_effect
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report.files import write_report
 from furuta_drake.errors import SimulationDiverged

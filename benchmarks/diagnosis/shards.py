@@ -5,7 +5,7 @@ so a cluster of N single-threaded workers runs N cases at once. The suite prints
 (``[done/total]``, in the order they finish) and writes its results as they come; a case that raises is that
 case's row (``Outcome.error``), never the run's end. Every suite also writes ``verdicts.json``, one row per case
 in the same fields (:data:`VERDICT_FIELDS`), so that two runs compare case by case:
-``python benchmarks/shards.py OLD/verdicts.json NEW/verdicts.json``.
+``python benchmarks/diagnosis/shards.py OLD/verdicts.json NEW/verdicts.json``.
 
 Speed-up: the run takes about the larger of (cases / workers) x the mean case time and the longest case, plus
 the cluster's start (each worker's first case also pays the imports and numba's compilation). So it scales with
@@ -140,7 +140,7 @@ def threads(client) -> int:
 def main(argv: list[str]) -> int:
     """Compare two verdict tables: ``shards.py OLD/verdicts.json NEW/verdicts.json``."""
     if len(argv) != 2:
-        print("usage: python benchmarks/shards.py OLD/verdicts.json NEW/verdicts.json", file=sys.stderr)
+        print("usage: python benchmarks/diagnosis/shards.py OLD/verdicts.json NEW/verdicts.json", file=sys.stderr)
         return 2
     old, new = (json.loads(Path(path).read_text()) for path in argv)
     print("\n".join(compare(old, new)))

@@ -1,5 +1,5 @@
 """Blind validation of the torque beyond the vocabulary (``report.json`` ``unmodelled_torque``) on logs from the
-independent simulator (benchmarks/independent_sim.py), QUBE-like rig (voltage logs, 500 Hz).
+independent simulator (benchmarks/independent/simulator.py), QUBE-like rig (voltage logs, 500 Hz).
 
 Outside cases: cogging at three periods, a pendulum encoder zeroed off the upright, quadratic arm drag, a tilted
 base, an arm friction varying with the arm angle, gear backlash, an arm encoder zeroed off (no dynamic trace:
@@ -13,7 +13,7 @@ cases with a state torque); on the controls the torque claimed beyond the true o
 listed effect's torque RMS (target: <= 10 %). Backlash and the arm encoder offset have no torque of the state to
 compare with: their rows say what was found.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/unmodelled_torque.py --out runs/ut``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis/unmodelled_torque.py --out runs/ut``
 (``--only WORD ...``: the cases whose name holds a word; ``--seconds S``: log length, default 6; ``--rescore``:
 score the reports already there again, the logs simulated again from the same seeds). Where the vocabulary took
 part of an outside arm torque (drag read as viscous friction), "error with listed" adds the accepted arm
@@ -26,14 +26,12 @@ import argparse
 import dataclasses
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import independent_sim as sim  # noqa: E402  (the simulator sits next to this file)
+from benchmarks.independent import simulator as sim
 
 RIG = sim.qube_like()
 MGL = RIG.bodies.d

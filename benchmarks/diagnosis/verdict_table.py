@@ -1,17 +1,17 @@
-"""The verdict table: every case's verdict on the project's own suite (``diagnosis_confusion.py``) and on the
-independent simulator's (``diagnosis_independent.py``) in one table, side by side with a table written earlier, so
-that a change to the rule, the fits or the effects shows every verdict it moves.
+"""The verdict table: every case's verdict on the project's own suite (``confusion.py``) and on the independent
+simulator's (``independent.py``) in one table, side by side with a table written earlier, so that a change to the
+rule, the fits or the effects shows every verdict it moves.
 
-Each suite writes its ``verdicts.json`` (:mod:`benchmarks.shards`'s rows) into its ``--out`` folder; this script
-joins those of ``--own DIR`` and ``--independent DIR`` (either may be left out) into ``OUT/verdicts.json`` and
+Each suite writes its ``verdicts.json`` (:mod:`benchmarks.diagnosis.shards`'s rows) into its ``--out`` folder; this
+script joins those of ``--own DIR`` and ``--independent DIR`` (either may be left out) into ``OUT/verdicts.json`` and
 ``OUT/verdicts.md`` (suite, case, expected, verdict, effects, right, held-out reduction by the predictions, the
 case's seconds). With ``--against FILE`` (an earlier joined ``verdicts.json``, or one suite's) it lists every case
 whose verdict, effects or rightness changed and the counts of right verdicts before and after
-(:func:`benchmarks.shards.compare`); ``--fail-on-change`` exits 1 when any did (for scripts).
+(:func:`benchmarks.diagnosis.shards.compare`); ``--fail-on-change`` exits 1 when any did (for scripts).
 
 Run from the repository root after the suites:
-``PYTHONPATH=. python benchmarks/verdict_table.py --own runs/own --independent runs/indep --out runs/verdicts
-[--against runs/verdicts_before/verdicts.json]``.
+``PYTHONPATH=. python benchmarks/diagnosis/verdict_table.py --own runs/own --independent runs/indep
+--out runs/verdicts [--against runs/verdicts_before/verdicts.json]``.
 """
 
 from __future__ import annotations
@@ -21,8 +21,7 @@ import json
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from shards import compare, write_verdicts  # noqa: E402  (the suites' shared verdict rows sit next to this file)
+from benchmarks.diagnosis.shards import compare, write_verdicts
 
 
 def _percent(value) -> str:
@@ -48,8 +47,8 @@ def markdown(rows: list[dict], changed: list[str] | None) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--own", type=Path, help="diagnosis_confusion.py's output folder")
-    parser.add_argument("--independent", type=Path, help="diagnosis_independent.py's output folder")
+    parser.add_argument("--own", type=Path, help="confusion.py's output folder")
+    parser.add_argument("--independent", type=Path, help="independent.py's output folder")
     parser.add_argument("--out", type=Path, required=True, help="folder for verdicts.json and verdicts.md")
     parser.add_argument("--against", type=Path, help="an earlier verdicts.json to compare with")
     parser.add_argument("--fail-on-change", action="store_true", help="exit 1 when a verdict changed")

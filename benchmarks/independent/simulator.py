@@ -37,7 +37,7 @@ Sign conventions (checked in ``--check``): at the upright a positive arm torque 
 hanging (cos(theta) = -1) it gives theta_ddot = +c tau / det > 0, so accelerating the arm towards +phi swings the
 pendulum towards +theta.
 
-Run ``PYTHONPATH=. python benchmarks/independent_sim.py --check`` for the simulator's own checks (energy, the
+Run ``PYTHONPATH=. python benchmarks/independent/simulator.py --check`` for the simulator's own checks (energy, the
 linearisation against ``furuta_drake.rig.linearized_upright``, the sign conventions, balancing runs that stay up).
 """
 

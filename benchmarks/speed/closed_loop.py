@@ -46,7 +46,7 @@ package at accuracy 1e-4 and at 1e-10 part the same way). So the table prints th
 differing count and when that happens, and the check is made on the same loops with a 2^32-count encoder (one
 count 1.5e-9 rad), over the whole run: max |x_package - x_peer| <= ``TOLERANCE``.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/closed_loop.py [--duration 10] [--repeats 3]
+Run from the repository root: ``PYTHONPATH=. python benchmarks/speed/closed_loop.py [--duration 10] [--repeats 3]
 [--profile]`` (``--profile``: also the cProfile top entries of one run of the full diagram).
 """
 

@@ -1,7 +1,7 @@
 """Wall and CPU time of ``furuta-drake diagnose`` per case, and where it goes.
 
 Each case folder (``rig.yaml``, ``train_*.csv``, ``heldout_*.csv``, as the suites of
-``benchmarks/diagnosis_confusion.py`` and ``benchmarks/diagnosis_independent.py`` write them with
+``benchmarks/diagnosis/confusion.py`` and ``benchmarks/diagnosis/independent.py`` write them with
 ``--generate-only``) is diagnosed in this process, once per case. Printed per case: wall time, CPU time (this
 process and its finished worker processes), the wall time on free cores, the wall time of each stage of the
 pipeline (loading, windows, the selection's tasks by phase: forward steps with their joint refits, pair entry,
@@ -25,7 +25,7 @@ DIR, then with this code, each in a process of its own, and the table prints bot
 The drift then falls on both alike.
 
 Run from the repository root, e.g.
-``PYTHONPATH=. python benchmarks/diagnosis_speed.py --suite own runs/own/suite/cases/* --workers 2``.
+``PYTHONPATH=. python benchmarks/speed/diagnosis.py --suite own runs/own/suite/cases/* --workers 2``.
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
+import benchmarks
 from furuta_drake.diagnosis import pipeline
 from furuta_drake.diagnosis.gap import replay
 from furuta_drake.diagnosis.report.files import write_report
@@ -153,7 +154,7 @@ TRIAL_SECONDS, TRIAL_PERIOD = 4.0, 0.008  # a trial set: many short logs at 125 
 def _write_trial(args) -> None:
     import dataclasses
 
-    from benchmarks.suite import run_configs, with_effect
+    from benchmarks.diagnosis.suite import run_configs, with_effect
     from furuta_drake.results import write_log_csv
     from furuta_drake.simulate import simulate
 
@@ -237,7 +238,10 @@ def print_table(suite: str, rows: list[dict]) -> None:
 def run_elsewhere(checkout: Path, folder: Path, workers: int, folds: int | None, reports: Path | None) -> dict:
     """Wall and CPU time [s] of ``folder`` diagnosed by the code of ``checkout`` (a checkout of this repository),
     in a process of its own: this script there, on that one case."""
-    command = [sys.executable, "benchmarks/diagnosis_speed.py", "--suite", "one", str(folder.resolve())]
+    # This script's path there; a checkout from before the benchmarks were grouped in folders has it at the former one.
+    paths = ("benchmarks/speed/diagnosis.py", "benchmarks/diagnosis_speed.py")
+    script = next((path for path in paths if (checkout / path).is_file()), paths[0])
+    command = [sys.executable, script, "--suite", "one", str(folder.resolve())]
     command += ["--workers", str(workers)] + (["--folds", str(folds)] if folds else [])
     command += ["--reports", str(reports.resolve())] if reports is not None else []
     environment = {**os.environ, "PYTHONPATH": str(checkout.resolve())}
@@ -303,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.write_trials:
         write_trials(Path(args.write_trials[0]), int(args.write_trials[1]), args.workers)
         return 0
-    here = Path(__file__).resolve().parent.parent
+    here = Path(benchmarks.__file__).resolve().parent.parent  # the repository holding this script
     for suite, *folders in args.suite or []:
         if args.reference is not None:
             pairs = [

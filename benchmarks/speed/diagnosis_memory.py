@@ -14,7 +14,7 @@ for that stage); the process's ``ru_maxrss`` at the end; then the 10-minute / 1-
 linear in the log length). The resident figures include the ~0.2 GB of Drake, numpy and matplotlib that any
 run has.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/diagnosis_memory.py [--data DIR]`` (``--data``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/speed/diagnosis_memory.py [--data DIR]`` (``--data``
 keeps the simulated logs there and reuses them on the next run).
 """
 

@@ -13,7 +13,7 @@ and the lumped constants' scales besides (nine fitted parameters). Timed in this
    surrogate call of all nine shifted models, as before), and their largest difference relative to each column.
 
 Each time is the best of ``REPEATS`` runs after a first that compiles or loads the kernels. On a shared machine
-the times are indicative only. Run from the repository root: ``PYTHONPATH=. python benchmarks/sensitivity_speed.py``.
+the times are indicative only. Run from the repository root: ``PYTHONPATH=. python benchmarks/speed/sensitivity.py``.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ window and per window-step of each, their ratio, and the largest difference of t
 compiled RK4's own integration error). The compiled kernel is also timed at 40, 200 and 1000 windows: a fit's
 cost evaluations use a few hundred.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/surrogate_speed.py``.
+Run from the repository root: ``PYTHONPATH=. python benchmarks/speed/surrogate.py``.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Each cluster is started and every worker warmed up (package imported, one short 
 starts, so the figures are the sweep's own wall time: submitting the points, simulating them, writing the
 results. The machine's own ceiling is measured in the same runs, interleaved: the speedup of two processes
 running a pure Python loop over one (below 2 when other jobs share the cores). Best of --repeats each.
-Run from the repository root: ``PYTHONPATH=. python benchmarks/sweep_scaling.py [--points 8] [--duration 3]``.
+Run from the repository root: ``PYTHONPATH=. python benchmarks/speed/sweep_scaling.py [--points 8] [--duration 3]``.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 file, as identification data often comes.
 
 The trials are one open-loop run of the QUBE-Servo 2 under the low-rate benchmark's bang-bang command (+-7 V,
-random 25-75 ms dwells; :mod:`diagnosis_low_rate`) with the arm's Coulomb friction of the project's simulator
+random 25-75 ms dwells; :mod:`benchmarks.diagnosis.low_rate`) with the arm's Coulomb friction of the project's simulator
 suite, cut into 4 s pieces, each with its own time base from 0 and started wherever the last one left the rig; a
 ``trial`` column numbers them. Each table is diagnosed in a child process (``furuta-drake diagnose --run-column
 trial --workers W``).
@@ -14,7 +14,7 @@ then the ratios between the largest and the smallest trial count (the data grow 
 difference is what the many-runs path itself costs. Target:
 200 trials within 10 minutes on 2 cores, memory that does not grow per trial beyond the data.
 
-Run from the repository root: ``PYTHONPATH=. nice -n 10 python benchmarks/trial_table.py --out DIR [--trials 20
+Run from the repository root: ``PYTHONPATH=. nice -n 10 python benchmarks/speed/trial_table.py --out DIR [--trials 20
 200] [--workers 2]``; ``DIR`` keeps the tables and reports (a table already there is reused).
 """
 
@@ -30,13 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from diagnosis_low_rate import RATES, lab_rig, run_config  # noqa: E402
-
-from benchmarks.suite import CaseSpec  # noqa: E402
-from furuta_drake.diagnosis.logs.writers import write_log  # noqa: E402
-from furuta_drake.simulate import simulate  # noqa: E402
-from furuta_drake.yamlio import dump_yaml_dataclass  # noqa: E402
+from benchmarks.diagnosis.low_rate import RATES, lab_rig, run_config
+from benchmarks.diagnosis.suite import CaseSpec
+from furuta_drake.diagnosis.logs.writers import write_log
+from furuta_drake.simulate import simulate
+from furuta_drake.yamlio import dump_yaml_dataclass
 
 TRIAL_S = 4.0
 CASE = CaseSpec("qube_servo2", ("arm_coulomb_friction",), 2, 1)

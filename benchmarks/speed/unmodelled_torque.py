@@ -10,7 +10,7 @@
    same steps.
 3. One ``Torque.at`` call (the system's per-stage evaluation) and one vectorised call on 1000 states.
 
-Run from the repository root: ``python benchmarks/unmodelled_torque_speed.py``.
+Run from the repository root: ``python benchmarks/speed/unmodelled_torque.py``.
 """
 
 from __future__ import annotations

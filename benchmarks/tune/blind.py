@@ -1,16 +1,16 @@
 """Blind check of ``furuta-drake tune``: does the controller tuned from a diagnosis balance the "real" rig better
 than the one a lab designs on its rig file?
 
-The "real" rig is the independent simulator (benchmarks/independent_sim.py: its own equations of motion, effects
+The "real" rig is the independent simulator (benchmarks/independent/simulator.py: its own equations of motion, effects
 in forms the package does not model). Ten cases carry effects the nominal rig file lacks: arm friction, an input
 delay, a cable spring, an inertia error, alone and together, on a Lund-like rig (torque, 1 kHz) and a QUBE-like rig
 (voltage, 500 Hz). For each case, as a lab would:
 
 1. record the four 8 s logs of the diagnosis suite (balancing and hanging, train and held-out;
-   :func:`benchmarks.diagnosis_independent.write_case`), and diagnose them with the command's default settings;
+   :func:`benchmarks.diagnosis.independent.write_case`), and diagnose them with the command's default settings;
 2. ``tune`` on that diagnosis;
 3. run both designs on the simulator in closed loop, balancing from a small seeded disturbance
-   (:func:`benchmarks.independent_sim.regulate`): the nominal design (the LQR of the rig file on the HG observer)
+   (:func:`benchmarks.independent.simulator.regulate`): the nominal design (the LQR of the rig file on the HG observer)
    and the tuned one (its gain, its observer and its friction compensation), each as ``tune`` writes it
    (``nominal.yaml``, ``controller.yaml``) and run as a lab's controller
    (:class:`furuta_drake.lab_controller.LabController`: the same Drake blocks as ``tune``'s predictions, observers,
@@ -24,7 +24,7 @@ spread* when the tuned mean exceeds the nominal one by more than the two spreads
 ``OUT/results.json``, ``OUT/table.md`` and ``OUT/config.json``; every stage is kept under ``OUT`` (``suite``,
 ``diagnosis``, ``tune``) and reused when the script is run again with the same ``--out``.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/tune_blind.py --out runs/tune_blind``
+Run from the repository root: ``PYTHONPATH=. python benchmarks/tune/blind.py --out runs/tune_blind``
 (``--only WORD ...``: the cases whose name holds a word; ``--workers N``: processes of each diagnosis and tune).
 """
 
@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks import diagnosis_independent as indep
-from benchmarks.design_suite import diagnosed
+from benchmarks.design.suite import diagnosed
+from benchmarks.diagnosis import independent as indep
 from furuta_drake.config import SimulationConfig, load_config
 from furuta_drake.errors import FurutaError
 from furuta_drake.lab_controller import LabController

@@ -21,7 +21,7 @@ swing-ups of other days held out; the command's default settings), written to ``
 run on it with its defaults and that swing-up (``OUT/swingup.yaml``) into ``OUT/tune``. Writes
 ``OUT/results.json`` and prints the table.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/tune_real.py --out runs/tune_real``.
+Run from the repository root: ``PYTHONPATH=. python benchmarks/tune/real.py --out runs/tune_real``.
 """
 
 from __future__ import annotations

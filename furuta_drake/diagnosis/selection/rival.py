@@ -7,8 +7,8 @@ effect below the detection limits may still act on the logs, and the accepted ef
 values are biased by an amount the bootstrap cannot see. Each interval [lo, hi] of a fitted value x first becomes
 [x - k (x - lo), x + k (hi - x)] with k = ``INTERVAL_INFLATION`` (never below 0 for a parameter that cannot be
 negative), the factor calibrated on the suites with and without a small hidden second effect
-(benchmarks/interval_coverage_fits.py). The forward pass has also fitted the model holding the accepted effects
-and each further candidate *together* (the joint refits of the step after the last one kept, or the model before
+(benchmarks/diagnosis/interval_coverage_fits.py). The forward pass has also fitted the model holding the accepted
+effects and each further candidate *together* (the joint refits of the step after the last one kept, or the model before
 the backward pass dropped an effect); the one that reduces the final model's held-out gap the most is the
 *rival*. A parameter whose value moves by d in the rival then spans [min(lo, lo + d), max(hi, hi + d)] of the
 inflated interval: it holds whether or not the rival is present. The move is measured from the final model as the
