@@ -53,15 +53,15 @@ def _log(model: Model) -> RunLog:
     return RunLog("hanging.csv", "", time_, theta, phi, "torque", command, PERIOD)
 
 
-def differenced_state_jacobian(model, x, torque, batch, substeps: int, count: float):
+def differenced_state_jacobian(model, x, torque, inputs, count: float):
     """The state Jacobian by forward differences, as the diagnosis took it before: (angles, (h, 2, k, n))."""
     n, k = x.shape
     delta = STATE_STEPS if n == 4 else np.append(STATE_STEPS, 0.05 * model.arm_friction.bristle_bound)
     bristles = x[4] if n > 4 else None
-    angles = integrate_windows([model], x[:4], torque, batch.period, substeps, bristles)
+    angles = integrate_windows([model], x[:4], torque, inputs.period, inputs.substeps, bristles)
     points = np.concatenate([x + delta[i] * np.eye(n)[:, [i]] for i in range(n)], axis=1)
     predicted = integrate_windows(
-        [model], points[:4], np.tile(torque, (1, n)), batch.period, substeps, points[4] if n > 4 else None
+        [model], points[:4], np.tile(torque, (1, n)), inputs.period, inputs.substeps, points[4] if n > 4 else None
     )
     columns = [(predicted[:, :, i * k : (i + 1) * k] - angles) / delta[i] / count for i in range(n)]
     return angles, np.stack(columns, axis=-1)
@@ -102,9 +102,10 @@ def main() -> None:
     model = model_at(x)
     windows = gap.make_windows([_log(model)], rig).subset(WINDOWS)
     batch = windows.batches()[0]
-    substeps = gap.substeps_for(batch.period)
+    inputs = batch.inputs
+    substeps = inputs.substeps
     count = encoder_resolution(counts)
-    torque = gap.window_torques(model, batch.command, batch.starts, batch.horizon, batch.period, substeps)
+    torque = inputs.torque(model)
     states = gap.projected_residuals(model, windows, counts)[1][0]
     print(
         f"{windows.count} windows of {batch.horizon} samples at {PERIOD * 1e3:g} ms ({substeps} substeps), Dahl arm, "
@@ -112,10 +113,8 @@ def main() -> None:
     )
     print("| Jacobian | exact [ms] | finite differences [ms] | ratio | largest difference (relative) |")
     print("|---|---:|---:|---:|---:|")
-    exact_s, (_, exact) = _best(lambda: gap._state_jacobian(model, states, torque, batch, substeps, count))
-    differenced_s, (_, differenced) = _best(
-        lambda: differenced_state_jacobian(model, states, torque, batch, substeps, count)
-    )
+    exact_s, (_, exact) = _best(lambda: gap._state_jacobian(model, states, torque, inputs, count))
+    differenced_s, (_, differenced) = _best(lambda: differenced_state_jacobian(model, states, torque, inputs, count))
     _row("state (5 directions)", exact_s, differenced_s, _relative(differenced, exact, axis=(0, 1)))
     with mock.patch.object(gap, "_state_jacobian", differenced_state_jacobian):
         old_s, _ = _best(lambda: gap.projected_residuals(model, windows, counts))
