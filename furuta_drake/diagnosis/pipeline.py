@@ -38,6 +38,7 @@ from furuta_drake.diagnosis.selection.final_fit import refit_final
 from furuta_drake.diagnosis.selection.fit import FitResult, interval, scales_of
 from furuta_drake.diagnosis.selection.folds import consistency
 from furuta_drake.diagnosis.selection.missing_torque import beyond_vocabulary
+from furuta_drake.diagnosis.selection.remaining import remaining_record
 from furuta_drake.diagnosis.selection.reselection import reselect_beside_torque
 from furuta_drake.diagnosis.selection.rival import widen
 from furuta_drake.diagnosis.selection.rule import Bootstrap
@@ -459,21 +460,25 @@ def _diagnosis(
     after = window_residuals(accepted_heldout, inputs.heldout_windows, rig_params) if final else None
     torque = torque_record(missing) if missing else {}
     ranked = widen(ranking(selection, nominal), selection, bootstrap, nominal)
+    gap = _gap_figures(inputs, selection, nominal_heldout, accepted_heldout, evaluated_by, before, after)
+    localization = localize(
+        before,
+        after,
+        noise_variance=nominal_heldout.sensor_variance,
+        noise_variance_after=accepted_heldout.sensor_variance,
+    )
+    confusable = [{"effects": pair["effects"], "why": confusable_why(pair)} for pair in selection.confusable]
+    accepted = list(final.effects) if final else []
     return Diagnosis(
         verdict=selection.verdict,
         effects=selection.effects,
-        gap=_gap_figures(inputs, selection, nominal_heldout, accepted_heldout, evaluated_by, before, after),
+        gap=gap,
         ranking=ranked,
-        localization=localize(
-            before,
-            after,
-            noise_variance=nominal_heldout.sensor_variance,
-            noise_variance_after=accepted_heldout.sensor_variance,
-        ),
+        localization=localization,
         steps=_steps(selection, nominal),
         uncertainty=UNCERTAINTY,
         detection_limits=limits,
-        confusable=[{"effects": pair["effects"], "why": confusable_why(pair)} for pair in selection.confusable],
+        confusable=confusable,
         consistency=consistency_result,
         choice=choice_text(selection),
         holdout=inputs.holdout_note,
@@ -481,6 +486,9 @@ def _diagnosis(
         notes=notes,
         unmodelled_torque=torque,
         beside_torque=beside_record(selection.accepted, ranked, torque),
+        remaining=remaining_record(
+            gap, accepted_heldout.per_signal, localization, ranked, accepted, confusable, limits
+        ),
         artifacts=_artifacts(
             inputs, selection, torque, missing, before, after, nominal_heldout.sensor_variance, record
         ),

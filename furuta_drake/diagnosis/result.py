@@ -132,6 +132,7 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)  # what the command tells its user (e.g. ignored columns)
     unmodelled_torque: dict = field(default_factory=dict)  # joint -> the torque beyond the vocabulary (kept only)
     beside_torque: dict = field(default_factory=dict)  # the listed effects kept beside that torque
+    remaining: dict = field(default_factory=dict)  # what the accepted effects leave, when it is not negligible
     artifacts: Artifacts | None = field(default=None, repr=False, compare=False)  # not in report.json
 
     @property
@@ -146,7 +147,7 @@ class Diagnosis:
             del out["consistency"]
         if not self.confusable:
             del out["confusable"]
-        for key in ("unmodelled_torque", "beside_torque"):
+        for key in ("unmodelled_torque", "beside_torque", "remaining"):
             if not getattr(self, key):
                 del out[key]
         return {**{key: out.pop(key) for key in SPEC_KEYS}, **out}

@@ -87,6 +87,28 @@ def localize(
     return result
 
 
+def dominant(localization: dict) -> dict:
+    """Where most of a localised gap sits: the signal holding the largest share (``signal``, its ``signal_share``),
+    the regime most over-represented (``regime``: the largest share of the gap over share of the samples, with its
+    ``regime_share`` and ``regime_samples``) and the band holding the largest share (``band_hz`` [low, high],
+    ``band_share``); a key is None where the localisation has nothing to read."""
+    signals = localization.get("signals") or {}
+    signal = max(signals, key=lambda s: signals[s] or 0.0) if signals else None
+    regimes = [r for r in localization.get("regimes", []) if (r.get("share_of_samples") or 0) > 0]
+    regime = max(regimes, key=lambda r: (r["share_of_gap"] or 0.0) / r["share_of_samples"]) if regimes else None
+    bands = localization.get("frequency_bands", [])
+    band = max(bands, key=lambda b: b["share_of_gap"] or 0.0) if bands else None
+    return {
+        "signal": signal,
+        "signal_share": signals[signal] if signal else None,
+        "regime": regime["regime"] if regime else None,
+        "regime_share": regime["share_of_gap"] if regime else None,
+        "regime_samples": regime["share_of_samples"] if regime else None,
+        "band_hz": [band["low_hz"], band["high_hz"]] if band else None,
+        "band_share": band["share_of_gap"] if band else None,
+    }
+
+
 def regime_masks(window: WindowResiduals, speed_scale: float, reversals: np.ndarray) -> dict[str, np.ndarray]:
     """Boolean sample masks of :data:`REGIMES` for one window; ``speed_scale`` is the 90th percentile of
     |phi_dot| [rad/s] that the speed regimes are fractions of, ``reversals`` the sorted times [s] at which the

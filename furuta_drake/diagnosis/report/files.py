@@ -198,6 +198,10 @@ def report_markdown(report: dict, figures: dict[str, str]) -> str:
             else "."
         ),
         "",
+    ]
+    remaining = narrative.remaining_sentences(report)
+    lines += [" ".join(remaining), ""] if remaining else []
+    lines += [
         "![Held-out error before and after, per log and signal](gap.svg)",
         "",
         "## What to do next",

@@ -77,6 +77,7 @@ def report_html(report: dict, directory: Path, figures: dict[str, str]) -> str:
     body = [
         f'<p class="kicker">Sim-to-real gap diagnosis · verdict <code>{_text(report["verdict"])}</code></p>',
         f'<h1 class="verdict {_text(report["verdict"])}" id="verdict">{_text(narrative.verdict_sentence(report))}</h1>',
+        _remaining(report),
         _first_screen(report, charts),
         _effects(report),
         _gap_left(report, directory),
@@ -96,6 +97,12 @@ def report_html(report: dict, directory: Path, figures: dict[str, str]) -> str:
         f"<title>Sim-to-real gap diagnosis: {_text(report['verdict'])}</title>\n<style>{STYLE}</style>\n</head>\n"
         "<body>\n" + "\n".join(part for part in body if part) + "\n</body>\n</html>\n"
     )
+
+
+def _remaining(report: dict) -> str:
+    """What the accepted effects leave, under the verdict (nothing when it is negligible)."""
+    sentences = narrative.remaining_sentences(report)
+    return f'<p class="remaining" id="remaining">{_text(" ".join(sentences))}</p>' if sentences else ""
 
 
 def _first_screen(report: dict, charts: dict[str, str]) -> str:

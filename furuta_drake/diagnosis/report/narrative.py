@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 from furuta_drake.diagnosis.formatting import ends, number, percent, quantity
+from furuta_drake.diagnosis.gap.localize import dominant
 from furuta_drake.diagnosis.report.torque import torque_words
 from furuta_drake.effects.corrected import rig_entry
 from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, UNITS
@@ -312,25 +313,57 @@ def _best_attempt(report: dict, effects: list[Accepted]) -> str:
 
 
 def where_sentence(localization: dict) -> str:
-    """Where the gap is: the signal holding most of it, the most over-represented regime and the largest band."""
-    signals = localization.get("signals", {})
-    if not signals:
+    """Where the gap is: the signal holding most of it, the most over-represented regime and the largest band
+    (:func:`~furuta_drake.diagnosis.gap.localize.dominant`)."""
+    where = dominant(localization)
+    if where["signal"] is None:
         return ""
-    signal = max(signals, key=lambda s: signals[s] or 0.0)
-    text = f"Most of the gap is in {signal} ({percent(signals[signal])})"
-    regimes = [r for r in localization.get("regimes", []) if (r.get("share_of_samples") or 0) > 0]
-    if regimes:
-        worst = max(regimes, key=lambda r: (r["share_of_gap"] or 0.0) / r["share_of_samples"])
-        text += (
-            f"; {percent(worst['share_of_gap'])} of it comes {_regime_phrase(worst['regime'])}, which is "
-            f"{percent(worst['share_of_samples'])} of the samples"
+    return f"Most of the gap is in {where['signal']} ({percent(where['signal_share'])})" + _where_details(where) + "."
+
+
+WHY_NOT = {
+    "evidence": "its evidence was too weak",
+    "at_bound": "its fit ran to the end of its range",
+    "below_detection_limit": "its fitted size is below what these logs detect",
+}
+
+
+def remaining_sentences(report: dict) -> list[str]:
+    """What the accepted effects leave (``report["remaining"]``), in words: its share and size, where it sits and
+    the effects that could still take part of it with why each was not accepted; [] when nothing is left."""
+    left = report.get("remaining")
+    if not left:
+        return []
+    sizes = ", ".join(f"{name} {number(value, 2)}" for name, value in left["rms_counts"].items() if value is not None)
+    where = left["where"]
+    text = f"What remains: {percent(left['share'])} of the nominal held-out gap ({sizes} counts)"
+    if where["signal"] is not None:
+        text += f", mostly in {where['signal']} ({percent(where['signal_share'])})" + _where_details(where)
+    sentences = [text + "."]
+    named = []
+    for candidate in left["candidates"]:
+        why = candidate["why_not"]
+        reason = (
+            f"confusable with {why.split(':', 1)[1]}" if why.startswith("confused_with:") else WHY_NOT.get(why, why)
         )
-    bands = localization.get("frequency_bands", [])
-    if bands:
-        band = max(bands, key=lambda b: b["share_of_gap"] or 0.0)
-        span = f"{number(band['low_hz'])}-{number(band['high_hz'])} Hz"
-        text += f"; the {span} band holds {percent(band['share_of_gap'])}"
-    return text + "."
+        named.append(f"{candidate['effect']} ({percent(candidate['of_remaining'])} of it; {reason})")
+    if named:
+        sentences.append("Effects that could still take part of it: " + "; ".join(named) + ".")
+    return sentences
+
+
+def _where_details(where: dict) -> str:
+    """The regime and band clauses of a :func:`~furuta_drake.diagnosis.gap.localize.dominant` record."""
+    text = ""
+    if where["regime"] is not None:
+        text += (
+            f"; {percent(where['regime_share'])} of it comes {_regime_phrase(where['regime'])}, which is "
+            f"{percent(where['regime_samples'])} of the samples"
+        )
+    if where["band_hz"] is not None:
+        low, high = where["band_hz"]
+        text += f"; the {number(low)}-{number(high)} Hz band holds {percent(where['band_share'])}"
+    return text
 
 
 def _regime_phrase(regime: str) -> str:
