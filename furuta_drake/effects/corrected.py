@@ -15,6 +15,7 @@ from furuta_drake.config import SimulationConfig
 from furuta_drake.effects.surrogate import Model
 from furuta_drake.effects.torque_library import torque_parameters_of
 from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, Effect, describe, effect_from_params, rig_model
+from furuta_drake.encoder import EncoderParameters
 from furuta_drake.friction import FrictionParameters
 from furuta_drake.rig import RigParameters
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
@@ -84,17 +85,17 @@ def model_config(
     their controller. ``unmodelled_torque``: the expressions of the model's torque beyond the vocabulary (by
     default those of its own ``unmodelled_terms``). The simulate world's delay is fixed and its noise white: a
     jittering delay enters as its mean, correlated noise as white noise of its size (the rig file written beside it
-    keeps both forms)."""
-    config = SimulationConfig.from_rig(
-        model_rig(model, rig).replace(motor=rig.motor, effects=None, unmodelled_torque=None)
-    )
-    return dataclasses.replace(
-        config,
+    keeps both forms). Every section is the model's, given to :meth:`SimulationConfig.from_rig` at once."""
+    bodies = model_rig(model, rig).replace(motor=rig.motor, effects=None, unmodelled_torque=None)
+    return SimulationConfig.from_rig(
+        bodies,
         unmodelled_torque=unmodelled_torque or torque_parameters_of(model.unmodelled_terms),
         friction=FrictionParameters(arm=model.arm_friction, pendulum=model.pendulum_friction),
         actuator=dataclasses.replace(model_actuator(model), delay=model.delay),
         disturbance=model_disturbance(model),
-        encoder=dataclasses.replace(config.encoder, counts_per_rev=model.counts_per_rev, noise_std=model.noise_std),
+        encoder=EncoderParameters(
+            counts_per_rev=model.counts_per_rev, sample_period=bodies.sample_period, noise_std=model.noise_std
+        ),
     )
 
 
