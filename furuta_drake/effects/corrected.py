@@ -102,8 +102,9 @@ def model_config(
 def rig_config(rig: RigParameters) -> SimulationConfig:
     """The model a rig file states as an open-loop simulate config: its bodies, friction, motor and drive, the
     effects of its ``effects:`` section and its torque beyond the vocabulary (:func:`model_config` of the rig's
-    model). A ``fitted_rig.yaml`` gives the corrected model of its diagnosis."""
-    return model_config(rig, rig_model(rig))
+    model, the torque's expressions kept as the rig file writes them). A ``fitted_rig.yaml`` gives the corrected
+    model of its diagnosis."""
+    return model_config(rig, rig_model(rig), rig.unmodelled_torque)
 
 
 def rig_entry(name: str, params: dict) -> dict:
