@@ -157,3 +157,27 @@ def test_a_delay_kept_out_of_the_candidates_remains_beside_the_friction(tmp_path
     assert remaining["where"]["signal"] in ("theta", "phi")
     assert "What remains:" in (tmp_path / "report" / "report.md").read_text()
     assert 'id="remaining"' in (tmp_path / "report" / "report.html").read_text()
+
+
+def test_a_sensor_effect_that_passes_its_test_but_leaves_the_gap_open_is_not_said_to_be_accepted():
+    """The verdict's words agree with ``effects``: a sensor effect read on its signature is accepted only when the
+    selection closes the gap."""
+    import numpy as np
+
+    from furuta_drake.diagnosis.report.record_text import sensor_text
+    from furuta_drake.diagnosis.selection.sensor import SensorFinding
+    from furuta_drake.effects.vocabulary import Effect
+
+    finding = SensorFinding(
+        "measurement_noise", Effect("white", (1e-3,)), np.zeros((1, 1)), np.full(4, 50.0), 40.0, True, np.ones(4)
+    )
+
+    class Selection:  # the two fields sensor_text reads besides the findings
+        sensors = [finding]
+        jitter = None
+
+    Selection.closes = True
+    assert "measurement_noise is accepted on its signature" in sensor_text(Selection)
+    Selection.closes = False
+    text = sensor_text(Selection)
+    assert "is accepted" not in text and "passes its signature test" in text and "not among the effects" in text

@@ -93,13 +93,16 @@ def _gain_only_text(selection: Selection) -> str:
 
 
 def sensor_text(selection: Selection) -> str:
-    """What the sensor effects' signature showed on the held-out windows, one sentence each."""
+    """What the sensor effects' signature showed on the held-out windows, one sentence each: a sensor effect that
+    passes its test is accepted only when the selection closes the gap (else it is not among the effects)."""
     parts = []
     for finding in selection.sensors:
         if finding.accepted:
+            verb = "is accepted on its signature" if selection.closes else "passes its signature test"
             parts.append(
-                f"{finding.name} is accepted on its signature: its held-out log score beats the rig file's sensor by "
+                f"{finding.name} {verb}: its held-out log score beats the rig file's sensor by "
                 f"{finding.score_gain:.3g} nats per window (5 % lower bound {finding.lower_bound:.3g})."
+                + ("" if selection.closes else " It is not among the effects: with them the gap is not closed.")
             )
         elif finding.note:
             parts.append(f"{finding.name} is not accepted: {finding.note}.")
