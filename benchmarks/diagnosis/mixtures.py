@@ -84,6 +84,7 @@ from pathlib import Path
 
 import numpy as np
 
+import benchmarks
 from benchmarks.diagnosis import independent as di
 from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
 from benchmarks.independent import simulator as sim
@@ -199,100 +200,103 @@ SIGN_BAND = ("sign_band", 0.05, {"smoothing": 0.002})  # in one mixture: in othe
 NOISE = 1.3  # [counts] the noise of a rig with noise: about a count, and visible on its own
 
 
+PENDULUM = (di.pendulum_friction, 0.004, 0.3)
+# Each mixture: its key and its effects, as (the independent suite's effect function, its arguments...).
+LUND_MIXTURES = [
+    ("a", (di.arm_friction, *STRIBECK), PENDULUM, (di.lag, "inductance", 0.006), (di.spring, 0.25, {"offset": 0.05})),
+    (
+        "b",
+        (di.arm_friction, *KARNOPP),
+        (di.arm_viscous, 1.5),
+        PENDULUM,
+        (di.delay, 3),
+        (di.spring, 0.25, {"offset": 0.05}),
+    ),
+    ("c", (di.arm_friction, *ASYMMETRIC), (di.delay, 3), (di.inertia, {"pendulum_mass": 1.15}), (di.noise, NOISE)),
+    (
+        "d",
+        (di.arm_friction, *TANH),
+        (di.arm_viscous, 1.0),
+        PENDULUM,
+        (di.lag, "filter", 0.008),
+        (di.gain, 0.85),
+        (di.coarse_encoder, 1024),
+    ),
+    (
+        "e",
+        (di.arm_friction, *SIGN_BAND),
+        (di.arm_viscous, 1.0),
+        (di.delay, 2),
+        (di.inertia, {"pendulum_mass": 1.1, "arm_inertia": 0.9}),
+        (di.spring, 0.15, {"cubic": 0.5}),
+    ),
+    (
+        "f",
+        (di.arm_friction, *STRIBECK),
+        (di.arm_viscous, 1.5),
+        (di.gain, 1.15),
+        (di.spring, 0.25),
+        (di.noise, NOISE),
+    ),
+    (
+        "g",
+        (di.arm_friction, *KARNOPP),
+        PENDULUM,
+        (di.lag, "inductance", 0.004),
+        (di.inertia, {"pendulum_mass": 1.1, "pendulum_com": 1.05}),
+        (di.gain, 0.9),
+    ),
+]
+QUBE_MIXTURES = [
+    ("a", (di.arm_friction, *STRIBECK), PENDULUM, (di.lag, "inductance", 0.005), (di.spring, 0.1, {"cubic": 0.3})),
+    (
+        "b",
+        (di.arm_friction, "tanh", 0.08, {"smoothing": 0.02}),
+        (di.arm_viscous, 0.5),
+        PENDULUM,
+        (di.delay, 2),
+        (di.spring, 0.1),
+    ),
+    ("c", (di.arm_friction, *ASYMMETRIC), (di.delay, 2), (di.inertia, {"pendulum_mass": 1.15}), (di.noise, NOISE)),
+    (
+        "d",
+        (di.arm_friction, *KARNOPP),
+        (di.arm_viscous, 0.5),
+        (di.lag, "filter", 0.006),
+        (di.inertia, {"pendulum_mass": 1.1, "arm_inertia": 1.2}),
+        (di.coarse_encoder, 512),
+    ),
+    (
+        "e",
+        (di.arm_friction, *ASYMMETRIC),
+        PENDULUM,
+        (di.delay, 2),
+        (di.gain, 1.15),
+        (di.spring, 0.1),
+        (di.noise, NOISE),
+    ),
+    (
+        "f",
+        (di.arm_friction, "karnopp", 0.05, {"neg_level": 0.08, "breakaway": 2.0}),  # breakaway above both levels
+        (di.arm_viscous, 0.5),
+        (di.gain, 0.85),
+        (di.spring, 0.1),
+        (di.noise, NOISE),
+    ),
+    (
+        "g",
+        (di.arm_friction, *STRIBECK),
+        PENDULUM,
+        (di.lag, "inductance", 0.004),
+        (di.inertia, {"pendulum_mass": 1.15, "arm_inertia": 1.1}),
+        (di.noise, NOISE),
+    ),
+]
+
+
 def all_mixtures() -> list[Mixture]:
     """The suite (see the module docstring): mixtures a-g on each rig."""
-    pend = (di.pendulum_friction, 0.004, 0.3)
-    lund = [
-        ("a", (di.arm_friction, *STRIBECK), pend, (di.lag, "inductance", 0.006), (di.spring, 0.25, {"offset": 0.05})),
-        (
-            "b",
-            (di.arm_friction, *KARNOPP),
-            (di.arm_viscous, 1.5),
-            pend,
-            (di.delay, 3),
-            (di.spring, 0.25, {"offset": 0.05}),
-        ),
-        ("c", (di.arm_friction, *ASYMMETRIC), (di.delay, 3), (di.inertia, {"pendulum_mass": 1.15}), (di.noise, NOISE)),
-        (
-            "d",
-            (di.arm_friction, *TANH),
-            (di.arm_viscous, 1.0),
-            pend,
-            (di.lag, "filter", 0.008),
-            (di.gain, 0.85),
-            (di.coarse_encoder, 1024),
-        ),
-        (
-            "e",
-            (di.arm_friction, *SIGN_BAND),
-            (di.arm_viscous, 1.0),
-            (di.delay, 2),
-            (di.inertia, {"pendulum_mass": 1.1, "arm_inertia": 0.9}),
-            (di.spring, 0.15, {"cubic": 0.5}),
-        ),
-        (
-            "f",
-            (di.arm_friction, *STRIBECK),
-            (di.arm_viscous, 1.5),
-            (di.gain, 1.15),
-            (di.spring, 0.25),
-            (di.noise, NOISE),
-        ),
-        (
-            "g",
-            (di.arm_friction, *KARNOPP),
-            pend,
-            (di.lag, "inductance", 0.004),
-            (di.inertia, {"pendulum_mass": 1.1, "pendulum_com": 1.05}),
-            (di.gain, 0.9),
-        ),
-    ]
-    qube = [
-        ("a", (di.arm_friction, *STRIBECK), pend, (di.lag, "inductance", 0.005), (di.spring, 0.1, {"cubic": 0.3})),
-        (
-            "b",
-            (di.arm_friction, "tanh", 0.08, {"smoothing": 0.02}),
-            (di.arm_viscous, 0.5),
-            pend,
-            (di.delay, 2),
-            (di.spring, 0.1),
-        ),
-        ("c", (di.arm_friction, *ASYMMETRIC), (di.delay, 2), (di.inertia, {"pendulum_mass": 1.15}), (di.noise, NOISE)),
-        (
-            "d",
-            (di.arm_friction, *KARNOPP),
-            (di.arm_viscous, 0.5),
-            (di.lag, "filter", 0.006),
-            (di.inertia, {"pendulum_mass": 1.1, "arm_inertia": 1.2}),
-            (di.coarse_encoder, 512),
-        ),
-        (
-            "e",
-            (di.arm_friction, *ASYMMETRIC),
-            pend,
-            (di.delay, 2),
-            (di.gain, 1.15),
-            (di.spring, 0.1),
-            (di.noise, NOISE),
-        ),
-        (
-            "f",
-            (di.arm_friction, "karnopp", 0.05, {"neg_level": 0.08, "breakaway": 2.0}),  # breakaway above both levels
-            (di.arm_viscous, 0.5),
-            (di.gain, 0.85),
-            (di.spring, 0.1),
-            (di.noise, NOISE),
-        ),
-        (
-            "g",
-            (di.arm_friction, *STRIBECK),
-            pend,
-            (di.lag, "inductance", 0.004),
-            (di.inertia, {"pendulum_mass": 1.15, "arm_inertia": 1.1}),
-            (di.noise, NOISE),
-        ),
-    ]
-    rows = [("lund", row) for row in lund] + [("qube", row) for row in qube]
+    rows = [("lund", row) for row in LUND_MIXTURES] + [("qube", row) for row in QUBE_MIXTURES]
     return [Mixture(key, rig, tuple(effects), seed) for seed, (rig, (key, *effects)) in enumerate(rows, start=1)]
 
 
@@ -758,7 +762,7 @@ def rescore(out: Path, suite: Path, mixtures: list[Mixture]) -> int:
 
 def changed_package_files() -> list[str]:
     """The package's files that differ from the commit (a run on a tree being edited says so)."""
-    root = Path(__file__).resolve().parent.parent.parent
+    root = Path(benchmarks.__file__).resolve().parent.parent  # the repository holding this script
     status = subprocess.run(
         ["git", "status", "--porcelain", "--", "furuta_drake"], cwd=root, capture_output=True, text=True
     )
