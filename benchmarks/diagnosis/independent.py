@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
+from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_rows, worker_count, write_verdicts
 from benchmarks.independent import simulator as sim
 from furuta_drake.rig import encoder_resolution
 from furuta_drake.sweep import dask_client
@@ -697,20 +697,7 @@ def write_results(out: Path, rows: list[dict], pending: int) -> None:
         json.dumps({"summary": figures, "pending": pending, "rows": rows}, indent=2) + "\n"
     )
     (out / "table.md").write_text(table(rows) + "\n" + json.dumps(figures) + "\n")
-    verdicts = [
-        verdict_row(
-            "independent",
-            r["case"],
-            r["expected"],
-            r["verdict"],
-            r["effects"],
-            r["right"],
-            r["heldout_reduction"],
-            r["seconds"],
-        )
-        for r in rows
-    ]
-    write_verdicts(out / "verdicts.json", verdicts)
+    write_verdicts(out / "verdicts.json", verdict_rows("independent", rows))
 
 
 def _diagnose_case(task: tuple[dict, Path, Path]) -> dict:

@@ -86,7 +86,7 @@ import numpy as np
 
 import benchmarks
 from benchmarks.diagnosis import independent as di
-from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
+from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_rows, worker_count, write_verdicts
 from benchmarks.independent import simulator as sim
 from furuta_drake.sweep import dask_client
 
@@ -694,20 +694,7 @@ def write_results(out: Path, rows: list[dict], pending: int) -> None:
         json.dumps({"totals": figures, "pending": pending, "rows": rows}, indent=2) + "\n"
     )
     (out / "results.md").write_text(markdown(rows, figures))
-    verdicts = [
-        verdict_row(
-            SUITE,
-            r["case"],
-            r["expected"],
-            r["verdict"],
-            r["effects"],
-            r["right"],
-            r["heldout_reduction"],
-            r["seconds"],
-        )
-        for r in rows
-    ]
-    write_verdicts(out / "verdicts.json", verdicts)
+    write_verdicts(out / "verdicts.json", verdict_rows(SUITE, rows))
 
 
 def _diagnose_case(task: tuple[dict, Path, Path]) -> dict:

@@ -94,6 +94,13 @@ def verdict_row(
     return dict(zip(VERDICT_FIELDS, values))
 
 
+def verdict_rows(suite: str, rows: list[dict]) -> list[dict]:
+    """The :func:`verdict_row` of each of a suite's result rows (their keys ``case``, ``expected``, ``verdict``,
+    ``effects``, ``right``, ``heldout_reduction``, ``seconds``)."""
+    keys = ("case", "expected", "verdict", "effects", "right", "heldout_reduction", "seconds")
+    return [verdict_row(suite, *(row[key] for key in keys)) for row in rows]
+
+
 def write_verdicts(path: Path, rows: list[dict]) -> None:
     """``verdicts.json``: the rows (:func:`verdict_row`) in case order."""
     path.write_text(json.dumps(rows, indent=2) + "\n")
