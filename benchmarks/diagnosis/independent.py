@@ -112,7 +112,9 @@ def arm_friction(
     static: float = 0.0,
     stribeck_velocity: float = 0.0,
 ):
-    """Arm dry friction at ``level`` m g l (``neg_level`` for negative velocities: asymmetric), in ``form``."""
+    """Arm dry friction at ``level`` m g l (``neg_level`` for negative velocities: asymmetric), in ``form``; a
+    Karnopp law breaks away at ``breakaway`` times the larger of the two levels (a stuck arm must hold at least the
+    torque either side slides at)."""
     mgl = _mgl(world)
     pos, neg = level * mgl, (level if neg_level is None else neg_level) * mgl
     friction = sim.ArmFriction(
@@ -120,12 +122,12 @@ def arm_friction(
         pos,
         neg,
         smoothing=smoothing,
-        breakaway=breakaway * pos,
+        breakaway=breakaway * max(pos, neg),
         static=static * mgl,
         stribeck_velocity=stribeck_velocity,
     )
     own = {
-        "karnopp": {"breakaway": breakaway * pos},
+        "karnopp": {"breakaway": breakaway * max(pos, neg)},
         "tanh": {"v_eps": smoothing},
         "sign_band": {"dead_band": smoothing},
         "stribeck": {"v_eps": smoothing},

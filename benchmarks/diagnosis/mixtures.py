@@ -277,7 +277,7 @@ QUBE_MIXTURES = [
     ),
     (
         "f",
-        (di.arm_friction, "karnopp", 0.05, {"neg_level": 0.08, "breakaway": 2.0}),  # breakaway above both levels
+        (di.arm_friction, "karnopp", 0.05, {"neg_level": 0.08, "breakaway": 1.25}),
         (di.arm_viscous, 0.5),
         (di.gain, 0.85),
         (di.spring, 0.1),
