@@ -1,7 +1,8 @@
 """The surrogate's one call per batch of windows (:func:`~furuta_drake.effects.surrogate.predict_batch`) and the
-hidden states it starts from (:func:`~furuta_drake.effects.surrogate.hidden_starts`): models side by side in one
-call predict as each alone, the state slopes are the angles' derivatives, a Dahl arm's bristle read from a long
-slide sits at its saturation Fc / sigma0, and a drive at rest under a steady torque T is twisted by b sign(T) + T / k.
+hidden states it starts from (:func:`~furuta_drake.effects.surrogate.bristle_starts`,
+:func:`~furuta_drake.effects.surrogate.twist_starts`): models side by side in one call predict as each alone, the
+state slopes are the angles' derivatives, a Dahl arm's bristle read from a long slide sits at its saturation
+Fc / sigma0, and a drive at rest under a steady torque T is twisted by b sign(T) + T / k.
 """
 
 from __future__ import annotations
@@ -9,7 +10,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from furuta_drake.effects.surrogate import HISTORY, Model, WindowInputs, hidden_starts, initial_states, predict_batch
+from furuta_drake.effects.surrogate import (
+    HISTORY,
+    Model,
+    WindowInputs,
+    bristle_starts,
+    initial_states,
+    predict_batch,
+    twist_starts,
+)
 from furuta_drake.effects.vocabulary import rig_model
 from furuta_drake.friction import JointFrictionParameters
 from furuta_drake.rig import geared_rig, lund_rig
@@ -63,10 +72,9 @@ def test_a_dahl_bristle_read_from_a_long_slide_is_saturated():
     friction = JointFrictionParameters(model="dahl", coulomb_pos=0.012, coulomb_neg=0.018, sigma0=10.0)
     model = Model.from_rig(lund_rig()).replace(arm_friction=friction)
     path = np.linspace(0.0, 1.0, 1001)  # 1 rad forward, thousands of presliding lengths (1.2 mrad)
-    bristle, twist = hidden_starts(model, path, np.zeros(path.size), PERIOD, np.array([500, 1000]))
-    assert twist is None
+    bristle = bristle_starts(model, path, PERIOD, np.array([500, 1000]))
     np.testing.assert_allclose(bristle, 0.012 / 10.0, rtol=1e-6)
-    backwards, _ = hidden_starts(model, path[::-1].copy(), np.zeros(path.size), PERIOD, np.array([1000]))
+    backwards = bristle_starts(model, path[::-1].copy(), PERIOD, np.array([1000]))
     np.testing.assert_allclose(backwards, -0.018 / 10.0, rtol=1e-6)
 
 
@@ -78,7 +86,7 @@ def test_a_drive_at_rest_under_a_steady_torque_twists_by_its_play_and_spring():
     samples = 500
     path = np.full(samples, 0.2)  # the arm at rest
     starts = np.array([100, 400])
-    _, twist = hidden_starts(model, path, np.full(samples, torque), PERIOD, starts)
+    twist = twist_starts(model, path, np.full(samples, torque), PERIOD, starts)
     np.testing.assert_allclose(twist[0], backlash + torque * model.gain / stiffness, rtol=1e-9)
     np.testing.assert_allclose(twist[1], 0.0, atol=1e-12)
     # With the encoder on the motor, the logged angle is the rotor's: the arm's is that less the twist.

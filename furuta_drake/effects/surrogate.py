@@ -378,13 +378,15 @@ def initial_states(
     model: Model, smoothed: np.ndarray, arm_path: np.ndarray, command: np.ndarray, period: float, starts: np.ndarray
 ) -> np.ndarray:
     """A log's window states for ``model`` (4 + :attr:`Model.hidden_states`, W): the smoothed [theta, phi, theta',
-    phi'] (4, W) at the window ``starts``, then the hidden states :func:`hidden_starts` reads from the log (with the
-    encoder on the motor the smoothed arm angle and rate are the rotor's, the arm's those less the twist's)."""
-    bristle, twist = hidden_starts(model, arm_path, command, period, starts)
+    phi'] (4, W) at the window ``starts``, then the arm's bristle (:func:`bristle_starts`) and the drive's twist
+    (:func:`twist_starts`) read from the log's smoothed arm angle ``arm_path`` [rad] and ``command`` [N m] (one
+    sample every ``period`` [s]); with the encoder on the motor the smoothed arm angle and rate are the rotor's,
+    the arm's those less the twist's."""
     x = smoothed
-    if bristle is not None:
-        x = np.vstack([x, bristle])
-    if twist is not None:
+    if model.arm_friction.has_bristles:
+        x = np.vstack([x, bristle_starts(model, arm_path, period, starts)])
+    if model.has_drive:
+        twist = twist_starts(model, arm_path, command, period, starts)
         if model.drive_encoder == "motor":
             x = x.copy()
             x[[1, 3]] -= twist
@@ -392,28 +394,28 @@ def initial_states(
     return x
 
 
-def hidden_starts(
-    model: Model, arm_path: np.ndarray, command: np.ndarray, period: float, starts: np.ndarray
-) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """(the arm's bristle state [rad] (W,) or None; the drive's twist [delta, delta'] [rad, rad/s] (2, W) or None)
-    at the window ``starts`` of a log, read from its smoothed arm angle ``arm_path`` [rad] and its ``command``
-    [N m] (one sample every ``period`` [s]); None for a state the model does not have.
+def bristle_starts(model: Model, arm_path: np.ndarray, period: float, starts: np.ndarray) -> np.ndarray:
+    """The arm's bristle state [rad] (W,) at the window ``starts`` of a log whose smoothed arm angle is
+    ``arm_path`` [rad] (a Dahl or LuGre arm): the Dahl law is rate independent, so the bristle depends on the path
+    of phi alone (LuGre's also on its speed). The windows refine it (a hidden state)."""
+    return bristle_path(arm_path, model.arm_friction, period)[starts]
 
-    The Dahl law is rate independent, so the bristle depends on the path of phi alone (LuGre's also on its
-    speed). With the rotor following the arm, the coupling passes T = u - d phi' - J phi'' (u the applied command,
-    d the back-EMF damping, J the rotor's inertia), so the twist is T / k beyond the backlash on the side T pushes,
-    b sign(T) + T / k (k the drive's or the tooth contact's stiffness), and its rate the path's of that twist. The
-    windows refine both (hidden states)."""
-    bristle = bristle_path(arm_path, model.arm_friction, period)[starts] if model.arm_friction.has_bristles else None
-    if not model.has_drive:
-        return bristle, None
+
+def twist_starts(
+    model: Model, arm_path: np.ndarray, command: np.ndarray, period: float, starts: np.ndarray
+) -> np.ndarray:
+    """The drive's twist [delta, delta'] [rad, rad/s] (2, W) at the window ``starts`` of a log (a drive of its own
+    state): with the rotor following the arm, the coupling passes T = u - d phi' - J phi'' (u the applied
+    ``command``, d the back-EMF damping, J the rotor's inertia), so the twist is T / k beyond the backlash on the
+    side T pushes, b sign(T) + T / k (k the drive's or the tooth contact's stiffness), and its rate the path's of
+    that twist. The windows refine both (hidden states)."""
     row = drive_kernel.pack_drive(model)
     rotor, backlash = row[drive_kernel.D_INERTIA], row[drive_kernel.D_BACKLASH]
     stiffness = row[drive_kernel.D_STIFFNESS]
     rate = np.gradient(arm_path, period)
     passed = applied_torque(model, command) - model.back_emf_damping * rate - rotor * np.gradient(rate, period)
     twist = backlash * np.sign(passed) + passed / stiffness
-    return bristle, np.vstack([twist, np.gradient(twist, period)])[:, starts]
+    return np.vstack([twist, np.gradient(twist, period)])[:, starts]
 
 
 STATE_STEPS = (1e-6, 1e-6, 1e-4, 1e-4)  # finite-difference steps of the states theta, phi [rad], their rates [rad/s]

@@ -3,7 +3,7 @@
 Each log is cut into consecutive windows of ``horizon`` samples (multiple shooting). A window's initial state is
 first estimated from the measured angles by a centred Savitzky-Golay smoother (angle and derivative), with a
 Dahl or LuGre arm's bristle state integrated along the smoothed arm path and a drive's twist read from the command
-and that path (:func:`~furuta_drake.effects.surrogate.hidden_starts`), then refined for each model by
+and that path (:func:`~furuta_drake.effects.surrogate.twist_starts`), then refined for each model by
 Levenberg-Marquardt steps on the window's residuals (a step is kept only where the re-simulated residual
 falls), so every model is judged with its own best initial states, and nothing depends on the rig's controller
 or integrator. The model then predicts the angles over the window from the logged command (held over each sample).
@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -39,10 +40,10 @@ from furuta_drake.effects.surrogate import (
     INPUT_CHAIN,
     Model,
     WindowInputs,
-    hidden_starts,
     initial_states,
     predict_batch,
     sensor_variance,
+    twist_starts,
 )
 from furuta_drake.effects.surrogate_tangent import flat
 from furuta_drake.effects.vocabulary import rig_model
@@ -218,15 +219,15 @@ def make_windows(logs: list[RunLog], rig: RigParameters) -> Windows:
 def with_hidden_states(model: Model, windows: Windows, batch: Batch, x: np.ndarray) -> np.ndarray:
     """The batch's window states ``x`` (4, W and any hidden rows: 4 + 1 with a bristle, + 2 with a twist) laid out
     for ``model`` (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`): rows it lacks start at zero (the
-    bristle) or from the log (the twist, :func:`~furuta_drake.effects.surrogate.hidden_starts`), rows it has no
-    use for are dropped."""
+    bristle) or from the log (the twist, :func:`~furuta_drake.effects.surrogate.twist_starts`), rows it has no use
+    for are dropped."""
     if x.shape[0] == 4 + model.hidden_states:
         return x
     rows = [x[:4]]
     if model.arm_friction.has_bristles:
         rows.append(x[4:5] if x.shape[0] in (5, 7) else np.zeros((1, x.shape[1])))
     if model.has_drive:
-        rows.append(x[-2:] if x.shape[0] >= 6 else _member_states(model, windows, batch, hidden=True))
+        rows.append(x[-2:] if x.shape[0] >= 6 else _per_member(windows, batch, partial(_twists, model)))
     return np.vstack(rows)
 
 
@@ -234,21 +235,24 @@ def window_states(model: Model, windows: Windows, batch: Batch) -> np.ndarray:
     """The batch's windows' initial states for ``model``: the smoothed ones (4, W), then its hidden states
     (:attr:`~furuta_drake.effects.surrogate.Model.hidden_states`) read from each log
     (:func:`~furuta_drake.effects.surrogate.initial_states`)."""
-    return _member_states(model, windows, batch, hidden=False)
+    return _per_member(windows, batch, partial(_states, model))
 
 
-def _member_states(model: Model, windows: Windows, batch: Batch, hidden: bool) -> np.ndarray:
-    """The batch members' window states for ``model`` side by side, or with ``hidden`` their twists (2, W) alone."""
-    parts = []
-    for i in batch.members:
-        log, path, starts = windows.logs[i], windows.arm_paths[i], windows.starts[i]
-        if hidden:
-            parts.append(hidden_starts(model, path, log.torque_command, log.sample_period, starts)[1])
-        else:
-            parts.append(
-                initial_states(model, windows.initial_states[i], path, log.torque_command, log.sample_period, starts)
-            )
-    return np.concatenate(parts, axis=1)
+def _per_member(windows: Windows, batch: Batch, of_log) -> np.ndarray:
+    """``of_log(windows, i)`` of the batch's members, side by side."""
+    return np.concatenate([of_log(windows, i) for i in batch.members], axis=1)
+
+
+def _states(model: Model, windows: Windows, i: int) -> np.ndarray:
+    log = windows.logs[i]
+    return initial_states(
+        model, windows.initial_states[i], windows.arm_paths[i], log.torque_command, log.sample_period, windows.starts[i]
+    )
+
+
+def _twists(model: Model, windows: Windows, i: int) -> np.ndarray:
+    log = windows.logs[i]
+    return twist_starts(model, windows.arm_paths[i], log.torque_command, log.sample_period, windows.starts[i])
 
 
 def substeps_for(period: float) -> int:
