@@ -39,7 +39,15 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_row, worker_count, write_verdicts
+from benchmarks.diagnosis.shards import (
+    Outcome,
+    shard,
+    speed_up_line,
+    suite_parser,
+    verdict_row,
+    worker_count,
+    write_verdicts,
+)
 from benchmarks.diagnosis.suite import CaseSpec, default_cases, verdict_is_right, write_case
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report.files import write_report
@@ -181,18 +189,10 @@ def select_cases(args) -> list[CaseSpec]:
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The command line's options."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, required=True, help="output directory (suite, reports, results)")
-    parser.add_argument("--quick", action="store_true", help=f"{len(QUICK)} cases only")
+    parser = suite_parser(__doc__.splitlines()[0], f"{len(QUICK)} cases only")
     parser.add_argument("--rigs", nargs="+", default=["lund", "qube_servo2"], choices=list(RIGS))
     parser.add_argument("--seeds", nargs="+", type=int, default=[1])
     parser.add_argument("--levels", nargs="+", type=int, default=[1, 2])
-    parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")
-    parser.add_argument("--duration", type=float, default=8.0, help="length of every log [s] (default 8)")
-    parser.add_argument("--suite", type=Path, help="reuse a suite written earlier (its answers.json and cases/)")
-    parser.add_argument("--generate-only", action="store_true", help="write the suite and stop")
-    parser.add_argument("--workers", type=int, help="the local cluster's worker processes (default: one per core)")
-    parser.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster started here)")
     return parser.parse_args(argv)
 
 

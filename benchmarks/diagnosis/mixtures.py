@@ -71,7 +71,6 @@ the reports already in ``OUT/reports`` again).
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import math
@@ -86,7 +85,15 @@ import numpy as np
 
 import benchmarks
 from benchmarks.diagnosis import independent as di
-from benchmarks.diagnosis.shards import Outcome, shard, speed_up_line, verdict_rows, worker_count, write_verdicts
+from benchmarks.diagnosis.shards import (
+    Outcome,
+    shard,
+    speed_up_line,
+    suite_parser,
+    verdict_rows,
+    worker_count,
+    write_verdicts,
+)
 from benchmarks.independent import simulator as sim
 from furuta_drake.sweep import dask_client
 
@@ -757,16 +764,8 @@ def changed_package_files() -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, required=True, help="output directory (suite, reports, results)")
-    parser.add_argument("--quick", action="store_true", help=f"{len(QUICK)} cases: the issue's mixtures a, b, c")
-    parser.add_argument("--only", nargs="+", help="the cases whose name contains one of these words")
-    parser.add_argument("--duration", type=float, default=8.0, help="length of every log [s]")
-    parser.add_argument("--suite", type=Path, help="reuse a suite written earlier (its answers.json and cases/)")
-    parser.add_argument("--generate-only", action="store_true", help="write the suite and its oracle, and stop")
+    parser = suite_parser(__doc__.splitlines()[0], f"{len(QUICK)} cases: the issue's mixtures a, b, c")
     parser.add_argument("--rescore", action="store_true", help="score the reports already in OUT/reports again")
-    parser.add_argument("--workers", type=int, help="the local cluster's worker processes (default: one per core)")
-    parser.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster started here)")
     args = parser.parse_args(argv)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)

@@ -16,6 +16,7 @@ with other jobs the workers also share its cores: more workers than free cores l
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import time
@@ -84,6 +85,21 @@ def shard(
     finally:
         client.cancel(list(running.futures))
     return outcomes
+
+
+def suite_parser(description: str, quick: str) -> argparse.ArgumentParser:
+    """The options every blind suite takes: ``--out``, ``--quick`` (``quick`` says which cases), ``--only``,
+    ``--duration``, ``--suite``, ``--generate-only``, ``--workers``, ``--scheduler``; a suite adds its own."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--out", type=Path, required=True, help="output directory (suite, reports, results)")
+    parser.add_argument("--quick", action="store_true", help=quick)
+    parser.add_argument("--only", nargs="+", help="keep the cases whose name contains one of these words")
+    parser.add_argument("--duration", type=float, default=8.0, help="length of every log [s] (default 8)")
+    parser.add_argument("--suite", type=Path, help="reuse a suite written earlier (its answers.json and cases/)")
+    parser.add_argument("--generate-only", action="store_true", help="write the suite and stop")
+    parser.add_argument("--workers", type=int, help="the local cluster's worker processes (default: one per core)")
+    parser.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster started here)")
+    return parser
 
 
 def verdict_row(
