@@ -207,7 +207,7 @@ def test_a_joint_refit_at_the_floor_keeps_the_fit_nearer_the_data():
     stepwise = Stepwise.__new__(Stepwise)
     stepwise.selection = Selection(_gap(NOMINAL), [(3, screened)])
     stepwise.task = lambda new, fixed, **options: (new, options)
-    stepwise.bootstrap = Bootstrap(WINDOWS, 200, 0)
+    stepwise.bootstrap = stepwise.judge = Bootstrap(WINDOWS, 200, 0)
     stepwise.nominal_gap = _gap(NOMINAL)
     stepwise.selection.over_previous[name] = stepwise.bootstrap.evidence(NOMINAL, screened.heldout.per_window)
 

@@ -36,7 +36,7 @@ from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, Rank
 from furuta_drake.diagnosis.selection.detection import detection_limits
 from furuta_drake.diagnosis.selection.final_fit import refit_final
 from furuta_drake.diagnosis.selection.fit import FitResult, interval, scales_of
-from furuta_drake.diagnosis.selection.folds import consistency
+from furuta_drake.diagnosis.selection.folds import consistency, pinned
 from furuta_drake.diagnosis.selection.missing_torque import beyond_vocabulary
 from furuta_drake.diagnosis.selection.remaining import remaining_record
 from furuta_drake.diagnosis.selection.reselection import reselect_beside_torque
@@ -263,7 +263,7 @@ def _diagnose(
         bootstrap,
         heldout_gaps=heldout_gaps,
         limits=limits,
-        consistency_result=_consistency(fold_check, inputs.nominal),
+        consistency_result=_consistency(fold_check, inputs.nominal, selection.effects),
         missing=missing,
         notes=inputs.notes + torque_notes,
         record=record,
@@ -405,7 +405,7 @@ def _heldout_gaps(inputs: _Inputs, selection: Selection, settings, bootstrap: Bo
             inputs.heldout_windows,
             scales_of(inputs.train_logs, inputs.nominal),
             inputs.rig.counts_per_rev,
-            bootstrap,
+            selection.rule_bootstrap(bootstrap),
             settings.seed,
         )
     drake = replaying.result() if replaying is not None else [None] * len(replays)
@@ -429,13 +429,14 @@ def _accepted_model(nominal: Model, final) -> Model:
     return apply_effects(nominal, final.effects) if final else nominal
 
 
-def _consistency(fold_check, nominal: Model):
-    """The folds' consistency with its judgement, None without folds."""
+def _consistency(fold_check, nominal: Model, effects: list[str]):
+    """The folds' consistency with its judgement and the diagnosis' ``effects`` it pins down, None without
+    folds."""
     consistency_result = fold_check.result() if fold_check is not None else None
-    if consistency_result is not None:
-        consistency_result.judgement = consistency_judgement(
-            consistency_result.verdicts, consistency_result.effects, consistency_result.params_range, nominal
-        )
+    if consistency_result is None:
+        return None
+    consistency_result = pinned(effects, consistency_result)
+    consistency_result.judgement = consistency_judgement(consistency_result, nominal)
     return consistency_result
 
 

@@ -110,6 +110,9 @@ class Consistency:
     effects: list[list[str]] = field(default_factory=list)
     params_range: dict[str, list[float]] = field(default_factory=dict)
     judgement: str = ""
+    settled: list[str] = field(default_factory=list)  # the diagnosis' effects that every fold names
+    unsettled: dict[str, int] = field(default_factory=dict)  # effect -> folds naming it, for every effect the
+    # diagnosis or a fold names that not every fold names: what these logs cannot pin down
 
 
 @dataclass

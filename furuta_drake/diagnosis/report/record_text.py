@@ -132,6 +132,12 @@ def _prediction_text(selection: Selection) -> str:
         f"The model holding {', '.join(selection.accepted)} reduces the nominal held-out gap by {total.reduction:.1%} "
         f"(5 % lower bound {total.lower_bound:.1%}). "
     )
+    if selection.beneath:
+        text += (
+            f"Each was judged on the held-out gap beyond the variance {' and '.join(selection.beneath)} adds (it "
+            f"passes its signature test beside the nominal model), which would otherwise hide it; the reductions over "
+            f"nominal keep the rig file's sensor alone taken off. "
+        )
     if len(selection.accepted) > 1:
         text += (
             "Without each of them the held-out gap of the others' model grows: "
@@ -162,11 +168,11 @@ def _prediction_text(selection: Selection) -> str:
     return text
 
 
-def consistency_judgement(
-    verdicts: list[str], effects: list[list[str]], ranges: dict[str, list[float]], nominal: Model
-) -> str:
-    """One line: how often the verdict and each effect came back, and the spread of the main parameters."""
-    folds = len(verdicts)
+def consistency_judgement(consistency_result, nominal: Model) -> str:
+    """One line: how often the verdict and each effect came back, the spread of the main parameters, and the
+    effects these logs cannot pin down (:class:`~furuta_drake.diagnosis.result.Consistency`)."""
+    verdicts, effects = consistency_result.verdicts, consistency_result.effects
+    ranges, folds = consistency_result.params_range, len(verdicts)
     counts = {verdict: verdicts.count(verdict) for verdict in dict.fromkeys(verdicts)}
     if len(counts) == 1:
         text = f"same verdict ({verdicts[0]}) on {folds}/{folds} folds"
@@ -181,7 +187,13 @@ def consistency_judgement(
         for name in [key.split(".")[0]]
         if key.split(".")[1] == CANDIDATES[name].main
     ]
-    return text + ("; " + ", ".join(mains) if mains else "")
+    if mains:
+        text += "; " + ", ".join(mains)
+    if consistency_result.unsettled:
+        text += "; these logs cannot pin down " + ", ".join(
+            f"{name} (named on {n}/{folds})" for name, n in consistency_result.unsettled.items()
+        )
+    return text
 
 
 def _negligible_text(selection: Selection) -> str:

@@ -32,7 +32,7 @@ from furuta_drake.diagnosis.gap.metric import (
     window_excess,
 )
 from furuta_drake.diagnosis.result import DetectionLimit
-from furuta_drake.diagnosis.selection.rule import Bootstrap, at_floor, decide
+from furuta_drake.diagnosis.selection.rule import Bootstrap, decide
 from furuta_drake.diagnosis.selection.sensor import (
     GRID_MIN_STEPS,
     MAX_GRID,
@@ -237,7 +237,7 @@ class _Judge:
     def detected(self, residuals: list[np.ndarray]) -> bool:
         """Whether synthetic residuals of the model are detected against the truth (the model's own residuals)."""
         synthetic = window_excess(residuals, self.windows.floor)
-        if at_floor(synthetic):
+        if self.bootstrap.at_floor(synthetic):
             return False
         evidence = self.bootstrap.evidence(synthetic, self.truth)
         return decide(evidence, first=self.first)

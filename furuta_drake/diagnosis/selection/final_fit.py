@@ -106,7 +106,8 @@ def refit_final(
 
 def _with_final(selection: Selection, refitted: FitResult, bootstrap: Bootstrap) -> Selection:
     """``selection`` with ``refitted`` in place of its final model and the final model's held-out evidence (over
-    the nominal model, over the step before, over each model without one kept effect) that of ``refitted``."""
+    the nominal model, over the step before, over each model without one kept effect) that of ``refitted``: the
+    rule's figures read as the selection read them (:meth:`Selection.rule_bootstrap`)."""
     final, nominal = selection.final, selection.nominal.per_window
     out = dataclasses.replace(
         selection,
@@ -117,12 +118,13 @@ def _with_final(selection: Selection, refitted: FitResult, bootstrap: Bootstrap)
         },
         subset_fit=final,
     )
+    judge = selection.rule_bootstrap(bootstrap)
     chain = [nominal] + [model.heldout.per_window for model in out.step_models]
-    out.over_previous = {**selection.over_previous, refitted.name: bootstrap.evidence(chain[-2], chain[-1])}
+    out.over_previous = {**selection.over_previous, refitted.name: judge.evidence(chain[-2], chain[-1])}
     out.over_step = [*selection.over_step[:-1], out.over_previous[refitted.name]]
     without = {name: out.model([other for other in out.accepted if other != name]) for name in out.accepted}
     out.over_others = {
-        name: bootstrap.evidence(model.heldout.per_window if model else nominal, chain[-1])
+        name: judge.evidence(model.heldout.per_window if model else nominal, chain[-1])
         for name, model in without.items()
     }
     return out

@@ -4,6 +4,7 @@ how far the accepted effects' parameters spread."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
@@ -61,3 +62,15 @@ def consistency(
                         values.setdefault(f"{name}.{key}", []).append(value)
     ranges = {key: [float(min(v)), float(max(v))] for key, v in values.items()}
     return Consistency(folds, verdicts, effects, ranges)
+
+
+def pinned(effects: list[str], consistency_result: Consistency) -> Consistency:
+    """``consistency_result`` with the diagnosis' ``effects`` split by the folds: those every fold names
+    (``settled``) and, for every effect the diagnosis or a fold names that not every fold names, how many folds do
+    (``unsettled``): the effects these logs cannot pin down (a different split of the same logs adds or drops
+    them)."""
+    folds = consistency_result.effects
+    count = {name: sum(name in found for found in folds) for name in dict.fromkeys([*effects, *sum(folds, [])])}
+    settled = [name for name in effects if count[name] == len(folds)]
+    unsettled = {name: n for name, n in count.items() if n < len(folds)}
+    return dataclasses.replace(consistency_result, settled=settled, unsettled=unsettled)

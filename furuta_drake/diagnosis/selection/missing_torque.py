@@ -221,7 +221,8 @@ def find_missing_torque(
     """The torque ``final`` misses on the train windows, judged on the held-out ones (module docstring); None
     when the regression keeps no term. Its terms add to ``final``'s own (a rig file's torque stays as stated).
     ``nominal_heldout``, ``final_heldout``: the per-window excess squared residuals of the nominal and the final
-    model on ``heldout``."""
+    model on ``heldout``; ``bootstrap``: the rule's (:meth:`~furuta_drake.diagnosis.selection.stepwise.Selection.
+    rule_bootstrap`), which judges the torque over ``final`` (its reduction over nominal reads the whole gap)."""
     windows = train.subset(TORQUE_WINDOWS, settings.seed)
     scales = term_scales(windows)
     X, y, groups = design(final, windows, counts, scales)
@@ -244,7 +245,7 @@ def find_missing_torque(
         [interval(samples[:, i]) for i in range(samples.shape[1])],
         gap,
         bootstrap.evidence(final_heldout, gap.per_window),
-        bootstrap.evidence(nominal_heldout, gap.per_window),
+        bootstrap.whole().evidence(nominal_heldout, gap.per_window),
         window_estimates(found, windows, X, y),
     )
 
@@ -292,12 +293,13 @@ def beyond_vocabulary(selection, nominal: Model, train, heldout, counts, bootstr
     final, notes = selection.final, []
     if final is None and selection.quiet:
         return None, notes
+    judge = selection.rule_bootstrap(bootstrap)
 
     def beside(result):
         model = apply_effects(nominal, result.effects) if result else nominal
         reference = result.heldout.per_window if result else selection.nominal.per_window
         return find_missing_torque(
-            model, selection.nominal.per_window, reference, train, heldout, counts, bootstrap, settings
+            model, selection.nominal.per_window, reference, train, heldout, counts, judge, settings
         )
 
     notes += bound_notes(final) if final is not None else []

@@ -56,10 +56,11 @@ def reselect_beside_torque(
             break  # a step's model failed to fit: the report could not show the steps
         model = apply_effects(nominal, again.final.effects if again.final else {})
         reference = evaluate_gap(model, heldout, counts).per_window
+        judge = again.rule_bootstrap(bootstrap)
         found = find_missing_torque(
-            model, selection.nominal.per_window, reference, train, heldout, counts, bootstrap, settings
+            model, selection.nominal.per_window, reference, train, heldout, counts, judge, settings
         )
-        worse = found is not None and is_kept(bootstrap.evidence(found.heldout.per_window, missing.heldout.per_window))
+        worse = found is not None and is_kept(judge.evidence(found.heldout.per_window, missing.heldout.per_window))
         if found is None or not found.kept or worse:
             break
         before, after = (", ".join(s.accepted) or "no effect" for s in (selection, again))
@@ -128,19 +129,22 @@ def rebased(
         exchanges=again.exchanges,
         sensors=again.sensors,
         jitter=again.jitter,
+        beneath=again.beneath,
+        beneath_variance=again.beneath_variance,
     )
+    judge = out.rule_bootstrap(bootstrap)
     nominal_gap = first.nominal.per_window
     for key, result in models.items():
         out.over_nominal[result.name] = bootstrap.evidence(nominal_gap, result.heldout.per_window)
         built_on = models.get(frozenset(key - {result.name.split("+")[-1]}))
-        out.over_previous[result.name] = bootstrap.evidence(
+        out.over_previous[result.name] = judge.evidence(
             built_on.heldout.per_window if built_on else nominal_gap, result.heldout.per_window
         )
     chain = [nominal_gap] + [model.heldout.per_window for model in out.step_models]
     for result, before, after in zip(out.step_models, chain[:-1], chain[1:]):
-        out.over_previous[result.name] = bootstrap.evidence(before, after)
-    out.over_step = [bootstrap.evidence(before, after) for before, after in zip(chain[:-1], chain[1:])]
+        out.over_previous[result.name] = judge.evidence(before, after)
+    out.over_step = [judge.evidence(before, after) for before, after in zip(chain[:-1], chain[1:])]
     for name in kept:
         without = models.get(frozenset(o for o in kept if o != name))
-        out.over_others[name] = bootstrap.evidence(without.heldout.per_window if without else nominal_gap, chain[-1])
+        out.over_others[name] = judge.evidence(without.heldout.per_window if without else nominal_gap, chain[-1])
     return out

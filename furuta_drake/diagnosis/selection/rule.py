@@ -129,35 +129,62 @@ class Comparison:
 
 
 class Bootstrap:
-    """Paired resamples of the held-out windows, drawn once (seeded) and shared by every comparison."""
+    """Paired resamples of the held-out windows, drawn once (seeded) and shared by every comparison.
 
-    def __init__(self, windows: int, resamples: int, seed: int):
+    ``sensor`` (per window [counts^2], default none): a variance a sensor effect adds to every residual, taken off
+    each window's excess before any figure is read, so that the models are judged on the gap beyond that sensor
+    (:class:`~furuta_drake.diagnosis.selection.stepwise.Stepwise` judges the dynamic effects so beside a sensor
+    effect that passed its signature test; every reported reduction is read without it)."""
+
+    def __init__(self, windows: int, resamples: int, seed: int, sensor: np.ndarray | None = None):
         self.index = np.random.default_rng(seed).integers(0, windows, (resamples, windows))
+        self.sensor = np.zeros(windows) if sensor is None else np.asarray(sensor, dtype=float)
+
+    def beyond(self, sensor: np.ndarray) -> Bootstrap:
+        """The same resamples judging the gap beyond the variance ``sensor`` (per window [counts^2])."""
+        out = Bootstrap.__new__(Bootstrap)
+        out.index, out.sensor = self.index, np.asarray(sensor, dtype=float)
+        return out
+
+    def whole(self) -> Bootstrap:
+        """The same resamples reading the whole gap (the rig file's own sensor alone taken off): what every reported
+        reduction over the nominal model reads."""
+        return self.beyond(np.zeros_like(self.sensor))
+
+    def judged(self, per_window: np.ndarray) -> np.ndarray:
+        """Each window's excess squared residual beyond the sensor's variance [counts^2]."""
+        return per_window - self.sensor
 
     def means(self, per_window: np.ndarray) -> np.ndarray:
-        """Bootstrap values of the mean excess squared residual [counts^2]."""
+        """Bootstrap values of the mean of a per-window figure (an excess squared residual [counts^2], a score)."""
         return per_window[self.index].mean(axis=1)
 
     def reductions(self, reference: np.ndarray, candidate: np.ndarray) -> np.ndarray:
-        """Bootstrap values of 1 - gap(candidate) / gap(reference)."""
-        return _reductions(self.means(reference), self.means(candidate))
+        """Bootstrap values of 1 - gap(candidate) / gap(reference), beyond the sensor's variance."""
+        return _reductions(self.means(self.judged(reference)), self.means(self.judged(candidate)))
 
     def evidence(self, reference: np.ndarray, candidate: np.ndarray) -> Comparison:
-        point = 1.0 - gap_of(candidate.mean()) / max(float(gap_of(reference.mean())), 1e-12)
-        before, after = self.means(reference), self.means(candidate)
+        excess = float(self.judged(candidate).mean())
+        point = 1.0 - gap_of(excess) / max(float(gap_of(self.judged(reference).mean())), 1e-12)
+        before, after = self.means(self.judged(reference)), self.means(self.judged(candidate))
         return Comparison(
-            float(gap_of(candidate.mean())),
+            float(gap_of(excess)),
             float(point),
             float(np.quantile(_reductions(before, after), LOWER_BOUND_QUANTILE)),
-            float(candidate.mean()),
+            excess,
             _interval(before - after)[0],
         )
+
+    def at_floor(self, per_window: np.ndarray) -> bool:
+        """:func:`at_floor` of the excess beyond the sensor's variance."""
+        return at_floor(self.judged(per_window))
 
     def within_noise(self, per_window: np.ndarray) -> bool:
         """The model of ``per_window`` explains the data to within their noise: its gap is below ``FLOOR_COUNTS``
         or twice its bootstrap standard error (module docstring)."""
-        gap = float(gap_of(per_window.mean()))
-        return at_floor(per_window) or gap < NOISE_STANDARD_ERRORS * float(np.std(gap_of(self.means(per_window))))
+        judged = self.judged(per_window)
+        gap = float(gap_of(judged.mean()))
+        return at_floor(judged) or gap < NOISE_STANDARD_ERRORS * float(np.std(gap_of(self.means(judged))))
 
     def excess_difference_interval(self, first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
         """The ``CONFUSABLE_LEVEL`` interval of the mean excess squared residual of ``first`` minus that of
@@ -230,7 +257,7 @@ def choose(
 
     def as_good(name):
         same_law = new[name] in law_of(new[best])
-        if bootstrap is not None and at_floor(per_window[best]) and not same_law:  # reductions are 1 there
+        if bootstrap is not None and bootstrap.at_floor(per_window[best]) and not same_law:  # reductions are 1 there
             return not bootstrap.beats_at_floor(per_window[best], per_window[name])
         if evidence[name].reduction >= evidence[best].reduction - PARSIMONY:
             return True
@@ -307,7 +334,7 @@ def confusable(
             continue
         reductions = (
             None
-            if at_floor(per_window[chosen])  # both reductions are 1 there: the excess residuals tell them apart
+            if bootstrap.at_floor(per_window[chosen])  # both reductions are 1 there: the excess residuals tell apart
             else bootstrap.difference_interval(previous, per_window[chosen], per_window[name])
         )
         excess = bootstrap.excess_difference_interval(per_window[name], per_window[chosen])

@@ -35,7 +35,6 @@ from furuta_drake.diagnosis.selection.rule import (
     LEVEL_EXCESS,
     Bootstrap,
     Comparison,
-    at_floor,
     choose,
     combined_reduction,
     confusable,
@@ -85,6 +84,13 @@ class Selection:
     # (bang-bang) a dead zone or a saturation of the drive acts as a gain
     sensors: list[SensorFinding] = field(default_factory=list)  # the sensor effects read beside the final model
     jitter: HeldoutJitter | None = None  # the final model's jittering delay judged on the held-out windows
+    beneath: list[str] = field(default_factory=list)  # the sensor effects the rule judged the others beyond
+    beneath_variance: np.ndarray | None = None  # per held-out window, the variance they add [counts^2]
+
+    def rule_bootstrap(self, bootstrap: Bootstrap) -> Bootstrap:
+        """``bootstrap`` as the rule reads this selection's models: beyond the variance of the sensor effects it
+        judged them beyond (``bootstrap`` itself when none)."""
+        return bootstrap if self.beneath_variance is None else bootstrap.beyond(self.beneath_variance)
 
     def model(self, effects) -> FitResult | None:
         """The fitted model holding exactly ``effects`` (in any order), or None (a screen is no fit: a model the
@@ -206,23 +212,54 @@ class Stepwise:
         self.nominal, self.logs, self.train, self.heldout = nominal, tuple(logs), train, heldout
         self.counts, self.settings, self.run = counts, settings, run
         self.bootstrap = Bootstrap(heldout.count, settings.bootstrap, settings.seed)
+        self.judge = self.bootstrap  # the rule's bootstrap: beyond a sensor effect's variance once one is read
         self.scales = scales_of(self.logs, nominal)
         self.nominal_gap = evaluate_gap(nominal, heldout, counts)
-        self.selection = Selection(
-            self.nominal_gap,
-            [],
-            quiet=self.bootstrap.within_noise(self.nominal_gap.per_window),
-            regressed=equation_error_starts(self.logs, nominal),
-        )
+        self.regressed = equation_error_starts(self.logs, nominal)
+        self.selection = self.fresh_selection()
         self.screens: dict[str, tuple] = {}  # model name -> (its task, its screen): a candidate the screen left behind
 
+    def fresh_selection(self) -> Selection:
+        """A selection holding no effect yet."""
+        quiet = self.bootstrap.within_noise(self.nominal_gap.per_window)
+        return Selection(self.nominal_gap, [], quiet=quiet, regressed=self.regressed)
+
     def select(self, names: list[str]) -> Selection:
-        """Forward (:meth:`step` until none enters) and backward, the forward steps resumed without the effects the
-        backward pass dropped until it drops none; then at most ``MAX_EXCHANGES`` exchanges, among the effects that
-        change the predictions (on logged commands of one magnitude, a bang-bang, the gain in place of a dead zone
-        or a saturation of the drive, which act on them as a gain); then the sensor effects ``names`` holds, read
-        beside the final model (:meth:`read_sensors`)."""
+        """The effects among ``names`` that change the predictions (:meth:`select_dynamic`), judged beyond the
+        sensor effects among them that pass their signature test beside the nominal model
+        (:meth:`sensor_beneath`); then the sensor effects read beside the final model (:meth:`read_sensors`). A
+        sensor effect the dynamic effects were judged beyond that is not confirmed there has the selection made
+        again on the whole gap."""
         dynamic = [name for name in names if CANDIDATES[name].fit]
+        sensors = [name for name in names if not CANDIDATES[name].fit]
+        beneath = self.sensor_beneath(sensors)
+        self.select_dynamic(dynamic, beneath)
+        self.read_sensors(sensors)
+        if beneath and not {finding.name for finding in beneath} <= {f.name for f in self.selection.sensor_effects}:
+            self.selection, self.screens = self.fresh_selection(), {}
+            self.select_dynamic(dynamic, [])
+            self.read_sensors(sensors)
+        return self.selection
+
+    def sensor_beneath(self, names: list[str]) -> list[SensorFinding]:
+        """The sensor effects among ``names`` that pass their signature test beside the nominal model: the dynamic
+        effects are judged on the gap beyond the variance they add (a few counts of noise or a coarse encoder
+        would otherwise hide every dynamic effect under them), while every reduction reported keeps the rig file's
+        own sensor alone taken off."""
+        if not names:
+            return []
+        findings = read_sensors(self.nominal, self.train, self.heldout, self.counts, self.settings, self.bootstrap)
+        return [finding for finding in findings if finding.accepted and finding.name in names]
+
+    def select_dynamic(self, dynamic: list[str], beneath: list[SensorFinding]) -> None:
+        """The effects that change the predictions among ``dynamic``, judged on the held-out gap beyond the variance
+        the sensor effects ``beneath`` add (none: on the whole gap): forward (:meth:`step` until none enters) and
+        backward, the forward steps resumed without the effects the backward pass dropped until it drops none; then
+        at most ``MAX_EXCHANGES`` exchanges (on logged commands of one magnitude, a bang-bang, the gain in place of
+        a dead zone or a saturation of the drive, which act on them as a gain)."""
+        self.selection.beneath = [finding.name for finding in beneath]
+        self.selection.beneath_variance = sum(finding.claimed for finding in beneath) if beneath else None
+        self.judge = self.selection.rule_bootstrap(self.bootstrap)
         levels = self.scales.command_levels
         if levels and levels[0] >= ONE_MAGNITUDE * levels[-1] and "torque_gain_error" in dynamic:
             self.selection.gain_only = [name for name in dynamic if name in COMMAND_MAPS]
@@ -233,19 +270,17 @@ class Stepwise:
             while len(self.selection.accepted) < self.settings.max_effects and self.step(pool):
                 pass
             entered = set(self.selection.accepted)
-            _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.scales)
+            _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
             if entered <= set(self.selection.accepted):
                 break
             dropped |= entered - set(self.selection.accepted)
             self.resume(dropped)
         for _ in range(MAX_EXCHANGES):
             if not _exchange(
-                self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
+                self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
             ):
                 break
-            _backward(self.selection, self.bootstrap, self.nominal_gap, self.task, self.fit, self.scales)
-        self.read_sensors([name for name in names if not CANDIDATES[name].fit])
-        return self.selection
+            _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
 
     def resume(self, dropped: set[str]) -> None:
         """Forget the fits of the forward steps after the effects kept, save those holding an effect in
@@ -273,7 +308,7 @@ class Stepwise:
         self.selection.over_nominal[result.name] = self.bootstrap.evidence(
             self.nominal_gap.per_window, result.heldout.per_window
         )
-        self.selection.over_previous[result.name] = self.bootstrap.evidence(previous, result.heldout.per_window)
+        self.selection.over_previous[result.name] = self.judge.evidence(previous, result.heldout.per_window)
 
     def fit(self, tasks: list[FitTask], step: int, previous) -> list[FitResult]:
         """The ``tasks`` fitted (a failed one as a FitResult with its reason), tried at ``step`` and recorded."""
@@ -366,14 +401,14 @@ class Stepwise:
         selection = self.selection
         step, held = len(selection.accepted) + 1, selection.final
         previous = held.heldout.per_window if held else self.nominal_gap.per_window
-        if step > 1 and at_floor(previous):
+        if step > 1 and self.judge.at_floor(previous):
             return False
         pool = [name for name in names if not law_of(name) & set(selection.accepted)]
         tasks = [self.task(name, held, frozen=step > 1) for name in pool]
         screened = self.settings.screen
         results = self.screened_fits(tasks, step, previous) if screened else self.fit(tasks, step, previous)
         fitted = {r.name: r for r in results if not r.failure}
-        if at_floor(self.nominal_gap.per_window):
+        if self.judge.at_floor(self.nominal_gap.per_window):
             return False
         if step > 1:
             self.joint_refits(fitted, held, step, previous)
@@ -399,7 +434,7 @@ class Stepwise:
         fitted[chosen] = self.best_form(fitted[chosen], self.task(added[chosen], held), previous)
         evidence[chosen] = selection.over_previous[chosen]
         per_window[chosen] = fitted[chosen].heldout.per_window
-        selection.confusable += confusable(chosen, evidence, added, previous, per_window, self.bootstrap)
+        selection.confusable += confusable(chosen, evidence, added, previous, per_window, self.judge)
         selection.runners_up[added[chosen]] = _runners_up(added[chosen], evidence, added, fitted)
         selection.accepted.append(added[chosen])
         return True
@@ -408,7 +443,7 @@ class Stepwise:
         """(``fitted`` less the candidates at zero size, the rule's choice among them over ``previous`` or None)."""
         fitted = {name: result for name, result in fitted.items() if not _null(result, self.scales)}
         evidence, added, per_window = self.rule_inputs(fitted)
-        return fitted, choose(evidence, added, ENTRY, previous, per_window, self.bootstrap)
+        return fitted, choose(evidence, added, ENTRY, previous, per_window, self.judge)
 
     def rule_inputs(self, fitted: dict[str, FitResult]) -> tuple[dict, dict, dict]:
         """Per model in ``fitted``: its evidence over the model it was built on, the effect it adds, and its
@@ -474,7 +509,7 @@ def _exchange(
     forms (a friction's form was chosen beside the effect now replaced); the best exchange is made. Returns
     whether one was."""
     final = selection.final
-    if final is None or at_floor(final.heldout.per_window):  # nothing left to explain better
+    if final is None or bootstrap.at_floor(final.heldout.per_window):  # nothing left to explain better
         return False
     taken = set().union(*(law_of(name) for name in selection.accepted))
     best = None
