@@ -1,7 +1,7 @@
 """The selection's rules on fakes of the fits: the pair entry (when no single effect enters first because each
 masks the other, the candidates with the lowest train gaps, one per law, are fitted together in pairs and the pair
-enters on the same held-out rule a single effect does), the exchange of a kept effect for a runner-up of its step,
-and the parsimony rule at the floor."""
+enters on the same held-out rule a single effect does), the exchange of a kept effect for a runner-up of its step
+or for a variant of its law (beyond the parsimony margin), and the parsimony rule at the floor."""
 
 from __future__ import annotations
 
@@ -304,3 +304,32 @@ def test_after_the_backward_pass_drops_an_effect_the_forward_steps_resume_withou
     tried = [frozenset(result.effects) for _, result in selection.tried]
     assert tried.count(frozenset(["arm_coulomb_friction", "input_delay"])) == 1
     assert frozenset(["arm_coulomb_friction", "actuator_lag"]) in tried
+
+
+def _variant_case(stribeck_excess: float, final_excess: float):
+    """The exchange case with a Stribeck law fitted at the friction's entry step (a variant of its law)."""
+    joint = {frozenset(["input_delay", "arm_stribeck"]): stribeck_excess}
+    selection, bootstrap, task, fit, asked = _exchange_case(joint, final_excess)
+    selection.variants = {"arm_coulomb_friction": [("arm_stribeck", _sized("arm_stribeck"))]}
+    return selection, bootstrap, task, fit, asked
+
+
+def test_a_variant_of_the_kept_law_replaces_it_when_it_closes_more_than_parsimony_allows():
+    """Beside the delay a Stribeck law leaves a tenth of the Coulomb law's excess: the model's reduction of the
+    nominal gap rises from 1 - sqrt(0.3) = 45 % to 1 - sqrt(0.03) = 83 %, far beyond the 3 points within which the
+    simpler law is preferred: Stribeck replaces Coulomb."""
+    selection, bootstrap, task, fit, asked = _variant_case(0.03, 0.3)
+    assert _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result, SCALES)
+    assert selection.accepted == ["input_delay", "arm_stribeck"]
+    assert frozenset(["input_delay", "arm_stribeck"]) in asked
+
+
+def test_a_variant_within_parsimony_of_the_kept_law_does_not_replace_it():
+    """With the final model at 1 - sqrt(0.01) = 90 %, a Stribeck law at 1 - sqrt(0.0055) = 92.6 % reduces the final
+    gap by a clear 26 % (its lower bound above the entry's), but the nominal gap by 2.6 points more, within the 3
+    the rule gives the simpler law: Coulomb stays."""
+    selection, bootstrap, task, fit, _ = _variant_case(0.0055, 0.01)
+    final, stribeck = selection.final, _model(["input_delay", "arm_stribeck"], 0.0055, 20)
+    assert bootstrap.evidence(final.heldout.per_window, stribeck.heldout.per_window).lower_bound > ENTRY
+    assert not _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result, SCALES)
+    assert selection.accepted == ["input_delay", "arm_coulomb_friction"]

@@ -33,12 +33,14 @@ from furuta_drake.diagnosis.selection.rule import (
     CLOSES,
     ENTRY,
     LEVEL_EXCESS,
+    PARSIMONY,
     Bootstrap,
     Comparison,
     choose,
     combined_reduction,
     confusable,
     decide,
+    n_params,
     negligible,
     order,
     verdict,
@@ -76,6 +78,8 @@ class Selection:
     quiet: bool = False  # the nominal model explains the held-out data to within their noise
     runners_up: dict[str, list[tuple[str, Effect]]] = field(default_factory=dict)  # kept effect -> the other
     # laws' candidates at its entry step, best first, with their fits there
+    variants: dict[str, list[tuple[str, Effect]]] = field(default_factory=dict)  # kept effect -> the other
+    # variants of its law at its entry step, best first, with their fits there
     exchanges: list[dict] = field(default_factory=list)  # {"out", "in", "evidence"}: the exchanges made
     subset_fit: FitResult | None = None  # the final model as the selection fitted it, on its fit windows, when
     # ``final`` is its refit on every train window (:mod:`~furuta_drake.diagnosis.selection.final_fit`)
@@ -436,6 +440,7 @@ class Stepwise:
         per_window[chosen] = fitted[chosen].heldout.per_window
         selection.confusable += confusable(chosen, evidence, added, previous, per_window, self.judge)
         selection.runners_up[added[chosen]] = _runners_up(added[chosen], evidence, added, fitted)
+        selection.variants[added[chosen]] = _variants(added[chosen], evidence, added, fitted)
         selection.accepted.append(added[chosen])
         return True
 
@@ -491,6 +496,15 @@ def _runners_up(effect: str, evidence: dict, added: dict, fitted: dict) -> list[
     ]
 
 
+def _variants(effect: str, evidence: dict, added: dict, fitted: dict) -> list[tuple[str, Effect]]:
+    """The other variants of ``effect``'s law at its entry step, best first, with their fits there."""
+    return [
+        (added[name], fitted[name].effects[added[name]])
+        for name in order(evidence)
+        if added[name] != effect and added[name] in law_of(effect)
+    ]
+
+
 def _exchange(
     selection: Selection,
     bootstrap: Bootstrap,
@@ -500,37 +514,32 @@ def _exchange(
     best_form: Callable,
     scales,
 ) -> bool:
-    """Replace one kept effect by a runner-up of the step it entered at, when the model holding the other kept
-    effects and that runner-up (fitted together) reduces the final model's held-out gap with a 5 % lower bound
-    above ``ENTRY``. The forward pass chooses with the earlier effects held, so an effect that stood in for a
-    later one can win its step by a hair (a transport delay standing in for a lag beside friction not yet
-    fitted); judged again beside the effects finally kept, the right one explains the data clearly better. The
-    ``EXCHANGE_RUNNERS_UP`` best runners-up of each kept effect are tried, the other effects in each of their
-    forms (a friction's form was chosen beside the effect now replaced); the best exchange is made. Returns
-    whether one was."""
+    """Replace one kept effect by a runner-up of the step it entered at, or by another variant of its law, when
+    the model holding the other kept effects and that one (fitted together) reduces the final model's held-out gap
+    with a 5 % lower bound above ``ENTRY``. The forward pass chooses with the earlier effects held, so an effect
+    that stood in for a later one can win its step by a hair (a transport delay standing in for a lag beside
+    friction not yet fitted); judged again beside the effects finally kept, the right one explains the data
+    clearly better. Likewise a Coulomb friction preferred to a Stribeck or an asymmetric law at its step (the
+    simpler, where the gap the other effects still hid left them level) is replaced by that variant when, beside
+    the effects finally kept, the variant also reduces the nominal gap by more than ``PARSIMONY`` beyond it (the
+    rule's preference of the simpler law, kept). The ``EXCHANGE_RUNNERS_UP`` best runners-up and variants of each
+    kept effect are tried, the other effects in each of their forms (a friction's form was chosen beside the effect
+    now replaced); the best exchange is made. Returns whether one was."""
     final = selection.final
     if final is None or bootstrap.at_floor(final.heldout.per_window):  # nothing left to explain better
         return False
-    taken = set().union(*(law_of(name) for name in selection.accepted))
     best = None
     for name in selection.accepted:
         others = [other for other in selection.accepted if other != name]
         held = selection.model(others) if others else None
         if any(selection.model(others[:k]) is None for k in range(1, len(others) + 1)):
             continue  # a model the report's steps need failed to fit
-        runners_up = [(r, start) for r, start in selection.runners_up.get(name, []) if not law_of(r) & taken]
-        runners_up = runners_up[:EXCHANGE_RUNNERS_UP]
-        known = [selection.model([*others, r]) for r, _ in runners_up]
-        missing = [task(r, held, start=start) for (r, start), model in zip(runners_up, known) if model is None]
-        before = held.heldout.per_window if held else nominal_gap.per_window
-        fitted = fit(missing, len(selection.accepted), before) if missing else []
-        fitted = [r if r.failure else best_form(r, t, before) for r, t in zip(fitted, missing)]
-        for result in [model for model in known if model is not None] + fitted:
-            if result.failure or _null(result, scales):
-                continue
+        for result in _exchange_fits(selection, name, others, held, nominal_gap, task, fit, best_form, scales):
             evidence = bootstrap.evidence(final.heldout.per_window, result.heldout.per_window)
-            if evidence.lower_bound > ENTRY and (best is None or evidence.reduction > best[2].reduction):
-                best = (name, result, evidence)
+            new = result.name.split("+")[-1]
+            if evidence.lower_bound > ENTRY and _beyond_parsimony(new, name, result, final, nominal_gap, bootstrap):
+                if best is None or evidence.reduction > best[2].reduction:
+                    best = (name, result, evidence)
     if best is None:
         return False
     name, result, evidence = best
@@ -539,8 +548,36 @@ def _exchange(
     selection.runners_up[new] = [(name, final.effects[name])] + [
         r for r in selection.runners_up.get(name, []) if r[0] != new
     ]
+    selection.variants[new] = [(name, final.effects[name])] if new in law_of(name) else []
     selection.exchanges.append({"out": name, "in": new, "evidence": evidence})
     return True
+
+
+def _exchange_fits(selection, name, others, held, nominal_gap, task, fit, best_form, scales) -> list[FitResult]:
+    """The models holding ``others`` and, in place of ``name``, each of its ``EXCHANGE_RUNNERS_UP`` best runners-up
+    of laws not held and variants of its law (those fitted on the way, the others fitted now from their fits at
+    ``name``'s entry step), failed and zero-size ones left out."""
+    taken = set().union(*(law_of(other) for other in others))
+    runners_up = [(r, start) for r, start in selection.runners_up.get(name, []) if not law_of(r) & taken]
+    tried = runners_up[:EXCHANGE_RUNNERS_UP] + selection.variants.get(name, [])[:EXCHANGE_RUNNERS_UP]
+    known = [selection.model([*others, r]) for r, _ in tried]
+    missing = [task(r, held, start=start) for (r, start), model in zip(tried, known) if model is None]
+    before = held.heldout.per_window if held else nominal_gap.per_window
+    fitted = fit(missing, len(selection.accepted), before) if missing else []
+    fitted = [r if r.failure else best_form(r, t, before) for r, t in zip(fitted, missing)]
+    results = [model for model in known if model is not None] + fitted
+    return [r for r in results if not r.failure and not _null(r, scales)]
+
+
+def _beyond_parsimony(new: str, out: str, result: FitResult, final: FitResult, nominal_gap, bootstrap) -> bool:
+    """Whether ``new`` may replace ``out``: an effect of another law always may; a variant of ``out``'s law with
+    more parameters only when the model holding it reduces the nominal held-out gap by more than ``PARSIMONY``
+    beyond ``final`` (the rule prefers the simpler law within it, as at entry)."""
+    if new not in law_of(out) or n_params(new) <= n_params(out):
+        return True
+    nominal = nominal_gap.per_window
+    gain = bootstrap.evidence(nominal, result.heldout.per_window).reduction
+    return gain - bootstrap.evidence(nominal, final.heldout.per_window).reduction > PARSIMONY
 
 
 def _enter_pair(
