@@ -532,8 +532,8 @@ def _exchange(
     for name in selection.accepted:
         others = [other for other in selection.accepted if other != name]
         held = selection.model(others) if others else None
-        if any(selection.model(others[:k]) is None for k in range(1, len(others) + 1)):
-            continue  # a model the report's steps need failed to fit
+        if others and held is None:
+            continue  # the model without it failed to fit (the backward pass fitted it otherwise)
         for result in _exchange_fits(selection, name, others, held, nominal_gap, task, fit, best_form, scales):
             evidence = bootstrap.evidence(final.heldout.per_window, result.heldout.per_window)
             new = result.name.split("+")[-1]
