@@ -366,3 +366,48 @@ def test_an_effect_that_entered_first_is_exchanged_though_the_others_never_enter
     assert selection.model(["arm_coulomb_friction"]) is None
     assert _exchange(selection, bootstrap, _gap(NOMINAL), task, fit, lambda result, task, before: result, SCALES)
     assert selection.accepted == ["arm_coulomb_friction", "input_delay", "inertia_mismatch"]
+
+
+def _inertia_case(gain_excess: float):
+    """Coulomb friction and an inertia error kept (held-out excess 0.1 against the nominal model's 1); the gain fitted
+    beside the friction in the inertia error's place leaves ``gain_excess``."""
+    bootstrap = Bootstrap(WINDOWS, 500, 0)
+    kept = ["arm_coulomb_friction", "inertia_mismatch"]
+    tried = [(1, _model(kept[:1], 0.6, 1)), (2, _model(kept, 0.1, 2))]
+    selection = Selection(_gap(NOMINAL), tried, accepted=list(kept))
+    selection.final.effects["inertia_mismatch"] = Effect("", (0.8, 0.8, 0.8, 0.8))
+    starts = []
+
+    def task(new, held, start):
+        starts.append(start.values)
+        return (new, held)
+
+    def fit(tasks, step, before):
+        results = [_model([*held.effects, new], gain_excess, 7) for new, held in tasks]
+        selection.tried += [(step, r) for r in results]
+        return results
+
+    return selection, bootstrap, task, fit, starts
+
+
+def test_a_gain_as_good_as_a_uniform_inertia_scaling_replaces_it_and_the_pair_is_stated():
+    """Scales of 0.8 are a gain of 1.25; the gain's model reduces the nominal gap by 1 - sqrt(0.105) = 67.6 %
+    against 68.4 %: within the 3 points, the one-parameter gain is kept and the pair said."""
+    from furuta_drake.diagnosis.selection.stepwise import _prefer_gain
+
+    selection, bootstrap, task, fit, starts = _inertia_case(0.105)
+    assert _prefer_gain(selection, bootstrap, _gap(NOMINAL), task, fit)
+    assert starts == [(1.25,)]
+    assert selection.accepted == ["arm_coulomb_friction", "torque_gain_error"]
+    (pair,) = selection.confusable
+    assert pair["effects"] == ["torque_gain_error", "inertia_mismatch"]
+    assert selection.exchanges[0]["simpler"]
+
+
+def test_a_gain_that_explains_clearly_less_leaves_the_inertia_error():
+    """A gain leaving half the nominal excess (29 % against 68 %) is no alternative: nothing changes, no pair."""
+    from furuta_drake.diagnosis.selection.stepwise import _prefer_gain
+
+    selection, bootstrap, task, fit, _ = _inertia_case(0.5)
+    assert not _prefer_gain(selection, bootstrap, _gap(NOMINAL), task, fit)
+    assert selection.accepted == ["arm_coulomb_friction", "inertia_mismatch"] and not selection.confusable

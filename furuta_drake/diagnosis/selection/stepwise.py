@@ -58,6 +58,7 @@ FRESH_STARTS_FROM = 3  # from this step, those refits also start from the new ef
 PAIR_ENTRY = 3  # when no single effect enters first, pairs of this many best train fits are fitted together
 EXCHANGE_RUNNERS_UP = 2  # per kept effect, the runners-up of its entry step tried in its place
 MAX_EXCHANGES = 2  # exchanges made at the most (each followed by the backward pass)
+GAIN, INERTIA = "torque_gain_error", "inertia_mismatch"  # one explanation when the inertia scales are uniform
 SCREEN_REACH = 0.3  # a step's candidate whose screen reduces the gap the earlier effects leave by this much less
 # than the best screen (as shares of that gap on the start windows) is not fitted further
 
@@ -284,6 +285,8 @@ class Stepwise:
                 self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
             ):
                 break
+            _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
+        if GAIN in dynamic and _prefer_gain(self.selection, self.judge, self.nominal_gap, self.task, self.fit):
             _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
 
     def resume(self, dropped: set[str]) -> None:
@@ -578,6 +581,52 @@ def _beyond_parsimony(new: str, out: str, result: FitResult, final: FitResult, n
     nominal = nominal_gap.per_window
     gain = bootstrap.evidence(nominal, result.heldout.per_window).reduction
     return gain - bootstrap.evidence(nominal, final.heldout.per_window).reduction > PARSIMONY
+
+
+def _prefer_gain(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task, fit) -> bool:
+    """Replace a kept inertia error by a torque gain when the model holding the gain in its place (fitted beside the
+    other kept effects, from the gain the inertia scales' mean stands for) reduces the nominal held-out gap to
+    within ``PARSIMONY`` of the final model: a gain g of the drive is exactly a uniform scaling of the inertias and
+    gravity by 1 / g (friction then reads as its true size over g), so one parameter explains what four do. The
+    two stay stated as a confusable pair, whichever is kept, when the interval of the difference of their
+    reductions holds 0 (a lab acts on them differently: the amplifier or the rig file's masses). Returns whether the
+    gain replaced the inertia error."""
+    final = selection.final
+    if final is None or INERTIA not in selection.accepted or GAIN in selection.accepted:
+        return False
+    others = [name for name in selection.accepted if name != INERTIA]
+    held = selection.model(others) if others else None
+    if others and held is None:
+        return False
+    gain = selection.model([*others, GAIN])
+    if gain is None:
+        start = Effect("", (1.0 / float(np.mean(final.effects[INERTIA].values)),))
+        gain = next(iter(fit([task(GAIN, held, start=start)], len(selection.accepted), nominal_gap.per_window)))
+    if gain.failure:
+        return False
+    nominal = nominal_gap.per_window
+    reductions = [bootstrap.evidence(nominal, model.heldout.per_window).reduction for model in (gain, final)]
+    difference = bootstrap.difference_interval(nominal, gain.heldout.per_window, final.heldout.per_window)
+    simpler = reductions[0] >= reductions[1] - PARSIMONY
+    if simpler or difference[0] <= 0.0 <= difference[1]:
+        selection.confusable = [p for p in selection.confusable if set(p["effects"]) != {GAIN, INERTIA}]
+        order = [GAIN, INERTIA] if simpler else [INERTIA, GAIN]
+        pair = {
+            "effects": order,
+            "reductions": reductions if simpler else reductions[::-1],
+            "by_excess": False,
+            "difference": list(difference) if simpler else [-difference[1], -difference[0]],
+        }
+        if not difference[0] <= 0.0 <= difference[1]:
+            pair["within"] = PARSIMONY  # told apart, but within the margin where the simpler is preferred
+        selection.confusable.append(pair)
+    if not simpler:
+        return False
+    selection.accepted = others + [GAIN]
+    selection.runners_up[GAIN] = [(INERTIA, final.effects[INERTIA])]
+    evidence = bootstrap.evidence(final.heldout.per_window, gain.heldout.per_window)
+    selection.exchanges.append({"out": INERTIA, "in": GAIN, "evidence": evidence, "simpler": True})
+    return True
 
 
 def _enter_pair(
