@@ -92,3 +92,41 @@ def test_the_docs_state_the_inflation():
     docs = " ".join((REPO / "docs" / "diagnose.md").read_text().split())
     low, high = f"x - {INTERVAL_INFLATION:g} (x - lo)", f"x + {INTERVAL_INFLATION:g} (hi - x)"
     assert f"[{low}, {high}]" in docs and "`INTERVAL_INFLATION`" in docs
+
+
+def _form_widened(rival_excess: float) -> RankedCandidate:
+    """The Coulomb level's interval after a selection that kept Coulomb friction in its presliding form at 10 mN m
+    (bootstrap interval 9.9-10.1 mN m, held-out excess 0.09 counts^2) whose smooth form, fitted in its place,
+    reads 9.5 mN m and leaves ``rival_excess``."""
+    nominal = _gap(4.0, 0)
+    final = FitResult(
+        "arm_coulomb_friction", {"arm_coulomb_friction": Effect("presliding", (0.010, 1e-3))}, 0.3, _gap(0.09, 1)
+    )
+    selection = Selection(nominal, [(1, final)], accepted=["arm_coulomb_friction"])
+    smooth = {"arm_coulomb_friction": Effect("smooth", (0.0095, 0.02))}
+    selection.form_rivals = [FitResult("arm_coulomb_friction", smooth, 0.3, _gap(rival_excess, 1))]
+    interval = {"coulomb": [0.0099, 0.0101], "presliding": [0.9e-3, 1.1e-3]}
+    row = RankedCandidate(
+        "arm_coulomb_friction", {"coulomb": 0.010, "presliding": 1e-3}, 0.3, 0.9, 0.85, params_ci=interval
+    )
+    (out,) = widen([row], selection, Bootstrap(WINDOWS, 200, 0), Model.from_rig(RIGS["lund"]()))
+    return out
+
+
+def test_the_level_spans_the_other_friction_form_when_the_data_cannot_rule_it_out():
+    """The smooth form fits the held-out windows as well (the same excess, seeded alike): the Coulomb level's
+    interval reaches down to its 9.5 mN m; the presliding stiffness, which the smooth form has not, moves nowhere."""
+    out = _form_widened(0.09)
+    low = 0.010 - INTERVAL_INFLATION * 0.0001
+    assert out.params_ci["coulomb"] == pytest.approx([low - 0.0005, 0.010 + INTERVAL_INFLATION * 0.0001])
+    assert out.params_ci["presliding"] == pytest.approx(
+        [1e-3 - INTERVAL_INFLATION * 1e-4, 1e-3 + INTERVAL_INFLATION * 1e-4]
+    )
+
+
+def test_a_friction_form_the_held_out_data_rule_out_does_not_widen():
+    """The smooth form leaves three times the excess squared residual: ruled out, the interval is only inflated."""
+    out = _form_widened(0.27)
+    assert out.params_ci["coulomb"] == pytest.approx(
+        [0.010 - INTERVAL_INFLATION * 0.0001, 0.010 + INTERVAL_INFLATION * 0.0001]
+    )

@@ -35,12 +35,12 @@ from furuta_drake.diagnosis.report.torque import beside_record, torque_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
 from furuta_drake.diagnosis.selection.detection import detection_limits
 from furuta_drake.diagnosis.selection.final_fit import refit_final
-from furuta_drake.diagnosis.selection.fit import FitResult, interval, scales_of
+from furuta_drake.diagnosis.selection.fit import FitResult, FitTask, fit_task, interval, scales_of
 from furuta_drake.diagnosis.selection.folds import consistency, pinned
 from furuta_drake.diagnosis.selection.missing_torque import beyond_vocabulary
 from furuta_drake.diagnosis.selection.remaining import remaining_record
 from furuta_drake.diagnosis.selection.reselection import reselect_beside_torque
-from furuta_drake.diagnosis.selection.rival import widen
+from furuta_drake.diagnosis.selection.rival import form_rival_tasks, widen
 from furuta_drake.diagnosis.selection.rule import Bootstrap
 from furuta_drake.diagnosis.selection.sensor import SensorFinding
 from furuta_drake.diagnosis.selection.stepwise import Selection, select_effects
@@ -50,7 +50,7 @@ from furuta_drake.effects.surrogate import Model, load_kernel
 from furuta_drake.effects.torque_library import library_terms, merged, torque_parameters_of
 from furuta_drake.effects.vocabulary import CANDIDATES, Effect, apply_effects, describe, rig_model
 from furuta_drake.errors import ConfigError
-from furuta_drake.parallel import TaskPool, one_blas_thread, run_tasks
+from furuta_drake.parallel import Failure, TaskPool, one_blas_thread, run_tasks
 from furuta_drake.rig import RigParameters
 from furuta_drake.rig_file import load_rig
 from furuta_drake.yamlio import locate_in_file
@@ -337,7 +337,8 @@ def _diagnosable_rig(rig_path: Path) -> RigParameters:
 def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
     """The selection of effects, the held-out rule's bootstrap and the torque beyond the vocabulary (None when
     none passes the rule) with its notes. Without such a torque the accepted model is then refitted on every train
-    window (:func:`refit_final`); a kept torque was found beside the selection's fit, which stays."""
+    window (:func:`refit_final`); a kept torque was found beside the selection's fit, which stays. Last, the kept
+    friction laws are fitted in their other forms (:func:`form_rival_tasks`: the intervals' form rivals)."""
     counts = inputs.rig.counts_per_rev
     selection = select_effects(
         inputs.nominal,
@@ -379,6 +380,19 @@ def _select(inputs: _Inputs, settings: DiagnosisSettings, run):
             run,
         )
         notes = notes + refit_notes
+    template = FitTask(
+        new="",
+        fixed={},
+        model=inputs.nominal,
+        train=inputs.train_windows,
+        heldout=inputs.heldout_windows,
+        logs=tuple(inputs.train_logs),
+        nominal_counts=counts,
+        settings=settings,
+        regressed=selection.regressed,
+    )
+    tasks = form_rival_tasks(selection, template)
+    selection.form_rivals = [result for result in run(fit_task, tasks) if not isinstance(result, Failure)]
     return selection, bootstrap, missing, torque_notes + notes
 
 

@@ -14,6 +14,13 @@ the backward pass dropped an effect); the one that reduces the final model's hel
 inflated interval: it holds whether or not the rival is present. The move is measured from the final model as the
 selection fitted it (the rival's fit windows), also when the report's final model is its refit on every train
 window (:mod:`~furuta_drake.diagnosis.selection.final_fit`).
+
+A friction law's form is a rival of its own: a presliding spring and a smooth sign fit stick-slip about equally
+well when the true friction is neither (a bristle model, a Karnopp law), and the levels each reads differ by more
+than either's bootstrap spread. So each kept friction law is also fitted in its other form beside the other kept
+effects (every effect refitted, on the same fit windows); where the data cannot rule that form out (the 90 %
+interval of the difference of the two models' held-out excess squared residuals stays within the floor's
+resolution), the intervals also span the moves of the parameters both forms share and of the other effects'.
 """
 
 from __future__ import annotations
@@ -21,11 +28,13 @@ from __future__ import annotations
 import dataclasses
 
 from furuta_drake.diagnosis.result import RankedCandidate
-from furuta_drake.diagnosis.selection.fit import FitResult
-from furuta_drake.diagnosis.selection.rule import INTERVAL_INFLATION, Bootstrap
-from furuta_drake.diagnosis.selection.stepwise import Selection
+from furuta_drake.diagnosis.selection.fit import FitResult, FitTask, scales_of
+from furuta_drake.diagnosis.selection.rule import INTERVAL_INFLATION, Bootstrap, beyond_resolution
+from furuta_drake.diagnosis.selection.stepwise import Selection, in_form
 from furuta_drake.effects.surrogate import Model
-from furuta_drake.effects.vocabulary import SIGNED, describe
+from furuta_drake.effects.vocabulary import CANDIDATES, SIGNED, describe, law_of
+
+FRICTION_LAWS = law_of("arm_coulomb_friction")  # the kept laws whose forms are fitted as rivals
 
 
 def rival(selection: Selection, bootstrap: Bootstrap) -> FitResult | None:
@@ -50,21 +59,48 @@ def rival(selection: Selection, bootstrap: Bootstrap) -> FitResult | None:
     return max(joint, key=lambda result: reduction[result.name], default=None)
 
 
-def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[str, float]:
-    """Per reported parameter of the final model (its ranking keys), the move of its value in the rival model from
-    the final model as the selection fitted it."""
+def form_rival_tasks(selection: Selection, template: FitTask) -> list[FitTask]:
+    """The fits of the final model (as the selection fitted it) with one kept friction law in another of its forms,
+    started from its values there (the parameters both forms have kept), every effect refitted; ``template``: a
+    task on the selection's train and held-out windows whose ``new`` and ``fixed`` are replaced."""
+    final = _selected(selection)
+    if final is None:
+        return []
+    scales, tasks = scales_of(template.logs, template.model), []
+    for name in (name for name in selection.accepted if name in FRICTION_LAWS):
+        effect = final.effects[name]
+        others = {other: value for other, value in final.effects.items() if other != name}
+        for form in CANDIDATES[name].forms:
+            if form.name != effect.form:
+                start = in_form(name, effect, form, scales)
+                tasks.append(dataclasses.replace(template, new=name, fixed=others, start=start))
+    return tasks
+
+
+def shifts(selection: Selection, bootstrap: Bootstrap, nominal: Model) -> dict[str, list[float]]:
+    """Per reported parameter of the final model (its ranking keys), the moves of its value from the final model as
+    the selection fitted it: in the rival model, and in each form rival the data cannot rule out (module
+    docstring)."""
+    final = _selected(selection)
     found = rival(selection, bootstrap)
-    if found is None:
-        return {}
-    final, several = _selected(selection), len(selection.accepted) > 1
-    out = {}
-    for name in selection.accepted:
-        before = describe(name, final.effects[name], nominal)
-        after = describe(name, found.effects[name], nominal)
-        if before.get("form") != after.get("form"):
-            continue  # a move across forms is no shift of one parameter
-        prefix = f"{name}." if several else ""
-        out.update({prefix + key: after[key] - value for key, value in before.items() if key != "form"})
+    models = [found] if found is not None else []
+    models += [
+        result
+        for result in selection.form_rivals
+        if not result.failure
+        and not beyond_resolution(
+            bootstrap.excess_difference_interval(result.heldout.per_window, final.heldout.per_window)[0]
+        )
+    ]
+    several, out = len(selection.accepted) > 1, {}
+    for model in models:
+        for name in selection.accepted:
+            before = describe(name, final.effects[name], nominal)
+            after = describe(name, model.effects[name], nominal)
+            prefix = f"{name}." if several else ""
+            for key, value in before.items():
+                if key != "form" and key in after:  # a parameter only one form has moves nowhere
+                    out.setdefault(prefix + key, []).append(after[key] - value)
     return out
 
 
@@ -93,8 +129,8 @@ def widen(ranking: list[RankedCandidate], selection: Selection, bootstrap: Boots
             widened = {}
             for key, (low, high) in row.params_ci.items():
                 low, high = inflated(row.params[key], low, high, key)
-                move = moves.get(key, 0.0)
-                widened[key] = [min(low, low + move), max(high, high + move)]
+                move = moves.get(key, [0.0])
+                widened[key] = [min(low, low + min(move)), max(high, high + max(move))]
             row = dataclasses.replace(row, params_ci=widened, params_ci_if_complete=row.params_ci)
         out.append(row)
     return out

@@ -91,6 +91,8 @@ class Selection:
     jitter: HeldoutJitter | None = None  # the final model's jittering delay judged on the held-out windows
     beneath: list[str] = field(default_factory=list)  # the sensor effects the rule judged the others beyond
     beneath_variance: np.ndarray | None = None  # per held-out window, the variance they add [counts^2]
+    form_rivals: list[FitResult] = field(default_factory=list)  # the final model with a kept friction law in its
+    # other form (:mod:`~furuta_drake.diagnosis.selection.rival`)
 
     def rule_bootstrap(self, bootstrap: Bootstrap) -> Bootstrap:
         """``bootstrap`` as the rule reads this selection's models: beyond the variance of the sensor effects it
@@ -736,16 +738,14 @@ def _refit_forms(result: FitResult, task: FitTask, run: Callable) -> FitResult:
             continue
         for form in CANDIDATES[name].forms:
             if form.name != effect.form:
-                tasks.append(
-                    dataclasses.replace(task, fixed={**task.fixed, name: _in_form(name, effect, form, scales)})
-                )
+                tasks.append(dataclasses.replace(task, fixed={**task.fixed, name: in_form(name, effect, form, scales)}))
     if not tasks:
         return result
     fits = [fit for fit in (_as_fit(t, r) for t, r in zip(tasks, run(fit_task, tasks))) if not fit.failure]
     return min([result] + fits, key=lambda fit: fit.train_excess)
 
 
-def _in_form(name: str, effect: Effect, form, scales) -> Effect:
+def in_form(name: str, effect: Effect, form, scales) -> Effect:
     """``effect`` in another ``form`` of its candidate: the parameters both forms have keep their values, the
     others take the form's first start."""
     old = dict(zip(CANDIDATES[name].form(effect.form).params, effect.values))
