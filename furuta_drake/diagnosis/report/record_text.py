@@ -68,11 +68,6 @@ def confusable_why(pair: dict) -> str:
             f"mean excess squared residuals, [{low:+.3g}, {high:+.3g}] counts^2, stays below the floor's "
             f"resolution ({FLOOR_COUNTS}^2 counts^2)"
         )
-    elif pair.get("within"):
-        difference = (
-            f"reductions, [{100 * low:+.1f}, {100 * high:+.1f}] points, lies within the {100 * pair['within']:.0f} "
-            f"points within which the one with fewer parameters is preferred"
-        )
     else:
         difference = f"reductions, [{100 * low:+.1f}, {100 * high:+.1f}] points, holds 0"
     return (
@@ -159,7 +154,8 @@ def _prediction_text(selection: Selection) -> str:
             text += (
                 f" {exchange['in']} replaced {exchange['out']}: beside the other kept effects it explains the held-out "
                 f"data as well with one parameter (a drive gain g acts as a uniform scaling of the inertias and "
-                f"gravity by 1/g; the held-out gap changes by {-evidence.reduction:+.1%})."
+                f"gravity by 1/g; the held-out gap changes by {-evidence.reduction:+.1%}, within the bootstrap's "
+                f"spread)."
             )
             continue
         text += (

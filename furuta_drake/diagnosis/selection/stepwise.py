@@ -587,12 +587,12 @@ def _beyond_parsimony(new: str, out: str, result: FitResult, final: FitResult, n
 
 def _prefer_gain(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapResult, task, fit) -> bool:
     """Replace a kept inertia error by a torque gain when the model holding the gain in its place (fitted beside the
-    other kept effects, from the gain the inertia scales' mean stands for) reduces the nominal held-out gap to
-    within ``PARSIMONY`` of the final model: a gain g of the drive is exactly a uniform scaling of the inertias and
-    gravity by 1 / g (friction then reads as its true size over g), so one parameter explains what four do. The
-    two stay stated as a confusable pair, whichever is kept, when the interval of the difference of their
-    reductions holds 0 (a lab acts on them differently: the amplifier or the rig file's masses). Returns whether the
-    gain replaced the inertia error."""
+    other kept effects, from the gain the inertia scales' mean stands for) explains the held-out data as well: the
+    ``CONFUSABLE_LEVEL`` interval of the difference of the two models' reductions of the nominal gap reaches 0 (or
+    the gain's is the larger). A gain g of the drive is exactly a uniform scaling of the inertias and gravity by
+    1 / g (friction then reads as its true size over g), so one parameter explains what four do; the two are stated
+    as a confusable pair when that interval holds 0 (a lab acts on them differently: the amplifier or the rig file's
+    masses). Returns whether the gain replaced the inertia error."""
     final = selection.final
     if final is None or INERTIA not in selection.accepted or GAIN in selection.accepted:
         return False
@@ -608,20 +608,18 @@ def _prefer_gain(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapRes
         return False
     nominal = nominal_gap.per_window
     reductions = [bootstrap.evidence(nominal, model.heldout.per_window).reduction for model in (gain, final)]
-    difference = bootstrap.difference_interval(nominal, gain.heldout.per_window, final.heldout.per_window)
-    simpler = reductions[0] >= reductions[1] - PARSIMONY
-    if simpler or difference[0] <= 0.0 <= difference[1]:
+    low, high = bootstrap.difference_interval(nominal, gain.heldout.per_window, final.heldout.per_window)
+    simpler = high >= 0.0
+    if low <= 0.0 <= high:
         selection.confusable = [p for p in selection.confusable if set(p["effects"]) != {GAIN, INERTIA}]
-        order = [GAIN, INERTIA] if simpler else [INERTIA, GAIN]
-        pair = {
-            "effects": order,
-            "reductions": reductions if simpler else reductions[::-1],
-            "by_excess": False,
-            "difference": list(difference) if simpler else [-difference[1], -difference[0]],
-        }
-        if not difference[0] <= 0.0 <= difference[1]:
-            pair["within"] = PARSIMONY  # told apart, but within the margin where the simpler is preferred
-        selection.confusable.append(pair)
+        selection.confusable.append(
+            {
+                "effects": [GAIN, INERTIA] if simpler else [INERTIA, GAIN],
+                "reductions": reductions if simpler else reductions[::-1],
+                "by_excess": False,
+                "difference": [low, high] if simpler else [-high, -low],
+            }
+        )
     if not simpler:
         return False
     selection.accepted = others + [GAIN]
