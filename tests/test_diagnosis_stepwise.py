@@ -369,13 +369,13 @@ def test_an_effect_that_entered_first_is_exchanged_though_the_others_never_enter
     assert selection.accepted == ["arm_coulomb_friction", "input_delay", "inertia_mismatch"]
 
 
-def _inertia_case(gain_excess: float):
-    """Coulomb friction and an inertia error kept (held-out excess about 0.1 against the nominal model's 1); the gain
-    fitted beside the friction in the inertia error's place leaves ``gain_excess`` times the inertia error's own
-    excess in every window."""
+def _inertia_case(gain_excess: float, alone: float = 0.6):
+    """Coulomb friction and an inertia error kept (held-out excess about 0.1 against the nominal model's 1, the
+    friction alone ``alone``); the gain fitted beside the friction in the inertia error's place leaves
+    ``gain_excess`` times the inertia error's own excess in every window."""
     bootstrap = Bootstrap(WINDOWS, 500, 0)
     kept = ["arm_coulomb_friction", "inertia_mismatch"]
-    tried = [(1, _model(kept[:1], 0.6, 1)), (2, _model(kept, 0.1, 2))]
+    tried = [(1, _model(kept[:1], alone, 1)), (2, _model(kept, 0.1, 2))]
     selection = Selection(_gap(NOMINAL), tried, accepted=list(kept))
     selection.final.effects["inertia_mismatch"] = Effect("", (0.8, 0.8, 0.8, 0.8))
     starts = []
@@ -415,3 +415,15 @@ def test_a_gain_the_inertia_error_beats_beyond_the_bootstrap_leaves_it(ratio):
     selection, bootstrap, task, fit, _ = _inertia_case(ratio)
     assert not _prefer_gain(selection, bootstrap, _gap(NOMINAL), task, fit)
     assert selection.accepted == ["arm_coulomb_friction", "inertia_mismatch"] and not selection.confusable
+
+
+def test_a_gain_that_would_not_earn_its_place_beside_the_others_replaces_nothing():
+    """The friction alone leaves 0.105: a gain as good as the inertia error beside it would bring 2.4 % to the
+    friction's model, below the rule's margin (the backward pass would drop it): the inertia error stays, the pair
+    is stated."""
+    from furuta_drake.diagnosis.selection.stepwise import _prefer_gain
+
+    selection, bootstrap, task, fit, _ = _inertia_case(1.0, alone=0.105)
+    assert not _prefer_gain(selection, bootstrap, _gap(NOMINAL), task, fit)
+    assert selection.accepted == ["arm_coulomb_friction", "inertia_mismatch"]
+    assert [pair["effects"] for pair in selection.confusable] == [["inertia_mismatch", "torque_gain_error"]]

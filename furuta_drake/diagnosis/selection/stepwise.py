@@ -589,10 +589,11 @@ def _prefer_gain(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapRes
     """Replace a kept inertia error by a torque gain when the model holding the gain in its place (fitted beside the
     other kept effects, from the gain the inertia scales' mean stands for) explains the held-out data as well: the
     ``CONFUSABLE_LEVEL`` interval of the difference of the two models' reductions of the nominal gap reaches 0 (or
-    the gain's is the larger). A gain g of the drive is exactly a uniform scaling of the inertias and gravity by
-    1 / g (friction then reads as its true size over g), so one parameter explains what four do; the two are stated
-    as a confusable pair when that interval holds 0 (a lab acts on them differently: the amplifier or the rig file's
-    masses). Returns whether the gain replaced the inertia error."""
+    the gain's is the larger), and the gain earns its place beside the other kept effects as the inertia error did
+    (:func:`~furuta_drake.diagnosis.selection.rule.decide`). A gain g of the drive is exactly a uniform scaling of
+    the inertias and gravity by 1 / g (friction then reads as its true size over g), so one parameter explains what
+    four do; the two are stated as a confusable pair when that interval holds 0 (a lab acts on them differently:
+    the amplifier or the rig file's masses). Returns whether the gain replaced the inertia error."""
     final = selection.final
     if final is None or INERTIA not in selection.accepted or GAIN in selection.accepted:
         return False
@@ -609,7 +610,9 @@ def _prefer_gain(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapRes
     nominal = nominal_gap.per_window
     reductions = [bootstrap.evidence(nominal, model.heldout.per_window).reduction for model in (gain, final)]
     low, high = bootstrap.difference_interval(nominal, gain.heldout.per_window, final.heldout.per_window)
-    simpler = high >= 0.0
+    reference = held.heldout.per_window if held else nominal
+    kept = decide(bootstrap.evidence(reference, gain.heldout.per_window), first=not others)
+    simpler = high >= 0.0 and kept  # (a gain the backward pass would drop beside the others replaces nothing)
     if low <= 0.0 <= high:
         selection.confusable = [p for p in selection.confusable if set(p["effects"]) != {GAIN, INERTIA}]
         selection.confusable.append(
