@@ -28,6 +28,10 @@ place against the model holding all the others:
   beyond ``FLOOR_COUNTS``^2 at its 5 % bound (at the floor, and beside a small remaining gap, where relative
   reductions magnify differences the floor does not resolve): the data explain them equally well, and the report
   says so;
+- beside a sensor effect that passes its signature test (noise, a coarse encoder), every comparison above reads each
+  window's excess beyond the variance that sensor adds (:meth:`Bootstrap.beyond`): it is the same in every model, so
+  on the whole gap a dynamic effect under it would remove too small a share to be judged; the reductions reported
+  over the nominal model read the whole gap (:meth:`Bootstrap.whole`);
 - the verdict is ``unexplained`` when the nominal model is not within the noise and the accepted effects together
   reduce its held-out gap by less than ``CLOSES`` (no effect or combination closes it), unless that gap is
   *negligible* (:func:`negligible`): below ``NEGLIGIBLE_COUNTS``, a small fraction of a count after the sensor's
