@@ -348,12 +348,17 @@ def confusable(
             by_excess, difference = True, excess
         else:
             continue
-        out.append(
-            {
-                "effects": [new[chosen], new[name]],
-                "reductions": [evidence[chosen].reduction, evidence[name].reduction],
-                "by_excess": by_excess,
-                "difference": list(difference),
-            }
-        )
+        reductions = (evidence[chosen].reduction, evidence[name].reduction)
+        out.append(confusable_pair((new[chosen], new[name]), reductions, difference, by_excess))
     return out
+
+
+def confusable_pair(effects, reductions, difference, by_excess: bool = False) -> dict:
+    """The record of two confusable effects (the kept one first), their reductions, and the ``CONFUSABLE_LEVEL``
+    interval of the difference of their reductions (of their mean excess squared residuals when ``by_excess``)."""
+    return {
+        "effects": list(effects),
+        "reductions": list(reductions),
+        "by_excess": by_excess,
+        "difference": list(difference),
+    }

@@ -41,6 +41,7 @@ from furuta_drake.diagnosis.selection.rule import (
     choose,
     combined_reduction,
     confusable,
+    confusable_pair,
     decide,
     n_params,
     negligible,
@@ -227,6 +228,7 @@ class Stepwise:
         self.regressed = equation_error_starts(self.logs, nominal)
         self.selection = self.fresh_selection()
         self.screens: dict[str, tuple] = {}  # model name -> (its task, its screen): a candidate the screen left behind
+        self.nominal_sensors: list[SensorFinding] | None = None  # the sensor effects read beside the nominal model
 
     def fresh_selection(self) -> Selection:
         """A selection holding no effect yet."""
@@ -257,8 +259,10 @@ class Stepwise:
         own sensor alone taken off."""
         if not names:
             return []
-        findings = read_sensors(self.nominal, self.train, self.heldout, self.counts, self.settings, self.bootstrap)
-        return [finding for finding in findings if finding.accepted and finding.name in names]
+        self.nominal_sensors = read_sensors(
+            self.nominal, self.train, self.heldout, self.counts, self.settings, self.bootstrap
+        )
+        return [finding for finding in self.nominal_sensors if finding.accepted and finding.name in names]
 
     def select_dynamic(self, dynamic: list[str], beneath: list[SensorFinding]) -> None:
         """The effects that change the predictions among ``dynamic``, judged on the held-out gap beyond the variance
@@ -306,7 +310,11 @@ class Stepwise:
         the final model's jittering delay (when it has one) judged there too."""
         selection = self.selection
         model = apply_effects(self.nominal, selection.final.effects) if selection.final else self.nominal
-        findings = read_sensors(model, self.train, self.heldout, self.counts, self.settings, self.bootstrap)
+        findings = (
+            self.nominal_sensors  # beside the nominal model: read already (:meth:`sensor_beneath`)
+            if selection.final is None and self.nominal_sensors is not None
+            else read_sensors(model, self.train, self.heldout, self.counts, self.settings, self.bootstrap)
+        )
         selection.sensors = [finding for finding in findings if finding.name in names]
         if model.delay_spread > 0:
             selection.jitter = heldout_jitter(
@@ -496,19 +504,21 @@ def _null(result: FitResult, scales) -> bool:
 
 def _runners_up(effect: str, evidence: dict, added: dict, fitted: dict) -> list[tuple[str, Effect]]:
     """The candidates of other laws than ``effect``'s at its entry step, best first, with their fits there."""
-    return [
-        (added[name], fitted[name].effects[added[name]])
-        for name in order(evidence)
-        if not law_of(added[name]) & law_of(effect) and CANDIDATES[added[name]].fit
-    ]
+    return _entry_fits(evidence, added, fitted, lambda other: not law_of(other) & law_of(effect))
 
 
 def _variants(effect: str, evidence: dict, added: dict, fitted: dict) -> list[tuple[str, Effect]]:
     """The other variants of ``effect``'s law at its entry step, best first, with their fits there."""
+    return _entry_fits(evidence, added, fitted, lambda other: other != effect and other in law_of(effect))
+
+
+def _entry_fits(evidence: dict, added: dict, fitted: dict, kept: Callable[[str], bool]) -> list[tuple[str, Effect]]:
+    """Of a step's fitted models, best first, each added effect that ``kept`` holds (and is fitted, not read from the
+    data) with its fit there."""
     return [
         (added[name], fitted[name].effects[added[name]])
         for name in order(evidence)
-        if added[name] != effect and added[name] in law_of(effect)
+        if kept(added[name]) and CANDIDATES[added[name]].fit
     ]
 
 
@@ -617,14 +627,11 @@ def _prefer_gain(selection: Selection, bootstrap: Bootstrap, nominal_gap: GapRes
     simpler = high >= 0.0 and kept  # (a gain the backward pass would drop beside the others replaces nothing)
     if low <= 0.0 <= high:
         selection.confusable = [p for p in selection.confusable if set(p["effects"]) != {GAIN, INERTIA}]
-        selection.confusable.append(
-            {
-                "effects": [GAIN, INERTIA] if simpler else [INERTIA, GAIN],
-                "reductions": reductions if simpler else reductions[::-1],
-                "by_excess": False,
-                "difference": [low, high] if simpler else [-high, -low],
-            }
-        )
+        if simpler:
+            pair = confusable_pair((GAIN, INERTIA), reductions, (low, high))
+        else:
+            pair = confusable_pair((INERTIA, GAIN), reductions[::-1], (-high, -low))
+        selection.confusable.append(pair)
     if not simpler:
         return False
     selection.accepted = others + [GAIN]
