@@ -32,6 +32,7 @@ from pydrake.systems.primitives import (
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.plant import joint_indices
 from furuta_drake.rig import MotorParameters, _require_nonnegative, _require_positive
+from furuta_drake.torque_disturbance import TorqueDisturbance
 from furuta_drake.unmodelled import TORQUE_VARIABLES, UnmodelledTorqueParameters
 
 
@@ -146,7 +147,8 @@ def smooth_saturation(limit: float) -> ScalarMap:
 
 @dataclass
 class DisturbanceParameters:
-    """Position-dependent torques on the arm: a spring (e.g. a cable) and motor cogging."""
+    """Torques on the arm beside the command: a spring (e.g. a cable), motor cogging, both position-dependent, and
+    ``arm_torque``, an ongoing disturbance drawn from its spectrum (seeded by the config's seed)."""
 
     arm_spring_stiffness: float = 0.0  # k [N m/rad]
     arm_spring_equilibrium: float = 0.0  # phi0 [rad]
@@ -154,8 +156,11 @@ class DisturbanceParameters:
     cogging_amplitude: float = 0.0  # A [N m]
     cogging_periods: int = 0  # N, periods per arm revolution
     cogging_phase: float = 0.0  # psi [rad]
+    arm_torque: TorqueDisturbance | None = None
 
     def validate(self, where: str = "disturbance") -> None:
+        if self.arm_torque is not None:
+            self.arm_torque.validate(f"{where}.arm_torque")
         for name in ("arm_spring_stiffness", "arm_spring_cubic_stiffness", "cogging_amplitude"):
             _require_nonnegative(getattr(self, name), f"{where}.{name}")
         for name in ("arm_spring_equilibrium", "cogging_phase"):

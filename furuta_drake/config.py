@@ -241,6 +241,11 @@ class SimulationConfig:
                 f"{prefix}rig.unmodelled_torque: in a simulate config, the torque goes in the 'unmodelled_torque' "
                 f"section (SimulationConfig.from_rig converts a rig file)"
             )
+        if self.rig.disturbance is not None:
+            raise ConfigError(
+                f"{prefix}rig.disturbance: in a simulate config, the ongoing torque goes in 'disturbance.arm_torque' "
+                f"(SimulationConfig.from_rig converts a rig file)"
+            )
         self.friction.validate(f"{prefix}friction")
         self.actuator.validate(f"{prefix}actuator")
         self.disturbance.validate(f"{prefix}disturbance")
@@ -308,6 +313,7 @@ class SimulationConfig:
     def from_rig(cls, rig: RigParameters | str, **sections) -> SimulationConfig:
         """A config for ``rig`` (a RigParameters or a shipped name: 'lund', 'qube_servo2'): the rig file's
         nominal friction moves into the ``friction`` section, its unmodelled torque into ``unmodelled_torque``, its
+        ongoing disturbance into ``disturbance.arm_torque``, its
         encoder (counts and sample period) into ``encoder``, its torque limit into ``controller``; ``sections``
         override whole sections."""
         if isinstance(rig, str):
@@ -325,12 +331,14 @@ class SimulationConfig:
             pendulum_coulomb=0.0,
             pendulum_viscous=0.0,
             unmodelled_torque=None,
+            disturbance=None,
         )
         lqr = dataclasses.replace(LqrParameters(), torque_limit=rig.torque_limit)
         config = cls(
             rig=nominal_rig,
             friction=friction,
             unmodelled_torque=rig.unmodelled_torque or UnmodelledTorqueParameters(),
+            disturbance=DisturbanceParameters(arm_torque=rig.disturbance),
             encoder=EncoderParameters(counts_per_rev=rig.counts_per_rev, sample_period=rig.sample_period),
             controller=ControllerConfig(lqr=lqr),
         )

@@ -74,6 +74,7 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
         actuator=config.actuator,
         disturbance=config.disturbance,
         unmodelled_torque=config.unmodelled_torque,
+        arm_torque_draw=arm_torque_draw(config),
         control_period=period,
         with_scene_graph=meshcat is not None,
     )
@@ -97,6 +98,14 @@ def build_furuta_diagram(config: SimulationConfig, *, meshcat=None) -> FurutaDia
     diagram = builder.Build()
     diagram.set_name("furuta_" + config.controller.mode)
     return FurutaDiagram(diagram, world, world.plant, world.scene_graph, loggers, command.lqr_gain, config)
+
+
+def arm_torque_draw(config: SimulationConfig):
+    """The seeded draw of ``config``'s ongoing arm disturbance over the run (None without one)."""
+    disturbance = config.disturbance.arm_torque
+    if disturbance is None or not disturbance.active:
+        return None
+    return disturbance.trajectory(config.duration, config.control_period, config.seed)
 
 
 @dataclass

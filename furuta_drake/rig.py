@@ -20,6 +20,7 @@ from typing import Any, Literal
 import numpy as np
 
 from furuta_drake.errors import ConfigError
+from furuta_drake.torque_disturbance import TorqueDisturbance
 from furuta_drake.unmodelled import UnmodelledTorqueParameters
 from furuta_drake.yamlio import documented_field
 
@@ -291,6 +292,14 @@ class RigParameters:
         measure="leave it out at first; a diagnosis writes fitted_rig.yaml with the torque it found beyond the "
         "vocabulary",
     )
+    disturbance: TorqueDisturbance | None = documented_field(
+        None,
+        "the ongoing arm torque no model term explains: {arm_torque_rms, spectrum: [[Hz, PSD], ...], bandwidth_hz, "
+        "ci}; every simulation of the rig adds a seeded draw of it",
+        "N m, N^2 m^2/Hz",
+        measure="leave it out; a diagnosis writes fitted_rig.yaml with what its corrected model still misses on the "
+        "held-out logs",
+    )
 
     def validate(self, where: str = "rig") -> None:
         """Raise :class:`ConfigError` naming the first non-physical value."""
@@ -321,6 +330,8 @@ class RigParameters:
             self.drive.validate(f"{where}.drive")
         if self.unmodelled_torque is not None:
             self.unmodelled_torque.validate(f"{where}.unmodelled_torque")
+        if self.disturbance is not None:
+            self.disturbance.validate(f"{where}.disturbance")
 
     @property
     def rotor_inertia_reflected(self) -> float:

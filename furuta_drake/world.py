@@ -22,7 +22,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort, OutputPortSelection
-from pydrake.systems.primitives import Adder, ConstantVectorSource, Linearize, LinearSystem, MatrixGain, Multiplexer
+from pydrake.systems.primitives import (
+    Adder,
+    ConstantVectorSource,
+    Linearize,
+    LinearSystem,
+    MatrixGain,
+    Multiplexer,
+    TrajectorySource,
+)
+from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.actuator import (
     ActuatorParameters,
@@ -81,13 +90,16 @@ def add_furuta_world(
     disturbance: DisturbanceParameters | None = None,
     back_emf_damping: float | None = None,
     unmodelled_torque: UnmodelledTorqueParameters | None = None,
+    arm_torque_draw: PiecewisePolynomial | None = None,
     with_scene_graph: bool = False,
     linearizable: bool = False,
 ) -> FurutaWorld:
     """Add the continuous Furuta plant of ``rig`` with ``friction`` on its joints, the arm ``disturbance``
     (spring, cogging), the back-EMF damping torque -``back_emf_damping`` phi_dot [N m s/rad] (None: kt ke / R of
     ``rig.motor``, 0 without one), the ``unmodelled_torque`` expressions on either joint
-    (:class:`~furuta_drake.unmodelled.UnmodelledTorque`), the ``actuator`` chain (its delays resolved to half the
+    (:class:`~furuta_drake.unmodelled.UnmodelledTorque`), ``arm_torque_draw``, a draw of the ongoing
+    disturbance (:meth:`~furuta_drake.torque_disturbance.TorqueDisturbance.trajectory`) on the arm, the
+    ``actuator`` chain (its delays resolved to half the
     ``control_period`` [s]) and ``rig.drive`` (a rigid one as its rotor's inertia on the arm, one with backlash or
     elasticity as :func:`~furuta_drake.drive.add_drive` between the actuator chain and the arm, the back-EMF
     on its rotor); absent sections add nothing. ``with_scene_graph``: a SceneGraph for visualisation. The friction
@@ -109,14 +121,55 @@ def add_furuta_world(
 
     joint_friction, friction_torque = _add_friction(builder, plant, friction, linearizable)
     forces = [] if joint_friction is None else [joint_friction.GetOutputPort("generalized_force_Nm")]
+    _connect_forces(
+        builder,
+        plant,
+        forces,
+        true_state,
+        disturbance=disturbance or DisturbanceParameters(),
+        arm_torque_draw=arm_torque_draw,
+        back_emf_damping=0.0 if dynamic_drive else back_emf_damping,
+        unmodelled_torque=unmodelled_torque,
+    )
+
+    actuator_input, actuator_output = add_actuator(
+        builder, actuator or ActuatorParameters(), delay_resolution=control_period / 2.0
+    )
+    rotor, encoder_state = None, true_state
+    if dynamic_drive:
+        actuator_output, rotor, encoder_state = _add_drive(builder, rig, back_emf_damping, actuator_output, true_state)
+    builder.Connect(actuator_output, plant.get_actuation_input_port())
+    return FurutaWorld(
+        plant, scene_graph, joint_friction, true_state, actuator_input, friction_torque, encoder_state, rotor, P
+    )
+
+
+def _connect_forces(
+    builder: DiagramBuilder,
+    plant,
+    forces: list,
+    true_state: OutputPort,
+    *,
+    disturbance: DisturbanceParameters,
+    arm_torque_draw: PiecewisePolynomial | None,
+    back_emf_damping: float,
+    unmodelled_torque: UnmodelledTorqueParameters | None,
+) -> None:
+    """Sum the joints' friction (``forces``), the arm's disturbance torques, the back-EMF on the arm and the
+    unmodelled torques into the plant's applied generalised force."""
     arm = np.zeros((plant.num_velocities(), 1))  # an arm torque as generalized forces
     arm[plant.GetJointByName(ARM_JOINT).velocity_start(), 0] = 1.0
-    arm_torque = add_arm_disturbance(builder, disturbance or DisturbanceParameters(), true_state)
+    arm_torque = add_arm_disturbance(builder, disturbance, true_state)
     if arm_torque is not None:
         to_force = builder.AddNamedSystem("disturbance_to_force", MatrixGain(arm))
         builder.Connect(arm_torque, to_force.get_input_port())
         forces.append(to_force.get_output_port())
-    if back_emf_damping != 0.0 and not dynamic_drive:
+    if arm_torque_draw is not None:
+        draw = builder.AddNamedSystem("arm_torque_disturbance", TrajectorySource(arm_torque_draw))
+        draw_to_force = builder.AddNamedSystem("arm_torque_disturbance_to_force", MatrixGain(arm))
+        builder.Connect(draw.get_output_port(), draw_to_force.get_input_port())
+        forces.append(draw_to_force.get_output_port())
+    if back_emf_damping != 0.0:
         # The DC motor's back-EMF: a torque -kt ke / R phi_dot on the arm (commands are torque-equivalent).
         back_emf = builder.AddNamedSystem(
             "motor_back_emf", MatrixGain(-back_emf_damping * arm @ np.array([[0.0, 0.0, 0.0, 1.0]]))
@@ -134,17 +187,6 @@ def add_furuta_world(
         for i, force in enumerate(forces):
             builder.Connect(force, total.get_input_port(i))
         builder.Connect(total.get_output_port(), plant.get_applied_generalized_force_input_port())
-
-    actuator_input, actuator_output = add_actuator(
-        builder, actuator or ActuatorParameters(), delay_resolution=control_period / 2.0
-    )
-    rotor, encoder_state = None, true_state
-    if dynamic_drive:
-        actuator_output, rotor, encoder_state = _add_drive(builder, rig, back_emf_damping, actuator_output, true_state)
-    builder.Connect(actuator_output, plant.get_actuation_input_port())
-    return FurutaWorld(
-        plant, scene_graph, joint_friction, true_state, actuator_input, friction_torque, encoder_state, rotor, P
-    )
 
 
 def _add_friction(builder: DiagramBuilder, plant, friction: FrictionParameters, linearizable: bool):

@@ -9,7 +9,7 @@ from conftest import REPO
 
 LAYERS = [
     ["errors", "yamlio", "outputs", "data", "symbolic_system"],
-    ["unmodelled", "rig", "plant"],
+    ["unmodelled", "torque_disturbance", "rig", "plant"],
     ["friction", "encoder", "actuator", "drive", "world", "controllers"],
     ["observers", "linearization", "analysis"],
     ["config", "excitation", "diagram", "lab_controller", "simulate", "sweep", "results", "plotting"],

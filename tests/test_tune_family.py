@@ -118,7 +118,7 @@ def made_up(better_slow_observer: float = 1.0, falls_at: str | None = None):
 
 def chosen(problem: MadeUpProblem):
     nominal = nominal_outcome(problem)
-    outcome, rows = search(problem, nominal, lambda line: None)
+    outcome, rows, _ = search(problem, nominal, lambda line: None)
     return outcome, rows, nominal
 
 

@@ -311,6 +311,9 @@ class World:
     tilt_torque: float = 0.0  # a tilted base's gravity on the arm: -tilt_torque sin(phi - tilt_direction) [N m]
     tilt_direction: float = 0.0  # [rad]
     friction_ripple: float = 0.0  # an arm Coulomb level varying with the angle: -ripple sin(phi) tanh(v/0.01) [N m]
+    disturbance_rms: float = 0.0  # [N m] an ongoing arm torque: white noise low-passed at disturbance_corner, held
+    # over each sample (AR(1), stationary from the start), seeded by the run
+    disturbance_corner: float = 3.0  # [Hz]
 
     @property
     def true_bodies(self) -> Bodies:
@@ -455,6 +458,7 @@ class Plant:
 
     def __init__(self, world: World):
         self.world = world
+        self.disturbance = 0.0  # [N m] the ongoing arm torque over the current sample
         self.bodies = world.true_bodies
         self.motor = world.motor
         self.actuator = 4 if world.actuator_state else None
@@ -533,7 +537,7 @@ class Plant:
             tau -= w.cogging_amplitude * math.sin(w.cogging_periods * phi)
         tau -= w.drag * abs(phi_dot) * phi_dot + w.tilt_torque * math.sin(phi - w.tilt_direction)
         tau -= w.friction_ripple * math.sin(phi) * math.tanh(phi_dot / 0.01)
-        return tau
+        return tau + self.disturbance
 
     def rhs(self, x, u: float, coulomb: float = 0.0, held: bool = False) -> list[float]:
         """dx/dt for the applied command ``u``; ``coulomb``: a hybrid law's sliding torque on the arm [N m];
@@ -694,6 +698,21 @@ class CorrelatedNoise:
         else:
             self.state = a * self.state + math.sqrt(1.0 - a * a) * self.rng.normal(0.0, self.std, 2)
         return self.state
+
+
+class ArmDisturbance:
+    """The world's ongoing arm torque, one value per sample: d_k = a d_(k-1) + sqrt(1 - a^2) rms e_k,
+    a = exp(-2 pi corner period), from its stationary law (zero without one)."""
+
+    def __init__(self, world: World, period: float, rng: np.random.Generator):
+        self.rms, self.rng = world.disturbance_rms, rng
+        self.a = math.exp(-2 * math.pi * world.disturbance_corner * period)
+        self.value = rng.normal(0.0, self.rms) if self.rms > 0 else 0.0
+
+    def next(self) -> float:
+        if self.rms > 0:
+            self.value = self.a * self.value + math.sqrt(1.0 - self.a**2) * self.rms * self.rng.normal()
+        return self.value
 
 
 def linearization(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
@@ -917,6 +936,7 @@ def simulate(
         else None
     )
     integrator = Integrator(plant)
+    disturbance = ArmDisturbance(world, h, np.random.default_rng([run.seed, 17]))
     balance = run.kind in ("balance", "played_balance")
     starts = {"balance": 0.03, "hanging": math.pi + 0.1, "played_balance": 0.0}
     x = plant.initial(starts.get(run.kind, math.pi) if run.start is None else run.start)
@@ -943,6 +963,7 @@ def simulate(
             u -= float((gain @ error)[0])
         u = min(max(u, -rig.command_limit), rig.command_limit)
         measured[k], commands[k], states[k] = y, u, x[:4]
+        plant.disturbance = disturbance.next()
         x = integrator.step(x, chain.applied(u), h)
     return RunLog(times, measured, commands, states, "torque" if rig.motor is None else "voltage")
 

@@ -31,6 +31,7 @@ Run from the repository root: ``PYTHONPATH=. python benchmarks/tune/blind.py --o
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -60,7 +61,8 @@ FILES = {"nominal": "nominal.yaml", "tuned": "controller.yaml"}  # each design's
 
 
 def cases() -> list[indep.Case]:
-    """The ten cases: friction, delay, spring and inertia alone and together, on both rigs."""
+    """The eleven cases: friction, delay, spring and inertia alone and together on both rigs, and a delay on a
+    geared rig."""
     make, karnopp = indep.make_case, (indep.arm_friction, "karnopp", 0.06, {"breakaway": 1.25})
     tanh = (indep.arm_friction, "tanh", 0.08, {"smoothing": 0.02})
     return [
@@ -80,7 +82,19 @@ def cases() -> list[indep.Case]:
             (indep.delay, 2),
             seed=40,
         ),
+        make("geared", (indep.delay, 2), seed=41),
     ]
+
+
+def disturbed(case: indep.Case, percent: float) -> indep.Case:
+    """``case`` with an ongoing arm torque of ``percent`` % of the rig's torque limit RMS (the simulator's coloured
+    disturbance, :class:`benchmarks.independent.simulator.ArmDisturbance`); its name ends in ``__d<percent>``."""
+    if percent == 0:
+        return case
+    rig = case.world.rig
+    level = percent / 100.0 * rig.command_limit * rig.torque_per_command
+    world = dataclasses.replace(case.world, disturbance_rms=level)
+    return dataclasses.replace(case, name=f"{case.name}__d{percent:g}", world=world)
 
 
 def case_folder(case: indep.Case, out: Path) -> tuple[Path, dict]:
@@ -151,15 +165,24 @@ def summary(runs: list[dict]) -> dict:
     return out
 
 
-def judged(row: dict) -> dict:
+def judged(row: dict, count: float) -> dict:
     """Per figure (theta's RMS, the limit cycle's amplitude): ``better`` when the tuned mean is below the nominal
-    one, ``worse`` when it is above it by more than the two spreads added."""
+    one, ``worse`` when it is above it by more than the two spreads added, ``clearly_better`` when it is below it
+    by more than that, and ``room`` when the nominal's mean exceeds one encoder count (``count`` [rad]) by more
+    than its spread (where a tuned design should be clearly better); and per design the predicted theta RMS over
+    the measured mean (``predicted_over_measured``)."""
     nominal, tuned_ = row["nominal"], row["tuned"]
     out = {}
     for figure in FIGURES_JUDGED:
         difference = tuned_[figure]["mean"] - nominal[figure]["mean"]
+        spread = nominal[figure]["spread"] + tuned_[figure]["spread"]
         out[f"better_{figure}"] = bool(difference < 0)
-        out[f"worse_{figure}"] = bool(difference > nominal[figure]["spread"] + tuned_[figure]["spread"])
+        out[f"worse_{figure}"] = bool(difference > spread)
+        out[f"clearly_better_{figure}"] = bool(-difference > spread)
+        out[f"room_{figure}"] = bool(nominal[figure]["mean"] > count + nominal[figure]["spread"])
+    out["predicted_over_measured"] = {
+        name: (row["predicted"][name].get("theta_rms") or math.nan) / row[name]["theta_rms"]["mean"] for name in DESIGNS
+    }
     return out
 
 
@@ -180,13 +203,15 @@ def run_case(case: indep.Case, out: Path, args) -> dict:
     runs = closed_loops(case, out / "tune" / case.name, out / "closed_loop" / f"{case.name}.json")
     row.update({name: summary(runs[name]) for name in DESIGNS})
     row["predicted"] = {name: document["designs"][name]["predicted"] for name in DESIGNS}
+    row["disturbance_read"] = document.get("disturbance")
     row["tuned_design"] = {
         "lqr_gain": document["designs"]["tuned"]["lqr_gain"],
         "compensation": document["designs"]["tuned"]["friction_compensation"]["gain"],
         "observer": document["designs"]["tuned"]["observer"]["kind"],
         "family_member": document["designs"]["tuned"].get("family_member"),
     }
-    return {**row, **judged(row)}
+    rig = case.world.rig
+    return {**row, **judged(row, 2 * math.pi / rig.counts_per_rev)}
 
 
 def _figure(entry: dict, figure: str) -> str:
@@ -216,25 +241,36 @@ def _verdict(row: dict, prefix: str) -> str:
     return ", ".join("yes" if row[f"{prefix}{figure}"] else "no" for figure in FIGURES_JUDGED)
 
 
+def _room(row: dict) -> str:
+    """Per figure: '-' where the nominal design leaves no room (within a count), else whether the tuned one is
+    better beyond the spread."""
+    return ", ".join(
+        ("yes" if row[f"clearly_better_{f}"] else "no") if row[f"room_{f}"] else "-" for f in FIGURES_JUDGED
+    )
+
+
 def table(rows: list[dict]) -> str:
     """The Markdown table of the runs: per case, both designs' theta RMS and limit-cycle amplitude [mrad] (mean +-
     run-to-run spread over the seeds) and the verdict."""
     lines = [
         "| case | diagnosis | tuned design | theta RMS predicted [mrad] | theta RMS nominal [mrad] "
         "| theta RMS tuned | limit cycle nominal [mrad] | limit cycle tuned | tuned better (theta, limit cycle) "
-        "| worse beyond the spread |",
-        "|---|---|---|---|---:|---:|---:|---:|---|---|",
+        "| worse beyond the spread | better beyond the spread where the nominal exceeds a count "
+        "| predicted / measured theta RMS (nominal, tuned) |",
+        "|---|---|---|---|---:|---:|---:|---:|---|---|---|---|",
     ]
     for row in rows:
         effects = "+".join(row["effects"]) or row["verdict"]
         if "refused" in row:
-            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | | |")
+            lines.append(f"| {row['case']} | {effects} | refused: {row['refused']} | | | | | | | | | |")
             continue
         lines.append(
             f"| {row['case']} | {effects} | {_design(row['tuned_design'])} | {_predicted(row)} | "
             f"{_figure(row['nominal'], 'theta_rms')} | {_figure(row['tuned'], 'theta_rms')} | "
             f"{_figure(row['nominal'], 'limit_cycle_amplitude')} | {_figure(row['tuned'], 'limit_cycle_amplitude')} | "
-            f"{_verdict(row, 'better_')} | {_verdict(row, 'worse_')} |"
+            f"{_verdict(row, 'better_')} | {_verdict(row, 'worse_')} | {_room(row)} | "
+            + ", ".join(f"{row['predicted_over_measured'][name]:.2f}" for name in DESIGNS)
+            + " |"
         )
     judged_rows = [row for row in rows if "refused" not in row]
     for figure in FIGURES_JUDGED:
@@ -249,10 +285,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--only", nargs="+", help="the cases whose name contains one of these words")
     parser.add_argument("--workers", type=int, default=1, help="processes of each diagnosis and tune (default 1)")
+    parser.add_argument(
+        "--disturbance",
+        type=float,
+        nargs="+",
+        default=[0.0],
+        help="the rigs' ongoing arm torque, RMS in %% of the torque limit (coloured); one suite per level (default 0)",
+    )
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     start, rows = time.perf_counter(), []
-    for case in indep.select(cases(), False, args.only):
+    chosen = indep.select(cases(), False, args.only)
+    for case in [disturbed(case, level) for level in args.disturbance for case in chosen]:
         rows.append(run_case(case, args.out, args))
         print(f"{case.name}: {rows[-1]['verdict']} {rows[-1]['effects']}", flush=True)
         (args.out / "results.json").write_text(json.dumps(rows, indent=2) + "\n")
@@ -261,6 +305,7 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     config = {"argv": sys.argv[1:] if argv is None else argv, "cases": [row["case"] for row in rows]}
     config.update(seeds=list(SEEDS), run_seconds=RUN_SECONDS, log_seconds=LOG_SECONDS)
+    config["disturbance_percent"] = args.disturbance
     config["wall_time_s"] = time.perf_counter() - start
     (args.out / "config.json").write_text(json.dumps({**config, **versions()}, indent=2) + "\n")
     return 0

@@ -34,6 +34,7 @@ from furuta_drake.diagnosis.report.record_text import choice_text, confusable_wh
 from furuta_drake.diagnosis.report.torque import beside_record, torque_record
 from furuta_drake.diagnosis.result import Artifacts, Diagnosis, GapFigures, RankedCandidate, Step
 from furuta_drake.diagnosis.selection.detection import detection_limits
+from furuta_drake.diagnosis.selection.disturbance import equivalent_disturbance
 from furuta_drake.diagnosis.selection.final_fit import refit_final
 from furuta_drake.diagnosis.selection.fit import FitResult, FitTask, fit_task, interval, scales_of
 from furuta_drake.diagnosis.selection.folds import consistency, pinned
@@ -280,6 +281,7 @@ class _Inputs:
     nominal: Model
     all_logs: list[RunLog]
     train_logs: list[RunLog]
+    heldout_logs: list[RunLog]
     train_windows: Windows
     heldout_windows: Windows
     holdout_note: str
@@ -315,6 +317,7 @@ def _inputs(rig_path: Path, train, heldout, candidates, log_format: LogFormat) -
         nominal,
         given_train + given_heldout,
         train_logs,
+        heldout_logs,
         make_windows(train_logs, rig_params),
         make_windows(heldout_logs, rig_params),
         holdout_note,
@@ -484,6 +487,14 @@ def _diagnosis(
     )
     confusable = [{"effects": pair["effects"], "why": confusable_why(pair)} for pair in selection.confusable]
     accepted = list(final.effects) if final else []
+    artifacts = _artifacts(inputs, selection, torque, missing, before, after, nominal_heldout.sensor_variance, record)
+    disturbance = equivalent_disturbance(artifacts.corrected, inputs.heldout_logs, settings.seed)
+    if disturbance is not None:
+        artifacts.fitted_rig = artifacts.fitted_rig.replace(disturbance=disturbance)
+        config = artifacts.fitted_config
+        artifacts.fitted_config = dataclasses.replace(
+            config, disturbance=dataclasses.replace(config.disturbance, arm_torque=disturbance)
+        )
     return Diagnosis(
         verdict=selection.verdict,
         effects=selection.effects,
@@ -504,9 +515,8 @@ def _diagnosis(
         remaining=remaining_record(
             gap, accepted_heldout.per_signal, localization, ranked, accepted, confusable, limits
         ),
-        artifacts=_artifacts(
-            inputs, selection, torque, missing, before, after, nominal_heldout.sensor_variance, record
-        ),
+        disturbance={} if disturbance is None else dataclasses.asdict(disturbance),
+        artifacts=artifacts,
     )
 
 
@@ -582,7 +592,8 @@ def _artifacts(inputs: _Inputs, selection, torque: dict, missing, before, after,
     sensors = {f.name: f.effect for f in selection.sensor_effects} if selection.closes else {}
     effects = {**(fitted.effects if fitted else {}), **sensors}
     # the rig file's torque and the one found beside it, written together
-    parameters = torque_parameters_of(merged(nominal.unmodelled_terms + tuple(missing.terms))) if torque else None
+    terms = merged(nominal.unmodelled_terms + tuple(missing.terms)) if torque else nominal.unmodelled_terms
+    parameters = torque_parameters_of(terms) if torque else None
     curves = [
         effect_curve(name, describe(name, effect, nominal), rig_params)
         for name, effect in {**(final.effects if final else {}), **sensors}.items()
@@ -594,6 +605,7 @@ def _artifacts(inputs: _Inputs, selection, torque: dict, missing, before, after,
         curves,
         fitted_config=model_config(rig_params, apply_effects(nominal, effects), parameters),
         fitted_rig=fitted_rig(rig_params, effects, nominal, parameters),
+        corrected=apply_effects(nominal, effects).replace(unmodelled_terms=tuple(terms)),
         record=record,
         torque_scatter=missing.scatter if missing else {},
     )

@@ -136,6 +136,7 @@ class Diagnosis:
     unmodelled_torque: dict = field(default_factory=dict)  # joint -> the torque beyond the vocabulary (kept only)
     beside_torque: dict = field(default_factory=dict)  # the listed effects kept beside that torque
     remaining: dict = field(default_factory=dict)  # what the accepted effects leave, when it is not negligible
+    disturbance: dict = field(default_factory=dict)  # the arm torque the corrected model misses on held-out logs
     artifacts: Artifacts | None = field(default=None, repr=False, compare=False)  # not in report.json
 
     @property
@@ -150,7 +151,7 @@ class Diagnosis:
             del out["consistency"]
         if not self.confusable:
             del out["confusable"]
-        for key in ("unmodelled_torque", "beside_torque", "remaining"):
+        for key in ("unmodelled_torque", "beside_torque", "remaining", "disturbance"):
             if not getattr(self, key):
                 del out[key]
         return {**{key: out.pop(key) for key in SPEC_KEYS}, **out}
@@ -194,5 +195,6 @@ class Artifacts:
     curves: list = field(default_factory=list)
     fitted_config: Any = None  # SimulationConfig
     fitted_rig: Any = None  # RigParameters
+    corrected: Any = None  # the corrected surrogate Model (furuta_drake.effects.surrogate)
     record: dict = field(default_factory=dict)
     torque_scatter: dict = field(default_factory=dict)  # joint -> the unmodelled torque's plot data

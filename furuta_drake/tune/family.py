@@ -146,16 +146,43 @@ class Problem:
         return margins(self.model, K), {label: margins(model, K) for label, model in self.corners}
 
     def predictions(self, tasks: list[tuple[SimulationConfig, Controller]]) -> list[Prediction]:
-        """The predictions of (world, controller) pairs with the settings' duration and seed, on worker processes;
-        a run that raised is a fallen one, with the reason."""
+        """The predictions of (world, controller) pairs with the settings' duration, on worker processes: under a
+        world's ongoing disturbance the mean over ``settings.draws`` seeded draws of it (seeds ``seed`` to
+        ``seed + draws - 1``, the same for every pair), else one run at ``seed``; a run that raised is a fallen
+        one, with the reason."""
         settings = self.settings
-        calls = [(world, controller, settings.duration, settings.seed) for world, controller in tasks]
+        counts = [draws_of(world, settings.draws) for world, _ in tasks]
+        calls = [
+            (world, controller, settings.duration, settings.seed + draw)
+            for (world, controller), count in zip(tasks, counts)
+            for draw in range(count)
+        ]
         results = run_tasks(_run, calls, workers=settings.workers)
-        return [Prediction(None, result.reason, None) if isinstance(result, Failure) else result for result in results]
+        runs = [Prediction(None, result.reason, None) if isinstance(result, Failure) else result for result in results]
+        out, start = [], 0
+        for count in counts:
+            out.append(mean_prediction(runs[start : start + count]))
+            start += count
+        return out
 
     def at_extremes(self, controller: Controller) -> dict[str, Prediction]:
         runs = self.predictions([(world, controller) for _, world in self.extremes])
         return dict(zip([label for label, _ in self.extremes], runs))
+
+
+def draws_of(world: SimulationConfig, draws: int) -> int:
+    """The runs a prediction on ``world`` takes: ``draws`` under an ongoing disturbance, else 1."""
+    disturbance = world.disturbance.arm_torque
+    return draws if disturbance is not None and disturbance.active else 1
+
+
+def mean_prediction(runs: list[Prediction]) -> Prediction:
+    """One prediction of several draws: each figure's mean, the first draw's tape; fallen when one draw fell."""
+    fallen = next((run for run in runs if not run.balanced), None)
+    if fallen is not None:
+        return fallen
+    figures = {key: float(np.mean([run.figures[key] for run in runs])) for key in runs[0].figures}
+    return Prediction(figures, "", runs[0].result)
 
 
 def _run(task) -> Prediction:
@@ -216,13 +243,16 @@ def clears_nominal(judged: list[float]) -> bool:
     return max(judged) <= 1.0 and min(judged) <= 1.0 - MIN_GAIN
 
 
-def run_budget(settings, friction: bool, effects: int) -> int:
-    """The most Drake runs the search makes (module docstring), the nominal design's fit and extremes included."""
+def run_budget(settings, friction: bool, effects: int, disturbed: bool = False) -> int:
+    """The most Drake runs the search makes (module docstring), the nominal design's fit and extremes included;
+    under a disturbance each prediction takes ``settings.draws`` runs, and both designs are predicted at two more
+    levels and, for the quiet check, once without it (:mod:`.disturbance`)."""
     compensation = len(settings.compensation_gains) - 1 if friction else 0
     observers = len(observer_kinds(friction)) * (1 + len(settings.observer_scales)) - 1
     fit = len(settings.weight_sets) + observers + compensation
     extremes = 2 * effects
-    return fit + settings.finalists * extremes + 1 + extremes
+    runs = fit + settings.finalists * extremes + 1 + extremes
+    return runs * settings.draws + 2 * 2 * settings.draws + 2 if disturbed else runs
 
 
 def member_gain(problem: Problem, member: Member) -> np.ndarray:
@@ -285,9 +315,12 @@ class _Search:
             }
 
 
-def search(problem: Problem, nominal: DesignOutcome, say: Callable[[str], None]) -> tuple[DesignOutcome, list]:
-    """The tuned design (module docstring) and the candidate rows; NotRobust when no member nor the nominal design
-    meets the requirements over the intervals."""
+def search(
+    problem: Problem, nominal: DesignOutcome, say: Callable[[str], None]
+) -> tuple[DesignOutcome, list, list[DesignOutcome]]:
+    """The tuned design (module docstring), the candidate rows and the finalists that balanced at every effect
+    extreme, best at the fit first; NotRobust when no member nor the nominal design meets the requirements over
+    the intervals."""
     settings = problem.settings
     found = _Search(problem, nominal.prediction.figures)
     failures = _admissible_gains(problem, found, settings.weight_sets)
@@ -316,6 +349,7 @@ def search(problem: Problem, nominal: DesignOutcome, say: Callable[[str], None])
     finalists = balanced[: settings.finalists]
     reference = worst(nominal.runs()) if nominal.robust else None
     options = [(score(reference, reference, problem.count), 0, nominal)] if nominal.robust else []
+    standing = []
     for rank, member in enumerate(finalists, start=1):
         say(f"finalist {rank}: its runs at the effect extremes")
         outcome = _finalist(problem, found, member)
@@ -323,8 +357,9 @@ def search(problem: Problem, nominal: DesignOutcome, say: Callable[[str], None])
         row["finalist"] = True
         if outcome.failure:
             row["rejected"] = outcome.failure
-            failures.append(f"{_label(member)}: {outcome.failure}")
+            failures.append(f"{member_label(member)}: {outcome.failure}")
             continue
+        standing.append(outcome)
         figures = worst(outcome.runs())
         robust = score(figures, reference, problem.count)
         row["worst_over_intervals"] = figures
@@ -347,7 +382,7 @@ def search(problem: Problem, nominal: DesignOutcome, say: Callable[[str], None])
     if chosen.member is not None:
         found.rows[chosen.member]["chosen"] = True
     rows = [{"design": "nominal", "chosen": chosen is nominal, "robust": nominal.robust}]
-    return chosen, rows + list(found.rows.values())
+    return chosen, rows + list(found.rows.values()), standing
 
 
 def _admissible_gains(problem: Problem, found: _Search, weight_sets) -> list[str]:
@@ -359,13 +394,13 @@ def _admissible_gains(problem: Problem, found: _Search, weight_sets) -> list[str
         try:
             K = member_gain(problem, member)
         except ConfigError as err:
-            failures.append(f"{_label(member)}: {err}")
+            failures.append(f"{member_label(member)}: {err}")
             found.rows[weights] = {**member.as_dict(), "rejected": str(err)}
             continue
         fit_margins, corner_margins = problem.margins_of(K)
         failure = shortfall({"the fit": fit_margins, **corner_margins}, {}, problem.period)
         if failure:
-            failures.append(f"{_label(member)}: {failure}")
+            failures.append(f"{member_label(member)}: {failure}")
             found.rows[weights] = {**member.as_dict(), "lqr_gain": np.ravel(K).tolist(), "rejected": failure}
             continue
         found.gains[weights] = (K, fit_margins, corner_margins)
@@ -381,7 +416,7 @@ def _finalist(problem: Problem, found: _Search, member: Member) -> DesignOutcome
     return DesignOutcome(controller, fit_margins, corner_margins, found.runs[member], extremes, failure, member)
 
 
-def _label(member: Member) -> str:
+def member_label(member: Member) -> str:
     theta, phi, r = member.weights
     return (
         f"Q_theta x {theta:g}, Q_phi x {phi:g}, R x {r:g}, {(member.kind or 'default').upper()} observer x "

@@ -7,6 +7,7 @@ Written through :func:`~furuta_drake.outputs.atomic_output_dir`: it appears comp
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 import json
 import math
@@ -63,6 +64,7 @@ def _config(tuning: Tuning) -> dict:
             "observer_scales": list(settings.observer_scales),
             "compensation_gains": list(settings.compensation_gains),
             "finalists": settings.finalists,
+            "disturbance_draws": settings.draws,
             "workers": settings.workers,
         },
         "seeds": {"disturbance_and_encoder_noise": settings.seed},
@@ -124,9 +126,17 @@ def _span(values: list[float]) -> list[float | None]:
 def tune_json(tuning: Tuning) -> dict:
     """The ``tune.json`` object (docs/tune.md lists every key)."""
     inputs, model = tuning.inputs, tuning.model
+    designs = {"nominal": design_json(tuning.nominal, tuning), "tuned": design_json(tuning.tuned, tuning)}
+    for name, scales in tuning.under_disturbance.items():
+        designs[name]["predicted_under_disturbance"] = {
+            scale: {"fell": "fell"} if figures is None else {f: finite(figures[f]) for f in FIGURES}
+            for scale, figures in scales.items()
+        }
+    disturbance = tuning.world.disturbance.arm_torque
     return {
         "sample_period": model.period,
-        "designs": {"nominal": design_json(tuning.nominal, tuning), "tuned": design_json(tuning.tuned, tuning)},
+        "designs": designs,
+        "disturbance": None if disturbance is None else dataclasses.asdict(disturbance),
         "robust_over_intervals": tuning.tuned.robust,
         "requirements": {"min_gain_db": MIN_GAIN_DB, "min_delay_s": MIN_DELAY_PERIODS * model.period},
         "design_model": {
@@ -150,7 +160,11 @@ def tune_json(tuning: Tuning) -> dict:
             "unmodelled_torque": {joint: entry.get("expression") for joint, entry in inputs.torque.items()},
         },
         "command_unit": "V" if torque_per_volt(tuning.world) is not None else "N m",
-        "search": {"most_drake_runs": tuning.budget, "finalists": tuning.settings.finalists},
+        "search": {
+            "most_drake_runs": tuning.budget,
+            "finalists": tuning.settings.finalists,
+            "disturbance_draws": tuning.settings.draws if tuning.under_disturbance else 1,
+        },
         "swingup": (
             None
             if tuning.swingup is None
@@ -280,7 +294,8 @@ def answer(document: dict) -> str:
 def report_blocks(document: dict) -> list[tuple]:
     """The report as blocks: ('h1'|'h2'|'p', text), ('table', header, rows), ('img', file, caption)."""
     blocks = [("h1", "Controller tuned from the diagnosis"), ("p", answer(document))]
-    blocks += _prediction_blocks(document) + _swingup_blocks(document) + _controller_blocks(document)
+    blocks += _prediction_blocks(document) + _disturbance_blocks(document) + _swingup_blocks(document)
+    blocks += _controller_blocks(document)
     blocks += _evidence_blocks(document)
     return blocks + [("p", f"Note: {note}") for note in document["notes"]]
 
@@ -319,6 +334,28 @@ def _prediction_blocks(document: dict) -> list[tuple]:
         ("h2", "Margins of the sampled loop (state feedback, loop broken at the plant input)"),
         ("table", [*header, "its delay margin [ms]"], margins),
     ]
+
+
+def _disturbance_blocks(document: dict) -> list[tuple]:
+    """The disturbance the designs were judged under and both designs at each of its levels (none: no block)."""
+    disturbance = document.get("disturbance")
+    if not disturbance or not disturbance["arm_torque_rms"]:
+        return []
+    ci = disturbance.get("ci") or [None, None]
+    text = (
+        f"Every prediction above runs under the rig's disturbance as the diagnosis read it: an arm torque of "
+        f"{_number(disturbance['arm_torque_rms'], 3)} N m RMS (95 % interval {_number(ci[0], 3)} to "
+        f"{_number(ci[1], 3)}), 90 % of its power below {disturbance['bandwidth_hz']:.3g} Hz, each figure the mean "
+        f"over {document['search']['disturbance_draws']} seeded draws of it. Both designs at other levels:"
+    )
+    rows = []
+    for name, design in document["designs"].items():
+        for scale, figures in design.get("predicted_under_disturbance", {}).items():
+            rows.append(
+                [name, f"x {scale}", *[_number(figures.get(f)) for f in ("theta_rms", "limit_cycle_amplitude")]]
+            )
+    header = ["design", "disturbance", "theta_rms [rad]", "limit_cycle_amplitude [rad]"]
+    return [("h2", "Under the rig's disturbance"), ("p", text), ("table", header, rows)]
 
 
 def _catch_text(run: dict) -> str:

@@ -11,6 +11,9 @@
    requirement; the nominal design is a member. No design left: :class:`~.robustness.NotRobust`.
 4. With a swing-up configured (``TuneSettings.swingup``), each design's catch time behind it (:mod:`.swingup`).
 
+Under the rig's ongoing disturbance (the diagnosis' ``disturbance``), every prediction is the mean over seeded
+draws of it, and each design is also predicted at half and twice its level (:mod:`.disturbance`).
+
 Every run starts from the same seeded disturbance and encoder noise (common random numbers: the designs differ
 only by their design). Runs go to worker processes (:func:`~furuta_drake.parallel.run_tasks`).
 """
@@ -30,6 +33,7 @@ from furuta_drake.errors import ConfigError
 from furuta_drake.plant import make_furuta_plant
 from furuta_drake.tune.controller import Controller, arm_friction_observer
 from furuta_drake.tune.design import DesignModel, design_model, upright_model
+from furuta_drake.tune.disturbance import disturbed, quiet_winner_note, under_disturbance
 from furuta_drake.tune.family import DesignOutcome, Problem, run_budget, search, shortfall
 from furuta_drake.tune.inputs import TuneInputs, corner_rig, read_diagnosis
 from furuta_drake.tune.robustness import effect_extremes, linear_corners
@@ -46,8 +50,9 @@ class TuneSettings:
     steady part), the ``seed`` of the disturbance and the encoder noise, the family searched
     (:mod:`.family`: ``weight_sets`` of (Q_theta, Q_phi, R) scales, the other ``observer_scales`` tried, the
     ``compensation_gains`` (initial K_sigma; the first in round 1) and the number of ``finalists`` run over the
-    intervals), the worker processes (None: all cores) and the configured swing-up whose catch time each design
-    is predicted with (``swingup``, :mod:`.swingup`; None: none configured)."""
+    intervals), the seeded ``draws`` of the rig's disturbance each prediction averages (when the diagnosis read
+    one; :mod:`.disturbance`), the worker processes (None: all cores) and the configured swing-up whose catch
+    time each design is predicted with (``swingup``, :mod:`.swingup`; None: none configured)."""
 
     duration: float = 10.0
     seed: int = 0
@@ -55,6 +60,7 @@ class TuneSettings:
     observer_scales: tuple[float, ...] = (0.5, 2.0)
     compensation_gains: tuple[float, ...] = (0.5, 0.0, 1.0)
     finalists: int = 2
+    draws: int = 3
     workers: int | None = None
     swingup: SwingUpCheck | None = None
 
@@ -73,14 +79,20 @@ class TuneSettings:
             raise ConfigError(f"observer scales must be positive, got {self.observer_scales!r}")
         if isinstance(self.finalists, bool) or not isinstance(self.finalists, int) or self.finalists < 1:
             raise ConfigError(f"finalists must be a positive integer, got {self.finalists!r}")
+        if isinstance(self.draws, bool) or not isinstance(self.draws, int) or self.draws < 1:
+            raise ConfigError(f"draws must be a positive integer, got {self.draws!r}")
         if self.workers is not None and self.workers < 1:
             raise ConfigError(f"--workers must be >= 1, got {self.workers}")
 
 
 FAST = TuneSettings(
-    duration=3.0, weight_sets=((1.0, 1.0, 1.0), (1.0, 1.0, 16.0)), observer_scales=(), compensation_gains=(0.0, 1.0)
+    duration=3.0,
+    weight_sets=((1.0, 1.0, 1.0), (1.0, 1.0, 16.0)),
+    observer_scales=(),
+    compensation_gains=(0.0, 1.0),
+    draws=1,
 )
-"""Settings for quick checks: short runs, two weight sets, two compensation gains."""
+"""Settings for quick checks: short runs, two weight sets, two compensation gains, one draw of a disturbance."""
 
 
 @dataclass
@@ -99,6 +111,7 @@ class Tuning:
     notes: list[str]
     budget: int = 0
     swingup: dict | None = None
+    under_disturbance: dict = dataclasses.field(default_factory=dict)  # design -> scale -> figures
 
 
 def nominal_controller(inputs: TuneInputs) -> Controller:
@@ -132,15 +145,20 @@ def tune(
         nominal_controller(inputs),
         settings,
     )
-    budget = run_budget(settings, problem.dahl is not None, len(inputs.accepted))
+    budget = run_budget(settings, problem.dahl is not None, len(inputs.accepted), disturbed(world))
     say(
         f"design model: {problem.model.size} states; {len(problem.corners)} linear corners, "
         f"{len(problem.extremes)} effect extremes; at most {budget} Drake runs"
     )
     say("the nominal design on the corrected model")
     nominal = nominal_outcome(problem)
-    tuned, candidates = search(problem, nominal, say)
-    tuning = Tuning(inputs, world, problem.model, settings, nominal, tuned, candidates, list(inputs.notes), budget)
+    tuned, candidates, finalists = search(problem, nominal, say)
+    notes = list(inputs.notes)
+    if disturbed(world):
+        say("both designs at 0.5 and 2 times the rig's disturbance")
+        notes += [note for note in [quiet_winner_note(problem, nominal, tuned, finalists)] if note]
+    tuning = Tuning(inputs, world, problem.model, settings, nominal, tuned, candidates, notes, budget)
+    tuning.under_disturbance = under_disturbance(problem, {"nominal": nominal, "tuned": tuned})
     if settings.swingup is not None:
         say("both designs behind the configured swing-up, at the fit and the effect extremes")
         tuning.swingup = catch_times(

@@ -176,7 +176,9 @@ def write_report_files(directory: Path, diagnosis) -> list[str]:
         yaml.safe_dump(to_plain(artifacts.record), sort_keys=False, default_flow_style=False)
     )
     (directory / "fitted_model.yaml").write_text(dump_yaml_dataclass(artifacts.fitted_config))
-    (directory / "fitted_rig.yaml").write_text(dump_yaml_dataclass(artifacts.fitted_rig))
+    (directory / "fitted_rig.yaml").write_text(
+        _disturbance_comment(artifacts.fitted_rig) + dump_yaml_dataclass(artifacts.fitted_rig)
+    )
     (directory / "report.md").write_text(report_markdown(report, figures))
     (directory / "report.html").write_text(report_html(report, directory, figures))
     written = ["config.yaml", "fitted_model.yaml", "fitted_rig.yaml", "report.md", "report.html"]
@@ -569,3 +571,14 @@ def _is_number(value) -> bool:
 def _cell(text: str) -> str:
     """Text for a Markdown table cell (a literal | would end the cell)."""
     return str(text).replace("|", "\\|")
+
+
+def _disturbance_comment(rig) -> str:
+    """The comment that says how the rig file's ``disturbance:`` was read (none without one)."""
+    if rig.disturbance is None:
+        return ""
+    return (
+        "# disturbance: the arm torque the corrected model still misses on the held-out logs, read from the\n"
+        "# equations of motion along them (the logged angles' smoothed accelerations against the model's), the\n"
+        "# encoder's expected share taken out; simulations of this rig add a seeded draw of it\n"
+    )

@@ -44,7 +44,7 @@ def tent(lag: int) -> np.ndarray:
     return (ramp(lag - i) - 2.0 * ramp(-i) + ramp(-lag - i)) / lag**2
 
 
-def _averaged(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def tent_averaged(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``values`` held over each sample, tent-averaged about every sample (the ends padded with the end values)."""
     lag = weights.size // 2
     padded = np.concatenate([np.full(lag, values[0]), values, np.full(lag, values[-1])])
@@ -135,9 +135,9 @@ def _stacked(model: Model, rows, delay: int):
         keep, per_constant, (th, ph, thd, phd) = _sides(model, log, parts)
         weights = parts[-1]
         command = log.torque_command
-        delayed = _averaged(np.concatenate([np.full(delay, command[0]), command[: command.size - delay]]), weights)
-        pendulum, arm = (_averaged(torque, weights) for torque in _rig_torques(model, thd, phd))
-        state = tuple(_averaged(x, weights) for x in (th, ph, thd, phd))
+        delayed = tent_averaged(np.concatenate([np.full(delay, command[0]), command[: command.size - delay]]), weights)
+        pendulum, arm = (tent_averaged(torque, weights) for torque in _rig_torques(model, thd, phd))
+        state = tuple(tent_averaged(x, weights) for x in (th, ph, thd, phd))
         out.append((keep, per_constant, (pendulum, arm), delayed, state))
     return out
 
