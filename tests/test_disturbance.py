@@ -143,3 +143,34 @@ def test_tune_judges_both_designs_under_the_rigs_disturbance(tmp_path, monkeypat
         # A harder push tilts the pendulum more.
         assert levels["0.5"]["theta_rms"] < levels["1"]["theta_rms"] < levels["2"]["theta_rms"]
     assert "Under the rig's disturbance" in (out / "tune.md").read_text()
+
+
+def test_the_report_says_when_the_nominal_design_stays_because_of_the_disturbance():
+    from types import SimpleNamespace
+
+    from furuta_drake.tune.disturbance import at_scale, quiet_winner_note
+    from furuta_drake.tune.family import Member
+    from furuta_drake.tune.predict import Prediction
+
+    world = SimulationConfig.from_rig(lund_rig().replace(disturbance=TorqueDisturbance(0.004, BAND)))
+    assert at_scale(world, 0.0).disturbance.arm_torque is None
+    assert at_scale(world, 2.0).disturbance.arm_torque.arm_torque_rms == pytest.approx(0.008)
+
+    def outcome(name):
+        return SimpleNamespace(controller=name, member=Member((1.0, 1.0, 4.0)))
+
+    def problem(quiet_figures):
+        def predictions(tasks):
+            assert all(config.disturbance.arm_torque is None for config, _ in tasks)  # run on the quiet rig
+            return [Prediction(quiet_figures[controller], "", None) for _, controller in tasks]
+
+        return SimpleNamespace(world=world, count=2 * np.pi / 4096, predictions=predictions)
+
+    nominal, finalist = outcome("nominal"), outcome("finalist")
+    loud = {"theta_rms": 2e-3, "limit_cycle_amplitude": 4e-3}
+    better = {"theta_rms": 1e-3, "limit_cycle_amplitude": 2e-3}  # half of the nominal's in both figures
+    note = quiet_winner_note(problem({"nominal": loud, "finalist": better}), nominal, nominal, [finalist])
+    assert "stays because of the rig's disturbance" in note and "x 0.50" in note
+    # Not better on the quiet rig either, or a tuned design chosen: nothing to say.
+    assert quiet_winner_note(problem({"nominal": loud, "finalist": loud}), nominal, nominal, [finalist]) == ""
+    assert quiet_winner_note(problem({"nominal": loud, "finalist": better}), nominal, finalist, [finalist]) == ""

@@ -270,3 +270,30 @@ def test_tune_writes_a_controller_that_simulate_runs(tmp_path, monkeypatch, caps
     run = tmp_path / "run"
     assert main(["simulate", "--config", str(out / "controller.yaml"), "--duration", "0.5", "--out", str(run)]) == 0
     assert (run / "log.csv").is_file()
+
+
+def test_a_drive_effect_is_read_from_the_drive_section_and_a_bound_parameter_is_held(tmp_path):
+    from furuta_drake.rig import DriveParameters
+    from furuta_drake.tune.inputs import corner_rig, read_diagnosis
+
+    drive = DriveParameters(gear_ratio=30.0, rotor_inertia=1e-6, stiffness=0.5, damping=0.02)
+    directory = tmp_path / "diagnosis"
+    directory.mkdir()
+    (directory / "fitted_rig.yaml").write_text(dump_yaml_dataclass(lund_rig().replace(drive=drive)))
+    row = {
+        "effect": "drive_compliance",
+        "params": {"stiffness": 0.5, "damping": 0.02},
+        "params_ci": {"damping": [0.01, 0.03]},  # the stiffness fitted at its bound has none
+        "at_bound": {"stiffness": "upper"},
+        "step": 1,
+    }
+    report = {"verdict": "drive_compliance", "effects": ["drive_compliance"], "ranking": [row]}
+    (directory / "report.json").write_text(json.dumps(report))
+    inputs = read_diagnosis(directory)
+    assert inputs.accepted["drive_compliance"].values == (0.5, 0.02)  # the drive section's keys
+    assert inputs.intervals[("drive_compliance", "stiffness")] == (0.5, 0.5)
+    assert inputs.intervals[("drive_compliance", "damping")] == (0.01, 0.03)
+    assert any("stiffness" in note and "held at its fit" in note for note in inputs.notes)
+    corner = corner_rig(inputs, {("drive_compliance", "damping"): 0.03})
+    assert corner.drive.damping == 0.03 and corner.drive.stiffness == 0.5
+    assert "drive_compliance" not in (corner.effects or {})

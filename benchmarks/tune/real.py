@@ -9,7 +9,8 @@ so the rig cannot check the tuned design itself; what can be set side by side:
    (:func:`furuta_drake.tune.limit_cycle.balancing_figures`, on the last half of that part);
 2. **Quanser's PD on the corrected model**: each real run's experiment simulated on the model the diagnosis
    corrected (:func:`furuta_drake.real_rig.closed_loop_study.closed_loop_rows`), read the same way: how well the
-   corrected model predicts the rig's limit cycle under the controller that ran on it;
+   corrected model predicts the rig's limit cycle and theta's RMS under the controller that ran on it, on the quiet
+   model and with the rig's disturbance the diagnosis read (``disturbance`` of its report, a seeded draw per run);
 3. **nominal and tuned LQR on the corrected model**: ``tune.json``'s predictions;
 4. **the swing-up's catch time**: measured on each real run (Quanser's PD), Quanser's PD on the corrected model, and
    ``tune``'s prediction for each design's LQR behind the same Quanser swing-up (``tune --swingup``), from the
@@ -39,8 +40,7 @@ from furuta_drake.controllers.swingup import catch_time
 from furuta_drake.data import QUBE_REAL_DIR, QUBE_REAL_RIG
 from furuta_drake.diagnosis.pipeline import diagnose
 from furuta_drake.diagnosis.report.files import write_report
-from furuta_drake.effects.corrected import model_config
-from furuta_drake.effects.vocabulary import rig_model
+from furuta_drake.effects.corrected import rig_config
 from furuta_drake.errors import FurutaError
 from furuta_drake.outputs import versions
 from furuta_drake.real_rig.closed_loop_study import closed_loop_rows, fit_velocity_corner, run_config
@@ -88,7 +88,8 @@ def main(argv: list[str] | None = None) -> int:
     params = QuanserSwingUpParameters()
     corner = fit_velocity_corner(runs.logs[TRAIN_SWINGUP], params)
     fitted_rig = load_rig(diagnosis / "fitted_rig.yaml")
-    corrected = model_config(fitted_rig, rig_model(fitted_rig))
+    disturbed = rig_config(fitted_rig)  # the corrected model pushed by the disturbance the diagnosis read
+    corrected = dataclasses.replace(disturbed, disturbance=dataclasses.replace(disturbed.disturbance, arm_torque=None))
     swingup = args.out / "swingup.yaml"
     start = dataclasses.replace(run_config(corrected, runs.logs[TRAIN_SWINGUP], params, corner), duration=SWINGUP_S)
     swingup.write_text(dump_config(start))
@@ -102,7 +103,13 @@ def main(argv: list[str] | None = None) -> int:
             return 1
     document = json.loads((tuned / "tune.json").read_text())
     _, taped, _ = closed_loop_rows(
-        runs, {"corrected": corrected}, params, corner, list(SWINGUPS), spread=False, with_real=False
+        runs,
+        {"corrected": corrected, "disturbed": disturbed},
+        params,
+        corner,
+        list(SWINGUPS),
+        spread=False,
+        with_real=False,
     )
     rows = []
     for name in SWINGUPS:
@@ -114,10 +121,12 @@ def main(argv: list[str] | None = None) -> int:
                 "part": runs.part(name),
                 "measured": balancing(measured, log.sample_period),
                 "quanser_pd_corrected": balancing(simulated, log.sample_period),
+                "quanser_pd_disturbed": balancing(taped[("sim_disturbed", name)][0], log.sample_period),
                 "catch_time_s": {"measured": _catch(measured), "quanser_pd_corrected": _catch(simulated)},
             }
         )
     out = {
+        "disturbance": json.loads((diagnosis / "report.json").read_text()).get("disturbance"),
         "rows": rows,
         "predicted": {name: document["designs"][name]["predicted"] for name in ("nominal", "tuned")},
         "margins": {
@@ -147,18 +156,27 @@ def _mrad(value) -> str:
 
 
 def table(out: dict) -> str:
+    disturbance = out["disturbance"] or {}
     lines = [
+        f"The rig's disturbance read by the diagnosis: {_mnm(disturbance.get('arm_torque_rms'))} mN m RMS "
+        f"(95 % interval {' to '.join(_mnm(v) for v in disturbance.get('ci') or [None, None])}), 90 % of its power "
+        f"below {disturbance.get('bandwidth_hz', float('nan')):.3g} Hz.",
+        "",
         "| run | part | measured amplitude [mrad] | frequency [Hz] | Quanser's PD on the corrected model [mrad] "
-        "| [Hz] | catch measured [s] | catch of Quanser's PD on the corrected model [s] |",
-        "|---|---|---:|---:|---:|---:|---:|---:|",
+        "| [Hz] | catch measured [s] | catch of Quanser's PD on the corrected model [s] "
+        "| theta RMS measured [mrad] | predicted, quiet | predicted, with the disturbance | ratio |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in out["rows"]:
         m, q, caught = row["measured"], row["quanser_pd_corrected"], row["catch_time_s"]
+        pushed = row["quanser_pd_disturbed"]
+        ratio = pushed["theta_rms"] / m["theta_rms"] if m["theta_rms"] and pushed["theta_rms"] is not None else math.nan
         lines.append(
             f"| {row['log']} | {row['part']} | {_mrad(m['limit_cycle_amplitude'])} | "
             f"{m['limit_cycle_frequency'] or float('nan'):.3g} | {_mrad(q['limit_cycle_amplitude'])} | "
             f"{q['limit_cycle_frequency'] or float('nan'):.3g} | {_seconds(caught['measured'])} | "
-            f"{_seconds(caught['quanser_pd_corrected'])} |"
+            f"{_seconds(caught['quanser_pd_corrected'])} | {_mrad(m['theta_rms'])} | {_mrad(q['theta_rms'])} | "
+            f"{_mrad(pushed['theta_rms'])} | {ratio:.2f} |"
         )
     for name, predicted in out["predicted"].items():
         if "fell" in predicted:
@@ -183,6 +201,10 @@ def table(out: dict) -> str:
                 + (f"{span[0]:.3g} to {span[1]:.3g} s" if span else "not caught at every extreme")
             )
     return "\n".join(lines) + "\n"
+
+
+def _mnm(value) -> str:
+    return "-" if value is None else f"{1e3 * value:.3g}"
 
 
 def _seconds(value) -> str:

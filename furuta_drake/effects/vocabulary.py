@@ -694,6 +694,19 @@ POSITIVE = {
 SIGNED = {"equilibrium"}
 
 
+def drive_effects(rig) -> dict[str, Effect]:
+    """The drive effects a rig file's ``drive:`` section states (``DRIVE_KEYS``: a backlash above 0, a stiffness
+    given), as vocabulary effects in their single form."""
+    drive, out = rig.drive, {}
+    if drive is None:
+        return out
+    for name, keys in DRIVE_KEYS.items():
+        values = [getattr(drive, key) for key in keys]
+        if values[0]:
+            out[name] = Effect(CANDIDATES[name].forms[0].name, tuple(values))
+    return out
+
+
 def rig_effects(rig) -> dict[str, Effect]:
     """The effects a rig file's optional ``effects:`` section states (vocabulary names -> parameters by name, with
     ``form`` for an effect of several forms), checked; ConfigError naming ``effects.<effect>.<param>``."""

@@ -11,13 +11,14 @@ the diagnosis are part of the model and have no interval. Anything missing or ma
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from furuta_drake.effects.vocabulary import CANDIDATES, POSITIVE, SIGNED, Effect, rig_effects
+from furuta_drake.effects.vocabulary import CANDIDATES, DRIVE_KEYS, POSITIVE, SIGNED, Effect, drive_effects, rig_effects
 from furuta_drake.errors import ConfigError
 from furuta_drake.rig import RigParameters
 from furuta_drake.rig_file import load_rig
@@ -70,7 +71,7 @@ def read_diagnosis(directory: str | Path) -> TuneInputs:
     effects = report["effects"]
     if not isinstance(effects, list) or not all(isinstance(name, str) and name in CANDIDATES for name in effects):
         raise ConfigError(f"{report_path}: effects must be a list of the vocabulary's effect names, got {effects!r}")
-    stated = rig_effects(rig)
+    stated = {**rig_effects(rig), **drive_effects(rig)}
     for name in effects:
         if name not in stated:
             raise ConfigError(f"{rig_path}: effects.{name}: missing, but {report_path} accepted it")
@@ -112,8 +113,9 @@ def accepted_row(report: dict, path: Path, names) -> tuple[int, dict]:
 
 
 def _intervals(report: dict, path: Path, accepted: dict[str, Effect]) -> tuple[dict, list[str]]:
-    """Every form parameter of the accepted effects -> its 95 % interval from the accepted row's ``params_ci``,
-    and notes on the ends moved into the parameter's physical range (:func:`physical_interval`)."""
+    """Every form parameter of the accepted effects -> its 95 % interval from the accepted row's ``params_ci``
+    (a parameter the row lists ``at_bound`` has none: it is held at its fit), and notes on the ends moved into the
+    parameter's physical range (:func:`physical_interval`) and on the parameters held."""
     index, row = accepted_row(report, path, list(accepted))
     intervals = row.get("params_ci")
     if not isinstance(intervals, dict):
@@ -125,6 +127,14 @@ def _intervals(report: dict, path: Path, accepted: dict[str, Effect]) -> tuple[d
             key = f"{name}.{param}" if several else param
             where = f"{path}: ranking[{index}].params_ci.{key}"
             interval = intervals.get(key)
+            if interval is None and key in (row.get("at_bound") or {}):
+                # fitted at an end of its search range: the diagnosis gives no interval, the fit is held
+                out[(name, param)] = (float(value), float(value))
+                notes.append(
+                    f"{name}.{param}: fitted at the {row['at_bound'][key]} end of its search range, so it "
+                    "has no interval; it is held at its fit over the intervals"
+                )
+                continue
             if interval is None:
                 raise ConfigError(f"{where}: missing")
             if (
@@ -159,11 +169,14 @@ def physical_interval(param: str, value: float, interval: tuple[float, float]) -
 def corner_rig(inputs: TuneInputs, corner: dict[tuple[str, str], float]) -> RigParameters:
     """The fitted rig file with the accepted effects' parameters of ``corner`` ((effect, parameter) -> value) in
     place of the fitted ones."""
-    effects = dict(inputs.rig.effects or {})
+    effects, drive = dict(inputs.rig.effects or {}), inputs.rig.drive
     for name, effect in inputs.accepted.items():
         params = CANDIDATES[name].form(effect.form).params
         entry = {param: corner.get((name, param), value) for param, value in zip(params, effect.values)}
+        if name in DRIVE_KEYS:  # the drive section's keys
+            drive = dataclasses.replace(drive, **entry)
+            continue
         if len(CANDIDATES[name].forms) > 1:
             entry["form"] = effect.form
         effects[name] = entry
-    return inputs.rig.replace(effects=effects)
+    return inputs.rig.replace(effects=effects, drive=drive)

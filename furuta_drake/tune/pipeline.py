@@ -39,9 +39,18 @@ from furuta_drake.tune.inputs import TuneInputs, corner_rig, read_diagnosis
 from furuta_drake.tune.robustness import effect_extremes, linear_corners
 from furuta_drake.tune.swingup import SwingUpCheck, catch_times
 
-WEIGHT_SETS = ((1.0, 1.0, 1.0), (1.0, 1.0, 4.0), (1.0, 1.0, 16.0), (1.0, 1.0, 0.25), (4.0, 1.0, 1.0), (1.0, 0.25, 1.0))
+WEIGHT_SETS = (
+    (1.0, 1.0, 1.0),
+    (1.0, 1.0, 4.0),
+    (1.0, 1.0, 16.0),
+    (1.0, 1.0, 0.25),
+    (4.0, 1.0, 1.0),
+    (16.0, 1.0, 1.0),
+    (1.0, 0.25, 1.0),
+)
 """The family's LQ weights: scales of (Q_theta, Q_phi, R) over the package's: its own, gentler (R x 4, x 16),
-stiffer (R / 4), the pendulum weighted more (Q_theta x 4), the arm held more loosely (Q_phi / 4)."""
+stiffer (R / 4), the pendulum weighted more (Q_theta x 4, x 16: the pendulum held harder against an ongoing push),
+the arm held more loosely (Q_phi / 4)."""
 
 
 @dataclass(frozen=True)
