@@ -10,6 +10,7 @@ from furuta_drake.cli import diagnosis_summary, main
 from furuta_drake.diagnosis.result import SPEC_KEYS, Diagnosis, RankedCandidate
 from furuta_drake.results import write_log_csv
 from furuta_drake.rig import lund_rig
+from furuta_drake.rig_file import load_rig
 from furuta_drake.simulate import simulate
 from furuta_drake.yamlio import dump_yaml_dataclass
 
@@ -39,6 +40,13 @@ def test_effect_free_logs_give_none_with_every_output_and_identical_reruns(tmp_p
     assert report["gap"]["nominal"]["heldout"] < 0.25  # counts: the exact model sits at the encoder's floor
     # A none verdict states what these logs could not have missed: a detection limit for every effect.
     assert report["steps"] == [] and [limit["effect"] for limit in report["detection_limits"]] == list(VOCABULARY)
+    # Nothing pushes the simulated rig: the disturbance read is the encoder's share, a fraction of a per cent of the
+    # torque limit, and the fitted rig file carries it.
+    disturbance = report["disturbance"]
+    assert 0.0 <= disturbance["ci"][0] < disturbance["arm_torque_rms"] < disturbance["ci"][1] < 0.01 * rig.torque_limit
+    fitted = load_rig(tmp_path / "a" / "fitted_rig.yaml").disturbance
+    assert fitted.arm_torque_rms == pytest.approx(disturbance["arm_torque_rms"], rel=1e-5)
+    assert "Read as a torque on the arm" in (tmp_path / "a" / "report.md").read_text()
     for name in (
         "report.md",
         "report.html",

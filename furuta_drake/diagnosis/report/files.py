@@ -203,6 +203,8 @@ def report_markdown(report: dict, figures: dict[str, str]) -> str:
     ]
     remaining = narrative.remaining_sentences(report)
     lines += [" ".join(remaining), ""] if remaining else []
+    disturbance = narrative.disturbance_sentence(report)
+    lines += [disturbance, ""] if disturbance else []
     lines += [
         "![Held-out error before and after, per log and signal](gap.svg)",
         "",

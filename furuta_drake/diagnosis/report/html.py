@@ -100,9 +100,12 @@ def report_html(report: dict, directory: Path, figures: dict[str, str]) -> str:
 
 
 def _remaining(report: dict) -> str:
-    """What the accepted effects leave, under the verdict (nothing when it is negligible)."""
+    """What the accepted effects leave, under the verdict (nothing when it is negligible), and the rig's
+    disturbance."""
     sentences = narrative.remaining_sentences(report)
-    return f'<p class="remaining" id="remaining">{_text(" ".join(sentences))}</p>' if sentences else ""
+    disturbance = narrative.disturbance_sentence(report)
+    out = f'<p class="remaining" id="remaining">{_text(" ".join(sentences))}</p>' if sentences else ""
+    return out + (f'\n<p class="disturbance" id="disturbance">{_text(disturbance)}</p>' if disturbance else "")
 
 
 def _first_screen(report: dict, charts: dict[str, str]) -> str:

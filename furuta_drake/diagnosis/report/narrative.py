@@ -352,6 +352,22 @@ def remaining_sentences(report: dict) -> list[str]:
     return sentences
 
 
+def disturbance_sentence(report: dict) -> str:
+    """The rig's disturbance (``report["disturbance"]``) in words: what the corrected model still misses on the
+    held-out logs as an arm torque ('' without one)."""
+    disturbance = report.get("disturbance")
+    if not disturbance:
+        return ""
+    low, high = disturbance["ci"] or (None, None)
+    interval = f" (95 % interval {number(1e3 * low, 2)} to {number(1e3 * high, 2)})" if low is not None else ""
+    return (
+        f"Read as a torque on the arm, what the corrected model still misses on the held-out logs is "
+        f"{number(1e3 * disturbance['arm_torque_rms'], 2)} mN m RMS{interval}, 90 % of its power below "
+        f"{number(disturbance['bandwidth_hz'], 2)} Hz: the rig's disturbance, which fitted_rig.yaml carries and tune "
+        "designs against."
+    )
+
+
 def _where_details(where: dict) -> str:
     """The regime and band clauses of a :func:`~furuta_drake.diagnosis.gap.localize.dominant` record."""
     text = ""

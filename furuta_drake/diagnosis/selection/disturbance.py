@@ -35,28 +35,31 @@ from furuta_drake.encoder import encoder_resolution
 from furuta_drake.torque_disturbance import TorqueDisturbance, bandwidth
 
 SMOOTHING_S = 0.07  # [s] span of the lag second difference and its tent (band edge about 12 Hz)
-SEGMENT_S = 2.0  # [s] Welch segments
+SEGMENT_S = 2.0  # [s] Welch segments, shorter when the longest log holds fewer than MIN_SEGMENTS of them
+MIN_SEGMENTS = 4  # half-overlapping segments the longest log holds at the least (the interval resamples them)
+SHORTEST_S = 0.5  # [s] the shortest segment: logs too short for MIN_SEGMENTS of it give no disturbance
 RESAMPLES = 400  # bootstrap resamples of the segments
 FLOOR_SHARE = 0.5  # the band ends where the smoother's amplitude response falls below this
 
 
 def equivalent_disturbance(model: Model, logs, seed: int) -> TorqueDisturbance | None:
     """The arm torque ``model`` misses along ``logs`` (held-out :class:`~furuta_drake.diagnosis.logs.load.RunLog`
-    s of one sample period), seeded bootstrap; None when the logs hold no whole segment."""
+    s of one sample period), seeded bootstrap; None when the logs are too short (``SHORTEST_S``)."""
     period = float(np.median([log.sample_period for log in logs]))
     lag = max(1, int(round(SMOOTHING_S / (2.0 * period))))
-    segment = int(round(SEGMENT_S / period))
+    residuals = [_arm_residual(model, log, lag, period) for log in logs]
+    longest = max(residual.size for residual, _ in residuals)
+    segment = min(int(round(SEGMENT_S / period)), 2 * longest // (MIN_SEGMENTS + 1))
+    if segment * period < SHORTEST_S:
+        return None
     rows, noise_weights = [], []
-    for log in logs:
-        residual, weights = _arm_residual(model, log, lag, period)
+    for residual, weights in residuals:
         if residual.size >= segment:
             frequencies, _, psd = spectrogram(
                 residual, fs=1.0 / period, window="hann", nperseg=segment, noverlap=segment // 2, detrend="constant"
             )
             rows.append(psd.T)
             noise_weights.append(np.repeat(weights[None, :], psd.shape[1], axis=0))
-    if not rows:
-        return None
     segments, weights = np.vstack(rows), np.vstack(noise_weights)
     band = (frequencies > 0) & (frequencies <= _band_edge(lag, period))
     noise = weights.sum(axis=1, keepdims=True) * _noise_psd(model, frequencies, lag, period)  # per segment (S, F)
