@@ -13,9 +13,11 @@ over each sample, at the smoothed state there, under its applied torque (the log
 delay, lag and static map, and a Dahl arm's bristle torque along the smoothed arm path), averaged with the same
 tent, so that both sides see the same band. The estimate holds up to the tent's half-amplitude frequency, and its
 spectrum is divided by the tent's power response there. The encoder's rounding and the fitted noise enter the
-differenced angles; their expected power (white, through the difference's response, weighted by M's entries along
-the log) is subtracted from the spectrum. Rounding of a slowly moving angle is not white, and what it adds beyond
-the subtraction stays in the estimate: a level near the encoder's share is an upper bound. A drive's twist is not
+differenced angles. The rounding of a moving angle is not white (a slow angle's rounding error is a slow sawtooth,
+much of its power in the band), so its share is read the same way from the smoothed angles rounded again to the
+model's encoder at several offsets (``ROUNDING_OFFSETS``), less themselves; the fitted noise's share is its
+spectrum through the difference's response, weighted by M's entries along the log. Both come off the mean spectrum.
+A drive's twist is not
 observed in the logs: the drive is read as rigid here.
 
 The level is the RMS of the spectrum that remains (Welch's method over ``SEGMENT_S`` segments of every held-out
@@ -36,6 +38,7 @@ from furuta_drake.torque_disturbance import TorqueDisturbance, bandwidth
 
 SMOOTHING_S = 0.07  # [s] span of the lag second difference and its tent (band edge about 12 Hz)
 SEGMENT_S = 2.0  # [s] Welch segments, shorter when the longest log holds fewer than MIN_SEGMENTS of them
+ROUNDING_OFFSETS = (0.0, 0.25, 0.5, 0.75)  # [steps] the encoder offsets the rounding's own reading averages
 MIN_SEGMENTS = 4  # half-overlapping segments the longest log holds at the least (the interval resamples them)
 SHORTEST_S = 0.5  # [s] the shortest segment: logs too short for MIN_SEGMENTS of it give no disturbance
 RESAMPLES = 400  # bootstrap resamples of the segments
@@ -48,27 +51,27 @@ def equivalent_disturbance(model: Model, logs, seed: int) -> TorqueDisturbance |
     period = float(np.median([log.sample_period for log in logs]))
     lag = max(1, int(round(SMOOTHING_S / (2.0 * period))))
     residuals = [_arm_residual(model, log, lag, period) for log in logs]
-    longest = max(residual.size for residual, _ in residuals)
+    longest = max(residual.size for residual, _, _ in residuals)
     segment = min(int(round(SEGMENT_S / period)), 2 * longest // (MIN_SEGMENTS + 1))
     if segment * period < SHORTEST_S:
         return None
-    rows, noise_weights = [], []
-    for residual, weights in residuals:
+    rows, noise_rows = [], []
+    for residual, rounding, weights in residuals:
         if residual.size >= segment:
-            frequencies, _, psd = spectrogram(
-                residual, fs=1.0 / period, window="hann", nperseg=segment, noverlap=segment // 2, detrend="constant"
-            )
-            rows.append(psd.T)
-            noise_weights.append(np.repeat(weights[None, :], psd.shape[1], axis=0))
-    segments, weights = np.vstack(rows), np.vstack(noise_weights)
+            frequencies, psd = _segments(residual, segment, period)
+            rows.append(psd)
+            noise = np.mean([_segments(draw, segment, period)[1] for draw in rounding], axis=0)
+            noise_rows.append(noise + weights.sum() * _noise_psd(model, frequencies, lag, period)[None, :])
+    segments, noise = np.vstack(rows), np.vstack(noise_rows)
     band = (frequencies > 0) & (frequencies <= _band_edge(lag, period))
-    noise = weights.sum(axis=1, keepdims=True) * _noise_psd(model, frequencies, lag, period)  # per segment (S, F)
-    excess = np.clip(segments - noise, 0.0, None)[:, band] / _tent_response(frequencies[band], lag, period) ** 2
+    # the encoder's share comes off the mean spectrum, clipped there, not off each segment (whose clipped
+    # fluctuations would add up to a floor)
+    excess = (segments - noise)[:, band] / _tent_response(frequencies[band], lag, period) ** 2
     df = frequencies[1] - frequencies[0]
-    psd = excess.mean(axis=0)
+    psd = np.clip(excess.mean(axis=0), 0.0, None)
     rng = np.random.default_rng([seed, 29])
     draws = rng.integers(0, excess.shape[0], size=(RESAMPLES, excess.shape[0]))
-    levels = np.sqrt(excess[draws].mean(axis=1).sum(axis=1) * df)
+    levels = np.sqrt(np.clip(excess[draws].mean(axis=1), 0.0, None).sum(axis=1) * df)
     return TorqueDisturbance(
         arm_torque_rms=float(np.sqrt(psd.sum() * df)),
         spectrum=[[float(f), float(p)] for f, p in zip(frequencies[band], psd)],
@@ -77,18 +80,31 @@ def equivalent_disturbance(model: Model, logs, seed: int) -> TorqueDisturbance |
     )
 
 
-def _arm_residual(model: Model, log, lag: int, period: float) -> tuple[np.ndarray, np.ndarray]:
-    """(d_hat along ``log`` less its ends, the mean squared weights [(c cos theta)^2, (a + b sin^2 theta)^2] of the
-    two angles' noise in it)."""
+def _segments(values: np.ndarray, segment: int, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """(frequencies [Hz], one-sided PSD of each half-overlapping Hann segment of ``values`` (S, F))."""
+    frequencies, _, psd = spectrogram(
+        values, fs=1.0 / period, window="hann", nperseg=segment, noverlap=segment // 2, detrend="constant"
+    )
+    return frequencies, psd.T
+
+
+def _second_difference(angles: np.ndarray, lag: int, period: float) -> np.ndarray:
+    """The lag-``lag`` second difference of each row of ``angles`` over (lag T)^2 (zero at the ends)."""
+    out = np.zeros_like(angles)
+    out[:, lag:-lag] = (angles[:, 2 * lag :] - 2.0 * angles[:, lag:-lag] + angles[:, : -2 * lag]) / (lag * period) ** 2
+    return out
+
+
+def _arm_residual(model: Model, log, lag: int, period: float):
+    """(d_hat along ``log`` less its ends; the same reading of the rounding alone, one row per encoder offset of
+    ``ROUNDING_OFFSETS``: the smoothed angles rounded to the model's encoder, less themselves; the mean squared
+    weights [(c cos theta)^2, (a + b sin^2 theta)^2] of the two angles' white noise in d_hat)."""
     angles = np.vstack([log.theta, log.phi])
     window = 2 * lag + 1
     if angles.shape[1] <= 3 * window:
-        return np.zeros(0), np.zeros(2)
+        return np.zeros(0), np.zeros((0, 0)), np.zeros(2)
     q, v = (savgol_filter(angles, window, 3, deriv=k, delta=period, axis=1) for k in range(2))
-    acceleration = np.zeros_like(angles)
-    acceleration[:, lag:-lag] = (angles[:, 2 * lag :] - 2.0 * angles[:, lag:-lag] + angles[:, : -2 * lag]) / (
-        lag * period
-    ) ** 2
+    acceleration = _second_difference(angles, lag, period)
     torque = _applied(model, log.torque_command, period)
     if model.arm_friction.has_bristles:
         packed = kernel.pack_friction(model.arm_friction)
@@ -104,9 +120,14 @@ def _arm_residual(model: Model, log, lag: int, period: float) -> tuple[np.ndarra
     coupling = model.coupling * co
     arm = model.arm_inertia_total + model.pendulum_inertia_total * s**2
     residual = coupling * miss[0] + arm * miss[1]
+    step = encoder_resolution(model.counts_per_rev)
+    rounding = []
+    for offset in ROUNDING_OFFSETS:
+        error = _second_difference(step * np.round(q / step + offset) - q, lag, period)
+        rounding.append((coupling * error[0] + arm * error[1])[window:-window])
     edge = window
-    noise = np.array([np.mean(coupling[edge:-edge] ** 2), np.mean(arm[edge:-edge] ** 2)])
-    return residual[edge:-edge], noise
+    weights = np.array([np.mean(coupling[edge:-edge] ** 2), np.mean(arm[edge:-edge] ** 2)])
+    return residual[edge:-edge], np.array(rounding), weights
 
 
 def _applied(model: Model, command: np.ndarray, period: float) -> np.ndarray:
@@ -132,16 +153,14 @@ def _band_edge(lag: int, period: float) -> float:
 
 
 def _noise_psd(model: Model, frequencies: np.ndarray, lag: int, period: float) -> np.ndarray:
-    """(F,) the one-sided PSD [rad^2/s^4/Hz] of the sensor's error in an angle's lag-``lag`` second difference: the
-    rounding's step^2 / 12 and the fitted noise (white, or first-order low-passed over its correlation time) through
-    the difference's response |2 cos(2 pi f L T) - 2| / (L T)^2."""
-    step = encoder_resolution(model.counts_per_rev)
-    white = np.full(frequencies.shape, 2.0 * period * step**2 / 12.0)
-    if model.noise_std > 0:
-        shaped = np.full(frequencies.shape, 2.0 * period * model.noise_std**2)
-        if model.noise_correlation_time > 0:
-            rho = np.exp(-period / model.noise_correlation_time)
-            shaped *= (1 - rho**2) / np.abs(1 - rho * np.exp(-2j * np.pi * frequencies * period)) ** 2
-        white = white + shaped
+    """(F,) the one-sided PSD [rad^2/s^4/Hz] of the fitted noise (white, or first-order low-passed over its
+    correlation time) in an angle's lag-``lag`` second difference, through its response
+    |2 cos(2 pi f L T) - 2| / (L T)^2 (the rounding is read apart, :func:`_arm_residual`)."""
+    if model.noise_std <= 0:
+        return np.zeros(frequencies.shape)
+    shaped = np.full(frequencies.shape, 2.0 * period * model.noise_std**2)
+    if model.noise_correlation_time > 0:
+        rho = np.exp(-period / model.noise_correlation_time)
+        shaped *= (1 - rho**2) / np.abs(1 - rho * np.exp(-2j * np.pi * frequencies * period)) ** 2
     span = lag * period
-    return white * ((2.0 - 2.0 * np.cos(2 * np.pi * frequencies * span)) / span**2) ** 2
+    return shaped * ((2.0 - 2.0 * np.cos(2 * np.pi * frequencies * span)) / span**2) ** 2
