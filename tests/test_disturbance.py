@@ -174,3 +174,18 @@ def test_the_report_says_when_the_nominal_design_stays_because_of_the_disturbanc
     # Not better on the quiet rig either, or a tuned design chosen: nothing to say.
     assert quiet_winner_note(problem({"nominal": loud, "finalist": loud}), nominal, nominal, [finalist]) == ""
     assert quiet_winner_note(problem({"nominal": loud, "finalist": better}), nominal, finalist, [finalist]) == ""
+
+
+def test_the_independent_simulators_push_has_its_level_and_corner():
+    from benchmarks.independent import simulator as sim
+
+    world = sim.World(sim.lund_like(), disturbance_rms=0.004, disturbance_corner=3.0)
+    period = world.rig.sample_period
+    push = sim.ArmDisturbance(world, period, np.random.default_rng(1))
+    values = np.array([push.next() for _ in range(200000)])
+    assert np.std(values) == pytest.approx(0.004, rel=0.05)
+    # first-order low-passed white noise: its lag-one correlation is exp(-2 pi f_c T)
+    correlation = np.corrcoef(values[:-1], values[1:])[0, 1]
+    assert correlation == pytest.approx(np.exp(-2 * np.pi * 3.0 * period), abs=1e-3)
+    quiet = sim.ArmDisturbance(sim.World(sim.lund_like()), period, np.random.default_rng(1))
+    assert all(quiet.next() == 0.0 for _ in range(10))

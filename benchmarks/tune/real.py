@@ -34,6 +34,8 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from furuta_drake.config import dump_config
 from furuta_drake.controllers.quanser_swingup import QuanserSwingUpParameters
 from furuta_drake.controllers.swingup import catch_time
@@ -65,11 +67,14 @@ TUNED_KEYS = ("lqr_gain", "lqr_gain_volts", "observer", "family_member")
 
 
 def balancing(result, period: float) -> dict:
-    """The balancing figures of a swing-up tape (real or simulated) over its balancing part."""
+    """The balancing figures of a swing-up tape (real or simulated) over its balancing part, theta about the
+    upright it balances at (a swing-up may end a whole turn away)."""
     window = balancing_samples(result)
     if window is None:
         return dict.fromkeys(FIGURES)
-    return balancing_figures(result.measured[window, 0], result.measured[window, 1], result.torque[window], period)
+    theta = result.measured[window, 0]
+    theta = theta - 2.0 * math.pi * np.round(theta / (2.0 * math.pi))
+    return balancing_figures(theta, result.measured[window, 1], result.torque[window], period)
 
 
 def main(argv: list[str] | None = None) -> int:
