@@ -297,3 +297,14 @@ def test_a_drive_effect_is_read_from_the_drive_section_and_a_bound_parameter_is_
     corner = corner_rig(inputs, {("drive_compliance", "damping"): 0.03})
     assert corner.drive.damping == 0.03 and corner.drive.stiffness == 0.5
     assert "drive_compliance" not in (corner.effects or {})
+
+
+def test_an_interval_reaching_a_non_physical_rig_is_refused_naming_the_corner(tmp_path, capsys):
+    # b = J_p + m l^2 scaled by 0.2 leaves less than m l^2: a negative pendulum inertia at the low corner
+    scales = {"arm_inertia_scale": 1.0, "pendulum_inertia_scale": 1.0, "coupling_scale": 1.0, "gravity_scale": 1.0}
+    intervals = {key: [0.95, 1.05] for key in scales} | {"pendulum_inertia_scale": [0.2, 1.1]}
+    directory = diagnosis_folder(tmp_path / "d", {"inertia_mismatch": scales}, intervals, ["inertia_mismatch"])
+    assert main(["tune", "--diagnosis", str(directory), "--out", str(tmp_path / "out")]) == 2
+    message = capsys.readouterr().err
+    assert "not physical at the intervals' corner" in message and "pendulum_inertia_scale low" in message
+    assert "rig.pendulum_inertia" in message and not (tmp_path / "out").exists()

@@ -140,7 +140,7 @@ def tune(
     settings.validate()
     say = progress or (lambda line: None)
     inputs = read_diagnosis(directory)
-    world = rig_config(inputs.rig)
+    world = corner_config(inputs, "", {})
     A, B = upright_model(world)
     problem = Problem(
         inputs,
@@ -148,8 +148,8 @@ def tune(
         design_model(world),
         A,
         B,
-        [(label, design_model(rig_config(corner_rig(inputs, c)))) for label, c in linear_corners(inputs)],
-        [(label, rig_config(corner_rig(inputs, c))) for label, c in effect_extremes(inputs)],
+        [(label, design_model(corner_config(inputs, label, c))) for label, c in linear_corners(inputs)],
+        [(label, corner_config(inputs, label, c)) for label, c in effect_extremes(inputs)],
         arm_friction_observer(world.friction.arm, world.encoder.encoder_resolution),
         nominal_controller(inputs),
         settings,
@@ -178,6 +178,21 @@ def tune(
             workers=settings.workers,
         )
     return tuning
+
+
+def corner_config(inputs: TuneInputs, label: str, corner: dict) -> SimulationConfig:
+    """The corrected model at a ``corner`` of the intervals as a simulate config; ConfigError naming the corner
+    when its parameters make a rig that is not physical (an interval wider than the rig allows)."""
+    try:
+        config = rig_config(corner_rig(inputs, corner))
+        config.rig.validate()
+        return config
+    except ConfigError as err:
+        raise ConfigError(
+            f"{inputs.directory}: the fitted effects give a rig that is not physical "
+            + (f"at the intervals' corner {label}" if label else "at the fit")
+            + f": {err}"
+        ) from None
 
 
 def nominal_outcome(problem: Problem) -> DesignOutcome:
