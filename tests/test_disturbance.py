@@ -142,7 +142,8 @@ def test_tune_judges_both_designs_under_the_rigs_disturbance(tmp_path, monkeypat
         assert levels["1"] == design["predicted"]
         # A harder push tilts the pendulum more.
         assert levels["0.5"]["theta_rms"] < levels["1"]["theta_rms"] < levels["2"]["theta_rms"]
-    assert "Under the rig's disturbance" in (out / "tune.md").read_text()
+    text = (out / "tune.md").read_text()
+    assert "Under the rig's disturbance" in text and "4 mN m RMS on the arm; at twice that" in text
 
 
 def test_the_report_says_when_the_nominal_design_stays_because_of_the_disturbance():

@@ -26,6 +26,7 @@ from furuta_drake.tune.controller import closed_loop, finite, torque_per_volt, v
 from furuta_drake.tune.pipeline import DesignOutcome, Tuning
 from furuta_drake.tune.robustness import MIN_DELAY_PERIODS, MIN_GAIN_DB
 
+DESIGNS = ("nominal", "tuned")
 FIGURES = ("theta_rms", "phi_rms", "limit_cycle_amplitude", "limit_cycle_frequency", "effort_rms")
 UNITS = {"theta_rms": "rad", "phi_rms": "rad", "limit_cycle_amplitude": "rad", "limit_cycle_frequency": "Hz"}
 UNITS["effort_rms"] = "N m"
@@ -288,7 +289,25 @@ def answer(document: dict) -> str:
         f"{1e3 * document['requirements']['min_delay_s']:g} ms), and its limit cycle stays within "
         f"{_mrad(span[0])} to {_mrad(span[1])} at the accepted effects' extremes."
     )
-    return what + how + sure
+    return what + how + sure + _pushed(document)
+
+
+def _pushed(document: dict) -> str:
+    """The answer's sentence on the rig's disturbance ('' without one)."""
+    disturbance = document.get("disturbance")
+    if not disturbance or not disturbance["arm_torque_rms"]:
+        return ""
+    twice = [document["designs"][name].get("predicted_under_disturbance", {}).get("2", {}) for name in DESIGNS]
+    text = (
+        f" Every figure is predicted under the rig's disturbance as the diagnosis read it, "
+        f"{1e3 * disturbance['arm_torque_rms']:.3g} mN m RMS on the arm"
+    )
+    if all("theta_rms" in figures for figures in twice):
+        text += (
+            f"; at twice that, theta's RMS would be {_mrad(twice[0]['theta_rms'])} with the nominal design and "
+            f"{_mrad(twice[1]['theta_rms'])} with the tuned one"
+        )
+    return text + "."
 
 
 def report_blocks(document: dict) -> list[tuple]:
