@@ -62,7 +62,7 @@ FILES = {"nominal": "nominal.yaml", "tuned": "controller.yaml"}  # each design's
 
 def cases() -> list[indep.Case]:
     """The eleven cases: friction, delay, spring and inertia alone and together on both rigs, and arm friction on a
-    geared rig (100 Hz: with a delay of two samples no design of the package balances it)."""
+    geared rig logged at 100 Hz."""
     make, karnopp = indep.make_case, (indep.arm_friction, "karnopp", 0.06, {"breakaway": 1.25})
     tanh = (indep.arm_friction, "tanh", 0.08, {"smoothing": 0.02})
     return [
