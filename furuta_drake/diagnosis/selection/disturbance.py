@@ -17,8 +17,7 @@ differenced angles. The rounding of a moving angle is not white (a slow angle's 
 much of its power in the band), so its share is read the same way from the smoothed angles rounded again to the
 model's encoder at several offsets (``ROUNDING_OFFSETS``), less themselves; the fitted noise's share is its
 spectrum through the difference's response, weighted by M's entries along the log. Both come off the mean spectrum.
-A drive's twist is not
-observed in the logs: the drive is read as rigid here.
+A drive's twist is not observed in the logs: the drive is read as rigid here.
 
 The level is the RMS of the spectrum that remains (Welch's method over ``SEGMENT_S`` segments of every held-out
 log, Hann window, half-overlapping); its 95 % interval comes from resampling the segments. The bandwidth is the
@@ -42,7 +41,7 @@ ROUNDING_OFFSETS = (0.0, 0.25, 0.5, 0.75)  # [steps] the encoder offsets the rou
 MIN_SEGMENTS = 4  # half-overlapping segments the longest log holds at the least (the interval resamples them)
 SHORTEST_S = 0.5  # [s] the shortest segment: logs too short for MIN_SEGMENTS of it give no disturbance
 RESAMPLES = 400  # bootstrap resamples of the segments
-FLOOR_SHARE = 0.5  # the band ends where the smoother's amplitude response falls below this
+FLOOR_SHARE = 0.5  # the band ends where the tent's amplitude response falls below this
 
 
 def equivalent_disturbance(model: Model, logs, seed: int) -> TorqueDisturbance | None:
