@@ -166,6 +166,12 @@ def _tune_parser(sub) -> None:
     tune.add_argument(
         "--seed", type=int, default=0, help="seed of the predicted runs' disturbance and encoder noise (default 0)"
     )
+    tune.add_argument(
+        "--draws",
+        type=int,
+        default=3,
+        help="seeded draws of the rig's disturbance each prediction averages, when the diagnosis read one (default 3)",
+    )
     tune.add_argument("--workers", type=int, help="processes for the predicted runs (default: all cores)")
     tune.add_argument(
         "--swingup",
@@ -498,7 +504,12 @@ def _run_tune(args) -> int:
 
     swingup = read_swingup(args.swingup) if args.swingup is not None else None
     settings = dataclasses.replace(
-        TuneSettings(), duration=args.duration, seed=args.seed, workers=args.workers, swingup=swingup
+        TuneSettings(),
+        duration=args.duration,
+        seed=args.seed,
+        draws=args.draws,
+        workers=args.workers,
+        swingup=swingup,
     )
     settings.validate()
     prepare_output_dir(args.out, force=args.force, protect=[args.diagnosis])

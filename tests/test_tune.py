@@ -204,6 +204,9 @@ def test_a_missing_diagnosis_and_a_full_output_are_refused(tmp_path, capsys):
     assert main(["tune", "--diagnosis", str(directory), "--out", str(tmp_path / "full")]) == 2
     assert "--force" in capsys.readouterr().err
     assert (tmp_path / "full" / "keep.txt").read_text() == "mine"
+    assert main(["tune", "--diagnosis", str(directory), "--out", str(tmp_path / "new"), "--draws", "0"]) == 2
+    assert "--draws must be a positive integer" in capsys.readouterr().err
+    assert not (tmp_path / "new").exists()
 
 
 def test_a_design_no_gain_makes_robust_is_refused_with_the_reason(tmp_path, capsys):

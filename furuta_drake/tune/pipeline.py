@@ -89,7 +89,7 @@ class TuneSettings:
         if isinstance(self.finalists, bool) or not isinstance(self.finalists, int) or self.finalists < 1:
             raise ConfigError(f"finalists must be a positive integer, got {self.finalists!r}")
         if isinstance(self.draws, bool) or not isinstance(self.draws, int) or self.draws < 1:
-            raise ConfigError(f"draws must be a positive integer, got {self.draws!r}")
+            raise ConfigError(f"--draws must be a positive integer, got {self.draws!r}")
         if self.workers is not None and self.workers < 1:
             raise ConfigError(f"--workers must be >= 1, got {self.workers}")
 
