@@ -125,14 +125,14 @@ def test_tune_judges_both_designs_under_the_rigs_disturbance(tmp_path, monkeypat
     from furuta_drake.cli import main
     from furuta_drake.tune import pipeline
 
-    monkeypatch.setattr(pipeline, "TuneSettings", lambda: dataclasses.replace(pipeline.FAST, draws=2))
+    monkeypatch.setattr(pipeline, "TuneSettings", lambda: pipeline.FAST)
     directory = tmp_path / "diagnosis"
     directory.mkdir()
     disturbance = TorqueDisturbance(0.004, BAND, 5.0, [0.003, 0.005])
     (directory / "fitted_rig.yaml").write_text(dump_yaml_dataclass(lund_rig().replace(disturbance=disturbance)))
     (directory / "report.json").write_text(json.dumps({"verdict": "none", "effects": [], "ranking": []}))
     out = tmp_path / "tuned"
-    assert main(["tune", "--diagnosis", str(directory), "--out", str(out), "--workers", "1"]) == 0
+    assert main(["tune", "--diagnosis", str(directory), "--out", str(out), "--workers", "1", "--draws", "2"]) == 0
     document = json.loads((out / "tune.json").read_text())
     assert document["disturbance"]["arm_torque_rms"] == pytest.approx(0.004)
     assert document["search"]["disturbance_draws"] == 2
