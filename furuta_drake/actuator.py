@@ -26,8 +26,10 @@ from pydrake.systems.primitives import (
     Multiplexer,
     PassThrough,
     Saturation,
+    TrajectorySource,
     ZeroOrderHold,
 )
+from pydrake.trajectories import PiecewisePolynomial
 
 from furuta_drake.errors import ConfigError, SimulationDiverged
 from furuta_drake.plant import joint_indices
@@ -175,11 +177,15 @@ class DisturbanceParameters:
 
 
 def add_arm_disturbance(
-    builder: DiagramBuilder, params: DisturbanceParameters, true_state_port: OutputPort
+    builder: DiagramBuilder,
+    params: DisturbanceParameters,
+    true_state_port: OutputPort,
+    arm_torque_draw: PiecewisePolynomial | None = None,
 ) -> OutputPort | None:
     """Add the arm's spring -(k x + k3 x^3), x = phi - phi0, and cogging A sin(N phi + psi) fed by
-    ``true_state_port`` (paper x); return the port of their sum, the torque on the arm [N m], or None when all are
-    zero.
+    ``true_state_port`` (paper x), and ``arm_torque_draw``, a draw of the ongoing disturbance
+    (:meth:`~furuta_drake.torque_disturbance.TorqueDisturbance.trajectory`) as a ``TrajectorySource``; return the
+    port of their sum, the torque on the arm [N m], or None when there is none.
 
     The spring's linear part is a stateless C++ ``AffineSystem`` (y = -k phi + k phi0); its cubic part and the
     cogging are :class:`ScalarMap` s of phi.
@@ -212,6 +218,10 @@ def add_arm_disturbance(
         system = builder.AddNamedSystem(name, ScalarMap(function, "true_state", 4, 1, "arm_torque_Nm"))
         builder.Connect(true_state_port, system.get_input_port())
         torques.append(system.get_output_port())
+    if arm_torque_draw is not None:
+        torques.append(
+            builder.AddNamedSystem("arm_torque_disturbance", TrajectorySource(arm_torque_draw)).get_output_port()
+        )
     if len(torques) < 2:
         return torques[0] if torques else None
     total = builder.AddNamedSystem("arm_disturbance", Adder(len(torques), 1))

@@ -304,6 +304,11 @@ class SimulationConfig:
                 period, self.control_period, f"{prefix}{key}", f"the control period {prefix}rig.sample_period"
             )
 
+    def with_arm_torque(self, arm_torque) -> SimulationConfig:
+        """This config with its ongoing arm disturbance replaced by ``arm_torque`` (a
+        :class:`~furuta_drake.torque_disturbance.TorqueDisturbance`, or None for none)."""
+        return dataclasses.replace(self, disturbance=dataclasses.replace(self.disturbance, arm_torque=arm_torque))
+
     @property
     def control_period(self) -> float:
         """The period [s] of every sampled block (encoder, controller, observers, loggers): the rig's."""

@@ -29,7 +29,6 @@ from pydrake.systems.primitives import (
     LinearSystem,
     MatrixGain,
     Multiplexer,
-    TrajectorySource,
 )
 from pydrake.trajectories import PiecewisePolynomial
 
@@ -159,16 +158,11 @@ def _connect_forces(
     unmodelled torques into the plant's applied generalised force."""
     arm = np.zeros((plant.num_velocities(), 1))  # an arm torque as generalized forces
     arm[plant.GetJointByName(ARM_JOINT).velocity_start(), 0] = 1.0
-    arm_torque = add_arm_disturbance(builder, disturbance, true_state)
+    arm_torque = add_arm_disturbance(builder, disturbance, true_state, arm_torque_draw)
     if arm_torque is not None:
         to_force = builder.AddNamedSystem("disturbance_to_force", MatrixGain(arm))
         builder.Connect(arm_torque, to_force.get_input_port())
         forces.append(to_force.get_output_port())
-    if arm_torque_draw is not None:
-        draw = builder.AddNamedSystem("arm_torque_disturbance", TrajectorySource(arm_torque_draw))
-        draw_to_force = builder.AddNamedSystem("arm_torque_disturbance_to_force", MatrixGain(arm))
-        builder.Connect(draw.get_output_port(), draw_to_force.get_input_port())
-        forces.append(draw_to_force.get_output_port())
     if back_emf_damping != 0.0:
         # The DC motor's back-EMF: a torque -kt ke / R phi_dot on the arm (commands are torque-equivalent).
         back_emf = builder.AddNamedSystem(

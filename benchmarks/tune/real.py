@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     corner = fit_velocity_corner(runs.logs[TRAIN_SWINGUP], params)
     fitted_rig = load_rig(diagnosis / "fitted_rig.yaml")
     disturbed = rig_config(fitted_rig)  # the corrected model pushed by the disturbance the diagnosis read
-    corrected = dataclasses.replace(disturbed, disturbance=dataclasses.replace(disturbed.disturbance, arm_torque=None))
+    corrected = disturbed.with_arm_torque(None)
     swingup = args.out / "swingup.yaml"
     start = dataclasses.replace(run_config(corrected, runs.logs[TRAIN_SWINGUP], params, corner), duration=SWINGUP_S)
     swingup.write_text(dump_config(start))

@@ -491,10 +491,7 @@ def _diagnosis(
     disturbance = equivalent_disturbance(artifacts.corrected, inputs.heldout_logs, settings.seed)
     if disturbance is not None:
         artifacts.fitted_rig = artifacts.fitted_rig.replace(disturbance=disturbance)
-        config = artifacts.fitted_config
-        artifacts.fitted_config = dataclasses.replace(
-            config, disturbance=dataclasses.replace(config.disturbance, arm_torque=disturbance)
-        )
+        artifacts.fitted_config = artifacts.fitted_config.with_arm_torque(disturbance)
     return Diagnosis(
         verdict=selection.verdict,
         effects=selection.effects,

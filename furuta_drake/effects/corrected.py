@@ -104,8 +104,7 @@ def rig_config(rig: RigParameters) -> SimulationConfig:
     effects of its ``effects:`` section and its torque beyond the vocabulary (:func:`model_config` of the rig's
     model, the torque's expressions kept as the rig file writes them). A ``fitted_rig.yaml`` gives the corrected
     model of its diagnosis; the rig's ongoing ``disturbance`` becomes the config's ``disturbance.arm_torque``."""
-    config = model_config(rig, rig_model(rig), rig.unmodelled_torque)
-    return dataclasses.replace(config, disturbance=dataclasses.replace(config.disturbance, arm_torque=rig.disturbance))
+    return model_config(rig, rig_model(rig), rig.unmodelled_torque).with_arm_torque(rig.disturbance)
 
 
 def rig_entry(name: str, params: dict) -> dict:

@@ -10,10 +10,8 @@ there, the report says the nominal design wins because of the disturbance.
 
 from __future__ import annotations
 
-import dataclasses
-
 from furuta_drake.config import SimulationConfig
-from furuta_drake.tune.family import DesignOutcome, Problem, clears_nominal, member_label, ratios
+from furuta_drake.tune.family import DesignOutcome, Problem, clears_nominal, disturbed, member_label, ratios
 
 SCALES = (0.5, 1.0, 2.0)  # the levels each design is predicted at, over the disturbance read
 
@@ -21,13 +19,7 @@ SCALES = (0.5, 1.0, 2.0)  # the levels each design is predicted at, over the dis
 def at_scale(world: SimulationConfig, scale: float) -> SimulationConfig:
     """``world`` with its ongoing disturbance at ``scale`` times its level (0: none)."""
     disturbance = world.disturbance.arm_torque
-    scaled = None if disturbance is None or scale == 0 else disturbance.scaled(scale)
-    return dataclasses.replace(world, disturbance=dataclasses.replace(world.disturbance, arm_torque=scaled))
-
-
-def disturbed(world: SimulationConfig) -> bool:
-    disturbance = world.disturbance.arm_torque
-    return disturbance is not None and disturbance.active
+    return world.with_arm_torque(None if disturbance is None or scale == 0 else disturbance.scaled(scale))
 
 
 def under_disturbance(problem: Problem, outcomes: dict[str, DesignOutcome]) -> dict[str, dict[str, dict | None]]:

@@ -170,10 +170,15 @@ class Problem:
         return dict(zip([label for label, _ in self.extremes], runs))
 
 
+def disturbed(world: SimulationConfig) -> bool:
+    """Whether ``world`` carries an ongoing arm disturbance."""
+    disturbance = world.disturbance.arm_torque
+    return disturbance is not None and disturbance.active
+
+
 def draws_of(world: SimulationConfig, draws: int) -> int:
     """The runs a prediction on ``world`` takes: ``draws`` under an ongoing disturbance, else 1."""
-    disturbance = world.disturbance.arm_torque
-    return draws if disturbance is not None and disturbance.active else 1
+    return draws if disturbed(world) else 1
 
 
 def mean_prediction(runs: list[Prediction]) -> Prediction:

@@ -33,8 +33,8 @@ from furuta_drake.errors import ConfigError
 from furuta_drake.plant import make_furuta_plant
 from furuta_drake.tune.controller import Controller, arm_friction_observer
 from furuta_drake.tune.design import DesignModel, design_model, upright_model
-from furuta_drake.tune.disturbance import disturbed, quiet_winner_note, under_disturbance
-from furuta_drake.tune.family import DesignOutcome, Problem, run_budget, search, shortfall
+from furuta_drake.tune.disturbance import quiet_winner_note, under_disturbance
+from furuta_drake.tune.family import DesignOutcome, Problem, disturbed, run_budget, search, shortfall
 from furuta_drake.tune.inputs import TuneInputs, corner_rig, read_diagnosis
 from furuta_drake.tune.robustness import effect_extremes, linear_corners
 from furuta_drake.tune.swingup import SwingUpCheck, catch_times

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import savgol_filter, spectrogram
 
-from furuta_drake.diagnosis.selection.equation_error import tent, tent_averaged
+from furuta_drake.diagnosis.selection.equation_error import second_difference, tent, tent_averaged
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects.surrogate import Model, applied_torque, bristle_path, expected_command
 from furuta_drake.encoder import encoder_resolution
@@ -87,13 +87,6 @@ def _segments(values: np.ndarray, segment: int, period: float) -> tuple[np.ndarr
     return frequencies, psd.T
 
 
-def _second_difference(angles: np.ndarray, lag: int, period: float) -> np.ndarray:
-    """The lag-``lag`` second difference of each row of ``angles`` over (lag T)^2 (zero at the ends)."""
-    out = np.zeros_like(angles)
-    out[:, lag:-lag] = (angles[:, 2 * lag :] - 2.0 * angles[:, lag:-lag] + angles[:, : -2 * lag]) / (lag * period) ** 2
-    return out
-
-
 def _arm_residual(model: Model, log, lag: int, period: float):
     """(d_hat along ``log`` less its ends; the same reading of the rounding alone, one row per encoder offset of
     ``ROUNDING_OFFSETS``: the smoothed angles rounded to the model's encoder, less themselves; the mean squared
@@ -103,7 +96,7 @@ def _arm_residual(model: Model, log, lag: int, period: float):
     if angles.shape[1] <= 3 * window:
         return np.zeros(0), np.zeros((0, 0)), np.zeros(2)
     q, v = (savgol_filter(angles, window, 3, deriv=k, delta=period, axis=1) for k in range(2))
-    acceleration = _second_difference(angles, lag, period)
+    acceleration = second_difference(angles, lag, period)
     torque = _applied(model, log.torque_command, period)
     if model.arm_friction.has_bristles:
         packed = kernel.pack_friction(model.arm_friction)
@@ -122,7 +115,7 @@ def _arm_residual(model: Model, log, lag: int, period: float):
     step = encoder_resolution(model.counts_per_rev)
     rounding = []
     for offset in ROUNDING_OFFSETS:
-        error = _second_difference(step * np.round(q / step + offset) - q, lag, period)
+        error = second_difference(step * np.round(q / step + offset) - q, lag, period)
         rounding.append((coupling * error[0] + arm * error[1])[window:-window])
     edge = window
     weights = np.array([np.mean(coupling[edge:-edge] ** 2), np.mean(arm[edge:-edge] ** 2)])

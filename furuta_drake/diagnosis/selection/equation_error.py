@@ -44,6 +44,13 @@ def tent(lag: int) -> np.ndarray:
     return (ramp(lag - i) - 2.0 * ramp(-i) + ramp(-lag - i)) / lag**2
 
 
+def second_difference(angles: np.ndarray, lag: int, period: float) -> np.ndarray:
+    """The lag-``lag`` second difference of each row of ``angles`` over (lag T)^2 (zero at the ends)."""
+    out = np.zeros_like(angles)
+    out[:, lag:-lag] = (angles[:, 2 * lag :] - 2.0 * angles[:, lag:-lag] + angles[:, : -2 * lag]) / (lag * period) ** 2
+    return out
+
+
 def tent_averaged(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``values`` held over each sample, tent-averaged about every sample (the ends padded with the end values)."""
     lag = weights.size // 2
@@ -61,10 +68,7 @@ def _derivatives(log):
     if angles.shape[1] <= max(window, 2 * lag + 1):
         return None
     smooth = [savgol_filter(angles, window, 3, deriv=k, delta=period, axis=1) for k in range(2)]
-    acceleration = np.zeros_like(angles)
-    acceleration[:, lag:-lag] = (angles[:, 2 * lag :] - 2.0 * angles[:, lag:-lag] + angles[:, : -2 * lag]) / (
-        lag * period
-    ) ** 2
+    acceleration = second_difference(angles, lag, period)
     keep = np.zeros(angles.shape[1], dtype=bool)
     edge = max(lag, window // 2)
     keep[edge : -edge : STRIDE_SAMPLES if lag >= STRIDE_SAMPLES else 1] = True  # the tent smooths over 2 lag samples
