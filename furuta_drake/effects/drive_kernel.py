@@ -15,8 +15,8 @@ states none, the rigid gear's tooth contact (:func:`~furuta_drake.drive.tooth_co
 the motor the angle read is psi = phi + delta.
 
 The RK4 steps each substep of the torque in ``inner`` steps (:func:`inner_steps`), short against the pair's fastest
-rate (a tooth contact rings at 200 Hz). The law is not smooth (the backlash's edges, the contact's clip), so its
-sensitivities are finite differences (:func:`~furuta_drake.effects.surrogate.state_sensitivities`).
+rate (a tooth contact rings at 200 Hz). The law is not smooth (the backlash's edges, the contact's clip): its
+sensitivities in the initial state are :mod:`~.drive_tangent`'s, with the flow's jump where the teeth engage.
 ``tests/test_drive_kernel.py`` pins the law to :mod:`furuta_drake.drive` and a window to the Drake world.
 """
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from furuta_drake.effects import drive_kernel
+from furuta_drake.effects import drive_kernel, drive_tangent
 from furuta_drake.effects import surrogate_kernel as kernel
 from furuta_drake.effects import surrogate_tangent as tangent
 from furuta_drake.friction import JointFrictionParameters
@@ -418,35 +418,6 @@ def twist_starts(
     return np.vstack([twist, np.gradient(twist, period)])[:, starts]
 
 
-STATE_STEPS = (1e-6, 1e-6, 1e-4, 1e-4)  # finite-difference steps of the states theta, phi [rad], their rates [rad/s]
-TWIST_STEPS = (1e-6, 1e-4)  # of the twist [rad] and its rate [rad/s]
-
-
-def _differenced_states(model: Model, x0, torque, period, substeps, bristle0, twist0):
-    """:func:`state_sensitivities` of a model with a drive of its own state by central differences of its windows
-    (the coupling law is not smooth): every state's two steps in one kernel call."""
-    rows = [np.asarray(x0, dtype=float)]
-    steps = list(STATE_STEPS)
-    if bristle0 is not None:
-        rows.append(np.asarray(bristle0, dtype=float)[None, :])
-        steps.append(1e-3 * model.arm_friction.bristle_bound)
-    rows.append(np.zeros((2, np.shape(x0)[1])) if twist0 is None else np.asarray(twist0, dtype=float))
-    steps += TWIST_STEPS
-    x = np.vstack(rows)
-    n, W = x.shape
-    shifted = [x + sign * step * np.eye(n)[:, [i]] for i, step in enumerate(steps) for sign in (1.0, -1.0)]
-    every = np.hstack([x] + shifted)
-    bristles = None if bristle0 is None else every[4]
-    angles = integrate_windows(
-        [model] * (2 * n + 1), every[:4], np.tile(torque, (1, 2 * n + 1)), period, substeps, bristles, every[-2:]
-    )
-    blocks = angles.reshape(angles.shape[0], 2, 2 * n + 1, W)
-    slopes = np.stack(
-        [(blocks[:, :, 1 + 2 * i] - blocks[:, :, 2 + 2 * i]) / (2 * step) for i, step in enumerate(steps)], axis=-1
-    )
-    return blocks[:, :, 0], slopes
-
-
 def state_sensitivities(
     model: Model, x0: np.ndarray, torque: np.ndarray, period: float, substeps: int, bristle0=None, twist0=None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -454,9 +425,12 @@ def state_sensitivities(
     (horizon, 2, W, n) in each window's initial theta, phi [rad], theta', phi' [rad/s] and, with ``bristle0``, the
     arm's bristle z [rad] (n = 4 or 5)): the RK4's exact forward sensitivities
     (:func:`~.surrogate_tangent.tangents`), in one pass; with a drive of its own state also in the twist ``twist0``
-    [rad, rad/s] (n = 6 or 7), by central differences (:func:`_differenced_states`)."""
+    [rad, rad/s] (n = 6 or 7), the flow's through the teeth's engagements (:func:`~.drive_tangent.state_tangents`)."""
     if model.has_drive:
-        return _differenced_states(model, x0, torque, period, substeps, bristle0, twist0)
+        x = np.vstack([x0, np.zeros((2, np.shape(x0)[1])) if twist0 is None else twist0])
+        z = np.zeros(np.shape(x0)[1]) if bristle0 is None else bristle0
+        rows = drive_kernel.pack_drive_rows([model])
+        return drive_tangent.state_tangents(x, z, torque, period / substeps, substeps, rows, bristle0 is not None)
     n = 4 if bristle0 is None else 5
     return _tangents(model, x0, torque, period, substeps, bristle0, np.eye(n, tangent.STATE))
 
@@ -483,8 +457,8 @@ def same_branches(model: Model, other: Model) -> bool:
     """Whether the surrogate is differentiable along the way from ``model`` to ``other``: the kernel takes the same
     branches for both (friction kinds, Stribeck curves, LuGre's bristle damping, the unmodelled terms' joints and
     library terms, the input chain's forms), no threshold dead zone's width differs (its torque jumps where the
-    width crosses a command) and neither has a drive of its own state (the tangent kernel has no drive; its
-    backlash and contact are not smooth)."""
+    width crosses a command) and neither has a drive of its own state (the parameters' tangent kernel has no
+    drive: a drive model's parameter columns are differenced)."""
     if model.has_drive or other.has_drive:  # the coupling law is not smooth
         return False
     rows, others = kernel.pack(model), kernel.pack(other)
@@ -515,4 +489,6 @@ def load_kernel() -> None:
     for x0 in (np.zeros((4, 1)), np.full((4, 1), np.nan)):
         predict_windows(model.replace(lag=1e-3), x0, command, starts, 3, 1e-3, 1, np.zeros(1))
         state_sensitivities(model, x0, np.zeros((2, 1)), 1e-3, 1, np.zeros(1))
-    predict_windows(model.replace(rotor_share=0.5, drive_backlash=1e-3), np.zeros((4, 1)), command, starts, 3, 1e-3, 1)
+    geared = model.replace(rotor_share=0.5, drive_backlash=1e-3)
+    predict_windows(geared, np.zeros((4, 1)), command, starts, 3, 1e-3, 1)
+    state_sensitivities(geared, np.zeros((4, 1)), np.zeros((2, 1)), 1e-3, 1, np.zeros(1), np.zeros((2, 1)))
