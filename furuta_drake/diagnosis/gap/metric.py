@@ -261,6 +261,8 @@ def substeps_for(period: float) -> int:
 
 
 GAUSS_NEWTON_STEPS = 3
+PLAY_STEP_FACTOR = 2  # a model with a play takes this many times the steps: its screened twist is a coarse start
+# and a rattling rotor's residual is far from linear in it
 TWIST_SCALES = (0.1, 10.0)  # [rad, rad/s]: a step of the drive's twist or its rate this large weighs one count^2
 LM_DAMPING = 1e-3  # initial Levenberg-Marquardt damping, relative to the normal matrix' diagonal
 
@@ -289,7 +291,8 @@ def projected_residuals(
     arm path is only the start), and per log the residuals' sensitivities to them (h, 2, W, 4 or 5) [counts per
     unit of state] at the refined states (None per log without ``sensitivities``).
 
-    Each window takes ``steps`` Levenberg-Marquardt steps with its own damping: a step is kept only
+    Each window takes ``steps`` Levenberg-Marquardt steps (``PLAY_STEP_FACTOR`` times as many from the screened
+    twists of a drive with a play, :func:`_screened_twists`) with its own damping: a step is kept only
     where the re-simulated residual falls (near a friction stick or a swing's turning point a linearised step can
     overshoot), and the window's damping shrinks 3x after a kept step and grows 10x, to at least 1 (about half
     the Gauss-Newton step), after a refused one. A trial whose sensitivities a later step or the caller would read
@@ -338,6 +341,7 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, count: float, sensitivit
     torque = inputs.torque(model)
     if model.has_drive and model.drive_backlash > 0:
         x = _screened_twists(model, x, torque, batch, count)
+        steps = PLAY_STEP_FACTOR * steps
     angles, J = _state_jacobian(model, x, torque, inputs, count)
     r = (batch.measured - angles) / count
     cost = np.nansum(r**2, axis=(0, 1))
@@ -367,19 +371,25 @@ def _refined(model: Model, x: np.ndarray, batch: Batch, count: float, sensitivit
     return x, r, J
 
 
-TWIST_SCREEN = (-1.0, -0.5, 0.0, 0.5, 1.0)  # twists screened at a window's start, in backlash half-widths
+TWIST_SCREEN = (-1.0, 0.0, 1.0)  # twists screened at a window's start, in backlash half-widths
+TWIST_RATE_SCREEN = (0.5, 1.0, 2.0, 4.0)  # their rates screened, either sign, in play widths per window (2 b / T)
 
 
 def _screened_twists(model: Model, x: np.ndarray, torque: np.ndarray, batch: Batch, count: float):
     """``x`` with each window's twist [delta, delta'] the best of its estimate and the twists ``TWIST_SCREEN``
-    across the backlash, each at the estimate's rate and at rest against the arm (delta' = 0): inside the play the arm
-    does not feel the twist until a flank touches, so the residual is flat in it there and a linearised step cannot
-    find the flank the rotor sits on; at a window that starts at a command's reversal the estimate's rate (of a twist
-    that jumps across the play) is no start either. The screen's predictions all run in one call."""
+    across the backlash, each at the estimate's rate, at rest against the arm (delta' = 0) and at the rates
+    ``TWIST_RATE_SCREEN`` either way: inside the play the arm does not feel the twist until a flank touches, so the
+    residual is flat in it there and a linearised step cannot find the flank the rotor sits on, nor the rate at
+    which a rattling rotor crosses the play (a window's rotor can cross it a few times in either direction, and
+    where it strikes a flank decides the rest of the window); at a window that starts at a command's reversal the
+    estimate's rate (of a twist that jumps across the play) is no start either. The screen's predictions all run in
+    one call."""
     n, W = x.shape
+    width = 2.0 * model.drive_backlash / ((batch.inputs.horizon - 1) * batch.inputs.period)
+    rates = [x[-1], np.zeros(W)] + [np.full(W, sign * k * width) for k in TWIST_RATE_SCREEN for sign in (1.0, -1.0)]
     trials = [x]
     for share in TWIST_SCREEN:
-        for rate in (x[-1], np.zeros(W)):
+        for rate in rates:
             trial = x.copy()
             trial[-2], trial[-1] = share * model.drive_backlash, rate
             trials.append(trial)
