@@ -10,7 +10,13 @@ and the lumped constants' scales besides (nine fitted parameters). Timed in this
 2. one model evaluation (``gap.projected_residuals``: three Levenberg-Marquardt steps on every window, with the
    state sensitivities at the end), with either state Jacobian;
 3. the fit's parameter Jacobian (``fit._columns``): exact columns against every column differenced (one
-   surrogate call of all nine shifted models, as before), and their largest difference relative to each column.
+   surrogate call of all nine shifted models, as before), and their largest difference relative to each column;
+4. a geared rig's windows (the shipped geared rig, a play of 20 mrad, the same hanging multisine): the state
+   Jacobian in the six states (the twist and its rate with the rest) from the drive's tangent model against the
+   central differences it replaced (one call of the thirteen copies of every window), and one model evaluation
+   with either (the screened twists and six Levenberg-Marquardt steps). No difference is printed here: where the
+   teeth engage the differences straddle a jump the tangent carries (``tests/test_drive_tangent.py`` checks the
+   tangent against the flow's differences on finely stepped windows).
 
 Each time is the best of ``REPEATS`` runs after a first that compiles or loads the kernels. On a shared machine
 the times are indicative only. Run from the repository root: ``PYTHONPATH=. python benchmarks/speed/sensitivity.py``.
@@ -27,8 +33,8 @@ from furuta_drake.diagnosis.gap import metric as gap
 from furuta_drake.diagnosis.logs.load import RunLog
 from furuta_drake.diagnosis.selection import fit
 from furuta_drake.effects.surrogate import HISTORY, Model, integrate_windows, predict_windows
-from furuta_drake.effects.vocabulary import Effect, apply_effects
-from furuta_drake.rig import encoder_resolution, qube_servo2_rig
+from furuta_drake.effects.vocabulary import Effect, apply_effects, rig_model
+from furuta_drake.rig import encoder_resolution, geared_rig, qube_servo2_rig
 
 PERIOD, DURATION, WINDOWS, REPEATS = 2e-3, 20.0, 300, 3
 EFFECTS = {
@@ -38,6 +44,8 @@ EFFECTS = {
     "inertia_mismatch": Effect("", (1.05, 0.95, 1.02, 0.98)),
 }
 STATE_STEPS = np.array([1e-4, 1e-4, 1e-3, 1e-3])  # the forward differences' steps [rad, rad, rad/s, rad/s]
+CENTRAL_STEPS = (1e-6, 1e-6, 1e-4, 1e-4, 1e-6, 1e-4)  # the drive's central differences' steps (twist last)
+PLAY = 0.02  # [rad] the geared windows' backlash
 
 
 def _log(model: Model) -> RunLog:
@@ -65,6 +73,39 @@ def differenced_state_jacobian(model, x, torque, inputs, count: float):
     )
     columns = [(predicted[:, :, i * k : (i + 1) * k] - angles) / delta[i] / count for i in range(n)]
     return angles, np.stack(columns, axis=-1)
+
+
+def central_state_jacobian(model, x, torque, inputs, count: float):
+    """The state Jacobian of a drive model by central differences, as the diagnosis took it before: (angles,
+    (h, 2, k, 6)), every state's two steps in one surrogate call."""
+    n, k = x.shape
+    shifted = [x + sign * step * np.eye(n)[:, [i]] for i, step in enumerate(CENTRAL_STEPS) for sign in (1.0, -1.0)]
+    every = np.hstack([x] + shifted)
+    angles = integrate_windows(
+        [model] * (2 * n + 1), every[:4], np.tile(torque, (1, 2 * n + 1)), inputs.period, inputs.substeps, None,
+        every[4:],
+    )  # fmt: skip
+    blocks = angles.reshape(angles.shape[0], 2, 2 * n + 1, k)
+    columns = [(blocks[:, :, 1 + 2 * i] - blocks[:, :, 2 + 2 * i]) / (2 * step) for i, step in enumerate(CENTRAL_STEPS)]
+    return blocks[:, :, 0], np.stack(columns, axis=-1) / count
+
+
+def drive_rows() -> None:
+    """Part 4 of the module docstring."""
+    rig = geared_rig().replace(sample_period=PERIOD)
+    model = rig_model(rig).replace(drive_backlash=PLAY)
+    counts = rig.counts_per_rev
+    windows = gap.make_windows([_log(model)], rig).subset(WINDOWS)
+    inputs, count = windows.batches()[0].inputs, encoder_resolution(counts)
+    torque = inputs.torque(model)
+    states = gap.projected_residuals(model, windows, counts)[1][0]
+    exact_s, _ = _best(lambda: gap._state_jacobian(model, states, torque, inputs, count))
+    central_s, _ = _best(lambda: central_state_jacobian(model, states, torque, inputs, count))
+    _row("geared, play: state (6 directions)", exact_s, central_s)
+    with mock.patch.object(gap, "_state_jacobian", central_state_jacobian):
+        old_s, _ = _best(lambda: gap.projected_residuals(model, windows, counts))
+    new_s, _ = _best(lambda: gap.projected_residuals(model, windows, counts))
+    _row("geared, play: model evaluation (6 LM steps)", new_s, old_s)
 
 
 def _best(function) -> tuple[float, object]:
@@ -131,6 +172,7 @@ def main() -> None:
     with mock.patch.object(fit, "same_branches", lambda model, other: False):
         differenced_s, differenced = _best(columns)
     _row(f"parameters ({x.size} columns)", exact_s, differenced_s, _relative(differenced, exact, axis=(1, 2, 3, 4)))
+    drive_rows()
 
 
 if __name__ == "__main__":
