@@ -19,8 +19,10 @@ hanging under a multisine, train and held-out, 8 s). The cases (``CASES``) at ea
   chatters beyond the simulator's switch budget on an arm free in a play), and a delay of 5 ms (whole samples),
   neither of which may be blamed on the drive.
 
-Every case is diagnosed on the whole vocabulary, as a user with this rig file would, one worker per case on a Dask
-cluster (``--workers``, ``--scheduler``; :mod:`benchmarks.diagnosis.shards`). Scored per case: a play named with its
+Every case is diagnosed on the drive's effects, their look-alikes and the controls' effects
+(:data:`benchmarks.diagnosis.drives.CANDIDATES`), or with ``--whole-vocabulary`` on every effect, as a user with
+this rig file would (several times as long), one worker per case on a Dask cluster (``--workers``, ``--scheduler``;
+:mod:`benchmarks.diagnosis.shards`). Scored per case: a play named with its
 half-width within 15 % of the truth and its 95 % interval covering it; a belt named with its stiffness within 10 %;
 both named where both are there; no drive effect named in a control; ``none`` for the rig file's own rig.
 
@@ -40,7 +42,7 @@ import math
 import sys
 
 from benchmarks.diagnosis import independent as di
-from benchmarks.diagnosis.drives import FRICTION
+from benchmarks.diagnosis.drives import CANDIDATES, FRICTION
 from benchmarks.diagnosis.shards import suite_parser, worker_count
 from furuta_drake.sweep import dask_client
 
@@ -209,7 +211,9 @@ def select(cases: list[di.Case], quick: bool, only: list[str] | None) -> list[di
 
 def main(argv: list[str] | None = None) -> int:
     parser = suite_parser(__doc__.splitlines()[0], "the heavy rotor at 1 kHz alone")
+    parser.add_argument("--whole-vocabulary", action="store_true", help="every effect a candidate")
     args = parser.parse_args(argv)
+    candidates = None if args.whole_vocabulary else list(CANDIDATES)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     cases = select(all_cases(), args.quick, args.only)
@@ -229,12 +233,13 @@ def main(argv: list[str] | None = None) -> int:
             "run_seeds": di.SEEDS,
             "cases": {c.name: c.seed for c in cases},
             "shares": SHARES,
+            "candidates": candidates or "the whole vocabulary",
             "versions": di.versions(),
         }
         (out / "config.json").write_text(json.dumps(config, indent=2) + "\n")
         if args.generate_only:
             return 0
-        di.diagnose_all(answers, suite, out, client)
+        di.diagnose_all(answers, suite, out, client, candidates)
     rows = [
         drive_row(answer, json.loads((out / "reports" / answer["case"] / "report.json").read_text()))
         for answer in answers

@@ -484,9 +484,9 @@ def generate(cases: list[Case], suite: Path, duration: float, client) -> list[di
     return answers
 
 
-def diagnose_blind(folder: Path, report_dir: Path) -> tuple[dict, float]:
-    """``diagnose`` on one case folder (rig.yaml and the four logs; no answer in sight) with one worker process;
-    its report.json and the wall time [s]."""
+def diagnose_blind(folder: Path, report_dir: Path, candidates: list[str] | None = None) -> tuple[dict, float]:
+    """``diagnose`` on one case folder (rig.yaml and the four logs; no answer in sight) with one worker process,
+    on ``candidates`` (None: the whole vocabulary); its report.json and the wall time [s]."""
     from furuta_drake.diagnosis.pipeline import diagnose
     from furuta_drake.diagnosis.report.files import write_report
 
@@ -495,6 +495,7 @@ def diagnose_blind(folder: Path, report_dir: Path) -> tuple[dict, float]:
         rig=folder / "rig.yaml",
         train=sorted(folder.glob("train_*.csv")),
         heldout=sorted(folder.glob("heldout_*.csv")),
+        candidates=candidates,
         workers=1,
     )
     seconds = time.perf_counter() - start
@@ -709,16 +710,18 @@ def write_results(out: Path, rows: list[dict], pending: int) -> None:
     write_verdicts(out / "verdicts.json", verdict_rows("independent", rows))
 
 
-def _diagnose_case(task: tuple[dict, Path, Path]) -> dict:
+def _diagnose_case(task: tuple[dict, Path, Path, list[str] | None]) -> dict:
     """A task: diagnose one case folder blind; its results row."""
-    answer, suite, out = task
-    report, seconds = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"])
+    answer, suite, out, candidates = task
+    report, seconds = diagnose_blind(suite / "cases" / answer["case"], out / "reports" / answer["case"], candidates)
     return row_for(answer, report, seconds)
 
 
-def diagnose_all(answers: list[dict], suite: Path, out: Path, client) -> list[dict]:
-    """Diagnose every case on ``client``'s cluster, one case per task; print a line per case and write the
-    results as each finishes; the rows in the answers' order."""
+def diagnose_all(
+    answers: list[dict], suite: Path, out: Path, client, candidates: list[str] | None = None
+) -> list[dict]:
+    """Diagnose every case on ``client``'s cluster on ``candidates`` (None: the whole vocabulary), one case per
+    task; print a line per case and write the results as each finishes; the rows in the answers' order."""
     rows: list[dict | None] = [None] * len(answers)
 
     def finished(done: int, total: int, index: int, outcome: Outcome) -> None:
@@ -733,7 +736,8 @@ def diagnose_all(answers: list[dict], suite: Path, out: Path, client) -> list[di
         write_results(out, [r for r in rows if r is not None], total - done)
 
     start = time.perf_counter()
-    outcomes = shard(client, _diagnose_case, [(answer, suite, out) for answer in answers], finished)
+    tasks = [(answer, suite, out, candidates) for answer in answers]
+    outcomes = shard(client, _diagnose_case, tasks, finished)
     print(speed_up_line(outcomes, time.perf_counter() - start, worker_count(client)))
     return rows
 
