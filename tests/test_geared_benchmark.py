@@ -92,3 +92,15 @@ def test_a_control_blamed_on_the_drive_and_a_null_not_none_are_wrong():
     assert geared.drive_row(_answer(DELAY), _report(["input_delay"], {}, {}))["right"]
     assert not geared.drive_row(_answer(), _report(["drive_compliance"], {}, {}))["right"]
     assert geared.drive_row(_answer(), _report([], {}, {}))["right"]
+
+
+def test_a_belt_stiffer_than_the_reports_limit_is_out_of_sight_and_none_is_right():
+    """The report's own detection limit says a belt stiffer than 37.6 N m/rad could hide in these logs: a 60 N m/rad
+    belt read as ``none`` is right, a 30 N m/rad one is not."""
+    limits = [{"effect": "drive_compliance", "value": 37.6}, {"effect": "drive_backlash", "value": 4e-4}]
+    report = {**_report([], {}, {}), "detection_limits": limits}
+    stiff = {"name": "drive_compliance", "params": {"stiffness": 60.0, "damping": 0.03}}
+    row = geared.drive_row(_answer(stiff), report)
+    assert row["hidden"] == ["drive_compliance"] and row["right"]
+    assert not geared.drive_row(_answer(BELT | {"params": {"stiffness": 30.0}}), report)["right"]
+    assert not geared.drive_row(_answer(PLAY), report)["right"]  # a 20 mrad play is well above its 0.4 mrad limit
