@@ -129,7 +129,7 @@ def all_cases() -> list[di.Case]:
 
 def _accepted(report: dict) -> tuple[dict, dict]:
     """The accepted model's parameters and 95 % intervals, keyed 'effect.parameter'."""
-    effects = [name for name in report["effects"]]
+    effects = list(report["effects"])
     entry = next((e for e in report["ranking"] if e["effect"] == "+".join(effects)), {})
     if len(effects) == 1:
         prefix = f"{effects[0]}."
