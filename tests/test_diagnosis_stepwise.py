@@ -15,7 +15,7 @@ from furuta_drake.diagnosis.selection.fit import FitResult
 from furuta_drake.diagnosis.selection.rule import ENTRY, FLOOR_COUNTS, Bootstrap, choose, is_kept
 from furuta_drake.diagnosis.selection.stepwise import Selection, _enter_pair, _exchange
 from furuta_drake.diagnosis.settings import DiagnosisSettings
-from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales
+from furuta_drake.effects.vocabulary import CANDIDATES, Effect, Scales, law_of
 
 WINDOWS = 200
 NOMINAL = np.full(WINDOWS, 1.0)  # excess squared residual per held-out window [counts^2]
@@ -305,6 +305,49 @@ def test_after_the_backward_pass_drops_an_effect_the_forward_steps_resume_withou
     tried = [frozenset(result.effects) for _, result in selection.tried]
     assert tried.count(frozenset(["arm_coulomb_friction", "input_delay"])) == 1
     assert frozenset(["arm_coulomb_friction", "actuator_lag"]) in tried
+
+
+def test_after_an_exchange_the_forward_steps_resume_beside_the_model_it_made(monkeypatch):
+    """Beside a spring and Coulomb friction, viscous friction earns no step (the Coulomb law's smooth zone had
+    taken its slope); the exchange puts a Stribeck law in the Coulomb law's place, and beside that model the
+    viscous friction enters. The step's fits beside the exchanged-out law are forgotten, the resumed step's kept."""
+    from furuta_drake.diagnosis.selection import stepwise
+
+    def step(self, pool):  # a fake forward step: viscous friction enters only beside the Stribeck law
+        accepted = self.selection.accepted
+        order = [n for n in ("arm_spring", "arm_coulomb_friction") if not law_of(n) & set(accepted)]
+        if not order and "arm_viscous_friction" in pool and "arm_viscous_friction" not in accepted:
+            self.selection.tried.append((3, _model([*accepted, "arm_viscous_friction"], 0.3, 7)))
+            if "arm_stribeck" not in accepted:
+                return False
+            order = ["arm_viscous_friction"]
+        if not order:
+            return False
+        self.selection.tried.append((len(accepted) + 1, _model([*accepted, order[0]], 0.3, len(accepted))))
+        accepted.append(order[0])
+        return True
+
+    def exchange(selection, *args):  # the Stribeck law explains the data better beside the spring, once
+        if "arm_coulomb_friction" not in selection.accepted:
+            return False
+        selection.accepted = ["arm_spring", "arm_stribeck"]
+        selection.tried.append((2, _model(selection.accepted, 0.3, 9)))
+        return True
+
+    monkeypatch.setattr(stepwise.Stepwise, "step", step)
+    monkeypatch.setattr(stepwise.Stepwise, "read_sensors", lambda self, names: None)
+    monkeypatch.setattr(stepwise, "_backward", lambda *args: None)
+    monkeypatch.setattr(stepwise, "_exchange", exchange)
+    selector = object.__new__(stepwise.Stepwise)
+    selector.selection = Selection(_gap(NOMINAL), [])
+    selector.scales, selector.settings = SCALES, dataclasses.replace(DiagnosisSettings(), max_effects=4)
+    selector.bootstrap = selector.nominal_gap = selector.task = selector.fit = None
+    names = ["arm_spring", "arm_coulomb_friction", "arm_viscous_friction"]
+    selection = selector.select(names)
+    assert selection.accepted == ["arm_spring", "arm_stribeck", "arm_viscous_friction"]
+    tried = [frozenset(result.effects) for _, result in selection.tried]
+    assert frozenset(["arm_spring", "arm_coulomb_friction", "arm_viscous_friction"]) not in tried
+    assert frozenset(["arm_spring", "arm_stribeck", "arm_viscous_friction"]) in tried
 
 
 def _variant_case(stribeck_excess: float, final_excess: float):

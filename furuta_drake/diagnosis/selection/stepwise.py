@@ -2,7 +2,8 @@
 earlier ones (every candidate screened first, those the screen leaves far behind not fitted further) and entering on
 the held-out rule's lenient bound; then backward, each kept only while the model without it is worse by the rule's
 margin; then exchanges, each kept effect replaced by a runner-up of the step it entered at, or by a richer variant of
-its law, when that explains the held-out data significantly better; last, a kept inertia error replaced by a drive
+its law, when that explains the held-out data significantly better, the forward and backward passes resumed after
+each; last, a kept inertia error replaced by a drive
 gain that explains the data as well (:mod:`furuta_drake.diagnosis.selection.rule` holds the rule). These are the
 effects that change the predictions; a sensor effect that passes its signature test beside the nominal model has
 them judged on the gap beyond the variance it adds. The sensor effects are then read beside the final model and
@@ -267,9 +268,11 @@ class Stepwise:
     def select_dynamic(self, dynamic: list[str], beneath: list[SensorFinding]) -> None:
         """The effects that change the predictions among ``dynamic``, judged on the held-out gap beyond the variance
         the sensor effects ``beneath`` add (none: on the whole gap): forward (:meth:`step` until none enters) and
-        backward, the forward steps resumed without the effects the backward pass dropped until it drops none; then
-        at most ``MAX_EXCHANGES`` exchanges (on logged commands of one magnitude, a bang-bang, the gain in place of
-        a dead zone or a saturation of the drive, which act on them as a gain)."""
+        backward (:meth:`forward_backward`); then at most ``MAX_EXCHANGES`` exchanges, after each of which the
+        backward pass and the forward steps run again beside the model it made: the later steps' candidates were
+        judged beside the effect exchanged out, which had stood in for part of them (on logged commands of one
+        magnitude, a bang-bang, the gain in place of a dead zone or a saturation of the drive, which act on them as
+        a gain)."""
         self.selection.beneath = [finding.name for finding in beneath]
         self.selection.beneath_variance = sum(finding.claimed for finding in beneath) if beneath else None
         self.judge = self.selection.rule_bootstrap(self.bootstrap)
@@ -278,6 +281,21 @@ class Stepwise:
             self.selection.gain_only = [name for name in dynamic if name in COMMAND_MAPS]
             dynamic = [name for name in dynamic if name not in COMMAND_MAPS]
         dropped: set[str] = set()
+        self.forward_backward(dynamic, dropped)
+        for _ in range(MAX_EXCHANGES):
+            if not _exchange(
+                self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
+            ):
+                break
+            _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
+            self.resume(dropped)
+            self.forward_backward(dynamic, dropped)
+        if GAIN in dynamic and _prefer_gain(self.selection, self.judge, self.nominal_gap, self.task, self.fit):
+            _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
+
+    def forward_backward(self, dynamic: list[str], dropped: set[str]) -> None:
+        """Forward steps over ``dynamic`` less ``dropped`` until none enters, then the backward pass; the forward
+        steps resumed without the effects the backward pass dropped (added to ``dropped``) until it drops none."""
         while True:
             pool = [name for name in dynamic if name not in dropped]
             while len(self.selection.accepted) < self.settings.max_effects and self.step(pool):
@@ -285,17 +303,9 @@ class Stepwise:
             entered = set(self.selection.accepted)
             _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
             if entered <= set(self.selection.accepted):
-                break
+                return
             dropped |= entered - set(self.selection.accepted)
             self.resume(dropped)
-        for _ in range(MAX_EXCHANGES):
-            if not _exchange(
-                self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.best_form, self.scales
-            ):
-                break
-            _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
-        if GAIN in dynamic and _prefer_gain(self.selection, self.judge, self.nominal_gap, self.task, self.fit):
-            _backward(self.selection, self.judge, self.nominal_gap, self.task, self.fit, self.scales)
 
     def resume(self, dropped: set[str]) -> None:
         """Forget the fits of the forward steps after the effects kept, save those holding an effect in
