@@ -272,11 +272,25 @@ def test_a_screen_is_no_model_the_backward_pass_or_an_exchange_compares_with():
     assert selection.model(["input_delay"]) is fitted
 
 
+def _faked_selector(monkeypatch, step, backward, exchange, max_effects: int):
+    """A selector whose forward step, backward pass and exchange are the fakes given (no fit is made)."""
+    from furuta_drake.diagnosis.selection import stepwise
+
+    monkeypatch.setattr(stepwise.Stepwise, "step", step)
+    monkeypatch.setattr(stepwise.Stepwise, "read_sensors", lambda self, names: None)
+    monkeypatch.setattr(stepwise, "_backward", backward)
+    monkeypatch.setattr(stepwise, "_exchange", exchange)
+    selector = object.__new__(stepwise.Stepwise)
+    selector.selection = Selection(_gap(NOMINAL), [])
+    selector.scales, selector.settings = SCALES, dataclasses.replace(DiagnosisSettings(), max_effects=max_effects)
+    selector.bootstrap = selector.nominal_gap = selector.task = selector.fit = None
+    return selector
+
+
 def test_after_the_backward_pass_drops_an_effect_the_forward_steps_resume_without_it(monkeypatch):
     """Beside Coulomb friction an actuator lag wins step 2 by a hair over the true input delay, and is dropped
     beside the friction: the forward steps resume from the friction without the lag, and the delay enters. The
     resumed step's fits take the first pass's place; the lag's model stays among those tried."""
-    from furuta_drake.diagnosis.selection import stepwise
 
     def step(self, pool):  # a fake forward step: the best candidate beside the kept effects enters
         accepted = self.selection.accepted
@@ -291,14 +305,7 @@ def test_after_the_backward_pass_drops_an_effect_the_forward_steps_resume_withou
     def backward(selection, *args):  # the lag stood in for the delay: it does not earn its place
         selection.accepted = [name for name in selection.accepted if name != "actuator_lag"]
 
-    monkeypatch.setattr(stepwise.Stepwise, "step", step)
-    monkeypatch.setattr(stepwise.Stepwise, "read_sensors", lambda self, names: None)
-    monkeypatch.setattr(stepwise, "_backward", backward)
-    monkeypatch.setattr(stepwise, "_exchange", lambda *args: False)
-    selector = object.__new__(stepwise.Stepwise)
-    selector.selection = Selection(_gap(NOMINAL), [])
-    selector.scales, selector.settings = SCALES, dataclasses.replace(DiagnosisSettings(), max_effects=3)
-    selector.bootstrap = selector.nominal_gap = selector.task = selector.fit = None
+    selector = _faked_selector(monkeypatch, step, backward, lambda *args: False, max_effects=3)
     names = ["arm_coulomb_friction", "actuator_lag", "input_delay"]
     selection = selector.select(names)
     assert selection.accepted == ["arm_coulomb_friction", "input_delay"]
@@ -311,7 +318,6 @@ def test_after_an_exchange_the_forward_steps_resume_beside_the_model_it_made(mon
     """Beside a spring and Coulomb friction, viscous friction earns no step (the Coulomb law's smooth zone had
     taken its slope); the exchange puts a Stribeck law in the Coulomb law's place, and beside that model the
     viscous friction enters. The step's fits beside the exchanged-out law are forgotten, the resumed step's kept."""
-    from furuta_drake.diagnosis.selection import stepwise
 
     def step(self, pool):  # a fake forward step: viscous friction enters only beside the Stribeck law
         accepted = self.selection.accepted
@@ -334,14 +340,7 @@ def test_after_an_exchange_the_forward_steps_resume_beside_the_model_it_made(mon
         selection.tried.append((2, _model(selection.accepted, 0.3, 9)))
         return True
 
-    monkeypatch.setattr(stepwise.Stepwise, "step", step)
-    monkeypatch.setattr(stepwise.Stepwise, "read_sensors", lambda self, names: None)
-    monkeypatch.setattr(stepwise, "_backward", lambda *args: None)
-    monkeypatch.setattr(stepwise, "_exchange", exchange)
-    selector = object.__new__(stepwise.Stepwise)
-    selector.selection = Selection(_gap(NOMINAL), [])
-    selector.scales, selector.settings = SCALES, dataclasses.replace(DiagnosisSettings(), max_effects=4)
-    selector.bootstrap = selector.nominal_gap = selector.task = selector.fit = None
+    selector = _faked_selector(monkeypatch, step, lambda *args: None, exchange, max_effects=4)
     names = ["arm_spring", "arm_coulomb_friction", "arm_viscous_friction"]
     selection = selector.select(names)
     assert selection.accepted == ["arm_spring", "arm_stribeck", "arm_viscous_friction"]

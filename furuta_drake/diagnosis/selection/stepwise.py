@@ -3,8 +3,8 @@ earlier ones (every candidate screened first, those the screen leaves far behind
 the held-out rule's lenient bound; then backward, each kept only while the model without it is worse by the rule's
 margin; then exchanges, each kept effect replaced by a runner-up of the step it entered at, or by a richer variant of
 its law, when that explains the held-out data significantly better, the forward and backward passes resumed after
-each; last, a kept inertia error replaced by a drive
-gain that explains the data as well (:mod:`furuta_drake.diagnosis.selection.rule` holds the rule). These are the
+each; last, a kept inertia error replaced by a drive gain that explains the data as well
+(:mod:`furuta_drake.diagnosis.selection.rule` holds the rule). These are the
 effects that change the predictions; a sensor effect that passes its signature test beside the nominal model has
 them judged on the gap beyond the variance it adds. The sensor effects are then read beside the final model and
 judged on their own signature (:mod:`furuta_drake.diagnosis.selection.sensor`), and a named jittering delay's draws
